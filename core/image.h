@@ -1,0 +1,41 @@
+// A float image with 1 to 4 interleaved channels, row-major, origin top-left.
+// Values are linear (DESIGN.md: BTF values are linear reflectance).
+#pragma once
+
+#include <cstddef>
+#include <vector>
+
+namespace mesocap {
+
+class Image {
+ public:
+  Image() = default;
+  // Throws Error on a non-positive size or a channel count outside 1..4.
+  Image(int width, int height, int channels, float fill = 0.0f);
+
+  int width() const { return width_; }
+  int height() const { return height_; }
+  int channels() const { return channels_; }
+  bool empty() const { return data_.empty(); }
+  std::size_t size() const { return data_.size(); }
+
+  float& at(int x, int y, int c = 0) { return data_[Index(x, y, c)]; }
+  float at(int x, int y, int c = 0) const { return data_[Index(x, y, c)]; }
+  float* data() { return data_.data(); }
+  const float* data() const { return data_.data(); }
+  // First channel of pixel (x, y).
+  float* pixel(int x, int y) { return data_.data() + Index(x, y, 0); }
+  const float* pixel(int x, int y) const { return data_.data() + Index(x, y, 0); }
+
+ private:
+  std::size_t Index(int x, int y, int c) const {
+    return (static_cast<std::size_t>(y) * width_ + x) * channels_ + c;
+  }
+
+  int width_ = 0;
+  int height_ = 0;
+  int channels_ = 0;
+  std::vector<float> data_;
+};
+
+}  // namespace mesocap

@@ -1,0 +1,146 @@
+#include "core/image_io.h"
+
+#include <OpenImageIO/imageio.h>
+
+#include <algorithm>
+#include <string>
+
+#include "core/atomic_file.h"
+#include "core/error.h"
+
+namespace mesocap {
+namespace fs = std::filesystem;
+namespace {
+
+enum class Container { kExr, kPng, kTiff };
+
+Container ContainerOf(const fs::path& file) {
+  std::string ext = file.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  if (ext == ".exr") return Container::kExr;
+  if (ext == ".png") return Container::kPng;
+  if (ext == ".tif" || ext == ".tiff") return Container::kTiff;
+  throw Error(file.string() + ": unsupported image extension \"" + ext +
+              "\"; expected .exr, .png, .tif or .tiff");
+}
+
+OIIO::TypeDesc TypeOf(PixelEncoding e) {
+  switch (e) {
+    case PixelEncoding::kFloat32: return OIIO::TypeDesc::FLOAT;
+    case PixelEncoding::kHalf: return OIIO::TypeDesc::HALF;
+    case PixelEncoding::kUInt8: return OIIO::TypeDesc::UINT8;
+    case PixelEncoding::kUInt16: return OIIO::TypeDesc::UINT16;
+  }
+  return OIIO::TypeDesc::FLOAT;
+}
+
+PixelEncoding EncodingOf(const fs::path& file, OIIO::TypeDesc t) {
+  if (t == OIIO::TypeDesc::FLOAT) return PixelEncoding::kFloat32;
+  if (t == OIIO::TypeDesc::HALF) return PixelEncoding::kHalf;
+  if (t == OIIO::TypeDesc::UINT8) return PixelEncoding::kUInt8;
+  if (t == OIIO::TypeDesc::UINT16) return PixelEncoding::kUInt16;
+  throw FormatError(file, "pixel type",
+                    std::string("expected float, half, uint8 or uint16, got ") + t.c_str());
+}
+
+bool Supports(Container c, PixelEncoding e) {
+  switch (c) {
+    case Container::kExr: return e == PixelEncoding::kFloat32 || e == PixelEncoding::kHalf;
+    case Container::kPng: return e == PixelEncoding::kUInt8 || e == PixelEncoding::kUInt16;
+    case Container::kTiff: return e != PixelEncoding::kHalf;
+  }
+  return false;
+}
+
+std::unique_ptr<OIIO::ImageInput> OpenInput(const fs::path& file) {
+  std::error_code ec;
+  if (!fs::exists(file, ec)) throw FormatError(file, "", "file not found");
+  if (!fs::is_regular_file(file, ec)) throw FormatError(file, "", "not a regular file");
+  ContainerOf(file);
+  // A 4th channel is data to mesocap, not alpha: never (un)premultiply it.
+  OIIO::ImageSpec config;
+  config.attribute("oiio:UnassociatedAlpha", 1);
+  auto in = OIIO::ImageInput::open(file.string(), &config);
+  if (!in) throw FormatError(file, "", "not a readable image: " + OIIO::geterror());
+  return in;
+}
+
+ImageHeader HeaderOf(const fs::path& file, const OIIO::ImageSpec& spec) {
+  if (spec.width <= 0 || spec.height <= 0 || spec.depth != 1) {
+    throw FormatError(file, "size", "expected a positive 2D size, got " + std::to_string(spec.width) +
+                                        "x" + std::to_string(spec.height));
+  }
+  if (spec.nchannels < 1 || spec.nchannels > 4) {
+    throw FormatError(file, "channels", "expected 1 to 4, got " + std::to_string(spec.nchannels));
+  }
+  return {spec.width, spec.height, spec.nchannels, EncodingOf(file, spec.format)};
+}
+
+void ExpectDimension(const fs::path& file, const char* field, int expected, int actual) {
+  if (expected > 0 && expected != actual) {
+    throw FormatError(file, field, "expected " + std::to_string(expected) + ", got " + std::to_string(actual));
+  }
+}
+
+}  // namespace
+
+const char* ToString(PixelEncoding e) {
+  switch (e) {
+    case PixelEncoding::kFloat32: return "float32";
+    case PixelEncoding::kHalf: return "half";
+    case PixelEncoding::kUInt8: return "uint8";
+    case PixelEncoding::kUInt16: return "uint16";
+  }
+  return "?";
+}
+
+ImageHeader ReadImageHeader(const fs::path& file) {
+  auto in = OpenInput(file);
+  return HeaderOf(file, in->spec());
+}
+
+Image ReadImage(const fs::path& file, const ImageReadOptions& options) {
+  auto in = OpenInput(file);
+  const ImageHeader header = HeaderOf(file, in->spec());
+  ExpectDimension(file, "width", options.expected_width, header.width);
+  ExpectDimension(file, "height", options.expected_height, header.height);
+  ExpectDimension(file, "channels", options.expected_channels, header.channels);
+  const auto values = static_cast<std::size_t>(header.width) * static_cast<std::size_t>(header.height) *
+                      static_cast<std::size_t>(header.channels);
+  if (values > options.max_values) {
+    throw FormatError(file, "size", std::to_string(header.width) + "x" + std::to_string(header.height) + "x" +
+                                        std::to_string(header.channels) + " values exceed the limit of " +
+                                        std::to_string(options.max_values));
+  }
+  Image image(header.width, header.height, header.channels);
+  const bool ok = in->read_image(0, 0, 0, header.channels, OIIO::TypeDesc::FLOAT, image.data());
+  if (!ok || in->has_error()) {
+    std::string why = in->geterror();
+    if (why.empty()) why = "read failed";
+    throw FormatError(file, "pixels", "cannot read (truncated or corrupt?): " + why);
+  }
+  in->close();
+  return image;
+}
+
+void WriteImage(const fs::path& file, const Image& image, PixelEncoding encoding) {
+  if (image.empty()) throw Error(file.string() + ": refusing to write an empty image");
+  const Container container = ContainerOf(file);
+  if (!Supports(container, encoding)) {
+    throw Error(file.string() + ": the " + file.extension().string() + " format cannot store " +
+                ToString(encoding) + " pixels");
+  }
+  AtomicFile atomic(file);
+  auto out = OIIO::ImageOutput::create(file.string());
+  if (!out) throw Error(file.string() + ": no image writer: " + OIIO::geterror());
+  OIIO::ImageSpec spec(image.width(), image.height(), image.channels(), TypeOf(encoding));
+  if (container == Container::kExr) spec.attribute("compression", "zip");
+  spec.attribute("oiio:UnassociatedAlpha", 1);
+  if (!out->open(atomic.temp_path().string(), spec) ||
+      !out->write_image(OIIO::TypeDesc::FLOAT, image.data()) || !out->close()) {
+    throw Error(file.string() + ": write failed: " + out->geterror());
+  }
+  atomic.Commit();
+}
+
+}  // namespace mesocap

@@ -1,0 +1,43 @@
+// Reading and writing images through OpenImageIO: OpenEXR (half or float),
+// PNG (8 or 16 bit), TIFF (8, 16 bit or float). Writes are atomic; reads name
+// the file and the property they reject.
+#pragma once
+
+#include <cstddef>
+#include <filesystem>
+
+#include "core/image.h"
+
+namespace mesocap {
+
+// How pixel values are stored in the file. Integer encodings map [0, 1] to
+// the full code range (values outside are clamped); the container is chosen
+// by the file extension (.exr, .png, .tif/.tiff).
+enum class PixelEncoding { kFloat32, kHalf, kUInt8, kUInt16 };
+
+struct ImageHeader {
+  int width = 0;
+  int height = 0;
+  int channels = 0;
+  PixelEncoding encoding = PixelEncoding::kFloat32;
+};
+
+struct ImageReadOptions {
+  // Upper bound on width * height * channels, checked against the header
+  // before any pixel is allocated (1 GiB of floats by default).
+  std::size_t max_values = std::size_t{1} << 28;
+  // When positive, the file must have exactly this size / channel count.
+  int expected_width = 0;
+  int expected_height = 0;
+  int expected_channels = 0;
+};
+
+ImageHeader ReadImageHeader(const std::filesystem::path& file);
+Image ReadImage(const std::filesystem::path& file, const ImageReadOptions& options = {});
+// Throws Error when the container cannot store `encoding` (PNG float, EXR 8-bit).
+void WriteImage(const std::filesystem::path& file, const Image& image,
+                PixelEncoding encoding = PixelEncoding::kFloat32);
+
+const char* ToString(PixelEncoding encoding);
+
+}  // namespace mesocap

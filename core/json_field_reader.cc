@@ -1,0 +1,195 @@
+#include "core/json_field_reader.h"
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include "core/error.h"
+
+namespace mesocap {
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string Describe(const nlohmann::json& v) {
+  std::string text = v.dump();
+  if (text.size() > 40) text = text.substr(0, 37) + "...";
+  return std::string(v.type_name()) + " " + text;
+}
+
+std::string RangeText(double min, double max) {
+  std::ostringstream s;
+  if (min <= -1e300 && max >= 1e300) return "a finite number";
+  s << "a finite number in [" << min << ", " << max << "]";
+  return s.str();
+}
+
+}  // namespace
+
+nlohmann::json ReadJsonFile(const fs::path& file, std::uintmax_t max_bytes) {
+  std::error_code ec;
+  if (!fs::exists(file, ec)) throw FormatError(file, "", "file not found");
+  if (!fs::is_regular_file(file, ec)) throw FormatError(file, "", "not a regular file");
+  const auto size = fs::file_size(file, ec);
+  if (ec) throw FormatError(file, "", "cannot read size: " + ec.message());
+  if (size > max_bytes) {
+    throw FormatError(file, "", "file is " + std::to_string(size) + " bytes; at most " +
+                                    std::to_string(max_bytes) + " expected");
+  }
+  std::ifstream in(file, std::ios::binary);
+  if (!in) throw FormatError(file, "", "cannot open for reading");
+  std::string text(size, '\0');
+  in.read(text.data(), static_cast<std::streamsize>(size));
+  if (static_cast<std::uintmax_t>(in.gcount()) != size) throw FormatError(file, "", "short read");
+  try {
+    return nlohmann::json::parse(text);
+  } catch (const nlohmann::json::parse_error& e) {
+    throw FormatError(file, "", "not valid JSON (at byte " + std::to_string(e.byte) + ")");
+  }
+}
+
+JsonFieldReader::JsonFieldReader(const nlohmann::json& object, fs::path file, std::string where)
+    : object_(object), file_(std::move(file)), where_(std::move(where)) {
+  if (!object_.is_object()) throw FormatError(file_, where_, "expected an object, got " + Describe(object_));
+}
+
+std::string JsonFieldReader::FieldPath(std::string_view key) const {
+  if (where_.empty()) return std::string(key);
+  if (key.empty()) return where_;
+  if (key.front() == '[') return where_ + std::string(key);
+  return where_ + "." + std::string(key);
+}
+
+void JsonFieldReader::Fail(std::string_view key, const std::string& problem) const {
+  throw FormatError(file_, FieldPath(key), problem);
+}
+
+bool JsonFieldReader::Has(std::string_view key) const { return object_.contains(key); }
+
+const nlohmann::json& JsonFieldReader::Member(std::string_view key) const {
+  auto it = object_.find(key);
+  if (it == object_.end()) Fail(key, "missing");
+  return *it;
+}
+
+const nlohmann::json& JsonFieldReader::Raw(std::string_view key) const { return Member(key); }
+
+double JsonFieldReader::Number(std::string_view key, double min, double max) const {
+  const auto& v = Member(key);
+  if (!v.is_number()) Fail(key, "expected " + RangeText(min, max) + ", got " + Describe(v));
+  const double x = v.get<double>();
+  if (!std::isfinite(x) || x < min || x > max) {
+    Fail(key, "expected " + RangeText(min, max) + ", got " + Describe(v));
+  }
+  return x;
+}
+
+double JsonFieldReader::NumberOr(std::string_view key, double fallback, double min,
+                                 double max) const {
+  return Has(key) ? Number(key, min, max) : fallback;
+}
+
+std::int64_t JsonFieldReader::Integer(std::string_view key, std::int64_t min,
+                                      std::int64_t max) const {
+  const auto& v = Member(key);
+  const std::string expected =
+      "an integer in [" + std::to_string(min) + ", " + std::to_string(max) + "]";
+  if (!v.is_number_integer()) Fail(key, "expected " + expected + ", got " + Describe(v));
+  // Unsigned values beyond int64 are out of range too.
+  if (v.is_number_unsigned() && v.get<std::uint64_t>() > static_cast<std::uint64_t>(max)) {
+    Fail(key, "expected " + expected + ", got " + Describe(v));
+  }
+  const auto x = v.get<std::int64_t>();
+  if (x < min || x > max) Fail(key, "expected " + expected + ", got " + Describe(v));
+  return x;
+}
+
+bool JsonFieldReader::Boolean(std::string_view key) const {
+  const auto& v = Member(key);
+  if (!v.is_boolean()) Fail(key, "expected true or false, got " + Describe(v));
+  return v.get<bool>();
+}
+
+std::string JsonFieldReader::String(std::string_view key) const {
+  const auto& v = Member(key);
+  if (!v.is_string()) Fail(key, "expected a string, got " + Describe(v));
+  return v.get<std::string>();
+}
+
+std::string JsonFieldReader::StringOr(std::string_view key, std::string fallback) const {
+  return Has(key) ? String(key) : fallback;
+}
+
+std::string JsonFieldReader::Choice(std::string_view key,
+                                    const std::vector<std::string>& allowed) const {
+  const std::string s = String(key);
+  for (const auto& a : allowed) {
+    if (s == a) return s;
+  }
+  std::string list;
+  for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + ("\"" + a + "\"");
+  Fail(key, "expected one of " + list + ", got \"" + s + "\"");
+}
+
+std::vector<double> JsonFieldReader::Numbers(std::string_view key, std::size_t count) const {
+  const auto& v = Member(key);
+  if (!v.is_array() || v.size() != count) {
+    Fail(key, "expected a list of " + std::to_string(count) + " numbers, got " + Describe(v));
+  }
+  std::vector<double> out;
+  out.reserve(count);
+  for (std::size_t i = 0; i < count; ++i) {
+    const auto& e = v[i];
+    if (!e.is_number() || !std::isfinite(e.get<double>())) {
+      Fail(std::string(key) + "[" + std::to_string(i) + "]", "expected a finite number, got " + Describe(e));
+    }
+    out.push_back(e.get<double>());
+  }
+  return out;
+}
+
+Eigen::Vector3d JsonFieldReader::Vector3(std::string_view key) const {
+  const auto n = Numbers(key, 3);
+  return {n[0], n[1], n[2]};
+}
+
+Eigen::Vector2d JsonFieldReader::Vector2(std::string_view key) const {
+  const auto n = Numbers(key, 2);
+  return {n[0], n[1]};
+}
+
+JsonFieldReader JsonFieldReader::Object(std::string_view key) const {
+  const auto& v = Member(key);
+  if (!v.is_object()) Fail(key, "expected an object, got " + Describe(v));
+  return JsonFieldReader(v, file_, FieldPath(key));
+}
+
+std::vector<JsonFieldReader> JsonFieldReader::Objects(std::string_view key,
+                                                      std::size_t max_count) const {
+  const auto& v = Member(key);
+  if (!v.is_array()) Fail(key, "expected a list, got " + Describe(v));
+  if (v.size() > max_count) {
+    Fail(key, "expected at most " + std::to_string(max_count) + " entries, got " +
+                  std::to_string(v.size()));
+  }
+  std::vector<JsonFieldReader> out;
+  out.reserve(v.size());
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    const std::string at = FieldPath(key) + "[" + std::to_string(i) + "]";
+    if (!v[i].is_object()) throw FormatError(file_, at, "expected an object, got " + Describe(v[i]));
+    out.emplace_back(v[i], file_, at);
+  }
+  return out;
+}
+
+void JsonFieldReader::ExpectFormat(std::string_view format, int version) const {
+  const std::string f = String("format");
+  if (f != format) Fail("format", "expected \"" + std::string(format) + "\", got \"" + f + "\"");
+  const auto v = Integer("version", 0, 1 << 30);
+  if (v != version) {
+    Fail("version", "this build reads version " + std::to_string(version) + ", the file is version " +
+                        std::to_string(v));
+  }
+}
+
+}  // namespace mesocap

@@ -1,0 +1,7 @@
+#include "core/version.h"
+
+namespace mesocap {
+
+const char* Version() { return MESOCAP_VERSION; }
+
+}  // namespace mesocap

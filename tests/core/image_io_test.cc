@@ -1,0 +1,159 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <limits>
+
+#include "core/error.h"
+#include "core/image_io.h"
+#include "tests/common/temporary_directory.h"
+
+namespace mesocap {
+namespace {
+
+Image Gradient(int w, int h, int c) {
+  Image img(w, h, c);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      for (int k = 0; k < c; ++k) img.at(x, y, k) = (x + 2.0f * y + 0.25f * k) / (w + 2.0f * h + 1.0f);
+  return img;
+}
+
+float MaxAbsDiff(const Image& a, const Image& b) {
+  float m = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) m = std::max(m, std::abs(a.data()[i] - b.data()[i]));
+  return m;
+}
+
+TEST(Image, RejectsBadSizes) {
+  EXPECT_THROW(Image(0, 4, 1), Error);
+  EXPECT_THROW(Image(4, -1, 1), Error);
+  EXPECT_THROW(Image(4, 4, 5), Error);
+  EXPECT_THROW(Image(4, 4, 0), Error);
+}
+
+// Each container/encoding pair round-trips within its quantization step.
+struct Case {
+  const char* ext;
+  PixelEncoding encoding;
+  float tolerance;
+};
+
+class ImageRoundTrip : public ::testing::TestWithParam<std::tuple<Case, int>> {};
+
+TEST_P(ImageRoundTrip, ValuesSurviveWithinQuantization) {
+  const auto [c, channels] = GetParam();
+  testing::TemporaryDirectory dir;
+  const auto file = dir / (std::string("img") + c.ext);
+  const Image img = Gradient(37, 23, channels);
+  WriteImage(file, img, c.encoding);
+  const Image back = ReadImage(file);
+  ASSERT_EQ(back.width(), 37);
+  ASSERT_EQ(back.height(), 23);
+  ASSERT_EQ(back.channels(), channels);
+  EXPECT_LE(MaxAbsDiff(img, back), c.tolerance);
+  EXPECT_EQ(ReadImageHeader(file).encoding, c.encoding);
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    AllFormats, ImageRoundTrip,
+    ::testing::Combine(::testing::Values(Case{".exr", PixelEncoding::kFloat32, 0.0f},
+                                         Case{".exr", PixelEncoding::kHalf, 1e-3f},
+                                         Case{".png", PixelEncoding::kUInt8, 0.5f / 255 + 1e-6f},
+                                         Case{".png", PixelEncoding::kUInt16, 0.5f / 65535 + 1e-7f},
+                                         Case{".tif", PixelEncoding::kFloat32, 0.0f},
+                                         Case{".tiff", PixelEncoding::kUInt16, 0.5f / 65535 + 1e-7f}),
+                       ::testing::Values(1, 3, 4)),
+    [](const auto& info) {
+      const Case& c = std::get<0>(info.param);
+      return std::string(c.ext + 1) + "_" + ToString(c.encoding) + "_" +
+             std::to_string(std::get<1>(info.param)) + "ch";
+    });
+
+TEST(ImageIo, FloatExrKeepsInfinityAndNan) {
+  // The MDF's "no hit" (+inf) and "unknown" (NaN) codes must survive storage.
+  testing::TemporaryDirectory dir;
+  Image img(2, 1, 1);
+  img.at(0, 0) = std::numeric_limits<float>::infinity();
+  img.at(1, 0) = std::numeric_limits<float>::quiet_NaN();
+  WriteImage(dir / "special.exr", img);
+  const Image back = ReadImage(dir / "special.exr");
+  EXPECT_TRUE(std::isinf(back.at(0, 0)) && back.at(0, 0) > 0);
+  EXPECT_TRUE(std::isnan(back.at(1, 0)));
+}
+
+TEST(ImageIo, RejectsEncodingTheContainerCannotHold) {
+  testing::TemporaryDirectory dir;
+  EXPECT_THROW(WriteImage(dir / "a.png", Gradient(4, 4, 1), PixelEncoding::kFloat32), Error);
+  EXPECT_THROW(WriteImage(dir / "a.exr", Gradient(4, 4, 1), PixelEncoding::kUInt8), Error);
+  EXPECT_THROW(WriteImage(dir / "a.bmp", Gradient(4, 4, 1)), Error);
+  EXPECT_TRUE(std::filesystem::is_empty(dir.path())) << "a refused write left a file behind";
+}
+
+TEST(ImageIo, MissingFileNamesTheFile) {
+  testing::TemporaryDirectory dir;
+  try {
+    ReadImage(dir / "nope.exr");
+    FAIL();
+  } catch (const FormatError& e) {
+    EXPECT_NE(std::string(e.what()).find("nope.exr"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find("not found"), std::string::npos);
+  }
+}
+
+TEST(ImageIo, TruncatedFilesAreErrorsNotCrashes) {
+  testing::TemporaryDirectory dir;
+  for (const char* ext : {".exr", ".png", ".tif"}) {
+    const auto file = dir / (std::string("t") + ext);
+    WriteImage(file, Gradient(64, 64, 3), std::string(ext) == ".png" ? PixelEncoding::kUInt8 : PixelEncoding::kFloat32);
+    const auto size = std::filesystem::file_size(file);
+    for (double keep : {0.0, 0.1, 0.5, 0.9}) {
+      std::filesystem::resize_file(file, static_cast<std::uintmax_t>(size * keep));
+      EXPECT_THROW(ReadImage(file), FormatError) << ext << " truncated to " << keep;
+      WriteImage(file, Gradient(64, 64, 3), std::string(ext) == ".png" ? PixelEncoding::kUInt8 : PixelEncoding::kFloat32);
+    }
+  }
+}
+
+TEST(ImageIo, GarbageIsRejected) {
+  testing::TemporaryDirectory dir;
+  std::ofstream(dir / "g.exr") << "this is not an image at all";
+  EXPECT_THROW(ReadImage(dir / "g.exr"), FormatError);
+}
+
+TEST(ImageIo, ExpectationsAndLimitsAreCheckedBeforeAllocation) {
+  testing::TemporaryDirectory dir;
+  WriteImage(dir / "a.exr", Gradient(16, 8, 3));
+  ImageReadOptions o;
+  o.expected_width = 17;
+  try {
+    ReadImage(dir / "a.exr", o);
+    FAIL();
+  } catch (const FormatError& e) {
+    EXPECT_EQ(e.field(), "width");
+  }
+  o = {};
+  o.expected_channels = 1;
+  EXPECT_THROW(ReadImage(dir / "a.exr", o), FormatError);
+  o = {};
+  o.max_values = 16 * 8 * 3 - 1;
+  try {
+    ReadImage(dir / "a.exr", o);
+    FAIL();
+  } catch (const FormatError& e) {
+    EXPECT_EQ(e.field(), "size");
+  }
+}
+
+TEST(ImageIo, OverwriteIsAtomicAndKeepsOldFileOnFailure) {
+  testing::TemporaryDirectory dir;
+  WriteImage(dir / "a.exr", Gradient(8, 8, 1));
+  EXPECT_THROW(WriteImage(dir / "a.exr", Image{}), Error);  // empty image refused
+  EXPECT_EQ(ReadImage(dir / "a.exr").width(), 8);
+  int files = 0;
+  for ([[maybe_unused]] const auto& e : std::filesystem::directory_iterator(dir.path())) ++files;
+  EXPECT_EQ(files, 1) << "temporary files left behind";
+}
+
+}  // namespace
+}  // namespace mesocap
