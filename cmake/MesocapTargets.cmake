@@ -33,6 +33,7 @@ function(mesocap_test name)
   add_executable(${name} ${ARG_SOURCES})
   target_link_libraries(${name} PRIVATE mesocap_warnings ${ARG_DEPS} GTest::gtest_main GTest::gmock)
   target_include_directories(${name} PRIVATE ${PROJECT_SOURCE_DIR})
-  gtest_discover_tests(${name} DISCOVERY_TIMEOUT 60
-    PROPERTIES ENVIRONMENT "MESOCAP_SOURCE_DIR=${PROJECT_SOURCE_DIR}")
+  # Tests find shipped data (rig descriptions, scenes) from the source tree.
+  target_compile_definitions(${name} PRIVATE MESOCAP_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
+  gtest_discover_tests(${name} DISCOVERY_TIMEOUT 60)
 endfunction()

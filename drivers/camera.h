@@ -1,0 +1,72 @@
+// The camera interface: every backend (the simulated rig, Aravis GigE Vision)
+// implements it. Images come back linear, in sensor units normalized to
+// [0, 1] of the full digital range, with the metadata needed to undo the
+// exposure and gain in processing.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <string>
+
+#include "core/image.h"
+
+namespace mesocap::drivers {
+
+struct CameraRegion {
+  int x = 0;
+  int y = 0;
+  int width = 0;   // 0 = full sensor width
+  int height = 0;  // 0 = full sensor height
+};
+
+enum class TriggerMode {
+  kFreeRun,   // the camera streams; Grab returns the next frame
+  kSoftware,  // each frame waits for Trigger()
+};
+
+struct CameraSettings {
+  double exposure_us = 10000.0;
+  double gain_db = 0.0;
+  CameraRegion region;
+  TriggerMode trigger = TriggerMode::kSoftware;
+};
+
+struct CameraInfo {
+  std::string id;
+  std::string model;
+  int sensor_width = 0;
+  int sensor_height = 0;
+  int bit_depth = 8;  // of the digitized values
+  int channels = 1;   // 1 = mono, 3 = RGB
+};
+
+struct Frame {
+  Image image;                 // values in [0, 1] of the digital range
+  std::uint64_t sequence = 0;  // per camera, increasing; a gap means a dropped frame
+  double timestamp_s = 0.0;    // camera clock
+  CameraSettings settings;     // in force when the frame was exposed
+  int bit_depth = 8;
+  std::uint64_t saturated_pixels = 0;  // values at the top code
+};
+
+class Camera {
+ public:
+  virtual ~Camera() = default;
+
+  virtual CameraInfo info() const = 0;
+  virtual CameraSettings settings() const = 0;
+  // Setters throw DeviceError for a value the device cannot take (the
+  // message says the valid range) and DisconnectedError when gone.
+  virtual void SetExposure(double exposure_us) = 0;
+  virtual void SetGain(double gain_db) = 0;
+  virtual void SetRegion(const CameraRegion& region) = 0;
+  virtual void SetTrigger(TriggerMode mode) = 0;
+
+  // Starts exposing one frame (kSoftware mode).
+  virtual void Trigger() = 0;
+  // The next frame. Throws TimeoutError when none arrives within `timeout`,
+  // DisconnectedError when the camera is gone.
+  virtual Frame Grab(std::chrono::milliseconds timeout) = 0;
+};
+
+}  // namespace mesocap::drivers
