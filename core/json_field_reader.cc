@@ -26,7 +26,7 @@ std::string RangeText(double min, double max) {
 
 }  // namespace
 
-nlohmann::json ReadJsonFile(const fs::path& file, std::uintmax_t max_bytes) {
+nlohmann::json ReadJsonFile(const fs::path& file, std::uintmax_t max_bytes, int max_depth) {
   std::error_code ec;
   if (!fs::exists(file, ec)) throw FormatError(file, "", "file not found");
   if (!fs::is_regular_file(file, ec)) throw FormatError(file, "", "not a regular file");
@@ -41,10 +41,38 @@ nlohmann::json ReadJsonFile(const fs::path& file, std::uintmax_t max_bytes) {
   std::string text(size, '\0');
   in.read(text.data(), static_cast<std::streamsize>(size));
   if (static_cast<std::uintmax_t>(in.gcount()) != size) throw FormatError(file, "", "short read");
+  // The parser reports depth 0 for the root's members' container events; a
+  // value at depth d sits d + 1 levels deep.
+  const auto limit_depth = [&](int depth, nlohmann::json::parse_event_t, nlohmann::json&) {
+    if (depth + 1 > max_depth) {
+      throw FormatError(file, "", "arrays and objects nest deeper than " + std::to_string(max_depth) + " levels");
+    }
+    return true;
+  };
   try {
-    return nlohmann::json::parse(text);
+    return nlohmann::json::parse(text, limit_depth);
   } catch (const nlohmann::json::parse_error& e) {
     throw FormatError(file, "", "not valid JSON (at byte " + std::to_string(e.byte) + ")");
+  } catch (const nlohmann::json::exception& e) {  // e.g. out_of_range for 1e400
+    throw FormatError(file, "", std::string("not valid JSON: ") + e.what());
+  }
+}
+
+void RejectDeepNesting(const nlohmann::json& document, const fs::path& file, int max_depth,
+                       const std::string& where) {
+  // Iterative on purpose: the point is to survive documents that would
+  // overflow the stack of a recursive walk.
+  std::vector<std::pair<const nlohmann::json*, int>> pending = {{&document, 1}};
+  while (!pending.empty()) {
+    const auto [value, depth] = pending.back();
+    pending.pop_back();
+    if (!value->is_structured()) continue;
+    if (depth > max_depth) {
+      throw FormatError(file, where, "arrays and objects nest deeper than " + std::to_string(max_depth) + " levels");
+    }
+    for (const auto& child : *value) {
+      if (child.is_structured()) pending.emplace_back(&child, depth + 1);
+    }
   }
 }
 
@@ -180,6 +208,18 @@ std::vector<JsonFieldReader> JsonFieldReader::Objects(std::string_view key,
     out.emplace_back(v[i], file_, at);
   }
   return out;
+}
+
+void JsonFieldReader::RejectUnknownMembers(std::initializer_list<std::string_view> allowed) const {
+  for (const auto& [key, value] : object_.items()) {
+    bool known = false;
+    for (const auto a : allowed) known = known || key == a;
+    if (!known) {
+      std::string list;
+      for (const auto a : allowed) list += (list.empty() ? "" : ", ") + std::string(a);
+      Fail(key, "unknown member; expected only " + list);
+    }
+  }
 }
 
 void JsonFieldReader::ExpectFormat(std::string_view format, int version) const {

@@ -6,6 +6,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <filesystem>
+#include <initializer_list>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <string_view>
@@ -14,10 +15,18 @@
 namespace mesocap {
 
 // Parses a JSON file. Rejects missing files, files over `max_bytes` (checked
-// before reading, so a hostile file cannot cause a huge allocation) and
-// syntax errors, with the byte offset of the error.
+// before reading), nesting deeper than `max_depth` (checked while parsing, so
+// a hostile "[[[[..." neither exhausts memory nor later overflows the stack of
+// a recursive walk), numbers beyond a double, and syntax errors, with the
+// byte offset of the error.
 nlohmann::json ReadJsonFile(const std::filesystem::path& file,
-                            std::uintmax_t max_bytes = 64ull << 20);
+                            std::uintmax_t max_bytes = 64ull << 20, int max_depth = 64);
+
+// Throws FormatError when `document` nests arrays and objects deeper than
+// `max_depth` (the root counts as 1); `where` is the document's field path.
+// For documents parsed from text other than a file (journal lines).
+void RejectDeepNesting(const nlohmann::json& document, const std::filesystem::path& file,
+                       int max_depth, const std::string& where = "");
 
 // A view of one JSON object inside a file. Cheap to copy; holds a reference
 // to the document, which must outlive it.
@@ -49,6 +58,10 @@ class JsonFieldReader {
   std::vector<JsonFieldReader> Objects(std::string_view key, std::size_t max_count) const;
   const nlohmann::json& Raw(std::string_view key) const;
   const nlohmann::json& json() const { return object_; }
+
+  // Rejects members other than `allowed`, so a misspelt or newer field (say a
+  // rational-model "k4") is never silently ignored.
+  void RejectUnknownMembers(std::initializer_list<std::string_view> allowed) const;
 
   // Checks the "format" and "version" members every mesocap file carries.
   void ExpectFormat(std::string_view format, int version) const;

@@ -1,5 +1,6 @@
 #include "core/rigid_transform.h"
 
+#include <Eigen/LU>
 #include <array>
 
 #include "core/error.h"

@@ -62,5 +62,24 @@ TEST(ReadJsonFile, RejectsMissingOversizeAndMalformed) {
   EXPECT_NE(ErrorOf([&] { ReadJsonFile(dir / "big.json", 1000); }).find("at most 1000"), std::string::npos);
 }
 
+TEST(ReadJsonFile, RejectsDeepNestingWhileParsingAndHugeNumbers) {
+  testing::TemporaryDirectory dir;
+  std::ofstream(dir / "deep.json") << std::string(100000, '[') << std::string(100000, ']');
+  EXPECT_NE(ErrorOf([&] { ReadJsonFile(dir / "deep.json"); }).find("nest deeper than 64"), std::string::npos);
+  std::ofstream(dir / "ok.json") << std::string(64, '[') << std::string(64, ']');
+  EXPECT_NO_THROW(ReadJsonFile(dir / "ok.json"));
+  std::ofstream(dir / "too.json") << std::string(65, '[') << std::string(65, ']');
+  EXPECT_THROW(ReadJsonFile(dir / "too.json"), FormatError);
+  std::ofstream(dir / "huge.json") << R"({"fx": 1e400})";
+  EXPECT_NE(ErrorOf([&] { ReadJsonFile(dir / "huge.json"); }).find("huge.json"), std::string::npos);
+}
+
+TEST(JsonFieldReader, UnknownMembersAreNamed) {
+  const json doc = json::parse(R"({"k1": 0, "k4": 0.1})");
+  JsonFieldReader r(doc, "d.json", "distortion");
+  EXPECT_NE(ErrorOf([&] { r.RejectUnknownMembers({"k1", "k2"}); }).find("distortion.k4"), std::string::npos);
+  EXPECT_NO_THROW(r.RejectUnknownMembers({"k1", "k4"}));
+}
+
 }  // namespace
 }  // namespace mesocap

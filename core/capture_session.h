@@ -1,0 +1,69 @@
+// A capture session on disk (DESIGN.md "On disk"; docs/FORMATS.md "Capture
+// session"): a folder holding
+//   manifest.json   what is captured: rig snapshot, calibration, plan, version
+//   journal.jsonl   the steps completed so far (core/capture_journal.h)
+//   ...             the captured data, at paths the journal names
+// The manifest is written once, atomically, when the session is created.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace mesocap {
+
+inline constexpr const char* kSessionManifestName = "manifest.json";
+inline constexpr const char* kSessionJournalName = "journal.jsonl";
+
+inline constexpr std::size_t kMaxPlanSteps = 100'000;
+inline constexpr std::uintmax_t kMaxSessionManifestBytes = 16ull << 20;
+
+enum class StepKind { kBtfImage, kLaserSweep, kLaserCalibration, kOther };
+
+// "btf_image", "laser_sweep", "laser_calibration", "other".
+const char* StepKindName(StepKind kind);
+
+struct PlannedStep {
+  std::string id;  // unique in the plan; IsValidId (core/calibration.h)
+  StepKind kind = StepKind::kOther;
+  // The step's other members, kept as written (say "camera", "turntable_deg").
+  // An object without "id" or "kind".
+  nlohmann::json params = nlohmann::json::object();
+};
+
+struct SessionManifest {
+  std::string software_version;  // CreateCaptureSession fills an empty one with Version()
+  std::string created_utc;       // UtcTimestamp(); CreateCaptureSession fills an empty one
+  // The rig as configured for this session, kept as given; must hold a
+  // non-empty string "name".
+  nlohmann::json rig = nlohmann::json::object();
+  // The calibration in use, as a path inside the session folder.
+  std::optional<std::string> calibration;
+  std::vector<PlannedStep> plan;
+};
+
+// Creates `dir` (or uses it when it exists and is empty) and writes its
+// manifest atomically. Refuses a folder that holds anything, so an existing
+// session is never overwritten. Validates the manifest as
+// ReadSessionManifest would.
+void CreateCaptureSession(const std::filesystem::path& dir, SessionManifest manifest);
+// Reads and validates dir/manifest.json.
+SessionManifest ReadSessionManifest(const std::filesystem::path& dir);
+nlohmann::json ToJson(const SessionManifest& manifest);
+
+// "2025-06-01T12:34:56.789Z": ISO 8601, UTC, milliseconds.
+std::string UtcTimestamp(std::chrono::system_clock::time_point time);
+// "YYYY-MM-DDTHH:MM:SS" with optional ".f" (1 to 9 digits) and a final "Z".
+bool IsUtcTimestamp(std::string_view text);
+
+// A path inside the session folder, as files name their data: '/'-separated,
+// relative, each part non-empty and not "." or "..", no control characters,
+// at most 1024 bytes. Keeps every reference inside the session.
+bool IsSessionPath(std::string_view path);
+
+}  // namespace mesocap
