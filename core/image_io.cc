@@ -3,6 +3,8 @@
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
+#include <mutex>
+#include <new>
 #include <string>
 
 #include "core/atomic_file.h"
@@ -52,7 +54,17 @@ bool Supports(Container c, PixelEncoding e) {
   return false;
 }
 
+// OpenImageIO refuses images whose header declares more pixel data than
+// this; a corrupt or hostile header then fails fast instead of allocating.
+// 8 GB is far above any image mesocap writes (ReadImage's own default limit
+// is 1 GiB of floats).
+void LimitDeclaredImageSize() {
+  static std::once_flag once;
+  std::call_once(once, [] { OIIO::attribute("limits:imagesize_MB", 8192); });
+}
+
 std::unique_ptr<OIIO::ImageInput> OpenInput(const fs::path& file) {
+  LimitDeclaredImageSize();
   std::error_code ec;
   if (!fs::exists(file, ec)) throw FormatError(file, "", "file not found");
   if (!fs::is_regular_file(file, ec)) throw FormatError(file, "", "not a regular file");
@@ -60,7 +72,12 @@ std::unique_ptr<OIIO::ImageInput> OpenInput(const fs::path& file) {
   // A 4th channel is data to mesocap, not alpha: never (un)premultiply it.
   OIIO::ImageSpec config;
   config.attribute("oiio:UnassociatedAlpha", 1);
-  auto in = OIIO::ImageInput::open(file.string(), &config);
+  std::unique_ptr<OIIO::ImageInput> in;
+  try {
+    in = OIIO::ImageInput::open(file.string(), &config);
+  } catch (const std::bad_alloc&) {
+    throw FormatError(file, "size", "the header declares a size that cannot be allocated (corrupt file?)");
+  }
   if (!in) throw FormatError(file, "", "not a readable image: " + OIIO::geterror());
   return in;
 }

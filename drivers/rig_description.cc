@@ -149,6 +149,44 @@ Eigen::Vector3d LaserSource(const LaserDescription& laser, const LaserLocation& 
   return laser.distance_mm * Eigen::Vector3d(std::cos(e) * std::cos(a), std::cos(e) * std::sin(a), std::sin(e));
 }
 
+namespace {
+
+// Adds the direction of `world_position` seen from the origin, in the sample
+// frame of turntable angle `turntable_rad`, unless already present.
+void AddSampleFrameDirection(const Eigen::Vector3d& world_position, double turntable_rad,
+                             std::vector<SphericalAngles>* out) {
+  SphericalAngles a = AnglesFromDirection(world_position);
+  a.phi = std::remainder(a.phi - turntable_rad, 2 * std::numbers::pi);
+  if (a.phi < 0) a.phi += 2 * std::numbers::pi;
+  for (const auto& b : *out) {
+    const double dphi = std::abs(std::remainder(a.phi - b.phi, 2 * std::numbers::pi));
+    if (std::abs(a.theta - b.theta) < 1e-9 && dphi < 1e-9) return;
+  }
+  out->push_back(a);
+}
+
+}  // namespace
+
+SamplingSet ViewDirections(const RigDescription& rig) {
+  std::vector<SphericalAngles> angles;
+  for (double t : rig.turntable.angles_rad) {
+    for (const auto& c : rig.cameras) AddSampleFrameDirection(CameraCentre(c), t, &angles);
+  }
+  return SamplingSet::FromAngles(rig.name + "-views", angles);
+}
+
+SamplingSet LightDirections(const RigDescription& rig) {
+  std::vector<SphericalAngles> angles;
+  for (double t : rig.turntable.angles_rad) {
+    for (double a : rig.light_arc.angles_rad) {
+      for (int l = 0; l < static_cast<int>(rig.lamps.elevations_rad.size()); ++l) {
+        AddSampleFrameDirection(LampPosition(rig.lamps, l, a), t, &angles);
+      }
+    }
+  }
+  return SamplingSet::FromAngles(rig.name + "-lights", angles);
+}
+
 double LaserTiltForOffset(const LaserDescription& laser, int mount, double offset_mm) {
   // In the vertical plane through the source: the source is at horizontal
   // distance r and height h; the stripe at horizontal distance r + offset.

@@ -20,6 +20,8 @@
 
 #include <Eigen/Core>
 
+#include "core/sampling_set.h"
+
 namespace mesocap::drivers {
 
 struct CameraDescription {
@@ -93,6 +95,12 @@ struct RigDescription {
 // Reads and validates a rig description; errors name the file and field.
 RigDescription ReadRigDescription(const std::filesystem::path& file);
 RigDescription ParseRigDescription(const nlohmann::json& json, const std::filesystem::path& file);
+
+// The rig's nominal directions in the sample frame, towards the turntable
+// centre: views = turntable angles x cameras, lights = (arc - turntable)
+// angles x lamps (distinct directions only). Named "<rig>-views" / "<rig>-lights".
+SamplingSet ViewDirections(const RigDescription& rig);
+SamplingSet LightDirections(const RigDescription& rig);
 
 // World positions of devices (the nominal geometry above).
 Eigen::Vector3d CameraCentre(const CameraDescription& camera);

@@ -1,34 +1,188 @@
-// `mesocap info PATH`: a readable summary of an image (more kinds of file are
-// added as their formats land), or one JSON object with --json.
+// `mesocap info PATH`: a readable summary of a calibration file, a rig
+// description, a capture session folder, a material package folder or an
+// image; `--json` prints one JSON object instead. Every reader validates, so
+// `info` is also the quickest check that a file is sound.
 #include <filesystem>
+#include <iomanip>
 #include <iostream>
+#include <map>
 #include <nlohmann/json.hpp>
+#include <numbers>
+#include <sstream>
 
 #include "apps/mesocap/command.h"
+#include "core/calibration.h"
+#include "core/capture_journal.h"
+#include "core/capture_session.h"
 #include "core/error.h"
 #include "core/image_io.h"
+#include "core/json_field_reader.h"
+#include "core/material_package.h"
+#include "drivers/rig_description.h"
 
 namespace mesocap {
 namespace {
 
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+constexpr double kDeg = 180.0 / std::numbers::pi;
+
 struct InfoOptions {
-  std::filesystem::path path;
+  fs::path path;
   bool json = false;
 };
 
+json SetSummary(const SamplingSet& s) { return {{"name", s.name()}, {"count", s.size()}}; }
+
+json MaterialInfo(const fs::path& dir) {
+  const MaterialManifest m = ReadMaterialManifest(dir);
+  const auto& d = m.description;
+  json parts = json::object();
+  if (m.mdf) {
+    parts["mdf"] = {{"float32", m.mdf->forms.float32}, {"uint8", m.mdf->forms.uint8}};
+    if (m.mdf->forms.uint8) parts["mdf"]["scale_mm"] = m.mdf->scale_mm;
+  }
+  if (m.full_btf) parts["btf_full"] = true;
+  if (m.factored_btf) {
+    parts["btf_factored"] = {{"layout", ToString(m.factored_btf->layout)},
+                             {"color", ToString(m.factored_btf->color)},
+                             {"rank", m.factored_btf->rank}};
+  }
+  if (m.ambient) parts["ambient"] = true;
+  if (m.error_report) parts["error_report"] = ReadErrorReport(dir, m);
+  return {{"kind", "material"},
+          {"path", dir.string()},
+          {"name", d.name},
+          {"texture_size", {d.width, d.height}},
+          {"physical_size_mm", {d.physical_size_mm.x(), d.physical_size_mm.y()}},
+          {"d_max_mm", d.d_max_mm},
+          {"view_directions", SetSummary(d.view_directions)},
+          {"light_directions", SetSummary(d.light_directions)},
+          {"parts", parts},
+          {"provenance",
+           {{"software_version", d.provenance.software_version},
+            {"created_utc", d.provenance.created_utc},
+            {"source", d.provenance.source}}}};
+}
+
+json SessionInfo(const fs::path& dir) {
+  const SessionManifest m = ReadSessionManifest(dir);
+  std::map<std::string, int> kinds;
+  for (const auto& s : m.plan) ++kinds[StepKindName(s.kind)];
+  json out = {{"kind", "session"},
+              {"path", dir.string()},
+              {"rig", m.rig.value("name", "")},
+              {"software_version", m.software_version},
+              {"created_utc", m.created_utc},
+              {"calibration", m.calibration ? json(*m.calibration) : json(nullptr)},
+              {"planned_steps", m.plan.size()},
+              {"planned_steps_by_kind", kinds}};
+  const fs::path journal = dir / kSessionJournalName;
+  std::size_t done = 0;
+  if (fs::exists(journal)) {
+    const JournalContents j = ReadCaptureJournal(journal, &m);
+    done = j.records.size();
+    out["torn_tail_bytes"] = j.dropped_bytes;
+  }
+  out["completed_steps"] = done;
+  out["complete"] = done == m.plan.size();
+  return out;
+}
+
+json CalibrationInfo(const fs::path& file) {
+  const Calibration c = ReadCalibration(file);
+  json cameras = json::array();
+  for (const auto& cam : c.cameras) {
+    cameras.push_back({{"id", cam.id},
+                       {"image_size", {cam.width, cam.height}},
+                       {"fx", cam.intrinsics.fx},
+                       {"fy", cam.intrinsics.fy},
+                       {"k1", cam.distortion.k1},
+                       {"position_mm", {cam.pose.transform.translation.x(), cam.pose.transform.translation.y(),
+                                        cam.pose.transform.translation.z()}},
+                       {"has_uncertainty", cam.intrinsics.uncertainty.fx.has_value()}});
+  }
+  return {{"kind", "calibration"},
+          {"path", file.string()},
+          {"cameras", cameras},
+          {"lamps", c.lamps.size()},
+          {"laser_mounts", c.laser_mounts.size()},
+          {"turntable_axis", {c.turntable.axis_direction.x(), c.turntable.axis_direction.y(),
+                              c.turntable.axis_direction.z()}}};
+}
+
+json RigInfo(const fs::path& file) {
+  const drivers::RigDescription r = drivers::ReadRigDescription(file);
+  return {{"kind", "rig"},
+          {"path", file.string()},
+          {"name", r.name},
+          {"sample_size_mm", r.sample_size_mm},
+          {"cameras", r.cameras.size()},
+          {"camera_image_size", {r.cameras[0].width, r.cameras[0].height}},
+          {"views", r.view_count()},
+          {"lights", r.light_count()},
+          {"laser_locations", r.laser.locations.size()},
+          {"frames_per_sweep", r.laser.frames_per_sweep}};
+}
+
+json ImageInfo(const fs::path& file) {
+  const ImageHeader h = ReadImageHeader(file);
+  return {{"kind", "image"},   {"path", file.string()},     {"width", h.width},
+          {"height", h.height}, {"channels", h.channels}, {"encoding", ToString(h.encoding)}};
+}
+
+// The "format" member every mesocap JSON file carries.
+std::string FormatOf(const fs::path& file) {
+  const json doc = ReadJsonFile(file);
+  return JsonFieldReader(doc, file).String("format");
+}
+
+json Describe(const fs::path& path) {
+  std::error_code ec;
+  if (!fs::exists(path, ec)) throw Error(path.string() + ": no such file or folder");
+  if (fs::is_directory(path, ec)) {
+    const fs::path manifest = path / "manifest.json";
+    if (!fs::exists(manifest, ec)) {
+      throw Error(path.string() + ": not a capture session or material package (no manifest.json)");
+    }
+    const std::string format = FormatOf(manifest);
+    if (format == "mesocap.material") return MaterialInfo(path);
+    if (format == "mesocap.session") return SessionInfo(path);
+    throw FormatError(manifest, "format", "expected \"mesocap.material\" or \"mesocap.session\", got \"" + format + "\"");
+  }
+  if (path.extension() == ".json") {
+    const std::string format = FormatOf(path);
+    if (format == "mesocap.calibration") return CalibrationInfo(path);
+    if (format == "mesocap.rig") return RigInfo(path);
+    throw FormatError(path, "format", "expected \"mesocap.calibration\" or \"mesocap.rig\", got \"" + format + "\"");
+  }
+  return ImageInfo(path);
+}
+
+void PrintText(const json& j) {
+  const std::string kind = j["kind"];
+  std::cout << kind << " " << j["path"].get<std::string>() << "\n";
+  for (const auto& [key, value] : j.items()) {
+    if (key == "kind" || key == "path") continue;
+    if (key == "cameras" && value.is_array()) {
+      for (const auto& cam : value) {
+        std::cout << "  camera " << cam["id"].get<std::string>() << ": " << cam["image_size"][0] << "x"
+                  << cam["image_size"][1] << " px, fx " << cam["fx"] << " fy " << cam["fy"] << ", k1 "
+                  << cam["k1"] << "\n";
+      }
+      continue;
+    }
+    std::cout << "  " << key << ": " << (value.is_string() ? value.get<std::string>() : value.dump()) << "\n";
+  }
+}
+
 void RunInfo(const InfoOptions& options) {
-  const ImageHeader h = ReadImageHeader(options.path);
-  nlohmann::json out = {{"kind", "image"},
-                        {"path", options.path.string()},
-                        {"width", h.width},
-                        {"height", h.height},
-                        {"channels", h.channels},
-                        {"encoding", ToString(h.encoding)}};
+  const json summary = Describe(options.path);
   if (options.json) {
-    std::cout << out.dump(2) << "\n";
+    std::cout << summary.dump(2) << "\n";
   } else {
-    std::cout << "image " << options.path.string() << ": " << h.width << "x" << h.height << ", "
-              << h.channels << " channel(s), " << ToString(h.encoding) << "\n";
+    PrintText(summary);
   }
 }
 
@@ -37,7 +191,7 @@ void RunInfo(const InfoOptions& options) {
 void RegisterInfoCommand(CLI::App& app) {
   auto options = std::make_shared<InfoOptions>();
   CLI::App* sub = app.add_subcommand(
-      "info", "Print a summary of a calibration, capture session, material package or image");
+      "info", "Summarize (and validate) a calibration, rig description, capture session, material package or image");
   sub->add_option("path", options->path, "file or folder to describe")->required();
   sub->add_flag("--json", options->json, "print one JSON object instead of text");
   sub->callback([options] { RunInfo(*options); });

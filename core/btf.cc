@@ -1,0 +1,107 @@
+#include "core/btf.h"
+
+#include <Eigen/LU>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "core/error.h"
+
+namespace mesocap {
+namespace {
+
+// The images of a BTF pack one direction set along their height; it must fit
+// an int.
+int PackedHeight(int height, int count, const char* what) {
+  if (count < 1) throw Error(std::string("a BTF needs at least one ") + what + " direction");
+  const long long rows = static_cast<long long>(height) * count;
+  if (rows > std::numeric_limits<int>::max()) {
+    throw Error("BTF image of " + std::to_string(height) + " rows x " + std::to_string(count) + " " + what +
+                " directions is too tall for one image");
+  }
+  return static_cast<int>(rows);
+}
+
+std::string SizeText(const Image& image) {
+  return std::to_string(image.width()) + "x" + std::to_string(image.height()) + "x" +
+         std::to_string(image.channels());
+}
+
+void ExpectSize(const Image& image, int width, int height, const std::string& what) {
+  if (image.width() != width || image.height() != height || image.channels() != 3) {
+    throw Error("factored BTF: " + what + " is " + SizeText(image) + ", expected " + std::to_string(width) +
+                "x" + std::to_string(height) + "x3");
+  }
+}
+
+}  // namespace
+
+FullBtf MakeFullBtf(int width, int height, SamplingSet views, SamplingSet lights) {
+  const int rows = PackedHeight(height, lights.size(), "light");
+  if (views.size() < 1) throw Error("a BTF needs at least one view direction");
+  FullBtf btf;
+  btf.width = width;
+  btf.height = height;
+  btf.view_images.reserve(views.size());
+  for (int v = 0; v < views.size(); ++v) btf.view_images.emplace_back(width, rows, 3);
+  btf.views = std::move(views);
+  btf.lights = std::move(lights);
+  return btf;
+}
+
+const char* ToString(BtfFactorLayout layout) {
+  return layout == BtfFactorLayout::kPaper ? "paper" : "per_texel";
+}
+
+const char* ToString(BtfFactorColor color) { return color == BtfFactorColor::kRgb ? "rgb" : "ycbcr"; }
+
+Eigen::Matrix3d YCbCrFromLinearRgbBt601() {
+  Eigen::Matrix3d m;
+  m << 0.299, 0.587, 0.114,       //
+      -0.168736, -0.331264, 0.5,  //
+      0.5, -0.418688, -0.081312;
+  return m;
+}
+
+Eigen::Vector3f FactoredBtf::Reconstruct(int x, int y, int view, int light) const {
+  const int row = layout == BtfFactorLayout::kPaper ? light * height + y : y;
+  const int column = layout == BtfFactorLayout::kPaper ? view : view * light_count() + light;
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  for (int k = 0; k < rank(); ++k) {
+    const float* r = rows[k].pixel(x, row);
+    const float* w = columns.pixel(column, k);
+    for (int ch = 0; ch < 3; ++ch) c[ch] += static_cast<double>(r[ch]) * w[ch];
+  }
+  if (color == BtfFactorColor::kYCbCr) c = rgb_to_factored.inverse() * c;
+  return c.cast<float>();
+}
+
+void FactoredBtf::CheckShape() const {
+  if (width < 1 || height < 1) {
+    throw Error("factored BTF: texture size " + std::to_string(width) + "x" + std::to_string(height) +
+                " is not positive");
+  }
+  const int row_height = PackedHeight(height, light_count(), "light");
+  if (view_count() < 1) throw Error("a BTF needs at least one view direction");
+  const long long columns_wide = static_cast<long long>(view_count()) * light_count();
+  if (columns_wide > std::numeric_limits<int>::max()) throw Error("factored BTF: too many columns");
+  if (rank() < 1 || rank() > kMaxBtfRank || rank() > column_count()) {
+    throw Error("factored BTF: rank " + std::to_string(rank()) + " outside 1.." +
+                std::to_string(std::min(kMaxBtfRank, column_count())));
+  }
+  for (int k = 0; k < rank(); ++k) {
+    ExpectSize(rows[k], width, layout == BtfFactorLayout::kPaper ? row_height : height,
+               "row factor " + std::to_string(k));
+  }
+  ExpectSize(columns, column_count(), rank(), "column factors");
+  if (color == BtfFactorColor::kYCbCr) {
+    const double scale = rgb_to_factored.norm();
+    if (!rgb_to_factored.allFinite() || !(scale > 0) ||
+        std::abs(rgb_to_factored.determinant()) < 1e-9 * scale * scale * scale) {
+      throw Error("factored BTF: the colour transform is not invertible");
+    }
+  }
+}
+
+}  // namespace mesocap

@@ -1,0 +1,102 @@
+// The bidirectional texture function T(x, y, view, light): linear RGB
+// reflectance (DESIGN.md), in the two forms a material package holds.
+//
+// Full form: one image per view direction, W wide and H * Nlight tall, light
+// l in rows [l*H, (l+1)*H) -- lights packed along the 3rd axis, as Wang et
+// al. 2005 Sec. 5 packs the eigenmaps into 3D textures. A view is the unit of
+// reading and writing, so a large BTF never has to be in memory at once
+// (material_package.h: ReadFullBtfView, MaterialPackageWriter).
+//
+// Factored form (Sec. 5): the BTF as a matrix A, factored by SVD and truncated
+// to rank K, A ~= sum_k r_k c_k^T, with the singular values folded into the
+// row factors (r_k = sigma_k u_k, c_k = v_k), so reconstruction is a plain
+// sum of products. Two matrix layouts:
+//   paper:     rows (x, y, light), columns view -- the paper's eigenmaps
+//              E_k(x, y, light) and weight maps W_k(view);
+//   per_texel: rows (x, y), columns (view, light), column index
+//              view * Nlight + light.
+// Each of the 3 colour channels is factored separately, either the RGB
+// channels themselves or the channels of a decorrelating transform
+// (luminance/chroma), c = rgb_to_factored * rgb.
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "core/image.h"
+#include "core/sampling_set.h"
+
+namespace mesocap {
+
+struct FullBtf {
+  int width = 0;
+  int height = 0;
+  SamplingSet views;
+  SamplingSet lights;
+  // One per view: 3 channels, width x height * lights.size().
+  std::vector<Image> view_images;
+
+  int view_count() const { return views.size(); }
+  int light_count() const { return lights.size(); }
+  Eigen::Vector3f at(int x, int y, int view, int light) const {
+    const float* p = view_images[view].pixel(x, light * height + y);
+    return {p[0], p[1], p[2]};
+  }
+};
+
+// A full BTF of the given size, all zero. Throws Error on empty direction sets
+// or a view image too tall for one image.
+FullBtf MakeFullBtf(int width, int height, SamplingSet views, SamplingSet lights);
+
+enum class BtfFactorLayout { kPaper, kPerTexel };
+enum class BtfFactorColor { kRgb, kYCbCr };
+
+const char* ToString(BtfFactorLayout layout);  // "paper", "per_texel"
+const char* ToString(BtfFactorColor color);    // "rgb", "ycbcr"
+
+// Linear RGB to (Y, Cb, Cr) with the ITU-R BT.601 luma weights and no
+// offsets (the data are linear and signed chroma is fine for factors).
+Eigen::Matrix3d YCbCrFromLinearRgbBt601();
+
+struct FactoredBtf {
+  int width = 0;
+  int height = 0;
+  SamplingSet views;
+  SamplingSet lights;
+  BtfFactorLayout layout = BtfFactorLayout::kPaper;
+  BtfFactorColor color = BtfFactorColor::kRgb;
+  // The factored channels are rgb_to_factored * rgb. Ignored (identity) for
+  // kRgb; for kYCbCr any invertible matrix, recorded in the manifest.
+  Eigen::Matrix3d rgb_to_factored = Eigen::Matrix3d::Identity();
+  // Row factors r_k (singular values folded in), one image per k, 3 channels:
+  // paper: width x height * Nlight (light l in rows [l*H, (l+1)*H));
+  // per_texel: width x height.
+  std::vector<Image> rows;
+  // Column factors: column_count() wide, rank() tall (row k holds c_k),
+  // 3 channels.
+  Image columns;
+
+  int rank() const { return static_cast<int>(rows.size()); }
+  int view_count() const { return views.size(); }
+  int light_count() const { return lights.size(); }
+  // Height of each row-factor image.
+  int row_image_height() const { return layout == BtfFactorLayout::kPaper ? height * light_count() : height; }
+  int column_count() const {
+    return layout == BtfFactorLayout::kPaper ? view_count() : view_count() * light_count();
+  }
+
+  // T(x, y, view, light) as linear RGB: sum_k r_k c_k per factored channel,
+  // then back to RGB. Sizes must agree (CheckShape). A reference path: it
+  // inverts rgb_to_factored on every call for kYCbCr.
+  Eigen::Vector3f Reconstruct(int x, int y, int view, int light) const;
+  // Throws Error when the factor images do not have the sizes above, the
+  // rank is outside 1..min(100, column_count()) or the colour matrix is
+  // not invertible.
+  void CheckShape() const;
+};
+
+// The largest rank a package can name (files rows_00 .. rows_99).
+inline constexpr int kMaxBtfRank = 100;
+
+}  // namespace mesocap

@@ -1,0 +1,98 @@
+// Runs the real `mesocap` binary as a user would and checks exit codes,
+// stdout and the one-line errors on stderr.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+
+#include "core/json_field_reader.h"
+#include "tests/common/temporary_directory.h"
+
+namespace mesocap {
+namespace {
+
+struct CommandResult {
+  int exit_code = -1;
+  std::string out;
+  std::string err;
+};
+
+std::string Slurp(const std::filesystem::path& p) {
+  std::ifstream in(p);
+  return {std::istreambuf_iterator<char>(in), {}};
+}
+
+CommandResult Mesocap(const std::string& args) {
+  testing::TemporaryDirectory dir;
+  const std::string cmd = std::string(MESOCAP_BINARY) + " " + args + " >" + (dir / "out").string() + " 2>" +
+                          (dir / "err").string();
+  const int status = std::system(cmd.c_str());
+  CommandResult r;
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  r.out = Slurp(dir / "out");
+  r.err = Slurp(dir / "err");
+  return r;
+}
+
+std::string RigFile(const std::string& name) {
+  return std::string(MESOCAP_SOURCE_DIR) + "/sim/rigs/" + name + ".json";
+}
+
+TEST(Cli, VersionAndHelp) {
+  const CommandResult v = Mesocap("--version");
+  EXPECT_EQ(v.exit_code, 0);
+  EXPECT_NE(v.out.find("mesocap 0."), std::string::npos) << v.out;
+  const CommandResult h = Mesocap("info --help");
+  EXPECT_EQ(h.exit_code, 0);
+  EXPECT_NE(h.out.find("--json"), std::string::npos);
+  EXPECT_NE(Mesocap("").exit_code, 0) << "a subcommand is required";
+  EXPECT_NE(Mesocap("no-such-command").exit_code, 0);
+}
+
+TEST(Cli, InfoOnRigDescriptionPrintsJson) {
+  const CommandResult r = Mesocap("info --json " + RigFile("paper"));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["kind"], "rig");
+  EXPECT_EQ(j["views"], 96);
+  EXPECT_EQ(j["laser_locations"], 26);
+}
+
+// The acceptance check of the Foundation issue: a hostile file gives a
+// non-zero exit and one line on stderr naming the file and the field.
+TEST(Cli, InfoOnHostileFileIsOneLineNamingFileAndField) {
+  testing::TemporaryDirectory dir;
+  auto rig = ReadJsonFile(RigFile("tiny"));
+  rig["cameras"][0]["focal_px"] = -5;
+  const auto file = dir / "hostile-rig.json";
+  std::ofstream(file) << rig.dump();
+  const CommandResult r = Mesocap("info " + file.string());
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.out, "");
+  ASSERT_FALSE(r.err.empty());
+  EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << "more than one line: " << r.err;
+  EXPECT_NE(r.err.find("hostile-rig.json"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("cameras[0].focal_px"), std::string::npos) << r.err;
+
+  std::ofstream(dir / "calib.json") << R"({"format": "mesocap.calibration", "version": 7})";
+  const CommandResult c = Mesocap("info " + (dir / "calib.json").string());
+  EXPECT_EQ(c.exit_code, 1);
+  EXPECT_NE(c.err.find("calib.json"), std::string::npos) << c.err;
+  EXPECT_NE(c.err.find("version"), std::string::npos) << c.err;
+
+  std::ofstream(dir / "torn.json") << R"({"format": "mesocap.calibr)";
+  const CommandResult t = Mesocap("info " + (dir / "torn.json").string());
+  EXPECT_EQ(t.exit_code, 1);
+  EXPECT_NE(t.err.find("not valid JSON"), std::string::npos) << t.err;
+
+  const CommandResult missing = Mesocap("info " + (dir / "nothing-here").string());
+  EXPECT_EQ(missing.exit_code, 1);
+  EXPECT_NE(missing.err.find("nothing-here"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace mesocap
