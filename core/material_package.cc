@@ -32,6 +32,7 @@ constexpr char kRowFactorFiles[] = "btf/rows_{k:02d}.exr";
 constexpr char kColumnFactorFile[] = "btf/columns.exr";
 constexpr char kAmbientFile[] = "ambient.exr";
 constexpr char kErrorReportFile[] = "error_report.json";
+constexpr char kCalibrationFile[] = "calibration.json";
 constexpr char kBtfValues[] = "linear_rgb_reflectance";
 constexpr char kSingularValues[] = "folded_into_rows";
 
@@ -211,6 +212,7 @@ nlohmann::ordered_json ManifestJson(const MaterialManifest& m) {
   }
   if (m.ambient) j["ambient"] = {{"file", kAmbientFile}};
   if (m.error_report) j["error_report"] = {{"file", kErrorReportFile}};
+  if (m.calibration) j["calibration"] = {{"file", kCalibrationFile}};
   return j;
 }
 
@@ -331,6 +333,7 @@ void ExpectFiles(const JsonFieldReader& root, const MaterialManifest& m, const f
   }
   if (m.ambient) ExpectFile(root, "ambient.file", dir, kAmbientFile);
   if (m.error_report) ExpectFile(root, "error_report.file", dir, kErrorReportFile);
+  if (m.calibration) ExpectFile(root, "calibration.file", dir, kCalibrationFile);
 }
 
 // ---------------------------------------------------------------------------
@@ -508,6 +511,13 @@ void MaterialPackageWriter::WriteErrorReport(const nlohmann::json& report) {
   manifest_.error_report = true;
 }
 
+void MaterialPackageWriter::WriteCalibration(const Calibration& calibration) {
+  ExpectOpen();
+  if (manifest_.calibration) throw Error(dir_.string() + ": the calibration was already written");
+  mesocap::WriteCalibration(folder_.temp_path() / kCalibrationFile, calibration);
+  manifest_.calibration = true;
+}
+
 MaterialManifest MaterialPackageWriter::Commit() {
   ExpectOpen();
   for (std::size_t v = 0; v < full_btf_views_written_.size(); ++v) {
@@ -596,6 +606,10 @@ MaterialManifest ReadMaterialManifest(const fs::path& dir) {
   if (root.Has("error_report")) {
     root.Object("error_report").Choice("file", {kErrorReportFile});
     m.error_report = true;
+  }
+  if (root.Has("calibration")) {
+    root.Object("calibration").Choice("file", {kCalibrationFile});
+    m.calibration = true;
   }
   ExpectFiles(root, m, dir);
   return m;
@@ -714,6 +728,11 @@ nlohmann::json ReadErrorReport(const fs::path& dir, const MaterialManifest& mani
   nlohmann::json report = ReadPackageJson(file);
   if (!report.is_object()) throw FormatError(file, "", "expected a JSON object");
   return report;
+}
+
+Calibration ReadPackageCalibration(const fs::path& dir, const MaterialManifest& manifest) {
+  if (!manifest.calibration) ThrowMissingPart(dir, "calibration", "calibration");
+  return ReadCalibration(dir / kCalibrationFile);
 }
 
 MaterialPackage ReadMaterialPackage(const fs::path& dir) {

@@ -23,6 +23,7 @@
 
 #include "core/atomic_file.h"
 #include "core/btf.h"
+#include "core/calibration.h"
 #include "core/image.h"
 #include "core/mdf.h"
 #include "core/sampling_set.h"
@@ -95,6 +96,7 @@ struct MaterialManifest {
   std::optional<FactoredBtfPart> factored_btf;
   bool ambient = false;
   bool error_report = false;
+  bool calibration = false;  // calibration.json: the rig the material was captured with
 };
 
 // A whole material in memory (small materials, tests, ground truth). Large
@@ -130,6 +132,9 @@ class MaterialPackageWriter {
   void WriteFactoredBtf(const FactoredBtf& btf);
   void WriteAmbientTerm(const AmbientTerm& ambient);
   void WriteErrorReport(const nlohmann::json& report);
+  // The calibration of the rig that captured the material (for ground truth,
+  // the true one), as calibration.json beside the manifest.
+  void WriteCalibration(const Calibration& calibration);
 
   // Writes manifest.json, re-reads it as a reader would, and moves the
   // package into place. Returns the manifest.
@@ -169,6 +174,7 @@ FullBtf ReadFullBtf(const std::filesystem::path& dir, const MaterialManifest& ma
 FactoredBtf ReadFactoredBtf(const std::filesystem::path& dir, const MaterialManifest& manifest);
 AmbientTerm ReadAmbientTerm(const std::filesystem::path& dir, const MaterialManifest& manifest);
 nlohmann::json ReadErrorReport(const std::filesystem::path& dir, const MaterialManifest& manifest);
+Calibration ReadPackageCalibration(const std::filesystem::path& dir, const MaterialManifest& manifest);
 // Everything, in memory.
 MaterialPackage ReadMaterialPackage(const std::filesystem::path& dir);
 

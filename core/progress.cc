@@ -37,6 +37,7 @@ void Progress::Advance(std::uint64_t n) {
   const bool tenth = total_ > 0 && (done_ - last_printed_done_) * 10 >= total_;
   if ((style_ == Style::kBar && since >= 0.1) || (style_ == Style::kJsonLines && (since >= 1.0 || tenth))) {
     Print(false);
+    printed_any_ = true;
     last_print_ = now;
     last_printed_done_ = done_;
   }
@@ -46,6 +47,9 @@ void Progress::Finish() {
   std::lock_guard lock(mutex_);
   if (finished_) return;
   finished_ = true;
+  // A JSON line for this state was already printed by Advance(); a bar still
+  // needs its final newline.
+  if (style_ == Style::kJsonLines && printed_any_ && last_printed_done_ == done_) return;
   Print(true);
 }
 

@@ -43,6 +43,7 @@ class Progress {
   std::chrono::steady_clock::time_point last_print_;
   std::uint64_t last_printed_done_ = 0;
   bool finished_ = false;
+  bool printed_any_ = false;
   mutable std::mutex mutex_;
 };
 

@@ -12,5 +12,6 @@ struct GlobalOptions {
 };
 
 void RegisterInfoCommand(CLI::App& app);
+void RegisterGroundTruthCommand(CLI::App& app);
 
 }  // namespace mesocap

@@ -51,6 +51,11 @@ json MaterialInfo(const fs::path& dir) {
   }
   if (m.ambient) parts["ambient"] = true;
   if (m.error_report) parts["error_report"] = ReadErrorReport(dir, m);
+  if (m.calibration) {
+    const Calibration c = ReadPackageCalibration(dir, m);
+    parts["calibration"] = {{"cameras", c.cameras.size()}, {"lamps", c.lamps.size()},
+                            {"laser_mounts", c.laser_mounts.size()}};
+  }
   return {{"kind", "material"},
           {"path", dir.string()},
           {"name", d.name},

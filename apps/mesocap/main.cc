@@ -26,6 +26,7 @@ int main(int argc, char** argv) {
   app.parse_complete_callback([&] { mesocap::ConfigureLogging(verbose - quiet); });
 
   mesocap::RegisterInfoCommand(app);
+  mesocap::RegisterGroundTruthCommand(app);
 
   // Subcommands report failure by throwing; every failure is one line on
   // stderr and a non-zero exit (1 for errors, CLI11's codes for usage).

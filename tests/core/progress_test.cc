@@ -37,6 +37,7 @@ TEST(Progress, JsonLinesAreParseableAndEndComplete) {
     EXPECT_EQ(j["total"], 100);
   }
   EXPECT_EQ(nlohmann::json::parse(lines.back())["done"], 100);
+  EXPECT_NE(lines[lines.size() - 2], lines.back()) << "final state printed twice";
 }
 
 TEST(Progress, NeverExceedsTotalAndFinishesOnce) {

@@ -1,0 +1,124 @@
+#include "sim/ground_truth.h"
+
+#include <tbb/parallel_for.h>
+
+#include <cmath>
+#include <limits>
+
+namespace mesocap::sim {
+namespace {
+
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
+
+// Intersect's interval is closed, so geometry touching z = 0 (a flat sample,
+// block tops) is hit at D = 0.
+std::optional<SurfaceHit> FirstHitBelow(const MesostructureScene& scene, const Eigen::Vector3d& p,
+                                        const Eigen::Vector3d& view) {
+  return scene.Intersect(p, -view, 0.0, kInfinity);
+}
+
+}  // namespace
+
+CheckResult GroundTruthOptions::Check() const {
+  if (texture_width < 1 || texture_height < 1 || texture_width > kMaxTextureSize ||
+      texture_height > kMaxTextureSize) {
+    return "texture size must be 1.." + std::to_string(kMaxTextureSize) + " texels per side";
+  }
+  if (!(sample_size_mm > 0.0) || !std::isfinite(sample_size_mm)) return "sample size must be positive";
+  if (views.size() == 0 || lights.size() == 0) return "view and light sets must not be empty";
+  return {};
+}
+
+Eigen::Vector3d TexelCentre(const GroundTruthOptions& o, int i, int j) {
+  const double s = o.sample_size_mm;
+  return {-s / 2 + (i + 0.5) * s / o.texture_width, -s / 2 + (j + 0.5) * s / o.texture_height, 0.0};
+}
+
+Mdf ComputeTrueMdf(const MesostructureScene& scene, const GroundTruthOptions& o) {
+  Mdf mdf = MakeMdf(o.texture_width, o.texture_height, o.views);
+  tbb::parallel_for(0, o.views.size() * o.texture_height, [&](int row) {
+    const int v = row / o.texture_height;
+    const int j = row % o.texture_height;
+    const Eigen::Vector3d& view = o.views.direction(v);
+    for (int i = 0; i < o.texture_width; ++i) {
+      const auto hit = FirstHitBelow(scene, TexelCentre(o, i, j), view);
+      mdf.at(i, j, v) = hit ? static_cast<float>(hit->distance) : MdfNoHit();
+    }
+  });
+  return mdf;
+}
+
+Image RenderTrueBtfView(const MesostructureScene& scene, const GroundTruthOptions& o, int v) {
+  const int w = o.texture_width;
+  const int h = o.texture_height;
+  Image out(w, h * o.lights.size(), 3);
+  const Eigen::Vector3d& view = o.views.direction(v);
+  tbb::parallel_for(0, h, [&](int j) {
+    for (int i = 0; i < w; ++i) {
+      const auto hit = FirstHitBelow(scene, TexelCentre(o, i, j), view);
+      if (!hit) continue;  // black backing under holes
+      for (int l = 0; l < o.lights.size(); ++l) {
+        const Eigen::Vector3d& light = o.lights.direction(l);
+        const double n_dot_l = hit->normal.dot(light);
+        // Shadow rays skip the surface they leave (surface_epsilon_mm).
+        if (n_dot_l <= 0.0 || scene.Occluded(hit->point, light, scene.surface_epsilon_mm(), kInfinity)) continue;
+        // Divided by the irradiance on the reference plane, cos(theta_l):
+        // the BTF is radiance per unit reference-plane irradiance.
+        const Eigen::Vector3f t = hit->reflectance.Evaluate(hit->normal, light, view) *
+                                  static_cast<float>(n_dot_l / light.z());
+        float* px = out.pixel(i, l * h + j);
+        for (int c = 0; c < 3; ++c) px[c] = t[c];
+      }
+    }
+  });
+  return out;
+}
+
+void AccumulateAmbientTerm(const Image& btf_view, const SamplingSet& lights, int view, AmbientTerm* ambient) {
+  const int w = ambient->width;
+  const int h = ambient->height;
+  for (int l = 0; l < lights.size(); ++l) {
+    const float weight = static_cast<float>(lights.direction(l).z() * lights.weight(l));
+    for (int j = 0; j < h; ++j) {
+      for (int i = 0; i < w; ++i) {
+        const float* t = btf_view.pixel(i, l * h + j);
+        float* a = ambient->values.pixel(i, view * h + j);
+        for (int c = 0; c < 3; ++c) a[c] += weight * t[c];
+      }
+    }
+  }
+}
+
+void WriteGroundTruthPackage(const MesostructureScene& scene, const GroundTruthOptions& o,
+                             const Calibration* calibration, const std::string& source,
+                             const std::filesystem::path& out, bool replace, Progress::Style progress_style) {
+  if (const auto problem = o.Check(); !problem.empty()) throw Error("ground truth: " + problem);
+  MaterialDescription d;
+  d.name = scene.name();
+  d.width = o.texture_width;
+  d.height = o.texture_height;
+  d.physical_size_mm = {o.sample_size_mm, o.sample_size_mm};
+  d.d_max_mm = scene.d_max_mm();
+  d.view_directions = o.views;
+  d.light_directions = o.lights;
+  d.provenance.source = source;
+  MaterialPackageWriter writer(out, d, replace);
+
+  Progress progress("groundtruth " + scene.name(), o.views.size() + 1, progress_style);
+  writer.WriteMdf(ComputeTrueMdf(scene, o));
+  progress.Advance();
+
+  AmbientTerm ambient{o.texture_width, o.texture_height, o.views,
+                      Image(o.texture_width, o.texture_height * o.views.size(), 3)};
+  for (int v = 0; v < o.views.size(); ++v) {
+    const Image view = RenderTrueBtfView(scene, o, v);
+    AccumulateAmbientTerm(view, o.lights, v, &ambient);
+    writer.WriteFullBtfView(v, view);
+    progress.Advance();
+  }
+  writer.WriteAmbientTerm(ambient);
+  if (calibration != nullptr) writer.WriteCalibration(*calibration);
+  writer.Commit();
+}
+
+}  // namespace mesocap::sim

@@ -1,0 +1,63 @@
+// Exact ground truth of a mesostructure scene, computed directly in texture
+// space (no cameras, no noise): the MDF by ray casting from the reference
+// plane, the BTF under distant lights with mesoscale shadows, and the ambient
+// term. Everything a measured material is compared against.
+//
+// Texel (i, j) of a W x H grid covers the clipped square sample of side S
+// centred on the sample-frame origin; its centre is the reference-plane point
+// p = (-S/2 + (i + 0.5) S / W, -S/2 + (j + 0.5) S / H, 0): column i along +X,
+// row j along +Y.
+#pragma once
+
+#include <Eigen/Core>
+#include <filesystem>
+
+#include "core/btf.h"
+#include "core/error.h"
+#include "core/image.h"
+#include "core/material_package.h"
+#include "core/mdf.h"
+#include "core/progress.h"
+#include "core/sampling_set.h"
+#include "sim/mesostructure_scene.h"
+
+namespace mesocap::sim {
+
+struct GroundTruthOptions {
+  int texture_width = 64;
+  int texture_height = 64;
+  double sample_size_mm = 20.0;
+  SamplingSet views = SamplingSet::Named("paper12x8");
+  SamplingSet lights = SamplingSet::Named("paper12x8");
+
+  CheckResult Check() const;
+};
+
+// Reference-plane point at the centre of texel (i, j).
+Eigen::Vector3d TexelCentre(const GroundTruthOptions& options, int i, int j);
+
+// D(x, y, v) = distance from p(x, y) along -v to the first hit; MdfNoHit()
+// where the ray leaves the slab (through-holes).
+Mdf ComputeTrueMdf(const MesostructureScene& scene, const GroundTruthOptions& options);
+
+// One view of the BTF, in the layout of FullBtf::view_images (3 channels,
+// W x H * Nlight). T = f_r(n, l, v) (n . l) / cos(theta_l) at the first hit
+// seen along -v, zero where that point is shadowed from l or faces away, so a
+// flat Lambertian sample has T = albedo / pi. Rays through holes see a black
+// backing (T = 0).
+Image RenderTrueBtfView(const MesostructureScene& scene, const GroundTruthOptions& options, int view);
+
+// La(x, y, v) = sum over lights of T(x, y, v, l) cos(theta_l) w_l (the
+// light set's solid-angle weights): the radiance under a uniform sky of unit
+// radiance. Adds one view's contribution from its BTF view image.
+void AccumulateAmbientTerm(const Image& btf_view, const SamplingSet& lights, int view, AmbientTerm* ambient);
+
+// Writes the whole ground-truth material package (MDF in both forms, full
+// BTF, ambient term and, when given, the rig's true calibration) into `out`;
+// atomic. Reports progress per view in the given style.
+void WriteGroundTruthPackage(const MesostructureScene& scene, const GroundTruthOptions& options,
+                             const Calibration* calibration, const std::string& source,
+                             const std::filesystem::path& out, bool replace,
+                             Progress::Style progress = Progress::Style::kAuto);
+
+}  // namespace mesocap::sim

@@ -1,0 +1,31 @@
+// The state of the simulated rig that determines what a camera records: where
+// the stages stand, which lamps and whether the laser are on. The simulated
+// devices (sim/simulated_devices.h) change it; a FrameRenderer turns it into
+// an image.
+#pragma once
+
+#include <vector>
+
+#include "core/image.h"
+
+namespace mesocap::sim {
+
+struct SimulatedRigState {
+  double turntable_rad = 0.0;
+  double light_arc_rad = 0.0;
+  std::vector<bool> lamps_on;
+  bool laser_on = false;
+  int laser_mount = 0;
+  double laser_tilt_rad = 0.0;
+  double clock_s = 0.0;  // simulated time; moves advance it, nobody sleeps
+};
+
+// Forms the image camera `camera` records in `state`, as linear sensor signal
+// in [0, 1] of full scale before noise and quantization (the camera adds those).
+class FrameRenderer {
+ public:
+  virtual ~FrameRenderer() = default;
+  virtual Image Render(const SimulatedRigState& state, int camera) = 0;
+};
+
+}  // namespace mesocap::sim
