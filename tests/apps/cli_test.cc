@@ -94,5 +94,39 @@ TEST(Cli, InfoOnHostileFileIsOneLineNamingFileAndField) {
   EXPECT_NE(missing.err.find("nothing-here"), std::string::npos);
 }
 
+TEST(Cli, GroundTruthWritesAPackageAndNeverOverwritesByAccident) {
+  testing::TemporaryDirectory dir;
+  const std::string out = (dir / "flat").string();
+  const CommandResult r = Mesocap("-q groundtruth --scene flat --rig tiny --texture-size 8 --out " + out);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const CommandResult info = Mesocap("info --json " + out);
+  ASSERT_EQ(info.exit_code, 0) << info.err;
+  const auto j = nlohmann::json::parse(info.out);
+  EXPECT_EQ(j["kind"], "material");
+  EXPECT_EQ(j["texture_size"], nlohmann::json({8, 8}));
+  EXPECT_EQ(j["parts"]["calibration"]["cameras"], 2);
+  EXPECT_TRUE(j["parts"]["btf_full"].get<bool>());
+
+  // A second run without --replace is refused and the package is intact.
+  const auto manifest_before = Slurp(dir / "flat" / "manifest.json");
+  const CommandResult again = Mesocap("-q groundtruth --scene box --rig tiny --texture-size 8 --out " + out);
+  EXPECT_EQ(again.exit_code, 1);
+  EXPECT_NE(again.err.find("already exists"), std::string::npos) << again.err;
+  EXPECT_EQ(Slurp(dir / "flat" / "manifest.json"), manifest_before);
+  EXPECT_EQ(Mesocap("-q groundtruth --scene box --rig tiny --texture-size 8 --replace --out " + out).exit_code, 0);
+  EXPECT_NE(Slurp(dir / "flat" / "manifest.json"), manifest_before);
+}
+
+TEST(Cli, GroundTruthRejectsUnknownSceneAndRigWithoutOutput) {
+  testing::TemporaryDirectory dir;
+  const CommandResult scene = Mesocap("groundtruth --scene velvet --out " + (dir / "a").string());
+  EXPECT_EQ(scene.exit_code, 1);
+  EXPECT_NE(scene.err.find("velvet"), std::string::npos) << scene.err;
+  const CommandResult rig = Mesocap("groundtruth --scene flat --rig huge --out " + (dir / "b").string());
+  EXPECT_EQ(rig.exit_code, 1);
+  EXPECT_NE(rig.err.find("paper, small, tiny"), std::string::npos) << rig.err;
+  EXPECT_TRUE(std::filesystem::is_empty(dir.path())) << "a failed run left output behind";
+}
+
 }  // namespace
 }  // namespace mesocap
