@@ -20,8 +20,11 @@ struct SimulatedRigState {
   double clock_s = 0.0;  // simulated time; moves advance it, nobody sleeps
 };
 
-// Forms the image camera `camera` records in `state`, as linear sensor signal
-// in [0, 1] of full scale before noise and quantization (the camera adds those).
+// Forms the image camera `camera` records in `state`: the noiseless linear
+// signal in units of full scale at the camera's nominal exposure and 0 dB.
+// The camera scales it by its exposure and gain and only then applies the
+// sensor model (shot and read noise, quantization, saturation), so noise
+// follows the settings as on a real sensor.
 class FrameRenderer {
  public:
   virtual ~FrameRenderer() = default;
