@@ -435,7 +435,14 @@ TEST_P(EveryScene, HitsLieInTheSlabAndFaceTheRay) {
 }
 
 TEST_P(EveryScene, TopTouchesTheReferencePlane) {
-  if (GetParam() == "grass") GTEST_SKIP() << "the tallest blade's tip is a single point";
+  if (GetParam() == "grass") {
+    // The tallest blade's tip is a single point that vertical rays cannot
+    // find; check the geometry itself instead.
+    double top = -kInf;
+    for (const auto& v : BuiltinTileGeometry("grass").vertices) top = std::max(top, v.z());
+    EXPECT_NEAR(top, 0.0, 1e-12);
+    return;
+  }
   const auto scene = MakeBuiltinScene(GetParam());
   double highest = -kInf;
   for (int i = 0; i < 64; ++i) {
