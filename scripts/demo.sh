@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # The main job on the simulated rig, run by scripts/setup.sh after the build:
-# the exact material package of the `weave` scene on the `small` rig (MDF,
-# BTF, ambient term, true calibration), then a summary of it. Output goes to
-# out/demo/ (replaced on every run).
+# a capture session of the `weave` scene recorded on the `tiny` simulated rig
+# (BTF images, laser-plane calibration frames, laser sweeps, with sensor
+# noise), and the exact material package of the same scene (MDF, BTF,
+# ambient term, true calibration) that processing will be measured against.
+# Output goes to out/demo/ (replaced on every run).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -10,7 +12,12 @@ mesocap=build/release/apps/mesocap
 out=out/demo
 mkdir -p "$out"
 
-echo "== ground truth: weave scene, small rig =="
-"$mesocap" groundtruth --scene weave --rig small --texture-size 64 --out "$out/weave-truth" --replace
+echo "== capture session: weave scene, tiny rig =="
+rm -rf "$out/weave-session"
+"$mesocap" simulate --scene weave --rig tiny --seed 1 --out "$out/weave-session"
+"$mesocap" info "$out/weave-session"
+
+echo "== ground truth: weave scene, tiny rig =="
+"$mesocap" groundtruth --scene weave --rig tiny --texture-size 64 --out "$out/weave-truth" --replace
 "$mesocap" info "$out/weave-truth"
-echo "demo: wrote $out/weave-truth"
+echo "demo: wrote $out/weave-session and $out/weave-truth"

@@ -22,9 +22,11 @@ struct SimulatedRigState {
 
 // Forms the image camera `camera` records in `state`: the noiseless linear
 // signal in units of full scale at the camera's nominal exposure and 0 dB.
-// The camera scales it by its exposure and gain and only then applies the
-// sensor model (shot and read noise, quantization, saturation), so noise
-// follows the settings as on a real sensor.
+// The sensor model (shot and read noise, quantization; sim/camera_sensor.h)
+// comes after the exposure and gain, so that noise follows the settings as
+// on a real sensor: `mesocap simulate` applies it to what it writes;
+// SimulatedCamera (the device path) clamps and counts saturation but does not
+// add noise yet.
 class FrameRenderer {
  public:
   virtual ~FrameRenderer() = default;

@@ -13,5 +13,6 @@ struct GlobalOptions {
 
 void RegisterInfoCommand(CLI::App& app);
 void RegisterGroundTruthCommand(CLI::App& app);
+void RegisterSimulateCommand(CLI::App& app);
 
 }  // namespace mesocap

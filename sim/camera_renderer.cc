@@ -1,0 +1,313 @@
+#include "sim/camera_renderer.h"
+
+#include <tbb/parallel_for.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "core/error.h"
+#include "sim/true_calibration.h"
+
+namespace mesocap::sim {
+namespace {
+
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
+
+Eigen::Matrix3d RotationZ(double angle_rad) {
+  return Eigen::AngleAxisd(angle_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+}
+
+double ExposureSeconds(const drivers::CameraDescription& camera) { return camera.exposure_us * 1e-6; }
+
+// The laser is one colour; a grey sensor response to it sees the mean of
+// the RGB reflectance.
+double Grey(const Eigen::Vector3f& rgb) { return (rgb[0] + rgb[1] + rgb[2]) / 3.0; }
+
+// Sub-pixel offset of sample k of n per side, on a regular grid inside the
+// pixel [-0.5, 0.5]^2 around its centre.
+Eigen::Vector2d SubPixelOffset(int k, int n) {
+  return {((k % n) + 0.5) / n - 0.5, ((k / n) + 0.5) / n - 0.5};
+}
+
+}  // namespace
+
+Eigen::Vector2d Distort(const Distortion& d, const Eigen::Vector2d& p) {
+  const double x = p.x(), y = p.y();
+  const double r2 = x * x + y * y;
+  const double radial = 1.0 + r2 * (d.k1 + r2 * (d.k2 + r2 * d.k3));
+  return {x * radial + 2.0 * d.p1 * x * y + d.p2 * (r2 + 2.0 * x * x),
+          y * radial + d.p1 * (r2 + 2.0 * y * y) + 2.0 * d.p2 * x * y};
+}
+
+Eigen::Vector2d Undistort(const Distortion& d, const Eigen::Vector2d& distorted) {
+  // x = (x_d - tangential(x)) / radial(x): a contraction for real lenses'
+  // distortion near the image, converging to double precision in a few
+  // dozen steps.
+  Eigen::Vector2d p = distorted;
+  for (int i = 0; i < 100; ++i) {
+    const double x = p.x(), y = p.y();
+    const double r2 = x * x + y * y;
+    const double radial = 1.0 + r2 * (d.k1 + r2 * (d.k2 + r2 * d.k3));
+    const Eigen::Vector2d tangential(2.0 * d.p1 * x * y + d.p2 * (r2 + 2.0 * x * x),
+                                     d.p1 * (r2 + 2.0 * y * y) + 2.0 * d.p2 * x * y);
+    const Eigen::Vector2d next = (distorted - tangential) / radial;
+    const double step = (next - p).norm();
+    p = next;
+    if (step < 1e-14) break;
+  }
+  return p;
+}
+
+Eigen::Vector2d ProjectToPixel(const CameraCalibration& camera, const Eigen::Vector3d& world) {
+  const RigidTransform& pose = camera.pose.transform;  // world <- camera
+  const Eigen::Vector3d c = pose.rotation.transpose() * (world - pose.translation);
+  const Eigen::Vector2d d = Distort(camera.distortion, Eigen::Vector2d(c.x() / c.z(), c.y() / c.z()));
+  const Intrinsics& k = camera.intrinsics;
+  return {k.fx * d.x() + k.cx, k.fy * d.y() + k.cy};
+}
+
+CameraRenderer::CameraRenderer(const MesostructureScene& scene, const drivers::RigDescription& rig,
+                               CameraRendererOptions options)
+    : scene_(scene), rig_(rig), options_(options), calibration_(TrueCalibration(rig)) {
+  if (options_.samples_per_pixel_side < 1 || options_.samples_per_pixel_side > 16) {
+    throw Error("camera renderer: samples per pixel side must be 1..16");
+  }
+}
+
+Eigen::Vector3d CameraRenderer::CameraCentre(int camera) const {
+  return calibration_.cameras.at(camera).pose.transform.translation;
+}
+
+Eigen::Vector3d CameraRenderer::PixelRay(int camera, double u, double v) const {
+  const CameraCalibration& c = calibration_.cameras.at(camera);
+  const Intrinsics& k = c.intrinsics;
+  const Eigen::Vector2d n = Undistort(c.distortion, Eigen::Vector2d((u - k.cx) / k.fx, (v - k.cy) / k.fy));
+  return (c.pose.transform.rotation * Eigen::Vector3d(n.x(), n.y(), 1.0)).normalized();
+}
+
+ViewSample CameraRenderer::SampleHit(const Eigen::Vector3d& origin_world, const Eigen::Vector3d& dir_world,
+                                     double turntable_rad) const {
+  ViewSample out;
+  const Eigen::Matrix3d to_sample = RotationZ(-turntable_rad);
+  const Eigen::Vector3d o = to_sample * origin_world;
+  const Eigen::Vector3d d = to_sample * dir_world;
+  if (d.z() >= 0.0) return out;  // looks up, away from the table
+  const double t0 = -o.z() / d.z();
+  const Eigen::Vector3d p0 = o + t0 * d;  // on the reference plane
+  const double half = rig_.sample_size_mm / 2;
+  if (std::abs(p0.x()) > half || std::abs(p0.y()) > half) {
+    out.surface = ViewSample::Surface::kTurntable;
+    out.point = RotationZ(turntable_rad) * Eigen::Vector3d(p0.x(), p0.y(), 0.0);
+    out.normal = Eigen::Vector3d::UnitZ();
+    out.reflectance.diffuse_albedo = Eigen::Vector3f::Constant(kTurntableAlbedo);
+    out.reflectance.specular_albedo = 0.0f;
+    return out;
+  }
+  // Inside the pocket the ray can go as far as the slab's floor or the
+  // pocket's walls, whichever comes first.
+  double t_exit = scene_.d_max_mm() / -d.z();
+  for (int axis = 0; axis < 2; ++axis) {
+    if (d[axis] > 0) t_exit = std::min(t_exit, (half - p0[axis]) / d[axis]);
+    if (d[axis] < 0) t_exit = std::min(t_exit, (-half - p0[axis]) / d[axis]);
+  }
+  // From the reference-plane point, as the ground truth casts (the tracer's
+  // precision is relative to the tile, not to the camera distance).
+  // The margin keeps a floor exactly at z = -d_max (a box's base) inside
+  // the interval despite the tracer's single-precision ray length.
+  const auto hit = scene_.Intersect(p0, d, 0.0, std::max(0.0, t_exit) + scene_.surface_epsilon_mm());
+  if (!hit) return out;  // black backing or pocket wall
+  const Eigen::Matrix3d to_world = RotationZ(turntable_rad);
+  out.surface = ViewSample::Surface::kSample;
+  out.point = to_world * hit->point;
+  out.normal = to_world * hit->normal;
+  out.reflectance = hit->reflectance;
+  return out;
+}
+
+template <typename HitFunction>
+CameraView CameraRenderer::Trace(int camera, double turntable_rad, const HitFunction& first_hit) const {
+  const CameraCalibration& c = calibration_.cameras.at(camera);
+  const int n = options_.samples_per_pixel_side;
+  CameraView view;
+  view.camera = camera;
+  view.turntable_rad = turntable_rad;
+  view.width = c.width;
+  view.height = c.height;
+  view.samples_per_pixel = n * n;
+  view.samples.resize(static_cast<std::size_t>(c.width) * c.height * n * n);
+  const Eigen::Vector3d centre = CameraCentre(camera);
+  tbb::parallel_for(0, c.height, [&](int y) {
+    for (int x = 0; x < c.width; ++x) {
+      const std::size_t first = (static_cast<std::size_t>(y) * c.width + x) * view.samples_per_pixel;
+      for (int k = 0; k < view.samples_per_pixel; ++k) {
+        const Eigen::Vector2d offset = SubPixelOffset(k, n);
+        view.samples[first + k] = first_hit(centre, PixelRay(camera, x + offset.x(), y + offset.y()));
+      }
+    }
+  });
+  return view;
+}
+
+CameraView CameraRenderer::TraceSample(int camera, double turntable_rad) const {
+  return Trace(camera, turntable_rad, [&](const Eigen::Vector3d& origin, const Eigen::Vector3d& dir) {
+    return SampleHit(origin, dir, turntable_rad);
+  });
+}
+
+ViewSample CameraRenderer::FirstHit(int camera, double turntable_rad, double u, double v) const {
+  return SampleHit(CameraCentre(camera), PixelRay(camera, u, v), turntable_rad);
+}
+
+CameraView CameraRenderer::TracePlate(int camera, double height_mm) const {
+  return Trace(camera, 0.0, [&](const Eigen::Vector3d& origin, const Eigen::Vector3d& dir) {
+    ViewSample s;
+    if (dir.z() >= 0.0 || origin.z() <= height_mm) return s;
+    s.surface = ViewSample::Surface::kCalibrationPlate;
+    s.point = origin + ((height_mm - origin.z()) / dir.z()) * dir;
+    s.point.z() = height_mm;
+    s.normal = Eigen::Vector3d::UnitZ();
+    s.reflectance.diffuse_albedo = Eigen::Vector3f::Constant(kCalibrationPlateAlbedo);
+    s.reflectance.specular_albedo = 0.0f;
+    return s;
+  });
+}
+
+bool CameraRenderer::Lit(const CameraView& view, const ViewSample& s, const Eigen::Vector3d& light) const {
+  if (s.surface != ViewSample::Surface::kSample) return s.surface != ViewSample::Surface::kNothing;
+  const Eigen::Matrix3d to_sample = RotationZ(-view.turntable_rad);
+  const Eigen::Vector3d p = to_sample * s.point;
+  const Eigen::Vector3d l = (to_sample * (light - s.point)).normalized();
+  if (l.z() <= 0.0) return false;  // a light at or below the reference plane cannot reach into the pocket
+  const double t_top = -p.z() / l.z();
+  const double eps = scene_.surface_epsilon_mm();
+  if (t_top <= eps) return true;  // already on the reference plane: nothing above it
+  const Eigen::Vector3d top = p + t_top * l;
+  const double half = rig_.sample_size_mm / 2;
+  if (std::abs(top.x()) > half || std::abs(top.y()) > half) return false;  // the pocket wall
+  return !scene_.Occluded(p, l, eps, t_top);
+}
+
+Image CameraRenderer::RenderLamps(const CameraView& view, double arc_rad, const std::vector<bool>& lamps_on) const {
+  const Eigen::Matrix3d arc = RotationZ(arc_rad);
+  struct Lamp {
+    Eigen::Vector3d position;
+    Eigen::Vector3d intensity;
+  };
+  std::vector<Lamp> lamps;
+  for (std::size_t i = 0; i < lamps_on.size() && i < calibration_.lamps.size(); ++i) {
+    if (lamps_on[i]) lamps.push_back({arc * calibration_.lamps[i].position_mm, calibration_.lamps[i].intensity});
+  }
+  const double gain = ExposureSeconds(rig_.cameras.at(view.camera)) * kSignalPerRadianceSecond;
+  const Eigen::Vector3d centre = CameraCentre(view.camera);
+  Image out(view.width, view.height, 3);
+  tbb::parallel_for(0, view.height, [&](int y) {
+    for (int x = 0; x < view.width; ++x) {
+      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+      const std::size_t first = (static_cast<std::size_t>(y) * view.width + x) * view.samples_per_pixel;
+      for (int k = 0; k < view.samples_per_pixel; ++k) {
+        const ViewSample& s = view.samples[first + k];
+        if (s.surface == ViewSample::Surface::kNothing) continue;
+        const Eigen::Vector3d to_camera = (centre - s.point).normalized();
+        for (const Lamp& lamp : lamps) {
+          const Eigen::Vector3d to_lamp = lamp.position - s.point;
+          const double r2 = to_lamp.squaredNorm();
+          const Eigen::Vector3d l = to_lamp / std::sqrt(r2);
+          const double n_dot_l = s.normal.dot(l);
+          if (n_dot_l <= 0.0 || !Lit(view, s, lamp.position)) continue;
+          const Eigen::Vector3d f = s.reflectance.Evaluate(s.normal, l, to_camera).cast<double>();
+          sum += f.cwiseProduct(lamp.intensity) * (n_dot_l / r2);
+        }
+      }
+      float* px = out.pixel(x, y);
+      for (int c = 0; c < 3; ++c) px[c] = static_cast<float>(sum[c] * gain / view.samples_per_pixel);
+    }
+  });
+  return out;
+}
+
+LaserPlane CameraRenderer::LaserPlaneAt(int mount, double arc_rad, double tilt_rad) const {
+  const LaserMountCalibration& m = calibration_.laser_mounts.at(mount);
+  const Eigen::Matrix3d arc = RotationZ(arc_rad);
+  const Eigen::Vector3d normal = Eigen::AngleAxisd(tilt_rad, m.tilt_axis.normalized()) * m.plane_normal_at_zero_tilt;
+  return {arc * m.source_mm, (arc * normal).normalized()};
+}
+
+double CameraRenderer::LaserPeakIrradiance() const {
+  return rig_.laser.power * rig_.lamps.intensity.mean() / (rig_.lamps.distance_mm * rig_.lamps.distance_mm);
+}
+
+Image CameraRenderer::Render(const SimulatedRigState& state, int camera) {
+  const CameraView view = TraceSample(camera, state.turntable_rad);
+  Image image = RenderLamps(view, state.light_arc_rad, state.lamps_on);
+  if (state.laser_on) {
+    const Image stripe = LaserSweepRenderer(*this, view, state.laser_mount, state.light_arc_rad)
+                             .Frame(state.laser_tilt_rad);
+    for (int y = 0; y < image.height(); ++y) {
+      for (int x = 0; x < image.width(); ++x) {
+        for (int c = 0; c < 3; ++c) image.at(x, y, c) += stripe.at(x, y);
+      }
+    }
+  }
+  return image;
+}
+
+LaserSweepRenderer::LaserSweepRenderer(const CameraRenderer& renderer, const CameraView& view, int mount,
+                                       double arc_rad)
+    : width_(view.width),
+      height_(view.height),
+      samples_per_pixel_(view.samples_per_pixel),
+      sigma_mm_(renderer.rig().laser.stripe_sigma_mm),
+      samples_(view.samples.size()) {
+  const LaserMountCalibration& m = renderer.calibration().laser_mounts.at(mount);
+  const Eigen::Matrix3d arc = RotationZ(arc_rad);
+  const Eigen::Vector3d source = arc * m.source_mm;
+  const Eigen::Vector3d axis = arc * m.tilt_axis.normalized();
+  const Eigen::Vector3d n0 = arc * m.plane_normal_at_zero_tilt;
+  // Rodrigues: n(t) = cos(t) n0 + sin(t) (k x n0) + (1 - cos(t)) (k.n0) k.
+  const Eigen::Vector3d k_cross_n0 = axis.cross(n0);
+  const Eigen::Vector3d k_k_n0 = axis.dot(n0) * axis;
+  const double gain = ExposureSeconds(renderer.rig().cameras.at(view.camera)) * kSignalPerRadianceSecond *
+                      renderer.LaserPeakIrradiance();
+  const Eigen::Vector3d centre = renderer.CameraCentre(view.camera);
+  tbb::parallel_for(std::size_t{0}, view.samples.size(), [&](std::size_t i) {
+    const ViewSample& s = view.samples[i];
+    StripeSample& out = samples_[i];
+    const Eigen::Vector3d r = s.point - source;
+    out.a = n0.dot(r) - k_k_n0.dot(r);
+    out.b = k_cross_n0.dot(r);
+    out.c = k_k_n0.dot(r);
+    if (s.surface == ViewSample::Surface::kNothing) return;
+    const Eigen::Vector3d l = (-r).normalized();
+    const double n_dot_l = s.normal.dot(l);
+    if (n_dot_l <= 0.0 || !renderer.Lit(view, s, source)) return;
+    const Eigen::Vector3d to_camera = (centre - s.point).normalized();
+    out.weight = static_cast<float>(Grey(s.reflectance.Evaluate(s.normal, l, to_camera)) * n_dot_l * gain);
+  });
+}
+
+Image LaserSweepRenderer::Frame(double tilt_rad) const {
+  const double cos_t = std::cos(tilt_rad);
+  const double sin_t = std::sin(tilt_rad);
+  // Beyond 8 sigma the Gaussian is below 1.3e-14: nothing a 16-bit sensor sees.
+  const double cutoff = 8.0 * sigma_mm_;
+  const double inv_two_sigma2 = 1.0 / (2.0 * sigma_mm_ * sigma_mm_);
+  Image out(width_, height_, 1);
+  tbb::parallel_for(0, height_, [&](int y) {
+    for (int x = 0; x < width_; ++x) {
+      const std::size_t first = (static_cast<std::size_t>(y) * width_ + x) * samples_per_pixel_;
+      double sum = 0.0;
+      for (int k = 0; k < samples_per_pixel_; ++k) {
+        const StripeSample& s = samples_[first + k];
+        if (s.weight == 0.0f) continue;
+        const double d = cos_t * s.a + sin_t * s.b + s.c;
+        if (std::abs(d) < cutoff) sum += s.weight * std::exp(-d * d * inv_two_sigma2);
+      }
+      out.at(x, y) = static_cast<float>(sum / samples_per_pixel_);
+    }
+  });
+  return out;
+}
+
+}  // namespace mesocap::sim

@@ -1,0 +1,187 @@
+// What the simulated rig's cameras see (MDF paper Sec. 3.1-3.2): the sample
+// on the turntable lit by the lamps of the light arc, or by the laser stripe
+// sweeping across it, or the stripe on a flat plate for the laser-plane
+// calibration.
+//
+// Geometry (drivers/rig_description.h, sim/true_calibration.h): the sample is
+// the clipped square of side rig.sample_size_mm centred on the sample-frame
+// origin, x_world = Rz(turntable) x_sample, with the tiled mesostructure in
+// -d_max <= z <= 0 inside the square. The sample sits in a pocket of the
+// turntable, its reference plane flush with the turntable plane z = 0:
+// outside the square a camera ray meets the turntable (diffuse grey, albedo
+// 0.3, the "reference region" of Sec. 3.2's laser-line detection); inside it
+// the mesostructure, or black where the ray finds none (the backing under
+// holes, the pocket walls). Light reaching a point inside the pocket must
+// leave through the open square: a shadow ray that would leave the slab
+// outside it is blocked by the pocket wall. Camera poses and lamp and laser
+// mount positions come from TrueCalibration, the single source of rig
+// geometry; cameras follow OpenCV's model (pinhole + Brown-Conrady k1 k2 p1
+// p2 k3), pixel (i, j) centred at u = i, v = j.
+//
+// Each pixel averages samples_per_pixel_side^2 rays on a regular sub-pixel
+// grid (a box filter, as a pixel integrates over its area): edges and the
+// stripe, whose sigma is below a pixel's footprint on the shipped rigs, come
+// out with sub-pixel information instead of aliasing.
+//
+// Radiometry: a lamp (a point source of radiant intensity I) adds
+// f_r I / r^2 (n.l) V to the radiance the camera sees; the laser adds
+// f_r E_peak exp(-d^2 / (2 sigma^2)) (n.l_laser) V_laser, d the point's
+// distance from the laser plane. V is 1 when the light reaches the point
+// (one shadow ray), else 0. One-bounce interreflection is left out (the paper
+// suppresses it for the laser with a short shutter, Sec. 3.2).
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <numbers>
+#include <vector>
+
+#include "core/calibration.h"
+#include "core/image.h"
+#include "drivers/rig_description.h"
+#include "sim/mesostructure_scene.h"
+#include "sim/simulated_rig_state.h"
+
+namespace mesocap::sim {
+
+// Signal (fraction of full scale) = radiance x exposure time x this gain,
+// radiance in the rig's relative units (lamp intensity / mm^2). Chosen so
+// that full scale is a white Lambertian surface at normal incidence under
+// twice the irradiance of a unit-intensity lamp at 450 mm (the shipped rigs'
+// lamp distance), exposed 20 ms (their exposure): G = pi 450^2 / (2 x 0.02 s).
+// Then the albedo-0.5 samples under the lamps give 0.15-0.25 of full scale
+// (the turntable 0.1-0.15), and the laser stripe (power 4 = four times a
+// lamp's irradiance) 0.4-0.9 at its peak, near but, for typical albedos,
+// below saturation.
+inline constexpr double kSignalPerRadianceSecond = std::numbers::pi * 450.0 * 450.0 / (2.0 * 0.02);
+// Diffuse albedos of the rig's own surfaces.
+inline constexpr float kTurntableAlbedo = 0.3f;
+inline constexpr float kCalibrationPlateAlbedo = 0.5f;
+
+struct CameraRendererOptions {
+  int samples_per_pixel_side = 3;
+};
+
+// What one camera ray meets; points and normals in the world frame.
+struct ViewSample {
+  enum class Surface : std::uint8_t { kNothing, kSample, kTurntable, kCalibrationPlate };
+  Surface surface = Surface::kNothing;
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
+  Reflectance reflectance;
+};
+
+// The first hits of every sub-pixel ray of one camera in one setting (a
+// turntable angle, or a calibration plate): computed once, then lit by any
+// number of lamp settings and laser tilts. Pixel p's samples are
+// samples[p * samples_per_pixel, (p + 1) * samples_per_pixel), p = y W + x.
+struct CameraView {
+  int camera = 0;
+  double turntable_rad = 0.0;
+  int width = 0;
+  int height = 0;
+  int samples_per_pixel = 1;
+  std::vector<ViewSample> samples;
+};
+
+// A laser plane in the world frame: points x with normal.(x - source) = 0.
+struct LaserPlane {
+  Eigen::Vector3d source = Eigen::Vector3d::Zero();
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitX();
+};
+
+class CameraRenderer : public FrameRenderer {
+ public:
+  // Keeps references to both; they must outlive the renderer.
+  CameraRenderer(const MesostructureScene& scene, const drivers::RigDescription& rig,
+                 CameraRendererOptions options = {});
+
+  // Lamps that are on plus the laser when on (added equally to R, G and B:
+  // the grey response of the sensor to the laser's light). 3 channels.
+  // Traces from scratch; captures use the pieces below to share work.
+  Image Render(const SimulatedRigState& state, int camera) override;
+
+  // First hits of the camera's rays on the sample at a turntable angle.
+  CameraView TraceSample(int camera, double turntable_rad) const;
+  // First hits on the laser calibration plate: a flat diffuse plate
+  // (albedo 0.5) at z = height_mm over the whole turntable, no sample
+  // (Sec. 3.2: the stripe on two planes of different height).
+  CameraView TracePlate(int camera, double height_mm) const;
+
+  // What the ray through pixel position (u, v) meets on the sample (or the
+  // turntable) at a turntable angle: one ray, no sub-pixel samples.
+  ViewSample FirstHit(int camera, double turntable_rad, double u, double v) const;
+
+  // Signal of the lamps that are on (lamps_on[i] for lamp i) at light-arc
+  // angle arc_rad; 3 channels (RGB), before the sensor (camera_sensor.h).
+  Image RenderLamps(const CameraView& view, double arc_rad, const std::vector<bool>& lamps_on) const;
+
+  // The laser plane of `mount` with the light arc at arc_rad and the emitter
+  // at `tilt_rad`: the mount's plane at tilt 0 turned about its tilt axis by
+  // the tilt, then the whole mount about +z by the arc angle.
+  LaserPlane LaserPlaneAt(int mount, double arc_rad, double tilt_rad) const;
+  // Peak irradiance of the stripe: laser.power times the irradiance of the
+  // rig's lamp (mean of its RGB intensity) at the lamp distance.
+  double LaserPeakIrradiance() const;
+
+  // Whether light from the world point `light` reaches sample `s` of
+  // `view` (the turntable and the plate are never shadowed; a sample point
+  // by the mesostructure or the pocket wall).
+  bool Lit(const CameraView& view, const ViewSample& s, const Eigen::Vector3d& light) const;
+
+  // The camera's centre and the world direction (unit) of the ray through
+  // pixel position (u, v) (distorted, as in the image).
+  Eigen::Vector3d CameraCentre(int camera) const;
+  Eigen::Vector3d PixelRay(int camera, double u, double v) const;
+
+  const Calibration& calibration() const { return calibration_; }
+  const drivers::RigDescription& rig() const { return rig_; }
+  const CameraRendererOptions& options() const { return options_; }
+
+ private:
+  template <typename HitFunction>
+  CameraView Trace(int camera, double turntable_rad, const HitFunction& first_hit) const;
+  ViewSample SampleHit(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double turntable_rad) const;
+
+  const MesostructureScene& scene_;
+  const drivers::RigDescription& rig_;
+  CameraRendererOptions options_;
+  Calibration calibration_;
+};
+
+// A laser sweep of one camera from one laser location (Sec. 3.2: the
+// sequence {I_v,l(x, y, t_i)}): everything that does not depend on the tilt
+// (the hits, their reflectance towards the source, the source's visibility:
+// one shadow ray per sample) is computed once here; Frame(tilt) then costs a
+// few multiply-adds per sample and an exp() only near the stripe.
+class LaserSweepRenderer {
+ public:
+  LaserSweepRenderer(const CameraRenderer& renderer, const CameraView& view, int mount, double arc_rad);
+
+  // The stripe's signal at one tilt: 1 channel, before the sensor.
+  Image Frame(double tilt_rad) const;
+
+ private:
+  // The signed distance of a sample from the plane at tilt t is
+  // cos(t) a + sin(t) b + c (Rodrigues' rotation of the tilt-0 normal).
+  struct StripeSample {
+    double a = 0, b = 0, c = 0;
+    float weight = 0;  // signal at the stripe's peak; 0 where unlit
+  };
+  int width_ = 0;
+  int height_ = 0;
+  int samples_per_pixel_ = 1;
+  double sigma_mm_ = 1.0;
+  std::vector<StripeSample> samples_;
+};
+
+// Brown-Conrady (OpenCV) distortion of normalized image coordinates, and its
+// inverse by fixed-point iteration (at most 100 steps, stopping when a step
+// moves less than 1e-14): accurate to far below 1e-3 px for the moderate
+// distortion of real lenses.
+Eigen::Vector2d Distort(const Distortion& d, const Eigen::Vector2d& undistorted);
+Eigen::Vector2d Undistort(const Distortion& d, const Eigen::Vector2d& distorted);
+// Projects a world point to pixel coordinates with a camera's calibration.
+Eigen::Vector2d ProjectToPixel(const CameraCalibration& camera, const Eigen::Vector3d& world);
+
+}  // namespace mesocap::sim

@@ -1,0 +1,43 @@
+#include "sim/camera_sensor.h"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+namespace mesocap::sim {
+
+Image ApplySensor(const Image& signal, const drivers::CameraDescription& camera, std::mt19937_64& rng,
+                  bool noise_on) {
+  const double full_well = camera.full_well_electrons;
+  const double max_code = MaxCode(camera);
+  const double codes_per_electron = max_code / full_well;
+  Image out(signal.width(), signal.height(), signal.channels());
+  std::normal_distribution<double> read_noise(0.0, camera.read_noise_electrons);
+  for (std::size_t i = 0; i < signal.size(); ++i) {
+    // Negative signal is not physical; anything above full scale saturates
+    // below, after the noise (a saturated pixel has no noise).
+    double electrons = std::max(0.0, static_cast<double>(signal.data()[i])) * full_well;
+    if (noise_on) {
+      // Far above the full well the pixel saturates whatever the noise; cap
+      // the Poisson mean so the draw stays cheap and finite.
+      const double mean = std::min(electrons, 4.0 * full_well);
+      std::poisson_distribution<std::int64_t> shot(mean);
+      electrons = (mean > 0.0 ? static_cast<double>(shot(rng)) : 0.0) + read_noise(rng);
+    }
+    const double code = std::clamp(std::round(electrons * codes_per_electron), 0.0, max_code);
+    out.data()[i] = static_cast<float>(code / max_code);
+  }
+  return out;
+}
+
+std::mt19937_64 ImageNoiseGenerator(std::uint64_t seed, std::initializer_list<std::uint64_t> image_coordinates) {
+  std::vector<std::uint32_t> words{static_cast<std::uint32_t>(seed), static_cast<std::uint32_t>(seed >> 32)};
+  for (const std::uint64_t c : image_coordinates) {
+    words.push_back(static_cast<std::uint32_t>(c));
+    words.push_back(static_cast<std::uint32_t>(c >> 32));
+  }
+  std::seed_seq sequence(words.begin(), words.end());
+  return std::mt19937_64(sequence);
+}
+
+}  // namespace mesocap::sim

@@ -1,0 +1,416 @@
+// The simulated cameras against the truth they are built from: projection
+// (OpenCV model), the laser plane, the sensor's noise statistics,
+// determinism, and a whole `mesocap simulate` session on the tiny rig.
+#include "sim/camera_renderer.h"
+
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <numbers>
+
+#include "core/capture_journal.h"
+#include "core/capture_session.h"
+#include "core/frame_sequence.h"
+#include "core/image_io.h"
+#include "sim/camera_sensor.h"
+#include "sim/shipped_rigs.h"
+#include "tests/common/temporary_directory.h"
+
+namespace mesocap::sim {
+namespace {
+
+namespace fs = std::filesystem;
+constexpr double kDeg = std::numbers::pi / 180.0;
+
+Eigen::Vector3d SampleToWorld(const Eigen::Vector3d& p, double turntable_rad) {
+  return Eigen::AngleAxisd(turntable_rad, Eigen::Vector3d::UnitZ()) * p;
+}
+
+TEST(CameraModelTest, UndistortInvertsTheForwardModelToAThousandthOfAPixel) {
+  for (const auto& name : ShippedRigNames()) {
+    const auto rig = LoadRig(name);
+    const auto scene = MakeBuiltinScene("flat");
+    const CameraRenderer renderer(*scene, rig);
+    for (std::size_t c = 0; c < rig.cameras.size(); ++c) {
+      const CameraCalibration& cam = renderer.calibration().cameras[c];
+      double worst = 0.0;
+      for (int j = 0; j <= 8; ++j) {
+        for (int i = 0; i <= 8; ++i) {
+          // Past the image corners by a pixel, where distortion is strongest.
+          const Eigen::Vector2d pixel(-1.0 + (cam.width + 1.0) * i / 8, -1.0 + (cam.height + 1.0) * j / 8);
+          const Eigen::Vector3d ray = renderer.PixelRay(static_cast<int>(c), pixel.x(), pixel.y());
+          const Eigen::Vector2d back = ProjectToPixel(cam, renderer.CameraCentre(static_cast<int>(c)) + 100.0 * ray);
+          worst = std::max(worst, (back - pixel).norm());
+        }
+      }
+      EXPECT_LT(worst, 1e-3) << name << " camera " << c;
+    }
+  }
+}
+
+// Where the row (or column) `line` of the image crosses the projected
+// segment a-b (sample frame points on z = 0), by bisection on the segment.
+std::optional<double> PredictedCrossing(const CameraCalibration& cam, const Eigen::Vector3d& a,
+                                        const Eigen::Vector3d& b, double turntable_rad, bool along_rows,
+                                        double line) {
+  const int axis = along_rows ? 1 : 0;
+  auto project = [&](double s) { return ProjectToPixel(cam, SampleToWorld(a + s * (b - a), turntable_rad)); };
+  double lo = 0.25, hi = 0.75;  // away from the corners, where the other edge is near
+  double flo = project(lo)[axis] - line, fhi = project(hi)[axis] - line;
+  if (flo * fhi > 0) return std::nullopt;
+  for (int k = 0; k < 60; ++k) {
+    const double mid = 0.5 * (lo + hi);
+    const double fmid = project(mid)[axis] - line;
+    if (fmid * flo <= 0) {
+      hi = mid;
+    } else {
+      lo = mid;
+      flo = fmid;
+    }
+  }
+  return project(0.5 * (lo + hi))[1 - axis];
+}
+
+// (a) Projection: the flat sample (albedo 0.5) in its pocket of the
+// turntable (albedo 0.3), both at z = 0 under one lamp, so the image is a
+// step in brightness exactly along the projected sample edges. The measured
+// edge (half-way crossing between the two levels, linear between pixel
+// centres) lies within 0.5 px of the OpenCV projection of the true edge.
+TEST(CameraRendererTest, SampleEdgesAppearWhereTheTrueCalibrationProjectsThem) {
+  const auto rig = LoadRig("tiny");
+  const auto scene = MakeBuiltinScene("flat");
+  const CameraRenderer renderer(*scene, rig);
+  const double tt = 30 * kDeg;  // edges oblique to the pixel grid
+  const double h = rig.sample_size_mm / 2;
+  const Eigen::Vector3d corners[4] = {{-h, -h, 0}, {h, -h, 0}, {h, h, 0}, {-h, h, 0}};
+  for (int c = 0; c < static_cast<int>(rig.cameras.size()); ++c) {
+    const CameraCalibration& cam = renderer.calibration().cameras[c];
+    const Image image = renderer.RenderLamps(renderer.TraceSample(c, tt), 0.0, {true, false});
+    int checked = 0;
+    double worst = 0.0;
+    for (int e = 0; e < 4; ++e) {
+      const Eigen::Vector3d& a = corners[e];
+      const Eigen::Vector3d& b = corners[(e + 1) % 4];
+      const Eigen::Vector2d pa = ProjectToPixel(cam, SampleToWorld(a, tt));
+      const Eigen::Vector2d pb = ProjectToPixel(cam, SampleToWorld(b, tt));
+      ASSERT_TRUE(pa.x() > 0 && pa.x() < cam.width - 1 && pa.y() > 0 && pa.y() < cam.height - 1);
+      // Scan across the edge: along rows when the edge is steep in the image.
+      const bool along_rows = std::abs(pb.y() - pa.y()) > std::abs(pb.x() - pa.x());
+      const int n_lines = along_rows ? cam.height : cam.width;
+      for (int line = 0; line < n_lines; ++line) {
+        const auto predicted = PredictedCrossing(cam, a, b, tt, along_rows, line);
+        if (!predicted) continue;
+        auto value = [&](int k) { return along_rows ? image.at(k, line, 0) : image.at(line, k, 0); };
+        const int k0 = static_cast<int>(std::lround(*predicted));
+        const double lo_level = value(k0 - 2), hi_level = value(k0 + 2);
+        ASSERT_GT(std::abs(hi_level - lo_level), 0.03) << "no contrast across the edge";
+        const double half = 0.5 * (lo_level + hi_level);
+        std::optional<double> measured;
+        for (int k = k0 - 2; k < k0 + 2; ++k) {
+          const double v0 = value(k) - half, v1 = value(k + 1) - half;
+          if (v0 * v1 <= 0 && v0 != v1) measured = k + v0 / (v0 - v1);
+        }
+        ASSERT_TRUE(measured) << "camera " << c << " edge " << e << " line " << line;
+        worst = std::max(worst, std::abs(*measured - *predicted));
+        ++checked;
+      }
+    }
+    EXPECT_GT(checked, 30) << "camera " << c;
+    EXPECT_LT(worst, 0.5) << "camera " << c;
+  }
+}
+
+// Sub-pixel peak of three samples of a Gaussian profile (exact for a
+// Gaussian): the offset from the middle one, in samples.
+double GaussianPeakOffset(double a, double b, double c) {
+  const double la = std::log(a), lb = std::log(b), lc = std::log(c);
+  return 0.5 * (la - lc) / (la - 2 * lb + lc);
+}
+
+struct StripeCheck {
+  int peaks = 0;
+  double worst_mm = 0.0;
+};
+
+// Scans the frame across the stripe (columns: the stripe runs roughly along
+// the image rows for these cameras and laser azimuths), finds each column's
+// peak pixels, refines them to sub-pixel and back-projects the refined
+// position onto the true surface; returns the worst distance of those points
+// from the true laser plane. Peaks whose three pixels do not all see one
+// face, fully lit by the laser (`face` gives the height of the face a pixel
+// sees, or nullopt), are skipped: a depth step or a shadow edge inside the
+// profile.
+template <typename BackProject, typename Face>
+StripeCheck CheckStripe(const Image& frame, const LaserPlane& plane, const BackProject& back_project,
+                        const Face& face) {
+  StripeCheck out;
+  float max_value = 0.0f;
+  for (std::size_t i = 0; i < frame.size(); ++i) max_value = std::max(max_value, frame.data()[i]);
+  for (int x = 0; x < frame.width(); ++x) {
+    for (int y = 1; y + 1 < frame.height(); ++y) {
+      const double a = frame.at(x, y - 1), b = frame.at(x, y), c = frame.at(x, y + 1);
+      if (!(b > 0.25 * max_value && b >= a && b > c && a > 0 && c > 0)) continue;
+      const auto f = face(x, y);
+      if (!f || face(x, y - 1) != f || face(x, y + 1) != f) continue;
+      const auto p = back_project(x, y + GaussianPeakOffset(a, b, c));
+      EXPECT_TRUE(p);
+      if (!p) continue;
+      out.worst_mm = std::max(out.worst_mm, std::abs(plane.normal.dot(*p - plane.source)));
+      ++out.peaks;
+    }
+  }
+  return out;
+}
+
+// (b) Laser: every peak of the stripe, refined to sub-pixel and
+// back-projected onto the true surface, lies on the true laser plane: within
+// 0.01 mm with one ray per pixel (the refinement is then exact up to the
+// curvature of the projection), 0.03 mm with the default 3 x 3 box-filtered
+// rays (sigma 0.3 mm, ~0.4 mm pixels). Box scene (faces at z = 0 and -1 and
+// the turntable), every laser location, sweep positions across the sample;
+// and the calibration plates (Sec. 3.2) at tilt 0.
+TEST(CameraRendererTest, StripePeaksLieOnTheTrueLaserPlane) {
+  const auto rig = LoadRig("tiny");
+  const auto scene = MakeBuiltinScene("box");
+  for (const int side : {1, 3}) {
+    const double tolerance_mm = side == 1 ? 0.01 : 0.03;
+    const CameraRenderer renderer(*scene, rig, {side});
+    const double tt = 20 * kDeg;
+    for (int c = 0; c < static_cast<int>(rig.cameras.size()); ++c) {
+      const CameraView view = renderer.TraceSample(c, tt);
+      auto on_sample = [&](double u, double v) -> std::optional<Eigen::Vector3d> {
+        const ViewSample s = renderer.FirstHit(c, tt, u, v);
+        if (s.surface == ViewSample::Surface::kNothing) return std::nullopt;
+        return s.point;
+      };
+      for (const auto& loc : rig.laser.locations) {
+        const LaserSweepRenderer sweep(renderer, view, loc.mount, loc.arc_angle_rad);
+        const Eigen::Vector3d source = renderer.LaserPlaneAt(loc.mount, loc.arc_angle_rad, 0.0).source;
+        // The height of the face all of the pixel's rays see, all lit.
+        auto face = [&](int x, int y) -> std::optional<double> {
+          const std::size_t first = (static_cast<std::size_t>(y) * view.width + x) * view.samples_per_pixel;
+          const ViewSample& s0 = view.samples[first];
+          for (int k = 0; k < view.samples_per_pixel; ++k) {
+            const ViewSample& s = view.samples[first + k];
+            if (s.surface == ViewSample::Surface::kNothing || s.point.z() != s0.point.z() ||
+                !renderer.Lit(view, s, source)) {
+              return std::nullopt;
+            }
+          }
+          return s0.point.z();
+        };
+        for (const double offset : {-4.0, 0.0, 2.5}) {
+          const double tilt = drivers::LaserTiltForOffset(rig.laser, loc.mount, offset);
+          const StripeCheck check =
+              CheckStripe(sweep.Frame(tilt), renderer.LaserPlaneAt(loc.mount, loc.arc_angle_rad, tilt), on_sample, face);
+          EXPECT_GT(check.peaks, 40) << "camera " << c << " offset " << offset;
+          EXPECT_LT(check.worst_mm, tolerance_mm) << "side " << side << " camera " << c << " offset " << offset;
+        }
+      }
+      for (const double height : rig.laser.calibration_heights_mm) {
+        const CameraView plate = renderer.TracePlate(c, height);
+        auto on_plate = [&](double u, double v) -> std::optional<Eigen::Vector3d> {
+          const Eigen::Vector3d o = renderer.CameraCentre(c), d = renderer.PixelRay(c, u, v);
+          return o + ((height - o.z()) / d.z()) * d;
+        };
+        for (const auto& loc : rig.laser.locations) {
+          const StripeCheck check = CheckStripe(LaserSweepRenderer(renderer, plate, loc.mount, loc.arc_angle_rad).Frame(0),
+                                                renderer.LaserPlaneAt(loc.mount, loc.arc_angle_rad, 0.0), on_plate,
+                                                [](int, int) { return std::optional<double>(0.0); });
+          EXPECT_GT(check.peaks, 20) << "camera " << c << " plate " << height;
+          EXPECT_LT(check.worst_mm, tolerance_mm) << "side " << side << " camera " << c << " plate " << height;
+        }
+      }
+    }
+  }
+}
+
+// The laser planes follow the rig's conventions: tilt 0 aims at the origin
+// and LaserTiltForOffset(o) puts the stripe on the turntable plane at o
+// from the origin, away from the laser (drivers/rig_description.h).
+TEST(CameraRendererTest, LaserPlanesFollowTheRigConventions) {
+  const auto rig = LoadRig("small");
+  const auto scene = MakeBuiltinScene("flat");
+  const CameraRenderer renderer(*scene, rig);
+  for (const auto& loc : rig.laser.locations) {
+    const Eigen::Vector3d away(-std::cos(loc.arc_angle_rad), -std::sin(loc.arc_angle_rad), 0.0);
+    for (const double offset : {-13.0, 0.0, 5.0, 13.0}) {
+      const LaserPlane plane =
+          renderer.LaserPlaneAt(loc.mount, loc.arc_angle_rad, drivers::LaserTiltForOffset(rig.laser, loc.mount, offset));
+      EXPECT_NEAR(plane.normal.dot(offset * away - plane.source), 0.0, 1e-9) << offset;
+      EXPECT_NEAR((plane.source - drivers::LaserSource(rig.laser, loc)).norm(), 0.0, 1e-9);
+    }
+  }
+}
+
+drivers::CameraDescription TestCamera(double read_noise) {
+  drivers::CameraDescription camera;
+  camera.bit_depth = 12;
+  camera.full_well_electrons = 20000;
+  camera.read_noise_electrons = read_noise;
+  return camera;
+}
+
+// (c) Sensor: without noise only quantization (<= half a code) and
+// saturation; with noise the variance of a flat field is shot + read noise
+// (+ the 1/12 code^2 of quantization) within 10 %.
+TEST(CameraSensorTest, QuantizesToHalfACodeAndSaturates) {
+  const auto camera = TestCamera(5.0);
+  Image signal(97, 31, 3);
+  for (std::size_t i = 0; i < signal.size(); ++i) signal.data()[i] = static_cast<float>(1.3 * i / signal.size());
+  std::mt19937_64 rng(7);
+  const Image out = ApplySensor(signal, camera, rng, false);
+  const double max_code = MaxCode(camera);
+  EXPECT_EQ(max_code, 4095.0);
+  for (std::size_t i = 0; i < signal.size(); ++i) {
+    const double s = signal.data()[i], v = out.data()[i];
+    const double code = v * max_code;
+    EXPECT_NEAR(code, std::round(code), 1e-3) << "not a code";
+    if (s >= 1.0) {
+      EXPECT_EQ(v, 1.0f) << "saturation";
+    } else {
+      EXPECT_LE(std::abs(v - s), 0.5 / max_code + 1e-7) << i;
+    }
+  }
+}
+
+TEST(CameraSensorTest, FlatFieldVarianceIsShotPlusReadNoise) {
+  for (const auto& [level, read_noise] : {std::pair{0.3, 5.0}, std::pair{0.005, 50.0}, std::pair{0.8, 8.0}}) {
+    const auto camera = TestCamera(read_noise);
+    const Image signal(256, 256, 1, static_cast<float>(level));
+    std::mt19937_64 rng(11);
+    const Image out = ApplySensor(signal, camera, rng, true);
+    const double codes_per_electron = MaxCode(camera) / camera.full_well_electrons;
+    double sum = 0, sum2 = 0;
+    for (std::size_t i = 0; i < out.size(); ++i) {
+      const double code = out.data()[i] * MaxCode(camera);
+      sum += code;
+      sum2 += code * code;
+    }
+    const double n = static_cast<double>(out.size());
+    const double mean = sum / n;
+    const double variance = sum2 / n - mean * mean;
+    const double electrons = level * camera.full_well_electrons;
+    const double expected =
+        (electrons + read_noise * read_noise) * codes_per_electron * codes_per_electron + 1.0 / 12.0;
+    EXPECT_NEAR(variance, expected, 0.1 * expected) << "level " << level << " read noise " << read_noise;
+    // Within a quarter code: clamping at code 0 lifts the mean of the
+    // faintest level (read noise 10 codes around a mean of 20) by ~0.07.
+    EXPECT_NEAR(mean, electrons * codes_per_electron, 0.25) << "level " << level;
+  }
+}
+
+// (d) Determinism: the same seed gives the same noise, another seed other
+// noise; rendering is deterministic whatever the threads do.
+TEST(CameraSensorTest, NoiseIsDeterministicForASeed) {
+  const auto camera = TestCamera(5.0);
+  const Image signal(64, 32, 3, 0.4f);
+  auto noisy = [&](std::uint64_t seed, std::uint64_t frame) {
+    std::mt19937_64 rng = ImageNoiseGenerator(seed, {3, 1, frame});
+    return ApplySensor(signal, camera, rng, true);
+  };
+  const Image a = noisy(42, 0), b = noisy(42, 0), c = noisy(43, 0), d = noisy(42, 1);
+  EXPECT_TRUE(std::equal(a.data(), a.data() + a.size(), b.data()));
+  EXPECT_FALSE(std::equal(a.data(), a.data() + a.size(), c.data()));
+  EXPECT_FALSE(std::equal(a.data(), a.data() + a.size(), d.data()));
+}
+
+TEST(CameraRendererTest, RenderingIsDeterministic) {
+  const auto rig = LoadRig("tiny");
+  const auto scene = MakeBuiltinScene("weave");
+  CameraRenderer renderer(*scene, rig);
+  SimulatedRigState state;
+  state.turntable_rad = 1.0;
+  state.light_arc_rad = 0.5;
+  state.lamps_on = {true, true};
+  state.laser_on = true;
+  state.laser_mount = 1;
+  state.laser_tilt_rad = 0.002;
+  const Image a = renderer.Render(state, 1), b = renderer.Render(state, 1);
+  ASSERT_EQ(a.channels(), 3);
+  EXPECT_TRUE(std::equal(a.data(), a.data() + a.size(), b.data()));
+  float max_value = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) max_value = std::max(max_value, a.data()[i]);
+  EXPECT_GT(max_value, 0.2f) << "signal scale: typical signals at 0.2-0.8 of full scale";
+}
+
+// The signal scale: lamps and laser land in the sensor's range on the
+// shipped rigs (kSignalPerRadianceSecond).
+TEST(CameraRendererTest, SignalsLandInTheSensorsRange) {
+  for (const auto& name : ShippedRigNames()) {
+    const auto rig = LoadRig(name);
+    const auto scene = MakeBuiltinScene("flat");
+    const CameraRenderer renderer(*scene, rig, {1});
+    // Analytic: the flat sample (albedo 0.5) at the origin.
+    const Eigen::Vector3d lamp = LampPosition(rig.lamps, 0, 0.0);
+    const double gain = rig.cameras[0].exposure_us * 1e-6 * kSignalPerRadianceSecond;
+    const double lamp_signal = 0.5 / std::numbers::pi * rig.lamps.intensity.mean() / lamp.squaredNorm() *
+                               lamp.normalized().z() * gain;
+    const Eigen::Vector3d source = drivers::LaserSource(rig.laser, rig.laser.locations[0]);
+    const double laser_signal =
+        0.5 / std::numbers::pi * renderer.LaserPeakIrradiance() * source.normalized().z() * gain;
+    EXPECT_GT(lamp_signal, 0.1) << name;
+    EXPECT_LT(lamp_signal, 0.8) << name;
+    EXPECT_GT(laser_signal, 0.2) << name;
+    EXPECT_LT(laser_signal, 0.95) << name;
+  }
+}
+
+// (e) A whole tiny-rig session of the flat scene: the manifest and journal
+// read back, every planned step is journaled, every file is there with the
+// journaled size, and the files hold what the plan says.
+TEST(SimulateCommandTest, TinySessionIsCompleteAndReadable) {
+  testing::TemporaryDirectory dir;
+  const fs::path session = dir / "session";
+  const std::string cmd = std::string(MESOCAP_BINARY) + " -q simulate --scene flat --rig tiny --seed 3 --out " +
+                          session.string() + " 2>" + (dir / "err").string();
+  ASSERT_EQ(std::system(cmd.c_str()), 0);
+  const SessionManifest manifest = ReadSessionManifest(session);
+  const JournalContents journal = ReadCaptureJournal(session / kSessionJournalName, &manifest);
+  const auto rig = LoadRig("tiny");
+  EXPECT_EQ(manifest.rig, rig.json);
+  ASSERT_TRUE(manifest.calibration);
+  EXPECT_TRUE(fs::exists(session / *manifest.calibration));
+  const std::size_t expected_steps =
+      rig.turntable.angles_rad.size() * (rig.light_arc.angles_rad.size() * rig.lamps.elevations_rad.size() +
+                                         rig.laser.locations.size()) +
+      2 * rig.laser.locations.size();
+  ASSERT_EQ(manifest.plan.size(), expected_steps);
+  ASSERT_EQ(journal.records.size(), expected_steps);
+  EXPECT_EQ(journal.dropped_bytes, 0u);
+  std::set<std::string> done;
+  for (const auto& r : journal.records) {
+    done.insert(r.step);
+    EXPECT_EQ(r.files.size(), rig.cameras.size());
+    for (const auto& f : r.files) EXPECT_EQ(fs::file_size(session / f.path), f.bytes) << f.path;
+  }
+  for (const auto& step : manifest.plan) {
+    EXPECT_TRUE(done.count(step.id)) << step.id;
+    for (const auto& f : step.params.at("files")) {
+      const fs::path file = session / f.at("path").get<std::string>();
+      ASSERT_TRUE(fs::exists(file)) << file;
+      if (step.kind == StepKind::kLaserSweep) {
+        const auto header = ReadFrameSequenceHeader(file);
+        EXPECT_EQ(header.frame_count, rig.laser.frames_per_sweep);
+        EXPECT_EQ(step.params.at("tilt_deg").size(), static_cast<std::size_t>(rig.laser.frames_per_sweep));
+        EXPECT_EQ(header.width, 128);
+        EXPECT_EQ(header.encoding, PixelEncoding::kUInt16);
+      } else {
+        const auto header = ReadImageHeader(file);
+        EXPECT_EQ(header.encoding, PixelEncoding::kUInt16);
+        EXPECT_EQ(header.channels, step.kind == StepKind::kBtfImage ? 3 : 1);
+      }
+    }
+  }
+  // A second run refuses the existing session; --resume finds nothing to do.
+  EXPECT_NE(std::system(cmd.c_str()), 0);
+  ASSERT_EQ(std::system((cmd + " --resume").c_str()), 0);
+  EXPECT_EQ(ReadCaptureJournal(session / kSessionJournalName, &manifest).records.size(), expected_steps);
+}
+
+}  // namespace
+}  // namespace mesocap::sim
