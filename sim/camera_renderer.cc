@@ -113,10 +113,9 @@ ViewSample CameraRenderer::SampleHit(const Eigen::Vector3d& origin_world, const 
     if (d[axis] < 0) t_exit = std::min(t_exit, (-half - p0[axis]) / d[axis]);
   }
   // From the reference-plane point, as the ground truth casts (the tracer's
-  // precision is relative to the tile, not to the camera distance).
-  // The margin keeps a floor exactly at z = -d_max (a box's base) inside
-  // the interval despite the tracer's single-precision ray length.
-  const auto hit = scene_.Intersect(p0, d, 0.0, std::max(0.0, t_exit) + scene_.surface_epsilon_mm());
+  // precision is relative to the tile, not to the camera distance). The
+  // interval is closed, so a floor exactly at z = -d_max (a box's base) is hit.
+  const auto hit = scene_.Intersect(p0, d, 0.0, std::max(0.0, t_exit));
   if (!hit) return out;  // black backing or pocket wall
   const Eigen::Matrix3d to_world = RotationZ(turntable_rad);
   out.surface = ViewSample::Surface::kSample;

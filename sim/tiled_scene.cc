@@ -200,6 +200,11 @@ std::optional<SurfaceHit> TiledScene::Intersect(const Eigen::Vector3d& origin, c
     rtcInitIntersectContext(&context);
     RTCRayHit query{};
     query.ray = EmbreeRay(cell, dir);
+    // Embree holds the ray in single precision, which can put a surface
+    // exactly at t_max just outside the closed interval (absolute rounding of
+    // the origin matters most on a short last span). Let it look a cell
+    // margin further; the double-precision refinement below decides.
+    query.ray.tfar = static_cast<float>(cell.length + margin_);
     query.hit.geomID = RTC_INVALID_GEOMETRY_ID;
     query.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
     rtcIntersect1(scene_.get(), &context, &query);
@@ -218,6 +223,9 @@ std::optional<SurfaceHit> TiledScene::Intersect(const Eigen::Vector3d& origin, c
     // A ray (nearly) in the triangle's plane has no stable plane
     // intersection; Embree's single-precision parameter is then the better one.
     if (std::abs(cos_n) > 1e-9 * n.norm()) s = n.dot(a - cell.origin) / cos_n;
+    // Beyond the interval (found only through the slack above): no hit here,
+    // and none nearer, since Embree returns the closest.
+    if (s > cell.length * (1.0 + 1e-12) + 1e-12) return false;
     s = std::clamp(s, 0.0, cell.length);
 
     SurfaceHit hit;

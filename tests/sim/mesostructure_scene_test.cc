@@ -220,6 +220,30 @@ TEST(BoxScene, BaseBesideTheBoxIsAtHOverCosTheta) {
   }
 }
 
+// The interval is closed at t_max too: a floor exactly at t_max is hit even
+// though Embree holds the ray length in single precision.
+TEST(BoxScene, FloorExactlyAtTMaxIsHit) {
+  const auto scene = MakeBuiltinScene("box");
+  std::mt19937_64 rng(3);
+  int misses = 0;
+  for (int k = 0; k < 2000; ++k) {
+    // Base points beside the box, oblique rays down to the base at z = -1.
+    const Vec origin(Uniform(rng, 0.0, 1.4), Uniform(rng, 0.0, 1.4), 0.0);
+    // Away from the box: at most tan(40 deg) = 0.84 mm sideways, short of the next copy.
+    const Vec dir = -Omega(Uniform(rng, 0.0, 40.0), Uniform(rng, 0.0, 90.0));
+    const double t_floor = 1.0 / -dir.z();
+    const auto hit = scene->Intersect(origin, dir, 0.0, t_floor);
+    if (!hit) {
+      ++misses;
+      continue;
+    }
+    EXPECT_NEAR(hit->distance, t_floor, 1e-9);
+    // Just short of the floor there is nothing.
+    EXPECT_FALSE(scene->Intersect(origin, dir, 0.0, t_floor - 1e-6).has_value());
+  }
+  EXPECT_EQ(misses, 0);
+}
+
 TEST(BoxScene, TopIsAtDistanceZero) {
   const auto scene = MakeBuiltinScene("box");
   EXPECT_EQ(Distance(*scene, Vec(2.5, 2.5, 0.0), Vec(0, 0, -1)), 0.0);
