@@ -344,14 +344,6 @@ fs::path ManifestPath(const fs::path& dir) { return dir / kManifestFile; }
 // ReadJsonFile turns syntax errors into FormatError; nlohmann reports some
 // valid-syntax problems (a number literal beyond double, "1e999") with other
 // exception types, which must not escape as anything but a FormatError.
-nlohmann::json ReadPackageJson(const fs::path& file) {
-  try {
-    return ReadJsonFile(file, kMaxJsonBytes);
-  } catch (const nlohmann::json::exception& e) {
-    throw FormatError(file, "", std::string("not valid JSON: ") + e.what());
-  }
-}
-
 [[noreturn]] void ThrowMissingPart(const fs::path& dir, const char* field, const char* what) {
   throw FormatError(ManifestPath(dir), field, std::string("this package has no ") + what);
 }
@@ -560,7 +552,7 @@ void WriteMaterialPackage(const fs::path& dir, const MaterialPackage& package, b
 
 MaterialManifest ReadMaterialManifest(const fs::path& dir) {
   const fs::path file = ManifestPath(dir);
-  const nlohmann::json doc = ReadPackageJson(file);
+  const nlohmann::json doc = ReadJsonFile(file, kMaxJsonBytes);
   const JsonFieldReader root(doc, file);
   root.ExpectFormat(kFormat, kVersion);
   const JsonFieldReader units = root.Object("units");
@@ -725,7 +717,7 @@ AmbientTerm ReadAmbientTerm(const fs::path& dir, const MaterialManifest& manifes
 nlohmann::json ReadErrorReport(const fs::path& dir, const MaterialManifest& manifest) {
   if (!manifest.error_report) ThrowMissingPart(dir, "error_report", "error report");
   const fs::path file = dir / kErrorReportFile;
-  nlohmann::json report = ReadPackageJson(file);
+  nlohmann::json report = ReadJsonFile(file, kMaxJsonBytes);
   if (!report.is_object()) throw FormatError(file, "", "expected a JSON object");
   return report;
 }
