@@ -237,12 +237,48 @@ double CameraRenderer::LaserPeakIrradiance() const {
   return rig_.laser.power * rig_.lamps.intensity.mean() / (rig_.lamps.distance_mm * rig_.lamps.distance_mm);
 }
 
+struct CameraRenderer::RenderCache {
+  double turntable_rad = 0.0;
+  std::optional<double> plate_height_mm;
+  CameraView view;
+  // The sweep's stripe samples, for the laser at `laser_mount` with the arc
+  // at `laser_arc_rad`; empty until the laser is first on.
+  std::unique_ptr<LaserSweepRenderer> sweep;
+  int laser_mount = 0;
+  double laser_arc_rad = 0.0;
+};
+
+CameraRenderer::RenderCache& CameraRenderer::CachedRender(const SimulatedRigState& state, int camera) {
+  if (camera < 0 || camera >= static_cast<int>(rig_.cameras.size())) {
+    throw Error("camera renderer: no camera " + std::to_string(camera) + " in rig \"" + rig_.name + "\"");
+  }
+  if (cache_.empty()) cache_.resize(rig_.cameras.size());
+  std::shared_ptr<RenderCache>& entry = cache_[camera];
+  const bool stale = !entry || entry->plate_height_mm != state.calibration_plate_height_mm ||
+                     (!state.calibration_plate_height_mm && entry->turntable_rad != state.turntable_rad);
+  if (stale) {
+    entry = std::make_shared<RenderCache>();
+    entry->turntable_rad = state.turntable_rad;
+    entry->plate_height_mm = state.calibration_plate_height_mm;
+    entry->view = state.calibration_plate_height_mm ? TracePlate(camera, *state.calibration_plate_height_mm)
+                                                    : TraceSample(camera, state.turntable_rad);
+  }
+  if (state.laser_on &&
+      (!entry->sweep || entry->laser_mount != state.laser_mount || entry->laser_arc_rad != state.light_arc_rad)) {
+    entry->sweep = std::make_unique<LaserSweepRenderer>(*this, entry->view, state.laser_mount, state.light_arc_rad);
+    entry->laser_mount = state.laser_mount;
+    entry->laser_arc_rad = state.light_arc_rad;
+  }
+  return *entry;
+}
+
 Image CameraRenderer::Render(const SimulatedRigState& state, int camera) {
-  const CameraView view = TraceSample(camera, state.turntable_rad);
-  Image image = RenderLamps(view, state.light_arc_rad, state.lamps_on);
+  const RenderCache& cached = CachedRender(state, camera);
+  const bool any_lamp = std::find(state.lamps_on.begin(), state.lamps_on.end(), true) != state.lamps_on.end();
+  Image image = any_lamp ? RenderLamps(cached.view, state.light_arc_rad, state.lamps_on)
+                         : Image(cached.view.width, cached.view.height, 3);
   if (state.laser_on) {
-    const Image stripe = LaserSweepRenderer(*this, view, state.laser_mount, state.light_arc_rad)
-                             .Frame(state.laser_tilt_rad);
+    const Image stripe = cached.sweep->Frame(state.laser_tilt_rad);
     for (int y = 0; y < image.height(); ++y) {
       for (int x = 0; x < image.width(); ++x) {
         for (int c = 0; c < 3; ++c) image.at(x, y, c) += stripe.at(x, y);

@@ -33,7 +33,9 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <memory>
 #include <numbers>
+#include <optional>
 #include <vector>
 
 #include "core/calibration.h"
@@ -97,8 +99,14 @@ class CameraRenderer : public FrameRenderer {
                  CameraRendererOptions options = {});
 
   // Lamps that are on plus the laser when on (added equally to R, G and B:
-  // the grey response of the sensor to the laser's light). 3 channels.
-  // Traces from scratch; captures use the pieces below to share work.
+  // the grey response of the sensor to the laser's light), on the sample or,
+  // while the operator has laid it there, the calibration plate. 3 channels.
+  // The camera's first hits stay cached while the turntable (or the plate)
+  // stays put, and its sweep's stripe samples while the laser's mount and
+  // the light arc do, so a capture that walks the rig in its plan's order
+  // traces each camera once per turntable angle and a sweep frame costs
+  // only the stripe (the pieces below). The cache holds one camera view per
+  // camera: samples_per_pixel_side^2 ViewSamples a pixel.
   Image Render(const SimulatedRigState& state, int camera) override;
 
   // First hits of the camera's rays on the sample at a turntable angle.
@@ -143,10 +151,15 @@ class CameraRenderer : public FrameRenderer {
   CameraView Trace(int camera, double turntable_rad, const HitFunction& first_hit) const;
   ViewSample SampleHit(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double turntable_rad) const;
 
+  // What Render keeps of one camera between frames.
+  struct RenderCache;
+  RenderCache& CachedRender(const SimulatedRigState& state, int camera);
+
   const MesostructureScene& scene_;
   const drivers::RigDescription& rig_;
   CameraRendererOptions options_;
   Calibration calibration_;
+  std::vector<std::shared_ptr<RenderCache>> cache_;  // per camera
 };
 
 // A laser sweep of one camera from one laser location (Sec. 3.2: the

@@ -128,5 +128,33 @@ TEST(Cli, GroundTruthRejectsUnknownSceneAndRigWithoutOutput) {
   EXPECT_TRUE(std::filesystem::is_empty(dir.path())) << "a failed run left output behind";
 }
 
+
+// A capture stopped by a fault the runner cannot cure exits 1 naming the
+// step and the device, keeps what it finished, and --resume completes it.
+TEST(Cli, SimulateStopsOnADisconnectAndResumes) {
+  testing::TemporaryDirectory dir;
+  nlohmann::json rig = nlohmann::json::parse(Slurp(RigFile("tiny")));
+  rig["turntable"]["angles_deg"] = {0.0};
+  rig["light_arc"]["angles_deg"] = {0.0};
+  rig["laser"]["locations"] = nlohmann::json::array({rig["laser"]["locations"][0]});
+  rig["laser"]["frames_per_sweep"] = 8;
+  std::ofstream(dir / "rig.json") << rig.dump();
+  std::ofstream(dir / "faults.json")
+      << R"({"format": "mesocap.faults", "version": 1, "camera_disconnect": {"device": "cam1", "at": [20]}})";
+  const std::string args = "-q simulate --scene flat --samples-per-pixel-side 1 --rig " + (dir / "rig.json").string() +
+                           " --out " + (dir / "s").string();
+  const CommandResult broken = Mesocap(args + " --faults " + (dir / "faults.json").string());
+  EXPECT_EQ(broken.exit_code, 1);
+  EXPECT_NE(broken.err.find("laser-sweep-t0_loc0"), std::string::npos) << broken.err;
+  EXPECT_NE(broken.err.find("cam1"), std::string::npos) << broken.err;
+  const auto progress = [&] { return nlohmann::json::parse(Mesocap("info --json " + (dir / "s").string()).out); };
+  EXPECT_EQ(progress()["completed_steps"], 4);
+  EXPECT_FALSE(progress()["complete"].get<bool>());
+  const CommandResult resumed = Mesocap(args + " --resume");
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.err;
+  EXPECT_EQ(progress()["completed_steps"], 5);
+  EXPECT_TRUE(progress()["complete"].get<bool>());
+}
+
 }  // namespace
 }  // namespace mesocap
