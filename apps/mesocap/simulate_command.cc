@@ -51,6 +51,7 @@ struct SimulateCommandOptions {
   fs::path faults;
   bool resume = false;
   int samples_per_pixel_side = 3;
+  int interreflection_rays = 0;
 };
 
 json PlanJson(const std::vector<PlannedStep>& plan) {
@@ -77,7 +78,8 @@ void RunSimulate(const SimulateCommandOptions& o) {
   const json recording = {{"simulated_scene", scene->name()},
                           {"seed", o.seed},
                           {"sensor_noise", !o.no_noise},
-                          {"samples_per_pixel_side", o.samples_per_pixel_side}};
+                          {"samples_per_pixel_side", o.samples_per_pixel_side},
+                          {"interreflection_rays_per_pixel", o.interreflection_rays}};
   const std::vector<PlannedStep> plan = acquisition::MakeCapturePlan(rig, recording);
 
   const bool existing = fs::exists(o.out / kSessionManifestName);
@@ -102,6 +104,7 @@ void RunSimulate(const SimulateCommandOptions& o) {
 
   sim::CameraRendererOptions render_options;
   render_options.samples_per_pixel_side = o.samples_per_pixel_side;
+  render_options.interreflection_rays_per_pixel = o.interreflection_rays;
   sim::CameraRenderer renderer(*scene, rig, render_options);
   sim::SimulatedRigBackend backend(renderer, faults, o.seed,
                                    o.no_noise ? sim::SensorModel::kNoiseless : sim::SensorModel::kNoisy);
@@ -136,6 +139,10 @@ void RegisterSimulateCommand(CLI::App& app) {
   sub->add_option("--samples-per-pixel-side", o->samples_per_pixel_side,
                   "rays per pixel side (box-filtered pixel area)")
       ->check(CLI::Range(1, 16))
+      ->capture_default_str();
+  sub->add_option("--interreflection-rays", o->interreflection_rays,
+                  "rays per pixel gathering the laser's light after one bounce (0: direct light only)")
+      ->check(CLI::Range(0, 256))
       ->capture_default_str();
   sub->callback([o] { RunSimulate(*o); });
 }
