@@ -343,6 +343,25 @@ FactoredBtf CompressBtf(const FullBtf& btf, const BtfCompressionOptions& options
   return out;
 }
 
+nlohmann::json ToJson(const BtfCompressionReport& report, const FactoredBtf& factored) {
+  const char* names[2][3] = {{"r", "g", "b"}, {"y", "cb", "cr"}};
+  nlohmann::json spectrum = nlohmann::json::object();
+  for (int ch = 0; ch < 3; ++ch) {
+    const Eigen::VectorXd& s = report.singular_values[ch];
+    spectrum[names[factored.color == BtfFactorColor::kYCbCr][ch]] = std::vector<double>(s.data(), s.data() + s.size());
+  }
+  return {{"layout", ToString(factored.layout)},
+          {"color", ToString(factored.color)},
+          {"rank", report.rank},
+          {"reason", report.reason},
+          {"measured_relative_rms", report.measured_relative_rms_error},
+          {"relative_rms_by_rank", report.relative_rms_error},
+          {"max_rank", report.max_rank},
+          {"matrix_size", {report.matrix_rows, report.matrix_columns}},
+          {"singular_values", spectrum},
+          {"seconds", report.seconds}};
+}
+
 double RelativeRmsError(const FullBtf& truth, const FactoredBtf& factored) {
   factored.CheckShape();
   if (truth.width != factored.width || truth.height != factored.height ||

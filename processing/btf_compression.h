@@ -25,6 +25,7 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -68,6 +69,11 @@ struct BtfCompressionReport {
 // BTF, or a non-finite value (naming the view, texel and light).
 FactoredBtf CompressBtf(const FullBtf& btf, const BtfCompressionOptions& options,
                         BtfCompressionReport* report = nullptr);
+
+// The report as JSON (error_report.json's "btf_compression" member):
+// layout, color, rank, reason, measured_relative_rms, relative_rms_by_rank
+// (index K-1), singular_values per factored channel, matrix size, seconds.
+nlohmann::json ToJson(const BtfCompressionReport& report, const FactoredBtf& factored);
 
 // ||T - F||_F / ||T||_F over all texels, directions and RGB channels (0 when
 // both are zero). Sizes must agree (throws Error otherwise).
