@@ -14,5 +14,6 @@ struct GlobalOptions {
 void RegisterInfoCommand(CLI::App& app);
 void RegisterGroundTruthCommand(CLI::App& app);
 void RegisterSimulateCommand(CLI::App& app);
+void RegisterCompressCommand(CLI::App& app);
 
 }  // namespace mesocap

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "core/json_field_reader.h"
+#include "core/material_package.h"
 #include "tests/common/temporary_directory.h"
 
 namespace mesocap {
@@ -128,7 +129,6 @@ TEST(Cli, GroundTruthRejectsUnknownSceneAndRigWithoutOutput) {
   EXPECT_TRUE(std::filesystem::is_empty(dir.path())) << "a failed run left output behind";
 }
 
-
 // A capture stopped by a fault the runner cannot cure exits 1 naming the
 // step and the device, keeps what it finished, and --resume completes it.
 TEST(Cli, SimulateStopsOnADisconnectAndResumes) {
@@ -154,6 +154,36 @@ TEST(Cli, SimulateStopsOnADisconnectAndResumes) {
   ASSERT_EQ(resumed.exit_code, 0) << resumed.err;
   EXPECT_EQ(progress()["completed_steps"], 5);
   EXPECT_TRUE(progress()["complete"].get<bool>());
+}
+
+// `mesocap compress` factors a ground-truth package: a flat Lambertian
+// sample needs one term under a 1e-4 budget; the MDF, ambient term and
+// calibration come through; the figures land in the error report.
+TEST(Cli, CompressFactorsAGroundTruthPackage) {
+  testing::TemporaryDirectory dir;
+  const std::string gt = (dir / "gt").string(), out = (dir / "c").string();
+  ASSERT_EQ(Mesocap("-q groundtruth --scene flat --rig tiny --texture-size 8 --out " + gt).exit_code, 0);
+  const CommandResult r = Mesocap("-q compress --in " + gt + " --out " + out + " --max-error 1e-4 --color ycbcr");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const MaterialManifest m = ReadMaterialManifest(out);
+  ASSERT_TRUE(m.factored_btf.has_value());
+  EXPECT_EQ(m.factored_btf->rank, 1);
+  EXPECT_EQ(m.factored_btf->color, BtfFactorColor::kYCbCr);
+  EXPECT_FALSE(m.full_btf);
+  EXPECT_TRUE(m.mdf && m.ambient && m.calibration);
+  const auto report = ReadErrorReport(out, m)["btf_compression"];
+  EXPECT_EQ(report["rank"], 1);
+  EXPECT_LT(report["measured_relative_rms"].get<double>(), 1e-4);
+  EXPECT_NEAR(ReadFactoredBtf(out, m).Reconstruct(2, 3, 4, 5).x(), 0.5 / 3.14159265358979, 1e-5);
+
+  // Both --rank and --max-error, or a package without a full BTF: refused,
+  // nothing written.
+  EXPECT_NE(Mesocap("compress --in " + gt + " --out " + (dir / "x").string() + " --rank 2 --max-error 0.1").exit_code, 0);
+  const CommandResult again = Mesocap("compress --in " + out + " --out " + (dir / "y").string());
+  EXPECT_EQ(again.exit_code, 1);
+  EXPECT_NE(again.err.find("no full BTF"), std::string::npos) << again.err;
+  EXPECT_FALSE(std::filesystem::exists(dir / "x"));
+  EXPECT_FALSE(std::filesystem::exists(dir / "y"));
 }
 
 }  // namespace

@@ -1,0 +1,82 @@
+// SVD compression of a full BTF into eigenmaps and weight maps (Wang et al.
+// 2005 Sec. 5): each colour channel's BTF matrix A (layouts in core/btf.h) is
+// factored and truncated to rank K, A ~= sum_k r_k c_k^T, with the rank given
+// or chosen as the smallest that meets a relative error budget.
+//
+// Algorithm and conditioning: A is tall and skinny in the paper layout
+// (W*H*Nlight rows, Nview columns). Its SVD is taken as a Householder QR of A,
+// streamed over row blocks (TSQR: the R of each block stacked on the running
+// R and re-factored), followed by the SVD of the small n x n factor R
+// (Eigen BDCSVD). Both steps are backward stable, so singular values are
+// accurate to ~eps * sigma_max -- unlike an eigen-decomposition of A^T A,
+// which squares the condition number and loses every singular value below
+// ~sqrt(eps) * sigma_max. Row factors are then r_k = A v_k (= sigma_k u_k),
+// computed from the data, so the reconstruction sum_k r_k v_k^T is the
+// orthogonal projection of A onto the leading right singular subspace and
+// its error is ||A - A_K||_F up to rounding, however small sigma_k is.
+// A matrix wider than tall (per_texel on a small texture) is factored through
+// A^T, with c_k = A^T u_k / sigma_k; components with sigma_k below
+// n * eps * sigma_max (numerically zero: exactly rank-deficient data, a
+// constant-zero channel) get zero factors instead of a division by ~0.
+//
+// Memory: besides the input, one row block (~thousands of rows x n doubles)
+// per worker, the n x n factors and the output factors (K images).
+#pragma once
+
+#include <Eigen/Core>
+#include <array>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "core/btf.h"
+#include "core/error.h"
+
+namespace mesocap {
+
+struct BtfCompressionOptions {
+  BtfFactorLayout layout = BtfFactorLayout::kPaper;
+  BtfFactorColor color = BtfFactorColor::kRgb;
+  // A fixed rank 1..kMaxBtfRank, or 0 to choose the smallest rank whose
+  // relative RMS error (over all RGB values) is at most max_relative_error.
+  int rank = 0;
+  double max_relative_error = 0.01;
+
+  CheckResult Check() const;
+};
+
+struct BtfCompressionReport {
+  // Per factored channel (R, G, B or Y, Cb, Cr), all min(rows, columns)
+  // singular values, descending.
+  std::array<Eigen::VectorXd, 3> singular_values;
+  // relative_rms_error[K - 1]: ||A - A_K||_F / ||A||_F over the three
+  // factored channels at rank K, from the spectrum (Eckart-Young), for
+  // K = 1..max_rank. For rgb this is the RGB error; for ycbcr it is the
+  // error in the factored (Y, Cb, Cr) space.
+  std::vector<double> relative_rms_error;
+  int max_rank = 0;  // largest rank considered: min(kMaxBtfRank, rows, columns)
+  int rank = 0;      // the chosen rank
+  std::string reason;
+  // Of the factors as returned (float), reconstructed and compared with the
+  // input in RGB: ||T - T_K||_F / ||T||_F (0 when the BTF is all zero).
+  double measured_relative_rms_error = 0.0;
+  long long matrix_rows = 0;
+  long long matrix_columns = 0;
+  double seconds = 0.0;  // wall time of CompressBtf
+};
+
+// Factors `btf`. Throws Error on invalid options, an empty or inconsistent
+// BTF, or a non-finite value (naming the view, texel and light).
+FactoredBtf CompressBtf(const FullBtf& btf, const BtfCompressionOptions& options,
+                        BtfCompressionReport* report = nullptr);
+
+// The report as JSON (error_report.json's "btf_compression" member):
+// layout, color, rank, reason, measured_relative_rms, relative_rms_by_rank
+// (index K-1), singular_values per factored channel, matrix size, seconds.
+nlohmann::json ToJson(const BtfCompressionReport& report, const FactoredBtf& factored);
+
+// ||T - F||_F / ||T||_F over all texels, directions and RGB channels (0 when
+// both are zero). Sizes must agree (throws Error otherwise).
+double RelativeRmsError(const FullBtf& truth, const FactoredBtf& factored);
+
+}  // namespace mesocap
