@@ -1,6 +1,7 @@
 #include "processing/displacement_image.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -55,7 +56,11 @@ struct Vertex {
   double u, v, d;  // texel coordinates (texel i centred at u = i), distance
 };
 
-void Rasterize(const Vertex& a, const Vertex& b, const Vertex& c, const TextureGrid& grid,
+// nearest: give each texel the D of its nearest vertex instead of the
+// interpolated one (triangles across a depth discontinuity: the edge lies
+// somewhere between the vertices, so each texel takes the surface of the
+// closest measurement).
+void Rasterize(const Vertex& a, const Vertex& b, const Vertex& c, const TextureGrid& grid, bool nearest,
                std::vector<float>* distance) {
   const double area = (b.u - a.u) * (c.v - a.v) - (c.u - a.u) * (b.v - a.v);
   if (std::abs(area) < 1e-12) return;
@@ -70,7 +75,13 @@ void Rasterize(const Vertex& a, const Vertex& b, const Vertex& c, const TextureG
       const double wb = ((c.u - i) * (a.v - j) - (a.u - i) * (c.v - j)) / area;
       const double wc = 1.0 - wa - wb;
       if (wa < kEdge || wb < kEdge || wc < kEdge) continue;
-      const float d = static_cast<float>(std::max(0.0, wa * a.d + wb * b.d + wc * c.d));
+      double interpolated = wa * a.d + wb * b.d + wc * c.d;
+      if (nearest) {
+        const double da = std::hypot(a.u - i, a.v - j), db = std::hypot(b.u - i, b.v - j),
+                     dc = std::hypot(c.u - i, c.v - j);
+        interpolated = da <= db && da <= dc ? a.d : (db <= dc ? b.d : c.d);
+      }
+      const float d = static_cast<float>(std::max(0.0, interpolated));
       float& out = (*distance)[static_cast<std::size_t>(j) * grid.width + i];
       if (std::isnan(out) || d < out) out = d;
     }
@@ -114,17 +125,26 @@ DisplacementImage ResampleToTexture(const std::vector<Eigen::Vector3f>& points, 
     const double spread = std::max({a.d, b.d, c.d}) - std::min({a.d, b.d, c.d});
     return spread <= options.max_depth_step_ratio * extent + options.max_depth_step_texels * texel;
   };
+  // Pass 1 interpolates across continuous triangles; pass 2 fills texels
+  // still unknown from triangles across a discontinuity, nearest vertex
+  // first, so an edge is placed to within half a pixel instead of leaving a
+  // pixel-wide strip unknown along every edge.
+  std::vector<float> edges(out.distance_mm.size(), std::numeric_limits<float>::quiet_NaN());
   for (int y = 0; y + 1 < pixel_height; ++y) {
     for (int x = 0; x + 1 < pixel_width; ++x) {
       const std::size_t p00 = static_cast<std::size_t>(y) * pixel_width + x;
       const std::size_t p10 = p00 + 1, p01 = p00 + pixel_width, p11 = p01 + 1;
-      if (valid[p00] && valid[p10] && valid[p11] && continuous(vertices[p00], vertices[p10], vertices[p11])) {
-        Rasterize(vertices[p00], vertices[p10], vertices[p11], grid, &out.distance_mm);
-      }
-      if (valid[p00] && valid[p11] && valid[p01] && continuous(vertices[p00], vertices[p11], vertices[p01])) {
-        Rasterize(vertices[p00], vertices[p11], vertices[p01], grid, &out.distance_mm);
+      for (const auto& [a, b, c] : {std::array{p00, p10, p11}, std::array{p00, p11, p01}}) {
+        if (!valid[a] || !valid[b] || !valid[c]) continue;
+        const bool smooth = continuous(vertices[a], vertices[b], vertices[c]);
+        if (smooth || options.fill_discontinuities) {
+          Rasterize(vertices[a], vertices[b], vertices[c], grid, !smooth, smooth ? &out.distance_mm : &edges);
+        }
       }
     }
+  }
+  for (std::size_t t = 0; t < edges.size(); ++t) {
+    if (std::isnan(out.distance_mm[t])) out.distance_mm[t] = edges[t];
   }
   return out;
 }

@@ -38,6 +38,9 @@ struct TriangulationOptions {
   // depth discontinuity (an occluding edge) and is not interpolated.
   double max_depth_step_ratio = 3.0;
   double max_depth_step_texels = 1.0;
+  // Texels left unknown between measurements across a discontinuity take
+  // the nearest measurement's D (the edge is then placed to half a pixel).
+  bool fill_discontinuities = true;
 
   CheckResult Check() const;
 };

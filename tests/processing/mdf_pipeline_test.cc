@@ -21,3 +21,49 @@ TEST(MdfPipelineTest, TinyBlocks) {
 
 }  // namespace
 }  // namespace mesocap::test
+namespace mesocap::test {
+namespace {
+TEST(MdfPipelineTest, Explore) {
+  ScanSetup setup;
+  setup.scene = std::getenv("SCENE") ? std::getenv("SCENE") : "blocks";
+  setup.rig = "small";
+  setup.turntable_indices = {0};
+  setup.cameras = {0, 1, 2, 3};
+  const ScanResult r = RunSimulatedScan(setup);
+  const MdfErrorTable table = EvaluateMdf(r.truth, r.estimate, r.texel_mm);
+  std::printf("%s", FormatMdfErrorTable(table).c_str());
+  const MdfErrorRow up60 = EvaluateMdfViews(r.truth, r.estimate, r.texel_mm, 0, 60);
+  std::printf("up to 60: median %.3f p95 %.3f coverage %.4f\n", up60.median_texels, up60.p95_texels, up60.coverage);
+}
+}  // namespace
+}  // namespace mesocap::test
+namespace mesocap::test {
+namespace {
+TEST(MdfPipelineTest, Map) {
+  ScanSetup setup;
+  setup.scene = std::getenv("SCENE") ? std::getenv("SCENE") : "blocks";
+  setup.rig = "small";
+  setup.turntable_indices = {0};
+  setup.cameras = {std::getenv("CAM") ? std::atoi(std::getenv("CAM")) : 1};
+  setup.noise = true;
+  const ScanResult r = RunSimulatedScan(setup);
+  for (int v = 0; v < r.truth.view_count(); ++v) {
+    if (std::isnan(r.truth.at(0, 0, v))) continue;
+    std::printf("view %d theta %.1f phi %.1f\n", v, r.truth.views.angles(v).theta * 57.3, r.truth.views.angles(v).phi * 57.3);
+    for (int j = 0; j < r.truth.height; ++j) {
+      for (int i = 0; i < r.truth.width; ++i) {
+        const float t = r.truth.at(i, j, v), e = r.estimate.at(i, j, v);
+        char c = '.';
+        if (std::isnan(e)) c = 'U';
+        else if (std::abs(e - t) > 2 * r.texel_mm) c = 'X';
+        else if (std::abs(e - t) > 0.5 * r.texel_mm) c = 'x';
+        std::putchar(c);
+      }
+      std::printf("   ");
+      for (int i = 0; i < r.truth.width; ++i) std::putchar('0' + std::min(9, static_cast<int>(r.truth.at(i, j, v) / 0.5)));
+      std::putchar('\n');
+    }
+  }
+}
+}  // namespace
+}  // namespace mesocap::test
