@@ -1,5 +1,6 @@
 #include "processing/mdf_evaluation.h"
 
+#include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -36,9 +37,10 @@ void CheckComparable(const Mdf& truth, const Mdf& estimate) {
 
 }  // namespace
 
-MdfErrorRow EvaluateMdfViews(const Mdf& truth, const Mdf& estimate, double texel_mm, double theta_min_deg,
-                             double theta_max_deg) {
+MdfErrorRow EvaluateMdfViews(const Mdf& truth, const Mdf& estimate, double texel_mm, const MdfEvaluationScope& scope) {
   CheckComparable(truth, estimate);
+  const double theta_min_deg = scope.theta_min_deg, theta_max_deg = scope.theta_max_deg;
+  const double half_x = 0.5 * texel_mm * truth.width, half_y = 0.5 * texel_mm * truth.height;
   MdfErrorRow row;
   row.theta_min_deg = theta_min_deg;
   row.theta_max_deg = theta_max_deg;
@@ -51,6 +53,11 @@ MdfErrorRow EvaluateMdfViews(const Mdf& truth, const Mdf& estimate, double texel
       for (int i = 0; i < truth.width; ++i) {
         const float t = truth.at(i, j, v), e = estimate.at(i, j, v);
         if (IsUnknown(t)) continue;
+        if (scope.inside_sample_only && std::isfinite(t)) {
+          const Eigen::Vector3d hit = Eigen::Vector3d(-half_x + (i + 0.5) * texel_mm, -half_y + (j + 0.5) * texel_mm, 0) -
+                                      static_cast<double>(t) * truth.views.direction(v);
+          if (std::abs(hit.x()) > half_x || std::abs(hit.y()) > half_y) continue;
+        }
         if (IsNoHit(t)) {
           ++row.true_no_hits;
           if (std::isfinite(e)) ++false_hit;
@@ -76,14 +83,14 @@ MdfErrorRow EvaluateMdfViews(const Mdf& truth, const Mdf& estimate, double texel
   return row;
 }
 
-MdfErrorTable EvaluateMdf(const Mdf& truth, const Mdf& estimate, double texel_mm) {
+MdfErrorTable EvaluateMdf(const Mdf& truth, const Mdf& estimate, double texel_mm, bool inside_sample_only) {
   if (!(texel_mm > 0)) throw Error("eval mdf: texel width must be positive");
   MdfErrorTable table;
-  table.overall = EvaluateMdfViews(truth, estimate, texel_mm, 0, 90);
+  table.overall = EvaluateMdfViews(truth, estimate, texel_mm, {0, 90, inside_sample_only});
   for (int b = 0; b < 6; ++b) {
     // Half-open buckets but the last, so each view counts once.
     const double lo = 15.0 * b, hi = b == 5 ? 90.0 : 15.0 * (b + 1) - 1e-7;
-    MdfErrorRow row = EvaluateMdfViews(truth, estimate, texel_mm, lo, hi);
+    MdfErrorRow row = EvaluateMdfViews(truth, estimate, texel_mm, {lo, hi, inside_sample_only});
     row.theta_max_deg = 15.0 * (b + 1);
     table.by_polar_angle.push_back(row);
   }

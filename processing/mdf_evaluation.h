@@ -32,12 +32,20 @@ struct MdfErrorTable {
   std::vector<MdfErrorRow> by_polar_angle;  // [0, 15), [15, 30), ... [75, 90] degrees
 };
 
-// Rows over the views whose polar angle lies in [theta_min_deg,
-// theta_max_deg] (closed: 60 degrees counts as "up to 60").
-MdfErrorRow EvaluateMdfViews(const Mdf& truth, const Mdf& estimate, double texel_mm, double theta_min_deg,
-                             double theta_max_deg);
+// Which texel-directions count. The exact MDF is computed on the infinitely
+// tiled mesostructure, while on the rig the sample sits in a pocket: a true
+// hit whose point lies horizontally outside the sample square is behind the
+// pocket wall and cannot be measured. inside_sample_only leaves those out
+// (the grid spans the square: sample size = texel_mm x width).
+struct MdfEvaluationScope {
+  double theta_min_deg = 0;
+  double theta_max_deg = 90;  // closed: 60 degrees counts as "up to 60"
+  bool inside_sample_only = false;
+};
+
+MdfErrorRow EvaluateMdfViews(const Mdf& truth, const Mdf& estimate, double texel_mm, const MdfEvaluationScope& scope);
 // Throws Error when the two differ in texel grid or view directions (to 1e-6 rad).
-MdfErrorTable EvaluateMdf(const Mdf& truth, const Mdf& estimate, double texel_mm);
+MdfErrorTable EvaluateMdf(const Mdf& truth, const Mdf& estimate, double texel_mm, bool inside_sample_only = false);
 
 // {"overall": {...}, "by_polar_angle": [{...}, ...]}, NaN as null.
 nlohmann::json ToJson(const MdfErrorTable& table);

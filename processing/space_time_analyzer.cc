@@ -23,7 +23,17 @@ SpaceTimeAnalyzer::SpaceTimeAnalyzer(int width, int height, int frame_count, Spa
     throw Error("space-time analysis: image size and frame count must be positive");
   }
   if (const auto problem = options.Check(); !problem.empty()) throw Error("space-time analysis: " + problem);
-  state_.resize(static_cast<std::size_t>(width) * height);
+  const std::size_t n = static_cast<std::size_t>(width) * height;
+  best_.assign(n, -1.0f);
+  best_index_.assign(n, -1);
+  last_.assign(n, 0.0f);
+  before_.assign(n, 0.0f);
+  after_.assign(n, 0.0f);
+  before_index_.assign(n, -1);
+  after_index_.assign(n, -1);
+  run_start_.assign(n, -1);
+  saturated_first_.assign(n, -1);
+  saturated_last_.assign(n, -1);
 }
 
 void SpaceTimeAnalyzer::AddFrame(int index, const Image& frame) {
@@ -39,30 +49,31 @@ void SpaceTimeAnalyzer::AddFrame(int index, const Image& frame) {
   const float* values = frame.data();
   const float saturation = options_.saturation;
   const int previous = last_index_;
-  const std::size_t n = state_.size();
+  const std::size_t n = best_.size();
+  float* best = best_.data();
+  std::int32_t* best_index = best_index_.data();
+  float* last = last_.data();
   for (std::size_t p = 0; p < n; ++p) {
     const float v = values[p];
-    PixelState& s = state_[p];
-    if (v > s.best) {
-      s.best = v;
-      s.best_index = index;
-      s.before = s.last;
-      s.before_index = previous;
-      s.after_index = -1;
-    } else if (s.best_index == previous) {
-      s.after = v;
-      s.after_index = index;
+    if (v > best[p]) [[unlikely]] {
+      best[p] = v;
+      best_index[p] = index;
+      before_[p] = last[p];
+      before_index_[p] = previous;
+      after_index_[p] = -1;
+    } else if (best_index[p] == previous) [[unlikely]] {
+      after_[p] = v;
+      after_index_[p] = index;
     }
-    if (v >= saturation) {
-      if (s.run_start < 0) s.run_start = index;
-      if (s.saturated_first < 0 || index - s.run_start > s.saturated_last - s.saturated_first) {
-        s.saturated_first = s.run_start;
-        s.saturated_last = index;
+    if (v >= saturation) [[unlikely]] {
+      // A run continues when the previous frame was saturated too.
+      if (!(last[p] >= saturation) || previous < 0) run_start_[p] = index;
+      if (saturated_first_[p] < 0 || index - run_start_[p] > saturated_last_[p] - saturated_first_[p]) {
+        saturated_first_[p] = run_start_[p];
+        saturated_last_[p] = index;
       }
-    } else {
-      s.run_start = -1;
     }
-    s.last = v;
+    last[p] = v;
   }
   last_index_ = index;
   ++frames_added_;
@@ -73,18 +84,18 @@ SweepAnalysis SpaceTimeAnalyzer::Result() const {
   result.width = width_;
   result.height = height_;
   result.frame_count = frame_count_;
-  result.peak_time.assign(state_.size(), std::numeric_limits<float>::quiet_NaN());
-  result.peak_value.assign(state_.size(), 0.0f);
+  const std::size_t n = best_.size();
+  result.peak_time.assign(n, std::numeric_limits<float>::quiet_NaN());
+  result.peak_value.assign(n, 0.0f);
   result.planes.resize(frame_count_);
-  for (std::size_t p = 0; p < state_.size(); ++p) {
-    const PixelState& s = state_[p];
-    result.peak_value[p] = std::max(s.best, 0.0f);
-    if (s.best < options_.threshold) continue;
-    double t = s.best_index;
-    if (s.best >= options_.saturation && s.saturated_first >= 0) {
-      t = 0.5 * (s.saturated_first + s.saturated_last);
-    } else if (s.before_index >= 0 && s.after_index >= 0) {
-      t = InterpolatePeak(s.before_index, s.before, s.best_index, s.best, s.after_index, s.after);
+  for (std::size_t p = 0; p < n; ++p) {
+    result.peak_value[p] = std::max(best_[p], 0.0f);
+    if (best_[p] < options_.threshold) continue;
+    double t = best_index_[p];
+    if (best_[p] >= options_.saturation && saturated_first_[p] >= 0) {
+      t = 0.5 * (saturated_first_[p] + saturated_last_[p]);
+    } else if (before_index_[p] >= 0 && after_index_[p] >= 0) {
+      t = InterpolatePeak(before_index_[p], before_[p], best_index_[p], best_[p], after_index_[p], after_[p]);
     }
     result.peak_time[p] = static_cast<float>(t);
   }

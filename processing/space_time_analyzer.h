@@ -59,26 +59,23 @@ class SpaceTimeAnalyzer {
   SweepAnalysis Result() const;
 
  private:
-  // 40 bytes per pixel whatever the sweep length.
-  struct PixelState {
-    float best = -1.0f;   // brightest value so far and its frame
-    float before = 0.0f;  // the frame before it and after it (when seen)
-    float after = 0.0f;
-    float last = 0.0f;  // the latest frame's value
-    std::int32_t best_index = -1;
-    std::int32_t before_index = -1;
-    std::int32_t after_index = -1;
-    std::int32_t run_start = -1;  // current saturated run
-    std::int32_t saturated_first = -1;  // longest saturated run
-    std::int32_t saturated_last = -1;
-  };
+  // Per pixel, whatever the sweep length (structure of arrays): the arrays
+  // every frame touches (the brightest value so far and its frame, the
+  // latest value) apart from those only a new maximum, the frame after it or
+  // a saturated value touch, so the common pixel costs 16 bytes of traffic.
+  std::vector<float> best_;
+  std::vector<std::int32_t> best_index_;
+  std::vector<float> last_;
+  std::vector<float> before_, after_;  // the frames around the maximum
+  std::vector<std::int32_t> before_index_, after_index_;
+  std::vector<std::int32_t> run_start_;                         // current saturated run
+  std::vector<std::int32_t> saturated_first_, saturated_last_;  // longest saturated run
   int width_;
   int height_;
   int frame_count_;
   SpaceTimeOptions options_;
   int last_index_ = -1;
   int frames_added_ = 0;
-  std::vector<PixelState> state_;
 };
 
 // A sweep analysis on disk: <file> (JSON: sizes, planes) beside <file>.exr
