@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <cstdlib>
 
 #include "processing/mdf_evaluation.h"
 #include "tests/processing/simulated_scan.h"
@@ -29,10 +30,14 @@ TEST(MdfPipelineTest, Explore) {
   setup.rig = "small";
   setup.turntable_indices = {0};
   setup.cameras = {0, 1, 2, 3};
+  if (std::getenv("CAMS")) setup.cameras = {std::atoi(std::getenv("CAMS"))};
+  if (std::getenv("RATIO")) setup.triangulation.max_depth_step_ratio = std::atof(std::getenv("RATIO"));
+  if (std::getenv("STEP")) setup.triangulation.max_depth_step_texels = std::atof(std::getenv("STEP"));
+  if (std::getenv("FILL")) setup.triangulation.fill_discontinuities = std::atoi(std::getenv("FILL"));
   const ScanResult r = RunSimulatedScan(setup);
-  const MdfErrorTable table = EvaluateMdf(r.truth, r.estimate, r.texel_mm);
+  const MdfErrorTable table = EvaluateMdf(r.truth, r.estimate, r.texel_mm, true);
   std::printf("%s", FormatMdfErrorTable(table).c_str());
-  const MdfErrorRow up60 = EvaluateMdfViews(r.truth, r.estimate, r.texel_mm, 0, 60);
+  const MdfErrorRow up60 = EvaluateMdfViews(r.truth, r.estimate, r.texel_mm, {0, 60, true});
   std::printf("up to 60: median %.3f p95 %.3f coverage %.4f\n", up60.median_texels, up60.p95_texels, up60.coverage);
 }
 }  // namespace
