@@ -3,6 +3,7 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <string>
 
 namespace mesocap {
 
@@ -15,5 +16,19 @@ void RegisterInfoCommand(CLI::App& app);
 void RegisterGroundTruthCommand(CLI::App& app);
 void RegisterSimulateCommand(CLI::App& app);
 void RegisterCompressCommand(CLI::App& app);
+void RegisterProcessMdfCommand(CLI::App& app);  // `process mdf`
+void RegisterEvalMdfCommand(CLI::App& app);     // `eval mdf`
+
+// The group command `name` ("process", "eval"), created on first use so that
+// each of its subcommands registers itself independently.
+inline CLI::App* GroupCommand(CLI::App& app, const std::string& name, const std::string& description) {
+  try {
+    return app.get_subcommand(name);
+  } catch (const CLI::OptionNotFound&) {
+    CLI::App* group = app.add_subcommand(name, description);
+    group->require_subcommand(1);
+    return group;
+  }
+}
 
 }  // namespace mesocap
