@@ -44,19 +44,24 @@ Plane FramePlane(const ReferenceLine& line, const Plane& calibrated, const Eigen
   return plane;
 }
 
-Plane PlaneAtTime(const std::vector<Plane>& planes, double t) {
+Plane PlaneAtTime(const std::vector<Plane>& planes, double t, int max_gap) {
   if (!(t >= 0) || t > static_cast<double>(planes.size()) - 1) return {};
-  const auto i0 = static_cast<std::size_t>(std::floor(t));
-  const std::size_t i1 = std::min(i0 + 1, planes.size() - 1);
-  const double f = t - static_cast<double>(i0);
+  const int n = static_cast<int>(planes.size());
+  // The nearest valid planes at or before and at or after t, at most
+  // max_gap frames apart (a dropped frame has no plane of its own).
+  int i0 = static_cast<int>(std::floor(t));
+  int i1 = static_cast<int>(std::ceil(t));
+  while (i0 >= 0 && !planes[i0].valid()) --i0;
+  while (i1 < n && !planes[i1].valid()) ++i1;
+  if (i0 < 0 || i1 >= n || i1 - i0 > max_gap) return {};
+  if (i0 == i1) return planes[i0];
+  const double f = (t - i0) / (i1 - i0);
   const Plane& a = planes[i0];
   const Plane& b = planes[i1];
-  if (f == 0.0) return a;
-  if (!a.valid() || !b.valid()) return {};
   Plane p;
-  const Eigen::Vector3d n = (1 - f) * a.normal + f * b.normal;
-  const double norm = n.norm();
-  p.normal = n / norm;
+  const Eigen::Vector3d normal = (1 - f) * a.normal + f * b.normal;
+  const double norm = normal.norm();
+  p.normal = normal / norm;
   p.offset = ((1 - f) * a.offset + f * b.offset) / norm;
   return p;
 }

@@ -49,11 +49,13 @@ double AngleToReferencePlane(const Plane& plane);
 Plane FramePlane(const ReferenceLine& line, const Plane& calibrated, const Eigen::Vector3d& tilt_axis,
                  double delta_tilt_rad);
 
-// The plane at fractional frame time t between the frames' planes: normal
-// and offset blended linearly between floor(t) and ceil(t) (adjacent planes
-// differ by well under a degree). Invalid when t is outside the frames or a
-// bracketing plane is invalid.
-Plane PlaneAtTime(const std::vector<Plane>& planes, double t);
+// The plane at fractional frame time t: normal and offset blended linearly
+// between the nearest valid planes before and after t (adjacent planes
+// differ by well under a degree, and the sweep is uniform in time, so a gap
+// left by dropped frames or frames without a detected line is bridged).
+// Invalid when t is outside the frames or the bracketing valid planes are
+// more than max_gap frames apart.
+Plane PlaneAtTime(const std::vector<Plane>& planes, double t, int max_gap = 4);
 
 nlohmann::json ToJson(const Plane& plane);
 // null (invalid) or a plane; throws FormatError naming the file and field.

@@ -11,33 +11,15 @@
 
 #include "core/json_field_reader.h"
 #include "core/material_package.h"
+#include "tests/common/mesocap_command.h"
 #include "tests/common/temporary_directory.h"
 
 namespace mesocap {
 namespace {
 
-struct CommandResult {
-  int exit_code = -1;
-  std::string out;
-  std::string err;
-};
-
-std::string Slurp(const std::filesystem::path& p) {
-  std::ifstream in(p);
-  return {std::istreambuf_iterator<char>(in), {}};
-}
-
-CommandResult Mesocap(const std::string& args) {
-  testing::TemporaryDirectory dir;
-  const std::string cmd = std::string(MESOCAP_BINARY) + " " + args + " >" + (dir / "out").string() + " 2>" +
-                          (dir / "err").string();
-  const int status = std::system(cmd.c_str());
-  CommandResult r;
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.out = Slurp(dir / "out");
-  r.err = Slurp(dir / "err");
-  return r;
-}
+using testing::CommandResult;
+using testing::Mesocap;
+using testing::Slurp;
 
 std::string RigFile(const std::string& name) {
   return std::string(MESOCAP_SOURCE_DIR) + "/sim/rigs/" + name + ".json";

@@ -171,6 +171,18 @@ TEST_F(LaserGeometryTest, IllConditionedTriangulationIsRejectedNotWild) {
   }
 }
 
+TEST(PlaneAtTimeTest, BlendsAndBridgesDroppedFrames) {
+  std::vector<Plane> planes(6);
+  for (int i = 0; i < 6; ++i) planes[i] = Plane{Eigen::Vector3d(1, 0, 0), 2.0 * i};
+  planes[3] = Plane{};  // dropped
+  EXPECT_NEAR(PlaneAtTime(planes, 1.25).offset, 2.5, 1e-12);
+  EXPECT_NEAR(PlaneAtTime(planes, 2.5).offset, 5.0, 1e-12);  // bridged over frame 3
+  EXPECT_NEAR(PlaneAtTime(planes, 3.0).offset, 6.0, 1e-12);
+  EXPECT_FALSE(PlaneAtTime(planes, 5.5).valid());
+  EXPECT_FALSE(PlaneAtTime(planes, -0.1).valid());
+  EXPECT_FALSE(PlaneAtTime(planes, 2.5, 1).valid());  // a gap wider than allowed
+}
+
 TEST(ScanWeightTest, TetrahedronVanishesWhenTheCameraIsInTheLaserPlane) {
   const Eigen::Vector3d source(400, 0, 400);
   const Plane plane{Eigen::Vector3d(1, 0, 1).normalized(), Eigen::Vector3d(1, 0, 1).normalized().dot(source)};

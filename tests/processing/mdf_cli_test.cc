@@ -12,6 +12,7 @@
 
 #include "core/frame_sequence.h"
 #include "core/json_field_reader.h"
+#include "tests/common/mesocap_command.h"
 #include "tests/common/temporary_directory.h"
 
 namespace mesocap {
@@ -19,28 +20,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct CommandResult {
-  int exit_code = -1;
-  std::string out;
-  std::string err;
-};
-
-std::string Slurp(const fs::path& p) {
-  std::ifstream in(p);
-  return {std::istreambuf_iterator<char>(in), {}};
-}
-
-CommandResult Mesocap(const std::string& args) {
-  testing::TemporaryDirectory dir;
-  const std::string cmd = std::string(MESOCAP_BINARY) + " " + args + " >" + (dir / "out").string() + " 2>" +
-                          (dir / "err").string();
-  const int status = std::system(cmd.c_str());
-  CommandResult r;
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.out = Slurp(dir / "out");
-  r.err = Slurp(dir / "err");
-  return r;
-}
+using testing::CommandResult;
+using testing::Mesocap;
+using testing::Slurp;
 
 class MdfCliTest : public ::testing::Test {
  protected:

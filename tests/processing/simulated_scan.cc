@@ -1,5 +1,6 @@
 #include "tests/processing/simulated_scan.h"
 
+#include <chrono>
 #include <cmath>
 
 #include "drivers/rig_description.h"
@@ -14,6 +15,9 @@
 
 namespace mesocap::test {
 namespace {
+
+using Clock = std::chrono::steady_clock;
+double Seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
 
 std::vector<int> AllOr(const std::vector<int>& chosen, int count) {
   if (!chosen.empty()) return chosen;
@@ -103,14 +107,21 @@ ScanResult RunSimulatedScan(const ScanSetup& setup) {
           if (setup.dropped_frames.count(f)) continue;
           Image signal = sweep.Frame(tilts[f]);
           if (setup.tamper) setup.tamper(f, &signal);
-          processor.AddFrame(f, sense(std::move(signal), cam, ti * 100 + li, cam, f));
+          const Image frame = sense(std::move(signal), cam, ti * 100 + li, cam, f);
+          const auto start = Clock::now();
+          processor.AddFrame(f, frame);
+          result.processing_seconds += Seconds(Clock::now() - start);
         }
+        const auto start = Clock::now();
         const double weight = ScanWeight(pose.source, rays[cam].centre(), calibrated[li][cam], 0.5 * rig.sample_size_mm);
         assembler.AddSweep(view_index, processor.Finish(), rays[cam], world_from_sample, weight);
+        result.processing_seconds += Seconds(Clock::now() - start);
       }
     }
   }
+  const auto start = Clock::now();
   result.estimate = assembler.Finish(&result.confidence);
+  result.processing_seconds += Seconds(Clock::now() - start);
   // Views not scanned are left out of the comparison (unknown in the truth).
   for (int v = 0; v < views.size(); ++v) {
     if (processed[v]) continue;

@@ -39,6 +39,9 @@ struct ScanResult {
   Mdf estimate;
   Image confidence;
   double texel_mm = 0;
+  // Time spent in the processing code (line detection, space-time analysis,
+  // triangulation, resampling, merging), without rendering.
+  double processing_seconds = 0;
 };
 
 ScanResult RunSimulatedScan(const ScanSetup& setup);
