@@ -3,6 +3,7 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <string>
 
 namespace mesocap {
 
@@ -15,5 +16,18 @@ void RegisterInfoCommand(CLI::App& app);
 void RegisterGroundTruthCommand(CLI::App& app);
 void RegisterSimulateCommand(CLI::App& app);
 void RegisterCompressCommand(CLI::App& app);
+void RegisterEvalBtfCommand(CLI::App& app);
+
+// The group subcommand `name` (`eval`, `process`), created by whichever file
+// registers first, so each file adds its own `eval X` without the others.
+inline CLI::App* SubcommandGroup(CLI::App& app, const std::string& name, const std::string& description) {
+  try {
+    return app.get_subcommand(name);
+  } catch (const CLI::OptionNotFound&) {
+    CLI::App* group = app.add_subcommand(name, description);
+    group->require_subcommand(1);
+    return group;
+  }
+}
 
 }  // namespace mesocap

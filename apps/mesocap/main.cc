@@ -29,6 +29,7 @@ int main(int argc, char** argv) {
   mesocap::RegisterGroundTruthCommand(app);
   mesocap::RegisterSimulateCommand(app);
   mesocap::RegisterCompressCommand(app);
+  mesocap::RegisterEvalBtfCommand(app);
 
   // Subcommands report failure by throwing; every failure is one line on
   // stderr and a non-zero exit (1 for errors, CLI11's codes for usage).

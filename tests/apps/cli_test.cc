@@ -159,5 +159,35 @@ TEST(Cli, CompressFactorsAGroundTruthPackage) {
   EXPECT_FALSE(std::filesystem::exists(dir / "y"));
 }
 
+// `mesocap eval btf --json` prints the figures; a compressed weave's
+// error is the one the compression measured.
+TEST(Cli, EvalBtfPrintsTheErrorOfACompressedPackage) {
+  testing::TemporaryDirectory dir;
+  const std::string gt = (dir / "gt").string(), out = (dir / "c").string();
+  ASSERT_EQ(Mesocap("-q groundtruth --scene weave --rig tiny --texture-size 8 --out " + gt).exit_code, 0);
+  ASSERT_EQ(Mesocap("-q compress --in " + gt + " --out " + out + " --rank 2").exit_code, 0);
+  const CommandResult r = Mesocap("eval btf --json --truth " + gt + " --estimate " + out);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["rank"], 2);
+  const double measured = ReadErrorReport(out, ReadMaterialManifest(out))["btf_compression"]["measured_relative_rms"];
+  EXPECT_NEAR(j["overall"]["relative_rms"].get<double>(), measured, 1e-6 * measured);
+  EXPECT_GT(j["overall"]["psnr_db"].get<double>(), 0.0);
+  ASSERT_FALSE(j["by_polar_angle"].empty());
+  for (const auto& band : j["by_polar_angle"]) {
+    for (const char* key : {"theta_min_deg", "theta_max_deg", "psnr_db", "relative_rms"}) EXPECT_TRUE(band.contains(key)) << key;
+  }
+  // The truth against itself is exact: PSNR infinite (null), error 0, no rank.
+  const auto self = nlohmann::json::parse(Mesocap("eval btf --json --truth " + gt + " --estimate " + gt).out);
+  EXPECT_EQ(self["overall"]["relative_rms"], 0.0);
+  EXPECT_TRUE(self["overall"]["psnr_db"].is_null());
+  EXPECT_TRUE(self["rank"].is_null());
+  // A truth on another grid is refused with the reason.
+  ASSERT_EQ(Mesocap("-q groundtruth --scene weave --rig tiny --texture-size 4 --out " + (dir / "gt4").string()).exit_code, 0);
+  const CommandResult bad = Mesocap("eval btf --truth " + (dir / "gt4").string() + " --estimate " + out);
+  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_NE(bad.err.find("texture size"), std::string::npos) << bad.err;
+}
+
 }  // namespace
 }  // namespace mesocap
