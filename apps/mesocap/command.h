@@ -17,6 +17,7 @@ void RegisterGroundTruthCommand(CLI::App& app);
 void RegisterSimulateCommand(CLI::App& app);
 void RegisterCompressCommand(CLI::App& app);
 void RegisterEvalBtfCommand(CLI::App& app);
+void RegisterProcessBtfCommand(CLI::App& app);
 
 // The group subcommand `name` (`eval`, `process`), created by whichever file
 // registers first, so each file adds its own `eval X` without the others.

@@ -30,6 +30,7 @@ int main(int argc, char** argv) {
   mesocap::RegisterSimulateCommand(app);
   mesocap::RegisterCompressCommand(app);
   mesocap::RegisterEvalBtfCommand(app);
+  mesocap::RegisterProcessBtfCommand(app);
 
   // Subcommands report failure by throwing; every failure is one line on
   // stderr and a non-zero exit (1 for errors, CLI11's codes for usage).
