@@ -189,5 +189,32 @@ TEST(Cli, EvalBtfPrintsTheErrorOfACompressedPackage) {
   EXPECT_NE(bad.err.find("texture size"), std::string::npos) << bad.err;
 }
 
+// `mesocap process btf` on a tiny-rig session of the flat sample: the package
+// holds the factored (and full) BTF, the ambient term and the assembly's
+// figures, and its BTF is within the rig's error of the ground truth; a
+// missing image is one error line naming it, and nothing is written.
+TEST(Cli, ProcessBtfTurnsASessionIntoAMaterial) {
+  testing::TemporaryDirectory dir;
+  const std::string session = (dir / "s").string(), out = (dir / "m").string(), gt = (dir / "gt").string();
+  ASSERT_EQ(Mesocap("-q simulate --scene flat --rig tiny --out " + session).exit_code, 0);
+  const CommandResult r = Mesocap("-q process btf --session " + session + " --out " + out +
+                                  " --texture-size 8 --full --max-error 1e-3");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const MaterialManifest m = ReadMaterialManifest(out);
+  EXPECT_TRUE(m.full_btf && m.factored_btf && m.ambient && m.calibration);
+  const auto report = ReadErrorReport(out, m);
+  EXPECT_EQ(report["btf_assembly"]["measured_pairs"], 32);
+  EXPECT_EQ(report["btf_assembly"]["interpolated_pairs"], 32);
+  ASSERT_EQ(Mesocap("-q groundtruth --scene flat --rig tiny --texture-size 8 --out " + gt).exit_code, 0);
+  const auto e = nlohmann::json::parse(Mesocap("eval btf --json --truth " + gt + " --estimate " + out).out);
+  EXPECT_GT(e["overall"]["psnr_db"].get<double>(), 30.0) << e.dump();
+
+  std::filesystem::remove(std::filesystem::path(session) / "btf" / "t1_a0_l1_cam0.png");
+  const CommandResult missing = Mesocap("process btf --session " + session + " --out " + (dir / "m2").string());
+  EXPECT_EQ(missing.exit_code, 1);
+  EXPECT_NE(missing.err.find("t1_a0_l1_cam0.png: missing BTF image"), std::string::npos) << missing.err;
+  EXPECT_FALSE(std::filesystem::exists(dir / "m2"));
+}
+
 }  // namespace
 }  // namespace mesocap
