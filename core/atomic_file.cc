@@ -4,6 +4,8 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <cctype>
+#include <vector>
 #include <cerrno>
 #include <cstring>
 #include <fstream>
@@ -26,6 +28,34 @@ fs::path ParentOrDot(const fs::path& p) {
 }
 
 }  // namespace
+
+bool IsAtomicTemporaryName(std::string_view name) {
+  // "." then a name, then ".tmp-" digits "-" digits, then an optional extension.
+  if (name.size() < 2 || name[0] != '.') return false;
+  for (std::size_t at = name.find(".tmp-", 1); at != std::string_view::npos; at = name.find(".tmp-", at + 1)) {
+    std::size_t i = at + 5;
+    const std::size_t pid_begin = i;
+    while (i < name.size() && std::isdigit(static_cast<unsigned char>(name[i]))) ++i;
+    if (i == pid_begin || i >= name.size() || name[i] != '-') continue;
+    const std::size_t count_begin = ++i;
+    while (i < name.size() && std::isdigit(static_cast<unsigned char>(name[i]))) ++i;
+    if (i == count_begin) continue;
+    if (i == name.size() || (name[i] == '.' && name.find('.', i + 1) == std::string_view::npos)) return at > 1;
+  }
+  return false;
+}
+
+std::size_t RemoveStaleTemporaries(const fs::path& dir) {
+  std::vector<fs::path> stale;
+  for (auto it = fs::recursive_directory_iterator(dir); it != fs::recursive_directory_iterator(); ++it) {
+    if (IsAtomicTemporaryName(it->path().filename().string())) {
+      stale.push_back(it->path());
+      if (it->is_directory()) it.disable_recursion_pending();
+    }
+  }
+  for (const fs::path& p : stale) fs::remove_all(p);
+  return stale.size();
+}
 
 void SyncPath(const fs::path& path) {
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);

@@ -56,6 +56,15 @@ void WriteTextFileAtomically(const std::filesystem::path& target, std::string_vi
 // Pretty-printed (2-space indent) JSON with a trailing newline.
 void WriteJsonFileAtomically(const std::filesystem::path& target, const nlohmann::json& value);
 
+// Whether `name` is a temporary name that AtomicFile or AtomicDirectory
+// makes (".stem.tmp-PID-N.ext", ".name.tmp-PID-N", ".name.old.tmp-PID-N").
+bool IsAtomicTemporaryName(std::string_view name);
+// Removes what AtomicFile / AtomicDirectory left behind under `dir`
+// (recursively) when a process died mid-write; returns how many entries it
+// removed. Only for a folder no other process is writing (a locked capture
+// session), since it cannot tell a dead writer's file from a live one's.
+std::size_t RemoveStaleTemporaries(const std::filesystem::path& dir);
+
 // fsync of a file or folder by path; throws Error on failure.
 void SyncPath(const std::filesystem::path& path);
 

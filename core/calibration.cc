@@ -1,6 +1,5 @@
 #include "core/calibration.h"
 
-#include <Eigen/Geometry>
 #include <cmath>
 #include <map>
 #include <numbers>
@@ -445,38 +444,6 @@ void WriteCalibration(const fs::path& file, const Calibration& calibration) {
   const json document = ToJson(calibration);
   ParseCalibration(document, file);
   WriteJsonFileAtomically(file, document);
-}
-
-RigidTransform WorldFromSample(const TurntableCalibration& turntable, double turntable_rad) {
-  // world <- turntable: the rotation about the axis through axis_point.
-  RigidTransform world_from_turntable;
-  world_from_turntable.parent_frame = "world";
-  world_from_turntable.child_frame = "turntable";
-  world_from_turntable.rotation = Eigen::AngleAxisd(turntable_rad, turntable.axis_direction).toRotationMatrix();
-  world_from_turntable.translation = turntable.axis_point_mm - world_from_turntable.rotation * turntable.axis_point_mm;
-  return world_from_turntable.Compose(turntable.sample_pose.transform);
-}
-
-Eigen::Vector3d LampWorldPosition(const LightArcCalibration& arc, const LampCalibration& lamp, double arc_rad) {
-  const Eigen::Matrix3d r = Eigen::AngleAxisd(arc_rad, arc.axis_direction).toRotationMatrix();
-  return arc.axis_point_mm + r * (lamp.position_mm - arc.axis_point_mm);
-}
-
-Eigen::Vector2d ApplyDistortion(const Distortion& d, const Eigen::Vector2d& p) {
-  const double x = p.x(), y = p.y();
-  const double r2 = x * x + y * y;
-  const double radial = 1.0 + r2 * (d.k1 + r2 * (d.k2 + r2 * d.k3));
-  return {x * radial + 2.0 * d.p1 * x * y + d.p2 * (r2 + 2.0 * x * x),
-          y * radial + d.p1 * (r2 + 2.0 * y * y) + 2.0 * d.p2 * x * y};
-}
-
-std::optional<Eigen::Vector2d> ProjectWorldToPixel(const CameraCalibration& camera, const Eigen::Vector3d& world) {
-  const RigidTransform& pose = camera.pose.transform;  // world <- camera
-  const Eigen::Vector3d c = pose.rotation.transpose() * (world - pose.translation);
-  if (!(c.z() > 1e-9)) return std::nullopt;
-  const Eigen::Vector2d d = ApplyDistortion(camera.distortion, Eigen::Vector2d(c.x() / c.z(), c.y() / c.z()));
-  const Intrinsics& k = camera.intrinsics;
-  return Eigen::Vector2d(k.fx * d.x() + k.cx, k.fy * d.y() + k.cy);
 }
 
 }  // namespace mesocap

@@ -124,16 +124,4 @@ nlohmann::json ToJson(const Calibration& calibration);
 // and file names.
 bool IsValidId(std::string_view id);
 
-// The calibrated geometry in use (Sec. 3.1): the sample frame at a turntable
-// angle (turntable <- sample, turned about the calibrated axis) and a lamp's
-// world position at a light-arc angle (turned about the arc's axis).
-RigidTransform WorldFromSample(const TurntableCalibration& turntable, double turntable_rad);
-Eigen::Vector3d LampWorldPosition(const LightArcCalibration& arc, const LampCalibration& lamp, double arc_rad);
-
-// OpenCV's Brown-Conrady distortion of normalized image coordinates, and the
-// pixel position (centres at integers) of a world point; nullopt when the
-// point is not in front of the camera (z <= 1e-9 mm in the camera frame).
-Eigen::Vector2d ApplyDistortion(const Distortion& d, const Eigen::Vector2d& undistorted);
-std::optional<Eigen::Vector2d> ProjectWorldToPixel(const CameraCalibration& camera, const Eigen::Vector3d& world);
-
 }  // namespace mesocap

@@ -12,6 +12,8 @@
 #include "core/image_io.h"
 #include "core/capture_session.h"
 #include "processing/btf_rectification.h"
+#include "processing/camera_rays.h"
+#include "processing/laser_sweep.h"
 
 namespace mesocap {
 namespace {
@@ -101,7 +103,8 @@ FullBtf AssembleBtf(const std::vector<BtfCaptureImage>& images, const Calibratio
     const Eigen::Matrix3d to_sample = world_from_sample.rotation.transpose();
     const Eigen::Vector3d origin = world_from_sample.translation;
     const Eigen::Vector3d camera_centre = calibration.cameras[image.camera].pose.transform.translation;
-    const Eigen::Vector3d lamp = LampWorldPosition(calibration.light_arc, calibration.lamps[image.lamp], image.arc_rad);
+    const Eigen::Vector3d lamp =
+        LightArcPointToWorld(calibration.light_arc, image.arc_rad, calibration.lamps[image.lamp].position_mm);
     const int v = MatchDirection(o.views, to_sample * (camera_centre - origin), "view", image,
                                  o.max_direction_error_deg, &r.max_view_offset_deg);
     const int l = MatchDirection(o.lights, to_sample * (lamp - origin), "light", image, o.max_direction_error_deg,
@@ -126,21 +129,23 @@ FullBtf AssembleBtf(const std::vector<BtfCaptureImage>& images, const Calibratio
     }
   }
 
+  std::vector<CameraRays> camera_rays;
+  for (const CameraCalibration& camera : calibration.cameras) camera_rays.emplace_back(camera);
   const int w = o.texture_width, h = o.texture_height;
   FullBtf btf = MakeFullBtf(w, h, o.views, o.lights);
   std::mutex report_mutex;
   tbb::parallel_for(0, o.views.size(), [&](int v) {
     const int cam = view_camera[v];
     const RigidTransform world_from_sample = WorldFromSample(calibration.turntable, view_turntable[v]);
-    const ReferencePlaneRectifier rectifier(calibration.cameras[cam], world_from_sample, w, h, o.sample_size_mm,
-                                            o.max_samples_per_side);
+    const ReferencePlaneRectifier rectifier(calibration.cameras[cam], camera_rays[cam], world_from_sample, w, h,
+                                            o.sample_size_mm, o.max_samples_per_side);
     const Eigen::Vector3d normal = world_from_sample.rotation.col(2);
     Image& out = btf.view_images[v];
     for (const Placed& placed : by_view[v]) {
       const BtfCaptureImage& image = images[placed.image];
       const Image texture = rectifier.Rectify(ReadCapture(image, calibration.cameras[cam]));
       const Eigen::Vector3d lamp =
-          LampWorldPosition(calibration.light_arc, calibration.lamps[image.lamp], image.arc_rad);
+          LightArcPointToWorld(calibration.light_arc, image.arc_rad, calibration.lamps[image.lamp].position_mm);
       const Eigen::Vector3d intensity = calibration.lamps[image.lamp].intensity;
       const double radiance_per_value = 1.0 / (o.exposure_s[cam] * o.signal_per_radiance_second);
       for (int j = 0; j < h; ++j) {

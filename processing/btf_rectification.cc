@@ -11,7 +11,7 @@ Eigen::Vector3d ReferencePlaneRectifier::TexelCentre(int i, int j, int width, in
   return {-s / 2 + (i + 0.5) * s / width, -s / 2 + (j + 0.5) * s / height, 0.0};
 }
 
-ReferencePlaneRectifier::ReferencePlaneRectifier(const CameraCalibration& camera,
+ReferencePlaneRectifier::ReferencePlaneRectifier(const CameraCalibration& camera, const CameraRays& rays,
                                                  const RigidTransform& world_from_sample, int width, int height,
                                                  double sample_size_mm, int max_samples_per_side)
     : width_(width), height_(height), image_width_(camera.width), image_height_(camera.height) {
@@ -20,9 +20,9 @@ ReferencePlaneRectifier::ReferencePlaneRectifier(const CameraCalibration& camera
   }
   const double dx = sample_size_mm / width, dy = sample_size_mm / height;
   const auto project = [&](const Eigen::Vector3d& sample_point) {
-    const auto pixel = ProjectWorldToPixel(camera, world_from_sample.Apply(sample_point));
-    if (!pixel) throw Error("rectification: the sample is behind camera " + camera.id);
-    return *pixel;
+    const Eigen::Vector2d pixel = rays.Project(world_from_sample.Apply(sample_point));
+    if (!pixel.allFinite()) throw Error("rectification: the sample is behind camera " + camera.id);
+    return pixel;
   };
   first_tap_.reserve(static_cast<std::size_t>(width) * height + 1);
   for (int j = 0; j < height; ++j) {

@@ -21,6 +21,7 @@
 
 #include "core/calibration.h"
 #include "core/image.h"
+#include "processing/camera_rays.h"
 
 namespace mesocap {
 
@@ -28,8 +29,10 @@ class ReferencePlaneRectifier {
  public:
   // Throws Error, naming the camera, when a texel's footprint leaves the
   // image or lies behind the camera.
-  ReferencePlaneRectifier(const CameraCalibration& camera, const RigidTransform& world_from_sample, int width,
-                          int height, double sample_size_mm, int max_samples_per_side = 8);
+  // Projects with the camera's CameraRays (cv::projectPoints).
+  ReferencePlaneRectifier(const CameraCalibration& camera, const CameraRays& rays,
+                          const RigidTransform& world_from_sample, int width, int height, double sample_size_mm,
+                          int max_samples_per_side = 8);
 
   // The camera image (any channel count) in texture space, W x H.
   Image Rectify(const Image& camera_image) const;

@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numbers>
+#include <random>
 
 #include "core/error.h"
 #include "sim/true_calibration.h"
@@ -73,6 +75,9 @@ CameraRenderer::CameraRenderer(const MesostructureScene& scene, const drivers::R
     : scene_(scene), rig_(rig), options_(options), calibration_(TrueCalibration(rig)) {
   if (options_.samples_per_pixel_side < 1 || options_.samples_per_pixel_side > 16) {
     throw Error("camera renderer: samples per pixel side must be 1..16");
+  }
+  if (options_.interreflection_rays_per_pixel < 0 || options_.interreflection_rays_per_pixel > 256) {
+    throw Error("camera renderer: interreflection rays per pixel must be 0..256");
   }
 }
 
@@ -188,6 +193,35 @@ bool CameraRenderer::Lit(const CameraView& view, const ViewSample& s, const Eige
   return !scene_.Occluded(p, l, eps, t_top);
 }
 
+std::optional<ViewSample> CameraRenderer::BounceHit(const CameraView& view, const ViewSample& s,
+                                                    const Eigen::Vector3d& dir) const {
+  if (s.surface != ViewSample::Surface::kSample) return std::nullopt;
+  const Eigen::Matrix3d to_sample = RotationZ(-view.turntable_rad);
+  const Eigen::Vector3d p = to_sample * s.point;
+  const Eigen::Vector3d d = to_sample * dir;
+  // The slab ends at the reference plane (open), at its floor and at the
+  // pocket's walls (both black).
+  double t_exit = kInfinity;
+  if (d.z() > 0.0) t_exit = -p.z() / d.z();
+  if (d.z() < 0.0) t_exit = (-scene_.d_max_mm() - p.z()) / d.z();
+  const double half = rig_.sample_size_mm / 2;
+  for (int axis = 0; axis < 2; ++axis) {
+    if (d[axis] > 0) t_exit = std::min(t_exit, (half - p[axis]) / d[axis]);
+    if (d[axis] < 0) t_exit = std::min(t_exit, (-half - p[axis]) / d[axis]);
+  }
+  const double eps = scene_.surface_epsilon_mm();
+  if (!(t_exit > eps)) return std::nullopt;
+  const auto hit = scene_.Intersect(p, d, eps, t_exit);
+  if (!hit) return std::nullopt;
+  const Eigen::Matrix3d to_world = RotationZ(view.turntable_rad);
+  ViewSample out;
+  out.surface = ViewSample::Surface::kSample;
+  out.point = to_world * hit->point;
+  out.normal = to_world * hit->normal;
+  out.reflectance = hit->reflectance;
+  return out;
+}
+
 Image CameraRenderer::RenderLamps(const CameraView& view, double arc_rad, const std::vector<bool>& lamps_on) const {
   const Eigen::Matrix3d arc = RotationZ(arc_rad);
   struct Lamp {
@@ -237,12 +271,48 @@ double CameraRenderer::LaserPeakIrradiance() const {
   return rig_.laser.power * rig_.lamps.intensity.mean() / (rig_.lamps.distance_mm * rig_.lamps.distance_mm);
 }
 
+struct CameraRenderer::RenderCache {
+  double turntable_rad = 0.0;
+  std::optional<double> plate_height_mm;
+  CameraView view;
+  // The sweep's stripe samples, for the laser at `laser_mount` with the arc
+  // at `laser_arc_rad`; empty until the laser is first on.
+  std::unique_ptr<LaserSweepRenderer> sweep;
+  int laser_mount = 0;
+  double laser_arc_rad = 0.0;
+};
+
+CameraRenderer::RenderCache& CameraRenderer::CachedRender(const SimulatedRigState& state, int camera) {
+  if (camera < 0 || camera >= static_cast<int>(rig_.cameras.size())) {
+    throw Error("camera renderer: no camera " + std::to_string(camera) + " in rig \"" + rig_.name + "\"");
+  }
+  if (cache_.empty()) cache_.resize(rig_.cameras.size());
+  std::shared_ptr<RenderCache>& entry = cache_[camera];
+  const bool stale = !entry || entry->plate_height_mm != state.calibration_plate_height_mm ||
+                     (!state.calibration_plate_height_mm && entry->turntable_rad != state.turntable_rad);
+  if (stale) {
+    entry = std::make_shared<RenderCache>();
+    entry->turntable_rad = state.turntable_rad;
+    entry->plate_height_mm = state.calibration_plate_height_mm;
+    entry->view = state.calibration_plate_height_mm ? TracePlate(camera, *state.calibration_plate_height_mm)
+                                                    : TraceSample(camera, state.turntable_rad);
+  }
+  if (state.laser_on &&
+      (!entry->sweep || entry->laser_mount != state.laser_mount || entry->laser_arc_rad != state.light_arc_rad)) {
+    entry->sweep = std::make_unique<LaserSweepRenderer>(*this, entry->view, state.laser_mount, state.light_arc_rad);
+    entry->laser_mount = state.laser_mount;
+    entry->laser_arc_rad = state.light_arc_rad;
+  }
+  return *entry;
+}
+
 Image CameraRenderer::Render(const SimulatedRigState& state, int camera) {
-  const CameraView view = TraceSample(camera, state.turntable_rad);
-  Image image = RenderLamps(view, state.light_arc_rad, state.lamps_on);
+  const RenderCache& cached = CachedRender(state, camera);
+  const bool any_lamp = std::find(state.lamps_on.begin(), state.lamps_on.end(), true) != state.lamps_on.end();
+  Image image = any_lamp ? RenderLamps(cached.view, state.light_arc_rad, state.lamps_on)
+                         : Image(cached.view.width, cached.view.height, 3);
   if (state.laser_on) {
-    const Image stripe = LaserSweepRenderer(*this, view, state.laser_mount, state.light_arc_rad)
-                             .Frame(state.laser_tilt_rad);
+    const Image stripe = cached.sweep->Frame(state.laser_tilt_rad);
     for (int y = 0; y < image.height(); ++y) {
       for (int x = 0; x < image.width(); ++x) {
         for (int c = 0; c < 3; ++c) image.at(x, y, c) += stripe.at(x, y);
@@ -261,29 +331,85 @@ LaserSweepRenderer::LaserSweepRenderer(const CameraRenderer& renderer, const Cam
       samples_(view.samples.size()) {
   const LaserMountCalibration& m = renderer.calibration().laser_mounts.at(mount);
   const Eigen::Matrix3d arc = RotationZ(arc_rad);
-  const Eigen::Vector3d source = arc * m.source_mm;
+  source_ = arc * m.source_mm;
   const Eigen::Vector3d axis = arc * m.tilt_axis.normalized();
-  const Eigen::Vector3d n0 = arc * m.plane_normal_at_zero_tilt;
-  // Rodrigues: n(t) = cos(t) n0 + sin(t) (k x n0) + (1 - cos(t)) (k.n0) k.
-  const Eigen::Vector3d k_cross_n0 = axis.cross(n0);
-  const Eigen::Vector3d k_k_n0 = axis.dot(n0) * axis;
+  n0_ = arc * m.plane_normal_at_zero_tilt;
+  k_cross_n0_ = axis.cross(n0_);
+  k_k_n0_ = axis.dot(n0_) * axis;
   const double gain = ExposureSeconds(renderer.rig().cameras.at(view.camera)) * kSignalPerRadianceSecond *
                       renderer.LaserPeakIrradiance();
   const Eigen::Vector3d centre = renderer.CameraCentre(view.camera);
   tbb::parallel_for(std::size_t{0}, view.samples.size(), [&](std::size_t i) {
     const ViewSample& s = view.samples[i];
     StripeSample& out = samples_[i];
-    const Eigen::Vector3d r = s.point - source;
-    out.a = n0.dot(r) - k_k_n0.dot(r);
-    out.b = k_cross_n0.dot(r);
-    out.c = k_k_n0.dot(r);
+    Place(s.point, &out);
     if (s.surface == ViewSample::Surface::kNothing) return;
-    const Eigen::Vector3d l = (-r).normalized();
+    const Eigen::Vector3d l = (source_ - s.point).normalized();
     const double n_dot_l = s.normal.dot(l);
-    if (n_dot_l <= 0.0 || !renderer.Lit(view, s, source)) return;
+    if (n_dot_l <= 0.0 || !renderer.Lit(view, s, source_)) return;
     const Eigen::Vector3d to_camera = (centre - s.point).normalized();
     out.weight = static_cast<float>(Grey(s.reflectance.Evaluate(s.normal, l, to_camera)) * n_dot_l * gain);
   });
+  const int rays = renderer.options().interreflection_rays_per_pixel;
+  if (rays > 0) AddBounces(renderer, view, gain, rays);
+}
+
+void LaserSweepRenderer::Place(const Eigen::Vector3d& point, StripeSample* out) const {
+  const Eigen::Vector3d r = point - source_;
+  out->a = n0_.dot(r) - k_k_n0_.dot(r);
+  out->b = k_cross_n0_.dot(r);
+  out->c = k_k_n0_.dot(r);
+}
+
+void LaserSweepRenderer::AddBounces(const CameraRenderer& renderer, const CameraView& view, double gain,
+                                    int rays_per_pixel) {
+  const Eigen::Vector3d centre = renderer.CameraCentre(view.camera);
+  // Per row: the bounce samples and each pixel's count, joined in order after.
+  std::vector<std::vector<StripeSample>> row_bounces(height_);
+  std::vector<std::vector<std::uint32_t>> row_counts(height_, std::vector<std::uint32_t>(width_, 0));
+  tbb::parallel_for(0, height_, [&](int y) {
+    for (int x = 0; x < width_; ++x) {
+      const std::size_t pixel = static_cast<std::size_t>(y) * width_ + x;
+      std::mt19937_64 rng(0x9E3779B97F4A7C15ull * (pixel + 1));
+      std::uniform_real_distribution<double> uniform(0.0, 1.0);
+      for (int k = 0; k < rays_per_pixel; ++k) {
+        const double u1 = uniform(rng), u2 = uniform(rng);
+        const ViewSample& s = view.samples[pixel * samples_per_pixel_ + k % samples_per_pixel_];
+        if (s.surface != ViewSample::Surface::kSample) continue;
+        // Cosine-distributed about the normal (pdf cos / pi).
+        const Eigen::Vector3d& n = s.normal;
+        const Eigen::Vector3d t = (std::abs(n.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY())
+                                      .cross(n)
+                                      .normalized();
+        const Eigen::Vector3d b = n.cross(t);
+        const double phi = 2.0 * std::numbers::pi * u1;
+        const double sin_theta = std::sqrt(u2);
+        const Eigen::Vector3d w =
+            (std::cos(phi) * sin_theta * t + std::sin(phi) * sin_theta * b + std::sqrt(1.0 - u2) * n).normalized();
+        const std::optional<ViewSample> q = renderer.BounceHit(view, s, w);
+        if (!q) continue;
+        const Eigen::Vector3d l_q = (source_ - q->point).normalized();
+        const double n_dot_l = q->normal.dot(l_q);
+        if (n_dot_l <= 0.0 || !renderer.Lit(view, *q, source_)) continue;
+        const Eigen::Vector3d to_camera = (centre - s.point).normalized();
+        const Eigen::Vector3f f_s = s.reflectance.Evaluate(s.normal, w, to_camera);
+        const Eigen::Vector3f f_q = q->reflectance.Evaluate(q->normal, l_q, -w);
+        const double weight = gain * std::numbers::pi / rays_per_pixel * Grey(f_s.cwiseProduct(f_q)) * n_dot_l;
+        if (!(weight > 0.0)) continue;
+        StripeSample bounce;
+        Place(q->point, &bounce);
+        bounce.weight = static_cast<float>(weight);
+        row_bounces[y].push_back(bounce);
+        ++row_counts[y][x];
+      }
+    }
+  });
+  bounce_begin_.assign(static_cast<std::size_t>(width_) * height_ + 1, 0);
+  std::size_t p = 0;
+  for (int y = 0; y < height_; ++y) {
+    bounces_.insert(bounces_.end(), row_bounces[y].begin(), row_bounces[y].end());
+    for (int x = 0; x < width_; ++x, ++p) bounce_begin_[p + 1] = bounce_begin_[p] + row_counts[y][x];
+  }
 }
 
 Image LaserSweepRenderer::Frame(double tilt_rad) const {
@@ -292,18 +418,24 @@ Image LaserSweepRenderer::Frame(double tilt_rad) const {
   // Beyond 8 sigma the Gaussian is below 1.3e-14: nothing a 16-bit sensor sees.
   const double cutoff = 8.0 * sigma_mm_;
   const double inv_two_sigma2 = 1.0 / (2.0 * sigma_mm_ * sigma_mm_);
+  const auto stripe = [&](const StripeSample& s) {
+    const double d = cos_t * s.a + sin_t * s.b + s.c;
+    return std::abs(d) < cutoff ? s.weight * std::exp(-d * d * inv_two_sigma2) : 0.0;
+  };
   Image out(width_, height_, 1);
   tbb::parallel_for(0, height_, [&](int y) {
     for (int x = 0; x < width_; ++x) {
-      const std::size_t first = (static_cast<std::size_t>(y) * width_ + x) * samples_per_pixel_;
+      const std::size_t pixel = static_cast<std::size_t>(y) * width_ + x;
+      const std::size_t first = pixel * samples_per_pixel_;
       double sum = 0.0;
       for (int k = 0; k < samples_per_pixel_; ++k) {
-        const StripeSample& s = samples_[first + k];
-        if (s.weight == 0.0f) continue;
-        const double d = cos_t * s.a + sin_t * s.b + s.c;
-        if (std::abs(d) < cutoff) sum += s.weight * std::exp(-d * d * inv_two_sigma2);
+        if (samples_[first + k].weight != 0.0f) sum += stripe(samples_[first + k]);
       }
-      out.at(x, y) = static_cast<float>(sum / samples_per_pixel_);
+      double bounced = 0.0;
+      if (!bounces_.empty()) {
+        for (std::uint32_t i = bounce_begin_[pixel]; i < bounce_begin_[pixel + 1]; ++i) bounced += stripe(bounces_[i]);
+      }
+      out.at(x, y) = static_cast<float>(sum / samples_per_pixel_ + bounced);
     }
   });
   return out;

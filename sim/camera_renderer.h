@@ -27,13 +27,17 @@
 // f_r I / r^2 (n.l) V to the radiance the camera sees; the laser adds
 // f_r E_peak exp(-d^2 / (2 sigma^2)) (n.l_laser) V_laser, d the point's
 // distance from the laser plane. V is 1 when the light reaches the point
-// (one shadow ray), else 0. One-bounce interreflection is left out (the paper
-// suppresses it for the laser with a short shutter, Sec. 3.2).
+// (one shadow ray), else 0. Lamps light directly only. The laser's light can
+// also arrive after one bounce off the mesostructure (options: the paper
+// suppresses that with a short shutter, Sec. 3.2, but a processing pipeline
+// must cope with the ghost peaks it leaves): see LaserSweepRenderer.
 #pragma once
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <memory>
 #include <numbers>
+#include <optional>
 #include <vector>
 
 #include "core/calibration.h"
@@ -60,6 +64,9 @@ inline constexpr float kCalibrationPlateAlbedo = 0.5f;
 
 struct CameraRendererOptions {
   int samples_per_pixel_side = 3;
+  // Rays per pixel gathering the laser's light after one bounce off the
+  // mesostructure (0: direct light only). 0..256.
+  int interreflection_rays_per_pixel = 0;
 };
 
 // What one camera ray meets; points and normals in the world frame.
@@ -97,8 +104,14 @@ class CameraRenderer : public FrameRenderer {
                  CameraRendererOptions options = {});
 
   // Lamps that are on plus the laser when on (added equally to R, G and B:
-  // the grey response of the sensor to the laser's light). 3 channels.
-  // Traces from scratch; captures use the pieces below to share work.
+  // the grey response of the sensor to the laser's light), on the sample or,
+  // while the operator has laid it there, the calibration plate. 3 channels.
+  // The camera's first hits stay cached while the turntable (or the plate)
+  // stays put, and its sweep's stripe samples while the laser's mount and
+  // the light arc do, so a capture that walks the rig in its plan's order
+  // traces each camera once per turntable angle and a sweep frame costs
+  // only the stripe (the pieces below). The cache holds one camera view per
+  // camera: samples_per_pixel_side^2 ViewSamples a pixel.
   Image Render(const SimulatedRigState& state, int camera) override;
 
   // First hits of the camera's rays on the sample at a turntable angle.
@@ -129,6 +142,13 @@ class CameraRenderer : public FrameRenderer {
   // by the mesostructure or the pocket wall).
   bool Lit(const CameraView& view, const ViewSample& s, const Eigen::Vector3d& light) const;
 
+  // What the ray from sample point s of `view` along world direction `dir`
+  // (unit, into the upper hemisphere of s's normal) meets on the
+  // mesostructure before it leaves the sample's slab through the reference
+  // plane (nothing then, and nothing where it meets the black backing or
+  // pocket wall): the second vertex of a one-bounce light path.
+  std::optional<ViewSample> BounceHit(const CameraView& view, const ViewSample& s, const Eigen::Vector3d& dir) const;
+
   // The camera's centre and the world direction (unit) of the ray through
   // pixel position (u, v) (distorted, as in the image).
   Eigen::Vector3d CameraCentre(int camera) const;
@@ -143,10 +163,15 @@ class CameraRenderer : public FrameRenderer {
   CameraView Trace(int camera, double turntable_rad, const HitFunction& first_hit) const;
   ViewSample SampleHit(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double turntable_rad) const;
 
+  // What Render keeps of one camera between frames.
+  struct RenderCache;
+  RenderCache& CachedRender(const SimulatedRigState& state, int camera);
+
   const MesostructureScene& scene_;
   const drivers::RigDescription& rig_;
   CameraRendererOptions options_;
   Calibration calibration_;
+  std::vector<std::shared_ptr<RenderCache>> cache_;  // per camera
 };
 
 // A laser sweep of one camera from one laser location (Sec. 3.2: the
@@ -154,6 +179,18 @@ class CameraRenderer : public FrameRenderer {
 // (the hits, their reflectance towards the source, the source's visibility:
 // one shadow ray per sample) is computed once here; Frame(tilt) then costs a
 // few multiply-adds per sample and an exp() only near the stripe.
+//
+// With interreflection_rays_per_pixel = K > 0, each pixel also gathers the
+// stripe's light reflected once by the mesostructure: K cosine-distributed
+// rays from its sample points (spread over the pixel's sub-samples) find
+// the points q that light could come from; q's place relative to the plane,
+// its lighting by the source and both reflectances are fixed for the sweep,
+// so each q is one more stripe sample with weight
+//   gain pi / K  grey(f_s(w, v) f_q(l_q, -w)) (n_q.l_q) V_q
+// (the cosine-weighted estimator of the one-bounce integral). A pixel then
+// sees a second, fainter peak when the stripe crosses what it sees lit
+// (the ghost peaks of Sec. 3.2). Deterministic: each pixel's directions
+// come from a generator seeded by its index.
 class LaserSweepRenderer {
  public:
   LaserSweepRenderer(const CameraRenderer& renderer, const CameraView& view, int mount, double arc_rad);
@@ -168,11 +205,25 @@ class LaserSweepRenderer {
     double a = 0, b = 0, c = 0;
     float weight = 0;  // signal at the stripe's peak; 0 where unlit
   };
+  // a, b, c of the point (see StripeSample).
+  void Place(const Eigen::Vector3d& point, StripeSample* out) const;
+  void AddBounces(const CameraRenderer& renderer, const CameraView& view, double gain, int rays_per_pixel);
+  // The tilt-0 plane's rotation about the tilt axis k (Rodrigues):
+  // n(t) = cos(t) n0 + sin(t) (k x n0) + (1 - cos(t)) (k.n0) k.
+  Eigen::Vector3d source_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d n0_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d k_cross_n0_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d k_k_n0_ = Eigen::Vector3d::Zero();
   int width_ = 0;
   int height_ = 0;
   int samples_per_pixel_ = 1;
   double sigma_mm_ = 1.0;
   std::vector<StripeSample> samples_;
+  // One-bounce samples, weights per pixel (not per sub-sample); pixel p's
+  // are bounces_[bounce_begin_[p], bounce_begin_[p + 1]). Empty without
+  // interreflection.
+  std::vector<StripeSample> bounces_;
+  std::vector<std::uint32_t> bounce_begin_;
 };
 
 // Brown-Conrady (OpenCV) distortion of normalized image coordinates, and its

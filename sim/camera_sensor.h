@@ -20,12 +20,14 @@ inline double MaxCode(const drivers::CameraDescription& camera) {
 }
 
 // electrons = signal * full_well_electrons; with noise on, Poisson shot
-// noise on the electrons plus Gaussian read noise (read_noise_electrons);
+// noise on the electrons plus Gaussian read noise (read_noise_electrons),
+// the shot noise drawn exactly below a mean of 100 electrons and by its
+// normal approximation above;
 // then code = round(electrons / full_well * MaxCode), clamped to
 // [0, MaxCode] (saturation). Returns code / MaxCode in [0, 1], the value
 // WriteImage stores in a 16-bit file without further rounding loss.
-// Deterministic for a given generator state; pixels are drawn in memory
-// order.
+// Deterministic for a given generator state (it takes one draw and seeds a
+// generator per row from it, so rows are drawn in parallel).
 Image ApplySensor(const Image& signal, const drivers::CameraDescription& camera, std::mt19937_64& rng,
                   bool noise_on);
 

@@ -5,6 +5,7 @@
 #include <numbers>
 
 #include "drivers/device_error.h"
+#include "sim/camera_sensor.h"
 
 namespace mesocap::sim {
 namespace {
@@ -41,8 +42,13 @@ std::string Range(double min, double max, const char* unit) {
 
 SimulatedCamera::SimulatedCamera(const drivers::RigDescription& rig, int camera_index,
                                  std::shared_ptr<SimulatedRigState> state, FrameRenderer& renderer,
-                                 const FaultPlan& faults, std::uint64_t seed)
-    : state_(std::move(state)), renderer_(&renderer), index_(camera_index) {
+                                 const FaultPlan& faults, std::uint64_t seed, SensorModel sensor)
+    : state_(std::move(state)),
+      renderer_(&renderer),
+      index_(camera_index),
+      description_(rig.cameras.at(camera_index)),
+      seed_(seed),
+      sensor_(sensor) {
   const drivers::CameraDescription& d = rig.cameras.at(camera_index);
   info_.id = d.id;
   info_.model = "mesocap simulated camera";
@@ -157,23 +163,64 @@ drivers::Frame SimulatedCamera::Grab(std::chrono::milliseconds timeout) {
   // The renderer's signal is at the description's exposure and 0 dB.
   const double scale =
       settings_.exposure_us / reference_exposure_us_ * std::pow(10.0, settings_.gain_db / 20.0);
-  frame.image = Image(width, height, channels);
+  Image signal(width, height, channels);
   for (int y = 0; y < height; ++y) {
     for (int x = 0; x < width; ++x) {
       const float* in = full.pixel(r.x + x, r.y + y);
-      float* out = frame.image.pixel(x, y);
-      bool saturated = false;
-      for (int c = 0; c < channels; ++c) {
-        const double v = in[c] * scale;
-        // NaN fails v > 0 and reads as 0.
-        const float clamped = v > 0.0 ? static_cast<float>(std::min(v, 1.0)) : 0.0f;
-        out[c] = clamped;
-        saturated = saturated || clamped >= 1.0f;
-      }
-      if (saturated) ++frame.saturated_pixels;
+      float* out = signal.pixel(x, y);
+      for (int c = 0; c < channels; ++c) out[c] = static_cast<float>(in[c] * scale);
+    }
+  }
+  if (sensor_ == SensorModel::kIdeal) {
+    // NaN fails v > 0 and reads as 0.
+    for (std::size_t i = 0; i < signal.size(); ++i) {
+      const float v = signal.data()[i];
+      signal.data()[i] = v > 0.0f ? std::min(v, 1.0f) : 0.0f;
+    }
+    frame.image = std::move(signal);
+  } else {
+    const std::uint64_t key = ImagedStateKey();
+    repeats_of_state_ = key == last_state_key_ ? repeats_of_state_ + 1 : 0;
+    last_state_key_ = key;
+    std::mt19937_64 rng = ImageNoiseGenerator(seed_, {static_cast<std::uint64_t>(index_), key, repeats_of_state_});
+    frame.image = ApplySensor(signal, description_, rng, sensor_ == SensorModel::kNoisy);
+  }
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      const float* px = frame.image.pixel(x, y);
+      if (std::any_of(px, px + channels, [](float v) { return v >= 1.0f; })) ++frame.saturated_pixels;
     }
   }
   return frame;
+}
+
+std::uint64_t SimulatedCamera::ImagedStateKey() const {
+  // FNV-1a over the state's values: angles rounded to 1e-9 rad so that the
+  // same plan step images the same state bit for bit.
+  std::uint64_t h = 1469598103934665603ull;
+  auto mix = [&h](std::uint64_t v) {
+    for (int b = 0; b < 8; ++b) {
+      h ^= (v >> (8 * b)) & 0xff;
+      h *= 1099511628211ull;
+    }
+  };
+  auto mix_real = [&mix](double v) { mix(static_cast<std::uint64_t>(std::llround(v * 1e9))); };
+  const SimulatedRigState& s = *state_;
+  mix_real(s.turntable_rad);
+  mix_real(s.light_arc_rad);
+  for (bool on : s.lamps_on) mix(on ? 1 : 0);
+  mix(s.laser_on ? 1 : 0);
+  if (s.laser_on) {
+    mix(static_cast<std::uint64_t>(s.laser_mount));
+    mix_real(s.laser_tilt_rad);
+  }
+  mix(s.calibration_plate_height_mm ? 1 : 0);
+  if (s.calibration_plate_height_mm) mix_real(*s.calibration_plate_height_mm);
+  mix_real(settings_.exposure_us);
+  mix_real(settings_.gain_db);
+  const auto& r = settings_.region;
+  for (int v : {r.x, r.y, r.width, r.height}) mix(static_cast<std::uint64_t>(v));
+  return h;
 }
 
 // ---------------------------------------------------------------- stages

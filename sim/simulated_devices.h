@@ -33,11 +33,25 @@ inline constexpr double kMinExposureUs = 1.0;
 inline constexpr double kMaxExposureUs = 10e6;
 inline constexpr double kMaxGainDb = 48.0;
 
+// What the simulated camera's sensor does to the signal.
+enum class SensorModel {
+  kIdeal,      // clamps to [0, 1]: exact values, for tests of device logic
+  kNoiseless,  // quantizes to the bit depth and saturates (camera_sensor.h)
+  kNoisy,      // and adds shot and read noise: what a real camera delivers
+};
+
 // Renders through the FrameRenderer, whose image is the signal at the
 // description's exposure_us and 0 dB gain; the camera scales it by
 // exposure / exposure_us and by the gain (dB of amplitude, 10^(dB/20)),
-// crops the region, clamps to [0, 1] and counts the saturated pixels (any
-// channel at 1). Noise and quantization are the renderer's business.
+// crops the region, applies its SensorModel and counts the saturated pixels
+// (any channel at 1).
+//
+// A frame's noise is drawn from a generator seeded by the camera's seed, its
+// index, the rig state it images (stage angles, lamps, laser, plate) with
+// its exposure, gain and region, and how many frames it has delivered of
+// that same state in a row: the same capture gives the same images however
+// often it was interrupted, resumed, or hit by dropped frames and timeouts
+// (a lost frame delivers nothing, so it draws nothing).
 //
 // Each exposure advances the clock by the exposure time; a frame's
 // timestamp is the clock when its exposure began. A dropped frame costs one
@@ -46,7 +60,7 @@ class SimulatedCamera : public drivers::Camera {
  public:
   SimulatedCamera(const drivers::RigDescription& rig, int camera_index,
                   std::shared_ptr<SimulatedRigState> state, FrameRenderer& renderer,
-                  const FaultPlan& faults, std::uint64_t seed);
+                  const FaultPlan& faults, std::uint64_t seed, SensorModel sensor = SensorModel::kNoisy);
 
   drivers::CameraInfo info() const override { return info_; }
   drivers::CameraSettings settings() const override { return settings_; }
@@ -65,10 +79,17 @@ class SimulatedCamera : public drivers::Camera {
   // Counts one call to the camera; throws once it is disconnected.
   void Call();
   [[noreturn]] void Fail(const std::string& problem) const;
+  // The key of what a frame images (see the class comment).
+  std::uint64_t ImagedStateKey() const;
 
   std::shared_ptr<SimulatedRigState> state_;
   FrameRenderer* renderer_;
   int index_;
+  drivers::CameraDescription description_;
+  std::uint64_t seed_;
+  SensorModel sensor_;
+  std::uint64_t last_state_key_ = 0;
+  std::uint64_t repeats_of_state_ = 0;
   drivers::CameraInfo info_;
   drivers::CameraSettings settings_;
   double reference_exposure_us_;

@@ -4,8 +4,13 @@
 
 namespace mesocap::sim {
 
-SimulatedRigBackend::SimulatedRigBackend(FrameRenderer& renderer, FaultPlan faults, std::uint64_t seed)
-    : state_(std::make_shared<SimulatedRigState>()), renderer_(renderer), faults_(std::move(faults)), seed_(seed) {
+SimulatedRigBackend::SimulatedRigBackend(FrameRenderer& renderer, FaultPlan faults, std::uint64_t seed,
+                                         SensorModel sensor)
+    : state_(std::make_shared<SimulatedRigState>()),
+      renderer_(renderer),
+      faults_(std::move(faults)),
+      seed_(seed),
+      sensor_(sensor) {
   if (auto problem = faults_.Check(); !problem.empty()) throw Error("simulated rig: " + problem);
 }
 
@@ -19,7 +24,7 @@ std::unique_ptr<drivers::Camera> SimulatedRigBackend::MakeCamera(const drivers::
   if (camera_index < 0 || camera_index >= static_cast<int>(rig.cameras.size())) {
     throw Error("simulated rig: no camera " + std::to_string(camera_index) + " in rig \"" + rig.name + "\"");
   }
-  return std::make_unique<SimulatedCamera>(rig, camera_index, state_, renderer_, faults_, seed_);
+  return std::make_unique<SimulatedCamera>(rig, camera_index, state_, renderer_, faults_, seed_, sensor_);
 }
 
 // The two stages are one class; which state angle each drives follows from

@@ -12,6 +12,7 @@
 
 #include "drivers/rig.h"
 #include "sim/fault_plan.h"
+#include "sim/simulated_devices.h"
 #include "sim/simulated_rig_state.h"
 
 namespace mesocap::sim {
@@ -20,7 +21,10 @@ class SimulatedRigBackend : public drivers::RigBackend {
  public:
   // Throws Error when `faults` fails FaultPlan::Check(). `renderer` must
   // outlive the cameras made here; the backend itself need not (see state()).
-  explicit SimulatedRigBackend(FrameRenderer& renderer, FaultPlan faults = {}, std::uint64_t seed = 0);
+  // `seed` seeds the faults and the cameras' noise; `sensor` is every
+  // camera's sensor model.
+  explicit SimulatedRigBackend(FrameRenderer& renderer, FaultPlan faults = {}, std::uint64_t seed = 0,
+                               SensorModel sensor = SensorModel::kNoisy);
 
   std::string name() const override { return "sim"; }
   // Each throws Error when the fault plan names a device `rig` lacks.
@@ -46,6 +50,7 @@ class SimulatedRigBackend : public drivers::RigBackend {
   FrameRenderer& renderer_;
   FaultPlan faults_;
   std::uint64_t seed_;
+  SensorModel sensor_;
 };
 
 }  // namespace mesocap::sim

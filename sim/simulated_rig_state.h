@@ -4,6 +4,7 @@
 // an image.
 #pragma once
 
+#include <optional>
 #include <vector>
 
 #include "core/image.h"
@@ -17,16 +18,18 @@ struct SimulatedRigState {
   bool laser_on = false;
   int laser_mount = 0;
   double laser_tilt_rad = 0.0;
+  // The flat plate the operator lays over the turntable for the laser-plane
+  // calibration (MDF paper Sec. 3.2: the stripe on two planes of different
+  // height); while it lies there the cameras see it, not the sample.
+  std::optional<double> calibration_plate_height_mm;
   double clock_s = 0.0;  // simulated time; moves advance it, nobody sleeps
 };
 
 // Forms the image camera `camera` records in `state`: the noiseless linear
 // signal in units of full scale at the camera's nominal exposure and 0 dB.
 // The sensor model (shot and read noise, quantization; sim/camera_sensor.h)
-// comes after the exposure and gain, so that noise follows the settings as
-// on a real sensor: `mesocap simulate` applies it to what it writes;
-// SimulatedCamera (the device path) clamps and counts saturation but does not
-// add noise yet.
+// comes after the exposure and gain, in SimulatedCamera, so that noise
+// follows the settings as on a real sensor.
 class FrameRenderer {
  public:
   virtual ~FrameRenderer() = default;

@@ -16,12 +16,14 @@ void RegisterInfoCommand(CLI::App& app);
 void RegisterGroundTruthCommand(CLI::App& app);
 void RegisterSimulateCommand(CLI::App& app);
 void RegisterCompressCommand(CLI::App& app);
-void RegisterEvalBtfCommand(CLI::App& app);
-void RegisterProcessBtfCommand(CLI::App& app);
+void RegisterEvalBtfCommand(CLI::App& app);     // `eval btf`
+void RegisterProcessBtfCommand(CLI::App& app);  // `process btf`
+void RegisterProcessMdfCommand(CLI::App& app);  // `process mdf`
+void RegisterEvalMdfCommand(CLI::App& app);     // `eval mdf`
 
-// The group subcommand `name` (`eval`, `process`), created by whichever file
-// registers first, so each file adds its own `eval X` without the others.
-inline CLI::App* SubcommandGroup(CLI::App& app, const std::string& name, const std::string& description) {
+// The group command `name` ("process", "eval"), created on first use so that
+// each of its subcommands registers itself independently.
+inline CLI::App* GroupCommand(CLI::App& app, const std::string& name, const std::string& description) {
   try {
     return app.get_subcommand(name);
   } catch (const CLI::OptionNotFound&) {

@@ -89,7 +89,7 @@ void RunEvalBtf(const EvalBtfCommandOptions& o) {
 
 void RegisterEvalBtfCommand(CLI::App& app) {
   auto o = std::make_shared<EvalBtfCommandOptions>();
-  CLI::App* eval = SubcommandGroup(app, "eval", "Compare a measured material with ground truth");
+  CLI::App* eval = GroupCommand(app, "eval", "Compare a measured material with ground truth");
   CLI::App* sub = eval->add_subcommand("btf", "Error of a material's BTF (and ambient term) against a true BTF");
   sub->add_option("--truth", o->truth, "material package with the true full BTF (mesocap groundtruth)")
       ->required()

@@ -31,6 +31,8 @@ int main(int argc, char** argv) {
   mesocap::RegisterCompressCommand(app);
   mesocap::RegisterEvalBtfCommand(app);
   mesocap::RegisterProcessBtfCommand(app);
+  mesocap::RegisterProcessMdfCommand(app);
+  mesocap::RegisterEvalMdfCommand(app);
 
   // Subcommands report failure by throwing; every failure is one line on
   // stderr and a non-zero exit (1 for errors, CLI11's codes for usage).

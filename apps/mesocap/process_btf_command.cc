@@ -108,7 +108,7 @@ void RunProcessBtf(const ProcessBtfCommandOptions& o) {
 
 void RegisterProcessBtfCommand(CLI::App& app) {
   auto o = std::make_shared<ProcessBtfCommandOptions>();
-  CLI::App* process = SubcommandGroup(app, "process", "Turn a capture session into a material");
+  CLI::App* process = GroupCommand(app, "process", "Turn a capture session into a material");
   CLI::App* sub = process->add_subcommand("btf", "BTF, its SVD factors and ambient term from a capture session");
   sub->add_option("--session", o->session, "capture session folder")->required()->check(CLI::ExistingDirectory);
   sub->add_option("--calibration", o->calibration, "calibration file (default: the one the session names)")

@@ -11,33 +11,15 @@
 
 #include "core/json_field_reader.h"
 #include "core/material_package.h"
+#include "tests/common/mesocap_command.h"
 #include "tests/common/temporary_directory.h"
 
 namespace mesocap {
 namespace {
 
-struct CommandResult {
-  int exit_code = -1;
-  std::string out;
-  std::string err;
-};
-
-std::string Slurp(const std::filesystem::path& p) {
-  std::ifstream in(p);
-  return {std::istreambuf_iterator<char>(in), {}};
-}
-
-CommandResult Mesocap(const std::string& args) {
-  testing::TemporaryDirectory dir;
-  const std::string cmd = std::string(MESOCAP_BINARY) + " " + args + " >" + (dir / "out").string() + " 2>" +
-                          (dir / "err").string();
-  const int status = std::system(cmd.c_str());
-  CommandResult r;
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.out = Slurp(dir / "out");
-  r.err = Slurp(dir / "err");
-  return r;
-}
+using testing::CommandResult;
+using testing::Mesocap;
+using testing::Slurp;
 
 std::string RigFile(const std::string& name) {
   return std::string(MESOCAP_SOURCE_DIR) + "/sim/rigs/" + name + ".json";
@@ -127,6 +109,33 @@ TEST(Cli, GroundTruthRejectsUnknownSceneAndRigWithoutOutput) {
   EXPECT_EQ(rig.exit_code, 1);
   EXPECT_NE(rig.err.find("paper, small, tiny"), std::string::npos) << rig.err;
   EXPECT_TRUE(std::filesystem::is_empty(dir.path())) << "a failed run left output behind";
+}
+
+// A capture stopped by a fault the runner cannot cure exits 1 naming the
+// step and the device, keeps what it finished, and --resume completes it.
+TEST(Cli, SimulateStopsOnADisconnectAndResumes) {
+  testing::TemporaryDirectory dir;
+  nlohmann::json rig = nlohmann::json::parse(Slurp(RigFile("tiny")));
+  rig["turntable"]["angles_deg"] = {0.0};
+  rig["light_arc"]["angles_deg"] = {0.0};
+  rig["laser"]["locations"] = nlohmann::json::array({rig["laser"]["locations"][0]});
+  rig["laser"]["frames_per_sweep"] = 8;
+  std::ofstream(dir / "rig.json") << rig.dump();
+  std::ofstream(dir / "faults.json")
+      << R"({"format": "mesocap.faults", "version": 1, "camera_disconnect": {"device": "cam1", "at": [20]}})";
+  const std::string args = "-q simulate --scene flat --samples-per-pixel-side 1 --rig " + (dir / "rig.json").string() +
+                           " --out " + (dir / "s").string();
+  const CommandResult broken = Mesocap(args + " --faults " + (dir / "faults.json").string());
+  EXPECT_EQ(broken.exit_code, 1);
+  EXPECT_NE(broken.err.find("laser-sweep-t0_loc0"), std::string::npos) << broken.err;
+  EXPECT_NE(broken.err.find("cam1"), std::string::npos) << broken.err;
+  const auto progress = [&] { return nlohmann::json::parse(Mesocap("info --json " + (dir / "s").string()).out); };
+  EXPECT_EQ(progress()["completed_steps"], 4);
+  EXPECT_FALSE(progress()["complete"].get<bool>());
+  const CommandResult resumed = Mesocap(args + " --resume");
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.err;
+  EXPECT_EQ(progress()["completed_steps"], 5);
+  EXPECT_TRUE(progress()["complete"].get<bool>());
 }
 
 // `mesocap compress` factors a ground-truth package: a flat Lambertian

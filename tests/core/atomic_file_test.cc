@@ -42,6 +42,33 @@ TEST(AtomicFile, CommitReplaces) {
   EXPECT_EQ(CountEntries(dir.path()), 1);
 }
 
+// What a killed writer leaves: the temporaries of both kinds, the names
+// AtomicFile really makes, and nothing that merely looks alike.
+TEST(AtomicFile, StaleTemporariesAreRecognizedAndRemoved) {
+  testing::TemporaryDirectory dir;
+  std::string real_name;
+  {
+    AtomicFile f(dir / "laser" / "t0_loc1_cam0.tif");
+    real_name = f.temp_path().filename().string();
+  }
+  EXPECT_TRUE(IsAtomicTemporaryName(real_name)) << real_name;
+  for (const char* name : {".a.tmp-12-0.png", ".manifest.json.tmp-7-3", ".pkg.old.tmp-1-2"}) {
+    EXPECT_TRUE(IsAtomicTemporaryName(name)) << name;
+  }
+  for (const char* name : {"a.tmp-12-0.png", ".tmp-12-0", ".a.tmp-x-0.png", ".a.tmp-12-.png", ".a.tmp-12-0.b.c",
+                           ".a.png", "t0_loc1_cam0.tif"}) {
+    EXPECT_FALSE(IsAtomicTemporaryName(name)) << name;
+  }
+  std::filesystem::create_directories(dir / "laser" / ".pkg.tmp-9-9" / "inner");
+  std::ofstream(dir / "laser" / ".t0_loc1_cam0.tmp-99-4.tif") << "half a sequence";
+  std::ofstream(dir / "laser" / "t0_loc0_cam0.tif") << "a finished file";
+  std::ofstream(dir / ".manifest.json.tmp-5-0") << "{";
+  EXPECT_EQ(RemoveStaleTemporaries(dir.path()), 3u);
+  EXPECT_EQ(CountEntries(dir / "laser"), 1);
+  EXPECT_TRUE(std::filesystem::exists(dir / "laser" / "t0_loc0_cam0.tif"));
+  EXPECT_EQ(RemoveStaleTemporaries(dir.path()), 0u);
+}
+
 TEST(AtomicDirectory, RefusesToReplaceUnlessAsked) {
   testing::TemporaryDirectory dir;
   std::filesystem::create_directories(dir / "pkg");

@@ -229,6 +229,61 @@ TEST(CameraRendererTest, StripePeaksLieOnTheTrueLaserPlane) {
   }
 }
 
+// One-bounce interreflection of the stripe: a plane cannot light itself, so
+// the flat sample's sweep is unchanged to the bit; in the weave's concave
+// crossings it adds light, less than the direct light it comes from (a
+// bounce off albedo <= 0.6 surfaces loses at least 40 %), and some pixels
+// see a ghost: light in frames where the stripe is far from their point.
+TEST(CameraRendererTest, InterreflectionAddsGhostLightOnlyWhereSurfacesSeeEachOther) {
+  const auto rig = LoadRig("tiny");
+  const auto& loc = rig.laser.locations[1];
+  std::vector<double> tilts;
+  for (int f = 0; f < 64; ++f) {
+    tilts.push_back(drivers::LaserTiltForOffset(rig.laser, loc.mount, -6.0 + 12.0 * f / 63));
+  }
+  auto sweep = [&](const MesostructureScene& scene, int rays) {
+    CameraRendererOptions options;
+    options.samples_per_pixel_side = 1;
+    options.interreflection_rays_per_pixel = rays;
+    const CameraRenderer renderer(scene, rig, options);
+    const CameraView view = renderer.TraceSample(0, 0.3);
+    const LaserSweepRenderer laser(renderer, view, loc.mount, loc.arc_angle_rad);
+    std::vector<Image> frames;
+    for (double t : tilts) frames.push_back(laser.Frame(t));
+    return frames;
+  };
+  const auto flat = MakeBuiltinScene("flat");
+  const auto flat_direct = sweep(*flat, 0), flat_bounced = sweep(*flat, 32);
+  for (std::size_t f = 0; f < tilts.size(); ++f) {
+    EXPECT_TRUE(std::equal(flat_direct[f].data(), flat_direct[f].data() + flat_direct[f].size(),
+                           flat_bounced[f].data()))
+        << "frame " << f;
+  }
+
+  const auto weave = MakeBuiltinScene("weave");
+  const auto direct = sweep(*weave, 0), bounced = sweep(*weave, 32);
+  double direct_sum = 0.0, added_sum = 0.0;
+  int ghost_pixels = 0;
+  const int pixels = direct[0].width() * direct[0].height();
+  for (int p = 0; p < pixels; ++p) {
+    float peak = 0.0f;
+    for (const Image& frame : direct) peak = std::max(peak, frame.data()[p]);
+    bool ghost = false;
+    for (std::size_t f = 0; f < tilts.size(); ++f) {
+      const float d = direct[f].data()[p], b = bounced[f].data()[p];
+      EXPECT_GE(b, d - 1e-7f) << "light can only be added";
+      direct_sum += d;
+      added_sum += b - d;
+      // Light where the direct stripe is absent from this pixel.
+      ghost = ghost || (peak > 0.05f && d < 1e-6f && b - d > 2e-3f);
+    }
+    ghost_pixels += ghost ? 1 : 0;
+  }
+  EXPECT_GT(added_sum, 0.01 * direct_sum);  // measured 3.3 %
+  EXPECT_LT(added_sum, 0.3 * direct_sum);
+  EXPECT_GT(ghost_pixels, 20);  // measured 86 of 12288
+}
+
 // The laser planes follow the rig's conventions: tilt 0 aims at the origin
 // and LaserTiltForOffset(o) puts the stripe on the turntable plane at o
 // from the origin, away from the laser (drivers/rig_description.h).

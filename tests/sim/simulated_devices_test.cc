@@ -81,7 +81,7 @@ FaultPlan RatePlan(FaultKind kind, double rate, std::string device = "") {
 // One simulated rig: the backend, its renderer and the devices of `rig`.
 struct SimRig {
   explicit SimRig(drivers::RigDescription description, FaultPlan faults = {}, std::uint64_t seed = 1)
-      : backend(renderer, std::move(faults), seed), rig(drivers::BuildRig(description, {{"sim", &backend}})) {
+      : backend(renderer, std::move(faults), seed, SensorModel::kIdeal), rig(drivers::BuildRig(description, {{"sim", &backend}})) {
     renderer.rig = std::move(description);
   }
 
@@ -592,8 +592,24 @@ TEST(SimulatedRigBackend, BuildsTheWholeTinyRig) {
   rig.turntable->WaitUntilStopped(kLong);
   rig.cameras[0]->Trigger();
   const auto frame = rig.cameras[0]->Grab(milliseconds(100));
-  EXPECT_NEAR(frame.image.at(0, 0, 0), 90 * kDeg / 10, 1e-6);
   EXPECT_EQ(renderer.last_camera, 0);
+  // By default the cameras are noisy: channel 0 carries the signal 90 deg /
+  // 10 everywhere; its pixels scatter by the shot noise (sqrt(electrons) of
+  // the full well) and average to the signal.
+  const double signal = 90 * kDeg / 10;
+  const auto& camera = renderer.rig.cameras[0];
+  const double sigma = std::sqrt(signal * camera.full_well_electrons) / camera.full_well_electrons;
+  double sum = 0.0, sum2 = 0.0;
+  const int n = frame.image.width() * frame.image.height();
+  for (int y = 0; y < frame.image.height(); ++y) {
+    for (int x = 0; x < frame.image.width(); ++x) {
+      sum += frame.image.at(x, y, 0);
+      sum2 += frame.image.at(x, y, 0) * frame.image.at(x, y, 0);
+    }
+  }
+  const double mean = sum / n;
+  EXPECT_NEAR(mean, signal, 5 * sigma / std::sqrt(n));
+  EXPECT_NEAR(std::sqrt(sum2 / n - mean * mean), sigma, 0.1 * sigma);
 }
 
 TEST(SimulatedRigBackend, RejectsFaultsForDevicesTheRigLacks) {

@@ -1,0 +1,38 @@
+// The capture plan of a session (MDF paper Sec. 3.1-3.2): every step the rig
+// executes, in the order it executes them, with the files each step writes.
+//
+//   laser_calibration  per laser location and plate height: the stripe at
+//                      tilt 0 on a flat plate (Sec. 3.2 finds the laser
+//                      plane's angle from the two heights before scanning)
+//   btf_image          per turntable angle x light-arc angle x lamp: one
+//                      image per camera, that lamp alone on
+//   laser_sweep        per turntable angle x laser location: the stripe
+//                      swept across the sample, one frame sequence per camera
+//
+// Files, relative to the session folder:
+//   laser_calibration/loc<li>_h<hi>_<cam>.png   16-bit grey
+//   btf/t<ti>_a<ai>_l<lamp>_<cam>.png           16-bit RGB
+//   laser/t<ti>_loc<li>_<cam>.tif               16-bit grey frame sequence
+// The turntable-major order lets the rig turn the sample once per angle.
+#pragma once
+
+#include <nlohmann/json.hpp>
+#include <vector>
+
+#include "core/capture_session.h"
+#include "drivers/rig_description.h"
+
+namespace mesocap::acquisition {
+
+// `recording` (null for none) is stored in every step as "recording": the
+// settings that shaped the data beyond the rig (for the simulated rig: the
+// scene, seed and sensor model), so that resuming a session can check that
+// it continues the same capture.
+std::vector<PlannedStep> MakeCapturePlan(const drivers::RigDescription& rig,
+                                         const nlohmann::json& recording = nullptr);
+
+// Angles as the plan writes them, in degrees rounded to 1e-9 so that a plan
+// is byte-identical across runs and machines.
+double PlanDegrees(double rad);
+
+}  // namespace mesocap::acquisition

@@ -1,0 +1,286 @@
+#include "acquisition/capture_session_runner.h"
+
+#include <spdlog/spdlog.h>
+
+#include <map>
+#include <memory>
+#include <numbers>
+#include <string>
+#include <vector>
+
+#include "core/atomic_file.h"
+#include "core/capture_journal.h"
+#include "core/capture_session.h"
+#include "core/frame_sequence.h"
+#include "core/image_io.h"
+#include "core/progress.h"
+#include "drivers/device_error.h"
+
+namespace mesocap::acquisition {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+constexpr double kRadPerDeg = std::numbers::pi / 180.0;
+
+// The laser frames are stored grey: the mean of the camera's channels (the
+// stripe is one colour; processing needs its intensity, not its hue).
+Image Grey(const Image& image) {
+  if (image.channels() == 1) return image;
+  Image grey(image.width(), image.height(), 1);
+  for (int y = 0; y < image.height(); ++y) {
+    for (int x = 0; x < image.width(); ++x) {
+      const float* p = image.pixel(x, y);
+      float sum = 0.0f;
+      for (int c = 0; c < image.channels(); ++c) sum += p[c];
+      grey.at(x, y) = sum / static_cast<float>(image.channels());
+    }
+  }
+  return grey;
+}
+
+class SessionRun {
+ public:
+  SessionRun(const fs::path& dir, drivers::Rig& rig, drivers::RigOperator& rig_operator,
+             const CaptureRunnerOptions& options)
+      : dir_(dir),
+        manifest_(ReadSessionManifest(dir)),
+        rig_(rig),
+        operator_(rig_operator),
+        options_(options),
+        journal_(dir / kSessionJournalName, &manifest_) {
+    if (!rig_.turntable || !rig_.light_arc || !rig_.lamps || !rig_.laser) {
+      throw Error(dir_.string() + ": the rig lacks a turntable, light arc, lamp bank or laser unit");
+    }
+    for (std::size_t i = 0; i < rig_.cameras.size(); ++i) camera_index_[rig_.cameras[i]->info().id] = i;
+    for (const PlannedStep& step : manifest_.plan) {
+      if (step.kind == StepKind::kOther) {
+        throw Error(dir_.string() + ": step \"" + step.id + "\" is of kind \"other\", which a capture cannot run");
+      }
+      for (const json& f : step.params.at("files")) CameraFor(step, f);
+    }
+    report_.steps_done_before = journal_.records().size();
+    // The journal's lock keeps other writers out, so what looks like a
+    // temporary file was left by a writer that died.
+    report_.stale_temporaries_removed = RemoveStaleTemporaries(dir_);
+  }
+
+  CaptureRunReport Run() {
+    Progress progress("capture " + manifest_.rig.value("name", std::string()), manifest_.plan.size(),
+                      options_.show_progress ? Progress::Style::kAuto : Progress::Style::kSilent);
+    progress.Advance(report_.steps_done_before);
+    for (auto& camera : rig_.cameras) camera->SetTrigger(drivers::TriggerMode::kSoftware);
+    for (const PlannedStep& step : manifest_.plan) {
+      if (journal_.IsDone(step.id)) continue;
+      try {
+        RunStep(step);
+      } catch (const drivers::DeviceError& e) {
+        throw Error(dir_.string() + ": step \"" + step.id + "\": " + e.what() +
+                    " (finished steps are journaled; run again to resume)");
+      }
+      Journal(step);
+      ++report_.steps_run;
+      progress.Advance();
+    }
+    AllOff();
+    progress.Finish();
+    return report_;
+  }
+
+ private:
+  drivers::Camera& CameraFor(const PlannedStep& step, const json& file) {
+    const std::string id = file.at("camera").get<std::string>();
+    const auto it = camera_index_.find(id);
+    if (it == camera_index_.end()) {
+      throw Error(dir_.string() + ": step \"" + step.id + "\" names camera \"" + id + "\", which the rig lacks");
+    }
+    return *rig_.cameras[it->second];
+  }
+
+  fs::path FilePath(const json& file) const {
+    const fs::path path = dir_ / file.at("path").get<std::string>();
+    fs::create_directories(path.parent_path());
+    return path;
+  }
+
+  // Homes a stage that is not homed, then moves it, retrying what a retry
+  // can cure (a timeout: wait again; a stall: home again).
+  void Move(drivers::RotaryStage& stage, double angle_deg) {
+    for (int attempt = 0;; ++attempt) {
+      try {
+        if (!stage.IsHomed()) stage.Home();
+        stage.MoveTo(angle_deg * kRadPerDeg);
+        stage.WaitUntilStopped(options_.move_timeout);
+        return;
+      } catch (const drivers::TimeoutError& e) {
+        Retry(attempt, e);
+      } catch (const drivers::StallError& e) {
+        Retry(attempt, e);
+      }
+    }
+  }
+
+  void Tilt(double tilt_deg) {
+    for (int attempt = 0;; ++attempt) {
+      try {
+        rig_.laser->SetTilt(tilt_deg * kRadPerDeg, options_.move_timeout);
+        return;
+      } catch (const drivers::TimeoutError& e) {
+        Retry(attempt, e);
+      } catch (const drivers::StallError& e) {
+        Retry(attempt, e);
+      }
+    }
+  }
+
+  void Retry(int attempt, const drivers::DeviceError& e) {
+    if (attempt >= options_.retries) {
+      throw drivers::DeviceError(std::string(e.what()) + "; gave up after " + std::to_string(attempt + 1) +
+                                 " tries");
+    }
+    spdlog::warn("{}; trying again", e.what());
+    ++report_.retries;
+  }
+
+  // One frame of every camera the step names, in its files' order.
+  std::vector<Image> GrabAll(const PlannedStep& step) {
+    const json& files = step.params.at("files");
+    std::vector<drivers::Camera*> cameras;
+    for (const json& f : files) cameras.push_back(&CameraFor(step, f));
+    for (drivers::Camera* c : cameras) c->Trigger();
+    std::vector<Image> images;
+    for (drivers::Camera* c : cameras) {
+      for (int attempt = 0;; ++attempt) {
+        try {
+          drivers::Frame frame = c->Grab(options_.frame_timeout);
+          CountSequence(*c, frame.sequence);
+          images.push_back(std::move(frame.image));
+          break;
+        } catch (const drivers::TimeoutError& e) {
+          Retry(attempt, e);
+          c->Trigger();
+        }
+      }
+    }
+    report_.frames += images.size();
+    return images;
+  }
+
+  void CountSequence(const drivers::Camera& camera, std::uint64_t sequence) {
+    auto [it, first] = next_sequence_.try_emplace(camera.info().id, sequence);
+    if (!first && sequence > it->second) report_.dropped_frames += sequence - it->second;
+    it->second = sequence + 1;
+  }
+
+  void AllOff() {
+    for (int i = 0; i < rig_.lamps->lamp_count(); ++i) {
+      if (rig_.lamps->IsOn(i)) rig_.lamps->SetLamp(i, false);
+    }
+    if (rig_.laser->IsEnabled()) rig_.laser->SetEnabled(false);
+  }
+
+  void MountLaser(int mount) {
+    if (rig_.laser->mount() == mount) return;
+    operator_.MountLaser(mount);
+    rig_.laser->SetMount(mount);
+  }
+
+  void RunStep(const PlannedStep& step) {
+    const json& p = step.params;
+    const json& files = p.at("files");
+    AllOff();
+    switch (step.kind) {
+      case StepKind::kLaserCalibration: {
+        // Sec. 3.2: the stripe at tilt 0 on a flat plate at a known height.
+        Move(*rig_.light_arc, p.at("arc_deg").get<double>());
+        MountLaser(p.at("mount").get<int>());
+        operator_.PlaceCalibrationPlate(p.at("height_mm").get<double>());
+        rig_.laser->SetEnabled(true);
+        Tilt(p.at("tilt_deg").get<double>());
+        const std::vector<Image> images = GrabAll(step);
+        rig_.laser->SetEnabled(false);
+        operator_.RemoveCalibrationPlate();
+        for (std::size_t i = 0; i < images.size(); ++i) {
+          WriteImage(FilePath(files[i]), Grey(images[i]), PixelEncoding::kUInt16);
+        }
+        break;
+      }
+      case StepKind::kBtfImage: {
+        Move(*rig_.turntable, p.at("turntable_deg").get<double>());
+        Move(*rig_.light_arc, p.at("arc_deg").get<double>());
+        rig_.lamps->SetLamp(p.at("lamp").get<int>(), true);
+        const std::vector<Image> images = GrabAll(step);
+        for (std::size_t i = 0; i < images.size(); ++i) {
+          WriteImage(FilePath(files[i]), images[i], PixelEncoding::kUInt16);
+        }
+        break;
+      }
+      case StepKind::kLaserSweep: {
+        Move(*rig_.turntable, p.at("turntable_deg").get<double>());
+        Move(*rig_.light_arc, p.at("arc_deg").get<double>());
+        MountLaser(p.at("mount").get<int>());
+        const json& tilts = p.at("tilt_deg");
+        Tilt(tilts.at(0).get<double>());
+        rig_.laser->SetEnabled(true);
+        // Frames go to disk as they arrive: a sweep is never in memory.
+        std::vector<std::unique_ptr<FrameSequenceWriter>> writers;
+        for (const json& tilt : tilts) {
+          Tilt(tilt.get<double>());
+          const std::vector<Image> images = GrabAll(step);
+          if (writers.empty()) {
+            for (std::size_t i = 0; i < images.size(); ++i) {
+              writers.push_back(std::make_unique<FrameSequenceWriter>(FilePath(files[i]), images[i].width(),
+                                                                      images[i].height(), 1, PixelEncoding::kUInt16));
+            }
+          }
+          for (std::size_t i = 0; i < images.size(); ++i) writers[i]->Append(Grey(images[i]));
+        }
+        rig_.laser->SetEnabled(false);
+        for (auto& w : writers) w->Commit();
+        break;
+      }
+      case StepKind::kOther:
+        break;  // refused in the constructor
+    }
+  }
+
+  void Journal(const PlannedStep& step) {
+    JournalRecord record;
+    record.seq = journal_.next_seq();
+    record.step = step.id;
+    record.time_utc = UtcTimestamp(std::chrono::system_clock::now());
+    for (const json& f : step.params.at("files")) {
+      const std::string path = f.at("path").get<std::string>();
+      record.files.push_back({path, fs::file_size(dir_ / path)});
+    }
+    journal_.Append(record);
+  }
+
+  fs::path dir_;
+  SessionManifest manifest_;
+  drivers::Rig& rig_;
+  drivers::RigOperator& operator_;
+  CaptureRunnerOptions options_;
+  CaptureJournal journal_;
+  std::map<std::string, std::size_t> camera_index_;
+  std::map<std::string, std::uint64_t> next_sequence_;
+  CaptureRunReport report_;
+};
+
+}  // namespace
+
+CheckResult CaptureRunnerOptions::Check() const {
+  if (frame_timeout.count() <= 0) return "frame_timeout must be positive";
+  if (move_timeout.count() <= 0) return "move_timeout must be positive";
+  if (retries < 0 || retries > 100) return "retries must be 0..100";
+  return {};
+}
+
+CaptureRunReport RunCaptureSession(const fs::path& dir, drivers::Rig& rig, drivers::RigOperator& rig_operator,
+                                   const CaptureRunnerOptions& options) {
+  if (const CheckResult problem = options.Check(); !problem.empty()) throw Error("capture options: " + problem);
+  return SessionRun(dir, rig, rig_operator, options).Run();
+}
+
+}  // namespace mesocap::acquisition

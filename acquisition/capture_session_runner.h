@@ -1,0 +1,55 @@
+// Runs a capture session's plan on a rig (MDF paper Sec. 3.1-3.2): moves the
+// turntable and the light arc, switches lamps and the laser, tilts the
+// stripe across the sample, triggers every camera and writes what they
+// deliver, journaling each step once all its files are on disk. The same
+// code drives the simulated rig (`mesocap simulate`) and, later, the real
+// one: it sees only the drivers/ interfaces and the operator.
+//
+// Faults: a grab that times out is triggered again; a move that times out
+// is waited for again, a stalled stage is homed and moved again; each at
+// most `retries` times per operation. A disconnected camera, a burnt-out
+// lamp or retries used up end the run with an Error naming the step and the
+// device; the journal keeps every finished step, so running again resumes
+// where it stopped (leftover temporary files of the interrupted step are
+// removed first). Dropped frames cost nothing but time: in software
+// trigger mode the camera delivers the next exposure of the same state.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <filesystem>
+
+#include "core/error.h"
+#include "drivers/rig.h"
+#include "drivers/rig_operator.h"
+
+namespace mesocap::acquisition {
+
+struct CaptureRunnerOptions {
+  std::chrono::milliseconds frame_timeout{2000};
+  std::chrono::milliseconds move_timeout{120000};
+  int retries = 3;
+  bool show_progress = true;
+
+  CheckResult Check() const;
+};
+
+// What a run did, for the log and for tests.
+struct CaptureRunReport {
+  std::size_t steps_done_before = 0;  // journaled when the run began
+  std::size_t steps_run = 0;
+  std::size_t stale_temporaries_removed = 0;
+  std::uint64_t frames = 0;
+  std::uint64_t dropped_frames = 0;  // sequence gaps the cameras reported
+  std::uint64_t retries = 0;         // grabs, moves and tilts tried again
+};
+
+// Runs every step of the session at `dir` (created with its manifest, see
+// core/capture_session.h) that its journal does not hold yet, in plan
+// order. The rig must have the cameras the plan's files name (by id) and a
+// turntable, light arc, lamp bank and laser unit. Throws Error as described
+// above; a step of kind "other" is refused before anything moves.
+CaptureRunReport RunCaptureSession(const std::filesystem::path& dir, drivers::Rig& rig,
+                                   drivers::RigOperator& rig_operator, const CaptureRunnerOptions& options = {});
+
+}  // namespace mesocap::acquisition

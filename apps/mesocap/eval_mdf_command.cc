@@ -1,0 +1,55 @@
+// `mesocap eval mdf --truth T --estimate E [--json] [--out FILE]`: the error
+// table of a measured MDF against the exact one (processing/mdf_evaluation.h).
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+
+#include "apps/mesocap/command.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "core/material_package.h"
+#include "processing/mdf_evaluation.h"
+
+namespace mesocap {
+namespace {
+
+struct EvalMdfOptions {
+  std::filesystem::path truth;
+  std::filesystem::path estimate;
+  std::filesystem::path out;
+  bool json = false;
+};
+
+void RunEvalMdf(const EvalMdfOptions& o) {
+  const MaterialManifest truth_manifest = ReadMaterialManifest(o.truth);
+  const MaterialManifest estimate_manifest = ReadMaterialManifest(o.estimate);
+  const Mdf truth = ReadMdf(o.truth, truth_manifest);
+  const Mdf estimate = ReadMdf(o.estimate, estimate_manifest);
+  const auto& size = truth_manifest.description.physical_size_mm;
+  if ((estimate_manifest.description.physical_size_mm - size).norm() > 1e-6 * size.norm()) {
+    throw Error("eval mdf: truth and estimate cover different sample sizes");
+  }
+  const MdfErrorTable table = EvaluateMdf(truth, estimate, size.x() / truth.width);
+  const nlohmann::json json = ToJson(table);
+  if (!o.out.empty()) WriteJsonFileAtomically(o.out, json);
+  if (o.json) {
+    std::printf("%s\n", json.dump(2).c_str());
+  } else {
+    std::printf("%s", FormatMdfErrorTable(table).c_str());
+  }
+}
+
+}  // namespace
+
+void RegisterEvalMdfCommand(CLI::App& app) {
+  auto o = std::make_shared<EvalMdfOptions>();
+  CLI::App* group = GroupCommand(app, "eval", "Compare processed material parts with ground truth");
+  CLI::App* sub = group->add_subcommand("mdf", "Error table of a measured MDF against the true one");
+  sub->add_option("--truth", o->truth, "material package holding the true MDF (mesocap groundtruth)")->required();
+  sub->add_option("--estimate", o->estimate, "material package holding the measured MDF")->required();
+  sub->add_flag("--json", o->json, "print the table as one JSON object");
+  sub->add_option("--out", o->out, "also write the JSON table to this file");
+  sub->callback([o] { RunEvalMdf(*o); });
+}
+
+}  // namespace mesocap

@@ -1,0 +1,23 @@
+// The person at the rig, for the steps no motor does: laying the flat
+// calibration plates of the laser-plane calibration on the turntable (MDF
+// paper Sec. 3.2) and moving the laser unit between its mounts on the light
+// arc (Fig. 4: "we simply remount the laser unit ... manually"). A capture
+// asks, the operator does it and confirms by returning; a real backend
+// prompts on the console, the simulated one changes the simulated rig.
+#pragma once
+
+namespace mesocap::drivers {
+
+class RigOperator {
+ public:
+  virtual ~RigOperator() = default;
+
+  // Lay the plate flat over the turntable with its top at height_mm above
+  // the reference plane (the sample stays under it).
+  virtual void PlaceCalibrationPlate(double height_mm) = 0;
+  virtual void RemoveCalibrationPlate() = 0;
+  // Move the laser unit to mount `mount` of the light arc.
+  virtual void MountLaser(int mount) = 0;
+};
+
+}  // namespace mesocap::drivers

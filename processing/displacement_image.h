@@ -1,0 +1,78 @@
+// Displacement images (MDF paper Sec. 3.2, "Initial displacement images"):
+// the space-time result of one sweep triangulated against the laser planes,
+// then resampled to the texture grid as D along the view direction.
+#pragma once
+
+#include <Eigen/Core>
+#include <vector>
+
+#include "core/error.h"
+#include "core/rigid_transform.h"
+#include "processing/camera_rays.h"
+#include "processing/space_time_analyzer.h"
+
+namespace mesocap {
+
+// The W x H texel grid of sim/ground_truth.h: texel (i, j) centred at
+// (-S/2 + (i + 0.5) S / W, -S/2 + (j + 0.5) S / H, 0) in the sample frame.
+struct TextureGrid {
+  int width = 64;
+  int height = 64;
+  double sample_size_mm = 20.0;
+
+  double texel_mm() const { return sample_size_mm / width; }
+  CheckResult Check() const;
+};
+
+struct TriangulationOptions {
+  // Ill-conditioning (Sec. 3.2 cites the error analysis of shadow scanning):
+  // a plane error e moves the intersection by e / |ray . n|; rays closer to
+  // the laser plane than this sine are rejected rather than turned into
+  // wild points (0.05: at most 20x amplification).
+  double min_ray_plane_sine = 0.05;
+  // Mesostructure lies below the reference plane; points higher than this
+  // (mm) are triangulation failures.
+  double max_height_mm = 0.1;
+  // Resampling: a triangle of neighbouring pixels whose D values spread more
+  // than ratio x its texture-space extent + texels x texel width spans a
+  // depth discontinuity (an occluding edge) and is not interpolated.
+  double max_depth_step_ratio = 3.0;
+  double max_depth_step_texels = 1.0;
+  // Texels left unknown between measurements across a discontinuity take
+  // the nearest measurement's D (the edge is then placed to half a pixel).
+  bool fill_discontinuities = true;
+
+  CheckResult Check() const;
+};
+
+// The mesostructure point (sample frame) seen by each pixel: the pixel's ray
+// met with the laser plane at its peak time (planes blended between frames).
+// NaN where the pixel is unknown, its plane is invalid, or the intersection
+// is ill-conditioned or above the reference plane.
+std::vector<Eigen::Vector3f> TriangulateSweep(const SweepAnalysis& analysis, const CameraRays& rays,
+                                              const RigidTransform& world_from_sample,
+                                              const TriangulationOptions& options);
+
+// D(x, y) for one view and one laser location on the texture grid: distance
+// in mm from the texel's reference point along -view (sample frame, unit,
+// towards the camera) to the measured surface; NaN (unknown) where nothing
+// was measured. Unknown pixels stay unknown; no value is invented across a
+// discontinuity.
+struct DisplacementImage {
+  int width = 0;
+  int height = 0;
+  std::vector<float> distance_mm;
+
+  float at(int i, int j) const { return distance_mm[static_cast<std::size_t>(j) * width + i]; }
+};
+
+// Resamples the per-pixel points (pixel_width x pixel_height, from
+// TriangulateSweep) to the grid: each point projects along `view` to the
+// reference plane (p = q + D view), neighbouring pixels form triangles that
+// are rasterized at texel centres with D interpolated, and the nearest
+// surface (smallest D, the first hit) wins where triangles overlap.
+DisplacementImage ResampleToTexture(const std::vector<Eigen::Vector3f>& points, int pixel_width, int pixel_height,
+                                    const Eigen::Vector3d& view, const TextureGrid& grid,
+                                    const TriangulationOptions& options);
+
+}  // namespace mesocap

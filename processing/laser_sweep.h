@@ -1,0 +1,82 @@
+// One laser scan image sequence {I_v,l(x, y, t_i)} of MDF paper Sec. 3.2,
+// processed as its frames arrive: each frame's stripe line in the reference
+// region gives that frame's laser plane, and the frame feeds the space-time
+// analysis. The capture daemon and `mesocap process mdf` share this.
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "core/calibration.h"
+#include "core/rigid_transform.h"
+#include "processing/camera_rays.h"
+#include "processing/laser_line.h"
+#include "processing/laser_plane.h"
+#include "processing/space_time_analyzer.h"
+
+namespace mesocap {
+
+// world <- sample with the turntable at `angle_rad`: the sample pose, then
+// the rotation about the calibrated turntable axis.
+RigidTransform WorldFromSample(const TurntableCalibration& turntable, double angle_rad);
+// A light-arc-frame point or direction in the world with the arc at angle_rad.
+Eigen::Vector3d LightArcPointToWorld(const LightArcCalibration& arc, double angle_rad, const Eigen::Vector3d& p);
+Eigen::Vector3d LightArcDirectionToWorld(const LightArcCalibration& arc, double angle_rad, const Eigen::Vector3d& d);
+
+// A laser mount at a light-arc angle and emitter tilt, in the world frame
+// (core/calibration.h: the tilt turns the plane's normal about tilt_axis).
+struct LaserMountPose {
+  Eigen::Vector3d source = Eigen::Vector3d::Zero();
+  Eigen::Vector3d tilt_axis = Eigen::Vector3d::UnitY();
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitX();  // of the nominal plane
+};
+// Throws Error when the calibration has no such mount.
+LaserMountPose MountInWorld(const Calibration& calibration, int mount, double arc_rad, double tilt_rad);
+
+// The laser plane of one location from its two calibration frames, the
+// stripe on flat plates at two heights (Sec. 3.2); the stripe is searched on
+// the whole plate within outer_mm of the turntable axis. Throws Error when
+// the stripe is not found in either frame (naming `what`).
+Plane CalibrateLaserPlane(const Image& lower, double lower_height_mm, const Image& upper, double upper_height_mm,
+                          const CameraRays& rays, const Eigen::Vector2d& scan_direction, double outer_mm,
+                          const LaserLineOptions& options, const std::string& what);
+
+// The reference region (Sec. 3.2): pixels whose ray meets the turntable
+// plane outside the sample's bounding square grown by margin_mm and within
+// outer_mm of the centre, i.e. that see only the flat turntable.
+PixelMask ReferenceRegion(const CameraRays& rays, const RigidTransform& world_from_sample, double sample_size_mm,
+                          double margin_mm, double outer_mm);
+
+struct SweepGeometry {
+  PixelMask reference_region;
+  Plane calibrated_plane;  // the location's plane at the calibration tilt
+  Eigen::Vector3d tilt_axis = Eigen::Vector3d::UnitY();  // world, unit
+  // Per frame: its commanded tilt minus the calibration tilt (radians).
+  std::vector<double> delta_tilt_rad;
+};
+
+class LaserSweepProcessor {
+ public:
+  // Keeps a reference to `rays`. Throws Error on bad options or a mask or
+  // tilt list that does not fit.
+  LaserSweepProcessor(const CameraRays& rays, SweepGeometry geometry, const LaserLineOptions& line_options,
+                      const SpaceTimeOptions& space_time_options);
+
+  // Frame `index` (1 channel); skipped indices are dropped frames.
+  void AddFrame(int index, const Image& frame);
+  // The space-time result with every frame's plane (invalid for dropped
+  // frames and frames whose stripe line was not found).
+  SweepAnalysis Finish() const;
+  const ReferenceLine& line(int index) const { return lines_[index]; }
+
+ private:
+  const CameraRays& rays_;
+  SweepGeometry geometry_;
+  Eigen::Vector2d scan_direction_;
+  LaserLineOptions line_options_;
+  SpaceTimeAnalyzer analyzer_;
+  std::vector<ReferenceLine> lines_;
+};
+
+}  // namespace mesocap

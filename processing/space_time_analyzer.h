@@ -1,0 +1,88 @@
+// Space-time analysis (MDF paper Sec. 3.2, Fig. 5b, after Curless and Levoy
+// 1995): for every pixel, the time at which the sweeping stripe is brightest
+// there, interpolated between frames, and that brightness; below a threshold
+// the pixel saw no stripe (occluded from the laser or the camera: "unknown").
+//
+// Streaming: frames are fed one at a time as they arrive (the capture daemon
+// and the offline path call the same code) and each pixel keeps O(1) state,
+// so no sequence is ever held in memory. The result (SweepAnalysis) is small
+// (two floats per pixel plus one plane per frame), so a session can keep it
+// instead of the raw frames.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <vector>
+
+#include "core/error.h"
+#include "core/image.h"
+#include "processing/laser_plane.h"
+
+namespace mesocap {
+
+struct SpaceTimeOptions {
+  // Peak brightness below this (fraction of full scale) is "unknown". The
+  // stripe peaks at 0.4-0.9 on the simulated rigs; noise stays under 0.01.
+  float threshold = 0.05f;
+  // Values at or above this are saturated: the peak time is the middle of
+  // the longest saturated run (a clipped profile has no vertex to fit).
+  float saturation = 0.999f;
+
+  CheckResult Check() const;
+};
+
+// The analysis of one sweep of one camera: per pixel (row-major) the peak
+// time in frames (NaN where unknown) and the peak value, plus each frame's
+// laser plane (invalid where no stripe line was found or the frame was
+// dropped).
+struct SweepAnalysis {
+  int width = 0;
+  int height = 0;
+  int frame_count = 0;
+  std::vector<float> peak_time;
+  std::vector<float> peak_value;
+  std::vector<Plane> planes;  // frame_count
+};
+
+class SpaceTimeAnalyzer {
+ public:
+  // Throws Error on a non-positive size or frame count, or bad options.
+  SpaceTimeAnalyzer(int width, int height, int frame_count, SpaceTimeOptions options = {});
+
+  // Frame `index` of the sweep (1 channel, the analyzer's size). Indices must
+  // increase; a skipped index is a dropped frame: its neighbours' peaks are
+  // interpolated over the real time gap. Throws Error otherwise.
+  void AddFrame(int index, const Image& frame);
+  int frames_added() const { return frames_added_; }
+
+  // The per-pixel result so far (planes left empty for the caller to fill).
+  SweepAnalysis Result() const;
+
+ private:
+  // Per pixel, whatever the sweep length (structure of arrays): the arrays
+  // every frame touches (the brightest value so far and its frame, the
+  // latest value) apart from those only a new maximum, the frame after it or
+  // a saturated value touch, so the common pixel costs 16 bytes of traffic.
+  std::vector<float> best_;
+  std::vector<std::int32_t> best_index_;
+  std::vector<float> last_;
+  std::vector<float> before_, after_;  // the frames around the maximum
+  std::vector<std::int32_t> before_index_, after_index_;
+  std::vector<std::int32_t> run_start_;                         // current saturated run
+  std::vector<std::int32_t> saturated_first_, saturated_last_;  // longest saturated run
+  int width_;
+  int height_;
+  int frame_count_;
+  SpaceTimeOptions options_;
+  int last_index_ = -1;
+  int frames_added_ = 0;
+};
+
+// A sweep analysis on disk: <file> (JSON: sizes, planes) beside <file>.exr
+// (2 channels: peak time, peak value). Both written atomically, the EXR
+// first, so the JSON only ever names a complete image.
+void WriteSweepAnalysis(const std::filesystem::path& file, const SweepAnalysis& analysis);
+// Throws FormatError naming the file and field on anything malformed.
+SweepAnalysis ReadSweepAnalysis(const std::filesystem::path& file);
+
+}  // namespace mesocap

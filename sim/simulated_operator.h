@@ -1,0 +1,27 @@
+// The operator of the simulated rig (drivers/rig_operator.h): lays the
+// calibration plate into the simulated state and moves the laser unit by
+// hand, instantly (simulated time does not model the person).
+#pragma once
+
+#include <memory>
+
+#include "drivers/rig_operator.h"
+#include "sim/simulated_rig_state.h"
+
+namespace mesocap::sim {
+
+class SimulatedOperator : public drivers::RigOperator {
+ public:
+  explicit SimulatedOperator(std::shared_ptr<SimulatedRigState> state) : state_(std::move(state)) {}
+
+  void PlaceCalibrationPlate(double height_mm) override { state_->calibration_plate_height_mm = height_mm; }
+  void RemoveCalibrationPlate() override { state_->calibration_plate_height_mm.reset(); }
+  // The unit's SetMount is how the capture confirms the mount; in the
+  // simulated rig the unit's state is the mount, so there is nothing to move.
+  void MountLaser(int /*mount*/) override {}
+
+ private:
+  std::shared_ptr<SimulatedRigState> state_;
+};
+
+}  // namespace mesocap::sim

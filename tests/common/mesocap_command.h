@@ -1,0 +1,39 @@
+// Runs the real `mesocap` binary (MESOCAP_BINARY, set by the test's CMake
+// target) as a user would, capturing its exit code, stdout and stderr.
+#pragma once
+
+#include <sys/wait.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "tests/common/temporary_directory.h"
+
+namespace mesocap::testing {
+
+struct CommandResult {
+  int exit_code = -1;
+  std::string out;
+  std::string err;
+};
+
+inline std::string Slurp(const std::filesystem::path& p) {
+  std::ifstream in(p);
+  return {std::istreambuf_iterator<char>(in), {}};
+}
+
+inline CommandResult Mesocap(const std::string& args) {
+  TemporaryDirectory dir;
+  const std::string cmd = std::string(MESOCAP_BINARY) + " " + args + " >" + (dir / "out").string() + " 2>" +
+                          (dir / "err").string();
+  const int status = std::system(cmd.c_str());
+  CommandResult r;
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  r.out = Slurp(dir / "out");
+  r.err = Slurp(dir / "err");
+  return r;
+}
+
+}  // namespace mesocap::testing
