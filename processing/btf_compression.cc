@@ -362,6 +362,37 @@ nlohmann::json ToJson(const BtfCompressionReport& report, const FactoredBtf& fac
           {"seconds", report.seconds}};
 }
 
+Image ReconstructBtfView(const FactoredBtf& f, int view) {
+  f.CheckShape();
+  if (view < 0 || view >= f.view_count()) throw Error("factored BTF: view " + std::to_string(view) + " out of range");
+  Eigen::Matrix3d to_rgb = Eigen::Matrix3d::Identity();
+  if (f.color == BtfFactorColor::kYCbCr) to_rgb = f.rgb_to_factored.inverse();
+  const int nl = f.light_count();
+  const long long texels = static_cast<long long>(f.width) * f.height;
+  Image out(f.width, f.height * nl, 3);
+  std::vector<double> acc(3 * texels);
+  for (int l = 0; l < nl; ++l) {
+    std::fill(acc.begin(), acc.end(), 0.0);
+    // paper: rows (x, y, light), column view; per_texel: rows (x, y), column
+    // view * Nlight + light.
+    const bool paper = f.layout == BtfFactorLayout::kPaper;
+    const int column = paper ? view : view * nl + l;
+    const long long offset = paper ? 3 * l * texels : 0;
+    for (int k = 0; k < f.rank(); ++k) {
+      const float* c = f.columns.pixel(column, k);
+      const float* r = f.rows[k].data() + offset;
+      for (long long i = 0; i < texels; ++i)
+        for (int ch = 0; ch < 3; ++ch) acc[3 * i + ch] += static_cast<double>(r[3 * i + ch]) * c[ch];
+    }
+    float* dst = out.pixel(0, l * f.height);
+    for (long long i = 0; i < texels; ++i) {
+      const Eigen::Vector3d rgb = to_rgb * Eigen::Vector3d(acc[3 * i], acc[3 * i + 1], acc[3 * i + 2]);
+      for (int ch = 0; ch < 3; ++ch) dst[3 * i + ch] = static_cast<float>(rgb[ch]);
+    }
+  }
+  return out;
+}
+
 double RelativeRmsError(const FullBtf& truth, const FactoredBtf& factored) {
   factored.CheckShape();
   if (truth.width != factored.width || truth.height != factored.height ||

@@ -75,6 +75,11 @@ FactoredBtf CompressBtf(const FullBtf& btf, const BtfCompressionOptions& options
 // (index K-1), singular_values per factored channel, matrix size, seconds.
 nlohmann::json ToJson(const BtfCompressionReport& report, const FactoredBtf& factored);
 
+// View `view` of the factored BTF as a full-BTF view image (3 channels,
+// W x H * Nlight, linear RGB): sum_k r_k c_k per factored channel, then back
+// to RGB. What an evaluation or a renderer's reference path reads.
+Image ReconstructBtfView(const FactoredBtf& factored, int view);
+
 // ||T - F||_F / ||T||_F over all texels, directions and RGB channels (0 when
 // both are zero). Sizes must agree (throws Error otherwise).
 double RelativeRmsError(const FullBtf& truth, const FactoredBtf& factored);

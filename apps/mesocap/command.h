@@ -16,6 +16,8 @@ void RegisterInfoCommand(CLI::App& app);
 void RegisterGroundTruthCommand(CLI::App& app);
 void RegisterSimulateCommand(CLI::App& app);
 void RegisterCompressCommand(CLI::App& app);
+void RegisterEvalBtfCommand(CLI::App& app);     // `eval btf`
+void RegisterProcessBtfCommand(CLI::App& app);  // `process btf`
 void RegisterProcessMdfCommand(CLI::App& app);  // `process mdf`
 void RegisterEvalMdfCommand(CLI::App& app);     // `eval mdf`
 

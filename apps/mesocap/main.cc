@@ -29,6 +29,8 @@ int main(int argc, char** argv) {
   mesocap::RegisterGroundTruthCommand(app);
   mesocap::RegisterSimulateCommand(app);
   mesocap::RegisterCompressCommand(app);
+  mesocap::RegisterEvalBtfCommand(app);
+  mesocap::RegisterProcessBtfCommand(app);
   mesocap::RegisterProcessMdfCommand(app);
   mesocap::RegisterEvalMdfCommand(app);
 

@@ -168,5 +168,62 @@ TEST(Cli, CompressFactorsAGroundTruthPackage) {
   EXPECT_FALSE(std::filesystem::exists(dir / "y"));
 }
 
+// `mesocap eval btf --json` prints the figures; a compressed weave's
+// error is the one the compression measured.
+TEST(Cli, EvalBtfPrintsTheErrorOfACompressedPackage) {
+  testing::TemporaryDirectory dir;
+  const std::string gt = (dir / "gt").string(), out = (dir / "c").string();
+  ASSERT_EQ(Mesocap("-q groundtruth --scene weave --rig tiny --texture-size 8 --out " + gt).exit_code, 0);
+  ASSERT_EQ(Mesocap("-q compress --in " + gt + " --out " + out + " --rank 2").exit_code, 0);
+  const CommandResult r = Mesocap("eval btf --json --truth " + gt + " --estimate " + out);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["rank"], 2);
+  const double measured = ReadErrorReport(out, ReadMaterialManifest(out))["btf_compression"]["measured_relative_rms"];
+  EXPECT_NEAR(j["overall"]["relative_rms"].get<double>(), measured, 1e-6 * measured);
+  EXPECT_GT(j["overall"]["psnr_db"].get<double>(), 0.0);
+  ASSERT_FALSE(j["by_polar_angle"].empty());
+  for (const auto& band : j["by_polar_angle"]) {
+    for (const char* key : {"theta_min_deg", "theta_max_deg", "psnr_db", "relative_rms"}) EXPECT_TRUE(band.contains(key)) << key;
+  }
+  // The truth against itself is exact: PSNR infinite (null), error 0, no rank.
+  const auto self = nlohmann::json::parse(Mesocap("eval btf --json --truth " + gt + " --estimate " + gt).out);
+  EXPECT_EQ(self["overall"]["relative_rms"], 0.0);
+  EXPECT_TRUE(self["overall"]["psnr_db"].is_null());
+  EXPECT_TRUE(self["rank"].is_null());
+  // A truth on another grid is refused with the reason.
+  ASSERT_EQ(Mesocap("-q groundtruth --scene weave --rig tiny --texture-size 4 --out " + (dir / "gt4").string()).exit_code, 0);
+  const CommandResult bad = Mesocap("eval btf --truth " + (dir / "gt4").string() + " --estimate " + out);
+  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_NE(bad.err.find("texture size"), std::string::npos) << bad.err;
+}
+
+// `mesocap process btf` on a tiny-rig session of the flat sample: the package
+// holds the factored (and full) BTF, the ambient term and the assembly's
+// figures, and its BTF is within the rig's error of the ground truth; a
+// missing image is one error line naming it, and nothing is written.
+TEST(Cli, ProcessBtfTurnsASessionIntoAMaterial) {
+  testing::TemporaryDirectory dir;
+  const std::string session = (dir / "s").string(), out = (dir / "m").string(), gt = (dir / "gt").string();
+  ASSERT_EQ(Mesocap("-q simulate --scene flat --rig tiny --out " + session).exit_code, 0);
+  const CommandResult r = Mesocap("-q process btf --session " + session + " --out " + out +
+                                  " --texture-size 8 --full --max-error 1e-3");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const MaterialManifest m = ReadMaterialManifest(out);
+  EXPECT_TRUE(m.full_btf && m.factored_btf && m.ambient && m.calibration);
+  const auto report = ReadErrorReport(out, m);
+  EXPECT_EQ(report["btf_assembly"]["measured_pairs"], 32);
+  EXPECT_EQ(report["btf_assembly"]["interpolated_pairs"], 32);
+  ASSERT_EQ(Mesocap("-q groundtruth --scene flat --rig tiny --texture-size 8 --out " + gt).exit_code, 0);
+  const auto e = nlohmann::json::parse(Mesocap("eval btf --json --truth " + gt + " --estimate " + out).out);
+  EXPECT_GT(e["overall"]["psnr_db"].get<double>(), 30.0) << e.dump();
+
+  std::filesystem::remove(std::filesystem::path(session) / "btf" / "t1_a0_l1_cam0.png");
+  const CommandResult missing = Mesocap("process btf --session " + session + " --out " + (dir / "m2").string());
+  EXPECT_EQ(missing.exit_code, 1);
+  EXPECT_NE(missing.err.find("t1_a0_l1_cam0.png: missing BTF image"), std::string::npos) << missing.err;
+  EXPECT_FALSE(std::filesystem::exists(dir / "m2"));
+}
+
 }  // namespace
 }  // namespace mesocap

@@ -1,0 +1,104 @@
+// `mesocap eval btf --truth T --estimate E [--json]`: the error of a material
+// package's BTF (factored if it holds one, else full) against a true full BTF
+// (`mesocap groundtruth`) on the same texture grid and direction sets,
+// overall and by view polar angle; and of its ambient term when both have one.
+#include <spdlog/spdlog.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <optional>
+
+#include "apps/mesocap/command.h"
+#include "core/error.h"
+#include "core/material_package.h"
+#include "processing/btf_compression.h"
+#include "processing/btf_evaluation.h"
+
+namespace mesocap {
+namespace {
+
+struct EvalBtfCommandOptions {
+  std::filesystem::path truth;
+  std::filesystem::path estimate;
+  bool json = false;
+};
+
+bool SameDirections(const SamplingSet& a, const SamplingSet& b) {
+  if (a.size() != b.size()) return false;
+  for (int i = 0; i < a.size(); ++i) {
+    if (a.direction(i).dot(b.direction(i)) < std::cos(1e-6)) return false;
+  }
+  return true;
+}
+
+void ExpectComparable(const EvalBtfCommandOptions& o, const MaterialDescription& t, const MaterialDescription& e) {
+  const auto mismatch = [&](const std::string& what) {
+    throw Error("eval btf: " + o.estimate.string() + " and " + o.truth.string() + " differ in " + what +
+                "; evaluate against a ground truth on the estimate's grid (mesocap groundtruth --texture-size, --views, "
+                "--lights)");
+  };
+  if (t.width != e.width || t.height != e.height) mismatch("texture size");
+  if (!SameDirections(t.view_directions, e.view_directions)) mismatch("view directions");
+  if (!SameDirections(t.light_directions, e.light_directions)) mismatch("light directions");
+}
+
+void RunEvalBtf(const EvalBtfCommandOptions& o) {
+  const MaterialManifest truth = ReadMaterialManifest(o.truth);
+  if (!truth.full_btf) throw Error("eval btf: the truth " + o.truth.string() + " holds no full BTF");
+  const MaterialManifest estimate = ReadMaterialManifest(o.estimate);
+  if (!estimate.full_btf && !estimate.factored_btf) {
+    throw Error("eval btf: the estimate " + o.estimate.string() + " holds no BTF");
+  }
+  ExpectComparable(o, truth.description, estimate.description);
+
+  std::optional<FactoredBtf> factored;
+  if (estimate.factored_btf) factored = ReadFactoredBtf(o.estimate, estimate);
+  BtfErrorAccumulator errors(truth.description.view_directions);
+  for (int v = 0; v < truth.description.view_directions.size(); ++v) {
+    const Image t = ReadFullBtfView(o.truth, truth, v);
+    errors.Add(v, t, factored ? ReconstructBtfView(*factored, v) : ReadFullBtfView(o.estimate, estimate, v));
+  }
+  nlohmann::json result = ToJson(errors, factored ? std::optional<int>(factored->rank()) : std::nullopt);
+  result["form"] = factored ? "factored" : "full";
+  if (truth.ambient && estimate.ambient) {
+    const AmbientTerm ta = ReadAmbientTerm(o.truth, truth);
+    const AmbientTerm ea = ReadAmbientTerm(o.estimate, estimate);
+    BtfErrorAccumulator ambient(SamplingSet::Named("grid1x1"));  // one "view": the whole ambient image
+    ambient.Add(0, ta.values, ea.values);
+    result["ambient"] = {{"relative_rms", ambient.Overall().relative_rms}, {"psnr_db", ambient.Overall().psnr_db}};
+  }
+  if (o.json) {
+    std::printf("%s\n", result.dump().c_str());
+    return;
+  }
+  const auto overall = errors.Overall();
+  std::printf("BTF (%s%s) against %s\n", result["form"].get<std::string>().c_str(),
+              factored ? (", rank " + std::to_string(factored->rank())).c_str() : "", o.truth.string().c_str());
+  std::printf("  overall: PSNR %.2f dB, relative RMS %.4g (peak %.4g)\n", overall.psnr_db, overall.relative_rms,
+              errors.peak());
+  for (const auto& b : errors.ByPolarAngle()) {
+    std::printf("  view theta %4.1f-%4.1f deg: PSNR %.2f dB, relative RMS %.4g\n", b.theta_min_deg, b.theta_max_deg,
+                b.figures.psnr_db, b.figures.relative_rms);
+  }
+  if (result.contains("ambient")) {
+    std::printf("  ambient term: relative RMS %.4g\n", result["ambient"]["relative_rms"].get<double>());
+  }
+}
+
+}  // namespace
+
+void RegisterEvalBtfCommand(CLI::App& app) {
+  auto o = std::make_shared<EvalBtfCommandOptions>();
+  CLI::App* eval = GroupCommand(app, "eval", "Compare a measured material with ground truth");
+  CLI::App* sub = eval->add_subcommand("btf", "Error of a material's BTF (and ambient term) against a true BTF");
+  sub->add_option("--truth", o->truth, "material package with the true full BTF (mesocap groundtruth)")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  sub->add_option("--estimate", o->estimate, "material package to evaluate (factored BTF if present, else full)")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  sub->add_flag("--json", o->json, "print one JSON object");
+  sub->callback([o] { RunEvalBtf(*o); });
+}
+
+}  // namespace mesocap

@@ -1,0 +1,132 @@
+// `mesocap process btf --session S --calibration C --out MATERIAL
+// [--rank K | --max-error E]`: the BTF of a capture session (Wang et al. 2005
+// Sec. 3.1 and 5): every BTF image rectified into texture space, divided by
+// its lamp's irradiance, placed on the session's view and light sets,
+// factored by SVD; with the ambient term (Sec. 4.2) and the figures of each
+// stage in the error report.
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <map>
+#include <numbers>
+
+#include "apps/mesocap/command.h"
+#include "core/capture_session.h"
+#include "core/error.h"
+#include "core/material_package.h"
+#include "drivers/rig_description.h"
+#include "processing/ambient_term.h"
+#include "processing/btf_assembly.h"
+#include "processing/btf_compression.h"
+#include "sim/camera_renderer.h"
+
+namespace mesocap {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct ProcessBtfCommandOptions {
+  fs::path session;
+  fs::path calibration;
+  fs::path out;
+  int texture_size = 64;
+  double gain = 0.0;
+  bool full = false;
+  bool replace = false;
+  BtfCompressionOptions compression;
+};
+
+void RunProcessBtf(const ProcessBtfCommandOptions& o) {
+  const SessionManifest manifest = ReadSessionManifest(o.session);
+  const drivers::RigDescription rig = drivers::ParseRigDescription(manifest.rig, o.session / kSessionManifestName);
+  fs::path calibration_file = o.calibration;
+  if (calibration_file.empty()) {
+    if (!manifest.calibration) throw Error("process btf: give --calibration (the session names none)");
+    calibration_file = o.session / *manifest.calibration;
+  }
+  const Calibration calibration = ReadCalibration(calibration_file);
+
+  BtfAssemblyOptions a;
+  a.texture_width = a.texture_height = o.texture_size;
+  a.sample_size_mm = rig.sample_size_mm;
+  a.views = drivers::ViewDirections(rig);
+  a.lights = drivers::LightDirections(rig);
+  bool all_simulated = true;
+  for (const CameraCalibration& camera : calibration.cameras) {
+    const auto it = std::find_if(rig.cameras.begin(), rig.cameras.end(), [&](const auto& c) { return c.id == camera.id; });
+    if (it == rig.cameras.end()) throw Error("process btf: calibrated camera " + camera.id + " is not in the rig");
+    a.exposure_s.push_back(it->exposure_us * 1e-6);
+    all_simulated = all_simulated && it->backend == "sim";
+  }
+  // The gain is a radiometric calibration the calibration format does not
+  // hold yet; the simulated cameras' is known exactly.
+  a.signal_per_radiance_second = o.gain > 0 ? o.gain : (all_simulated ? sim::kSignalPerRadianceSecond : 0.0);
+  if (!(a.signal_per_radiance_second > 0)) {
+    throw Error("process btf: give --gain (camera signal per radiance second) for a rig with real cameras");
+  }
+  const std::vector<BtfCaptureImage> images = SessionBtfImages(o.session, manifest, calibration);
+  spdlog::info("assembling the BTF of {}: {} images, {} views x {} lights, {}x{} texels", o.session.string(),
+               images.size(), a.views.size(), a.lights.size(), o.texture_size, o.texture_size);
+  BtfAssemblyReport assembly;
+  const FullBtf btf = AssembleBtf(images, calibration, a, &assembly);
+  BtfCompressionReport compression;
+  const FactoredBtf factored = CompressBtf(btf, o.compression, &compression);
+  spdlog::info("rank {}: {}", compression.rank, compression.reason);
+
+  MaterialDescription d;
+  d.name = manifest.rig.value("name", "") + " session";
+  d.width = d.height = o.texture_size;
+  d.physical_size_mm = {rig.sample_size_mm, rig.sample_size_mm};
+  // No geometry is measured here; d_max is a property of the MDF. The rig's
+  // laser sweep range bounds it from above.
+  d.d_max_mm = std::max(1e-3, rig.laser.sweep_max_mm - rig.laser.sweep_min_mm);
+  d.view_directions = a.views;
+  d.light_directions = a.lights;
+  d.provenance.source = "process btf session=" + o.session.string();
+  MaterialPackageWriter writer(o.out, d, o.replace);
+  if (o.full) {
+    for (int v = 0; v < btf.view_count(); ++v) writer.WriteFullBtfView(v, btf.view_images[v]);
+  }
+  writer.WriteFactoredBtf(factored);
+  writer.WriteAmbientTerm(ComputeAmbientTerm(btf));
+  writer.WriteCalibration(calibration);
+  writer.WriteErrorReport({{"btf_assembly",
+                            {{"images", assembly.images},
+                             {"measured_pairs", assembly.measured_pairs},
+                             {"interpolated_pairs", assembly.filled_pairs},
+                             {"max_view_offset_deg", assembly.max_view_offset_deg},
+                             {"max_light_offset_deg", assembly.max_light_offset_deg},
+                             {"max_samples_per_side", assembly.max_samples_per_side}}},
+                           {"btf_compression", ToJson(compression, factored)}});
+  writer.Commit();
+  spdlog::info("wrote {}", o.out.string());
+}
+
+}  // namespace
+
+void RegisterProcessBtfCommand(CLI::App& app) {
+  auto o = std::make_shared<ProcessBtfCommandOptions>();
+  CLI::App* process = GroupCommand(app, "process", "Turn a capture session into a material");
+  CLI::App* sub = process->add_subcommand("btf", "BTF, its SVD factors and ambient term from a capture session");
+  sub->add_option("--session", o->session, "capture session folder")->required()->check(CLI::ExistingDirectory);
+  sub->add_option("--calibration", o->calibration, "calibration file (default: the one the session names)")
+      ->check(CLI::ExistingFile);
+  sub->add_option("--out", o->out, "material package folder to write")->required();
+  sub->add_option("--texture-size", o->texture_size, "texels per side")->check(CLI::Range(1, 4096))->capture_default_str();
+  auto* rank = sub->add_option("--rank", o->compression.rank, "number of SVD terms, 1..100")
+                   ->check(CLI::Range(1, kMaxBtfRank));
+  sub->add_option("--max-error", o->compression.max_relative_error,
+                  "error budget: the smallest rank whose relative RMS error is at most this")
+      ->check(CLI::Range(1e-12, 1.0))
+      ->capture_default_str()
+      ->excludes(rank);
+  sub->add_option("--gain", o->gain, "camera signal (fraction of full scale) per radiance second; "
+                                     "default: the simulated cameras' own");
+  sub->add_flag("--full", o->full, "also store the full (uncompressed) BTF");
+  sub->add_flag("--replace", o->replace, "replace an existing package at --out");
+  sub->callback([o] { RunProcessBtf(*o); });
+}
+
+}  // namespace mesocap

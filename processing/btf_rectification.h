@@ -1,0 +1,59 @@
+// Rectification of a captured image into texture space (Wang et al. 2005
+// Sec. 3.1: "the captured images are rectified and then clipped to form the
+// output BTF data"): texel (i, j) of a W x H grid over the clipped square
+// sample of side S is the reference-plane point p = (-S/2 + (i + 0.5) S / W,
+// -S/2 + (j + 0.5) S / H, 0) in the sample frame (docs/FORMATS.md "Texture
+// grid"), projected into the camera with its calibrated pose, pinhole and
+// Brown-Conrady distortion. The camera ray through p is the ray the true BTF
+// is defined on (sim/ground_truth.h: the first hit along -view from p).
+//
+// Filtering: where the camera samples the texture more finely than the grid
+// (a texel's footprint spans several pixels), the texel averages n x n
+// bilinear samples over its footprint (a box prefilter, n = the footprint's
+// extent in pixels, rounded up, at most max_samples_per_side); where it
+// samples more coarsely, one bilinear sample at the texel centre
+// interpolates. Conditioning: at grazing views the footprint stretches along
+// one axis (1 / cos theta) and n follows the longer extent.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/calibration.h"
+#include "core/image.h"
+#include "processing/camera_rays.h"
+
+namespace mesocap {
+
+class ReferencePlaneRectifier {
+ public:
+  // Throws Error, naming the camera, when a texel's footprint leaves the
+  // image or lies behind the camera.
+  // Projects with the camera's CameraRays (cv::projectPoints).
+  ReferencePlaneRectifier(const CameraCalibration& camera, const CameraRays& rays,
+                          const RigidTransform& world_from_sample, int width, int height, double sample_size_mm,
+                          int max_samples_per_side = 8);
+
+  // The camera image (any channel count) in texture space, W x H.
+  Image Rectify(const Image& camera_image) const;
+
+  // Reference-plane point of texel (i, j) in the sample frame.
+  static Eigen::Vector3d TexelCentre(int i, int j, int width, int height, double sample_size_mm);
+
+  int samples_per_side_max() const { return samples_per_side_max_; }
+
+ private:
+  struct Tap {
+    int pixel = 0;  // y * image width + x
+    float weight = 0.0f;
+  };
+  int width_ = 0;
+  int height_ = 0;
+  int image_width_ = 0;
+  int image_height_ = 0;
+  int samples_per_side_max_ = 1;
+  std::vector<int> first_tap_;  // per texel, into taps_; one past the end at [W*H]
+  std::vector<Tap> taps_;
+};
+
+}  // namespace mesocap
