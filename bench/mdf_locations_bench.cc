@@ -1,4 +1,5 @@
-// MDF error against the number of laser locations (issue 4, 7a): the small
+// MDF error against the number of laser locations (issue 4, 7a) and against
+// camera noise and resolution (7b): the small
 // rig, scene blocks, camera 1 (33.75 degrees), turntable angle 0, default
 // sensor noise, 1 to all 8 locations (spread over sides and mounts in the
 // order 0 4 7 2 5 1 6 3). Frames are rendered by the simulated rig and fed
@@ -8,6 +9,13 @@
 // coverage inside the sample pocket (processing/mdf_evaluation.h).
 #include <benchmark/benchmark.h>
 
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
 #include <vector>
 
 #include "processing/mdf_evaluation.h"
@@ -37,6 +45,51 @@ void ErrorAgainstLocations(benchmark::State& state) {
 }
 BENCHMARK(ErrorAgainstLocations)->Arg(1)->Arg(2)->Arg(4)->Arg(8)->Iterations(1)->UseManualTime()->Unit(
     benchmark::kMillisecond);
+
+// Error against camera noise and resolution (issue 4, 7b): all 8 locations,
+// the same camera; noise off / on (the rig's default: 20000 e- full well,
+// 5 e- read noise, 12 bit), and the small rig's cameras at half, full and
+// double resolution (image size and focal length scaled together, so the
+// field of view is the same and a pixel covers 0.5, 0.25, 0.125 mm).
+void ErrorAgainstNoiseAndResolution(benchmark::State& state) {
+  const bool noise = state.range(0) != 0;
+  const double scale = state.range(1) / 100.0;
+  nlohmann::json rig = nlohmann::json::parse(std::ifstream(std::string(MESOCAP_SOURCE_DIR) + "/sim/rigs/small.json"));
+  for (auto& camera : rig["cameras"]) {
+    camera["image_size"] = {std::lround(camera["image_size"][0].get<double>() * scale),
+                            std::lround(camera["image_size"][1].get<double>() * scale)};
+    camera["focal_px"] = camera["focal_px"].get<double>() * scale;
+  }
+  const auto file = std::filesystem::temp_directory_path() /
+                    ("mesocap-bench-rig-" + std::to_string(::getpid()) + "-" + std::to_string(state.range(1)) + ".json");
+  std::ofstream(file) << rig.dump();
+  mesocap::test::ScanSetup setup;
+  setup.scene = "blocks";
+  setup.rig = file.string();
+  setup.turntable_indices = {0};
+  setup.cameras = {1};
+  setup.noise = noise;
+  mesocap::test::ScanResult r;
+  for (auto _ : state) {
+    r = mesocap::test::RunSimulatedScan(setup);
+    state.SetIterationTime(r.processing_seconds);
+  }
+  std::filesystem::remove(file);
+  const auto row = mesocap::EvaluateMdfViews(r.truth, r.estimate, r.texel_mm, {0, 90, true});
+  state.counters["noise"] = noise;
+  state.counters["pixel_mm"] = 0.25 / scale;
+  state.counters["median_texels"] = row.median_texels;
+  state.counters["p95_texels"] = row.p95_texels;
+  state.counters["coverage"] = row.coverage;
+}
+BENCHMARK(ErrorAgainstNoiseAndResolution)
+    ->Args({0, 100})
+    ->Args({1, 100})
+    ->Args({1, 50})
+    ->Args({1, 200})
+    ->Iterations(1)
+    ->UseManualTime()
+    ->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

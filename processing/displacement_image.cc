@@ -64,6 +64,12 @@ void Rasterize(const Vertex& a, const Vertex& b, const Vertex& c, const TextureG
                std::vector<float>* distance) {
   const double area = (b.u - a.u) * (c.v - a.v) - (c.u - a.u) * (b.v - a.v);
   if (std::abs(area) < 1e-12) return;
+  // Far off the grid (a point at a grazing view can project far away): skip
+  // before the texel bounds are converted to int.
+  constexpr double kFar = 1e7;
+  for (const Vertex* x : {&a, &b, &c}) {
+    if (!(std::abs(x->u) < kFar && std::abs(x->v) < kFar)) return;
+  }
   const int i0 = std::max(0, static_cast<int>(std::ceil(std::min({a.u, b.u, c.u}) - 1e-9)));
   const int i1 = std::min(grid.width - 1, static_cast<int>(std::floor(std::max({a.u, b.u, c.u}) + 1e-9)));
   const int j0 = std::max(0, static_cast<int>(std::ceil(std::min({a.v, b.v, c.v}) - 1e-9)));

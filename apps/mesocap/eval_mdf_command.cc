@@ -18,6 +18,7 @@ struct EvalMdfOptions {
   std::filesystem::path estimate;
   std::filesystem::path out;
   bool json = false;
+  bool inside_sample_only = false;
 };
 
 void RunEvalMdf(const EvalMdfOptions& o) {
@@ -29,7 +30,7 @@ void RunEvalMdf(const EvalMdfOptions& o) {
   if ((estimate_manifest.description.physical_size_mm - size).norm() > 1e-6 * size.norm()) {
     throw Error("eval mdf: truth and estimate cover different sample sizes");
   }
-  const MdfErrorTable table = EvaluateMdf(truth, estimate, size.x() / truth.width);
+  const MdfErrorTable table = EvaluateMdf(truth, estimate, size.x() / truth.width, o.inside_sample_only);
   const nlohmann::json json = ToJson(table);
   if (!o.out.empty()) WriteJsonFileAtomically(o.out, json);
   if (o.json) {
@@ -48,6 +49,9 @@ void RegisterEvalMdfCommand(CLI::App& app) {
   sub->add_option("--truth", o->truth, "material package holding the true MDF (mesocap groundtruth)")->required();
   sub->add_option("--estimate", o->estimate, "material package holding the measured MDF")->required();
   sub->add_flag("--json", o->json, "print the table as one JSON object");
+  sub->add_flag("--inside-sample-only", o->inside_sample_only,
+               "leave out true hits behind the sample pocket's wall (outside the sample square), which the rig "
+               "cannot see");
   sub->add_option("--out", o->out, "also write the JSON table to this file");
   sub->callback([o] { RunEvalMdf(*o); });
 }

@@ -69,6 +69,12 @@ const ScanResult& Baseline() {
   return r;
 }
 
+// A hard case's row (views up to 60 degrees) and the baseline's.
+struct Comparison {
+  MdfErrorRow row, base;
+};
+Comparison AgainstBaseline(const ScanSetup& s) { return {Row(RunSimulatedScan(s), 60), Row(Baseline(), 60)}; }
+
 TEST(MdfPipelineTest, AcceptanceBlocksSmallRig) {
   MESOCAP_SKIP_UNDER_SANITIZERS();
   // Cameras at 11.25 and 56.25 degrees, all eight laser locations.
@@ -109,9 +115,7 @@ TEST(MdfPipelineTest, SaturatedStripe) {
   MESOCAP_SKIP_UNDER_SANITIZERS();
   ScanSetup s = SmallRig("blocks", {1}, kFourLocations);
   s.signal_gain = 4.0;  // the stripe peak (0.4-0.9 of full scale) clips for several frames
-  const ScanResult r = RunSimulatedScan(s);
-  const MdfErrorRow row = Row(r, 60);
-  const MdfErrorRow base = Row(Baseline(), 60);
+  const auto [row, base] = AgainstBaseline(s);
   EXPECT_LE(row.median_texels, 0.25);
   EXPECT_GE(row.coverage, base.coverage - 0.01);
 }
@@ -129,9 +133,7 @@ TEST(MdfPipelineTest, InterreflectionGhostPeaks) {
       history->erase(it);
     }
   };
-  const ScanResult r = RunSimulatedScan(s);
-  const MdfErrorRow row = Row(r, 60);
-  const MdfErrorRow base = Row(Baseline(), 60);
+  const auto [row, base] = AgainstBaseline(s);
   // The weaker ghost never wins the peak search, so the bulk is unchanged;
   // where one pixel sees two surfaces ~10 frames apart, the ghost of the
   // first can outshine the second: the edges degrade (measured p95 1.95
@@ -145,9 +147,7 @@ TEST(MdfPipelineTest, DroppedFrames) {
   MESOCAP_SKIP_UNDER_SANITIZERS();
   ScanSetup s = SmallRig("blocks", {1}, kFourLocations);
   s.dropped_frames = {40, 64, 65, 97};
-  const ScanResult r = RunSimulatedScan(s);
-  const MdfErrorRow row = Row(r, 60);
-  const MdfErrorRow base = Row(Baseline(), 60);
+  const auto [row, base] = AgainstBaseline(s);
   // The planes of the dropped frames are bridged from their neighbours and
   // the peaks next to them interpolated over the real gap: measured equal
   // coverage and p95 1.164 against 1.167 texels.
