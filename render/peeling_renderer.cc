@@ -105,6 +105,9 @@ BlendTextures MakeBlendTextures(const SamplingSet& set) {
   glTextureStorage2D(t.index, 1, GL_RGBA32I, table.phi_cells, table.theta_cells);
   glTextureSubImage2D(t.index, 0, 0, 0, table.phi_cells, table.theta_cells, GL_RGBA_INTEGER, GL_INT,
                       table.index.data());
+  // Integer textures are incomplete (read as 0) with the default mipmapped filter.
+  glTextureParameteri(t.index, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+  glTextureParameteri(t.index, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
   t.weight = MakeTexture2d(GL_RGBA32F, table.phi_cells, table.theta_cells);
   glTextureSubImage2D(t.weight, 0, 0, 0, table.phi_cells, table.theta_cells, GL_RGBA, GL_FLOAT,
                       table.weight.data());

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <optional>
 #include <vector>
 
 #include "core/error.h"
@@ -249,22 +250,37 @@ struct ReferenceRenderer::Impl {
     if (rtcGetDeviceError(device) != RTC_ERROR_NONE) throw Error("reference renderer: Embree cannot build the scene");
   }
 
-  bool Occluded(const Eigen::Vector3f& origin, const Eigen::Vector3f& dir, float t0, float t1) const {
-    if (!(t1 > t0)) return false;
+  struct BlockerHit {
+    float t = 0.0f;
+    Eigen::Vector3f base_point;  // the hit moved back up to the reference surface
+  };
+
+  std::optional<BlockerHit> FirstHit(const Eigen::Vector3f& origin, const Eigen::Vector3f& dir, float t0,
+                                     float t1) const {
+    if (!(t1 > t0)) return std::nullopt;
     RTCIntersectContext context;
     rtcInitIntersectContext(&context);
-    RTCRay ray{};
-    ray.org_x = origin.x();
-    ray.org_y = origin.y();
-    ray.org_z = origin.z();
-    ray.dir_x = dir.x();
-    ray.dir_y = dir.y();
-    ray.dir_z = dir.z();
-    ray.tnear = t0;
-    ray.tfar = t1;
-    ray.mask = 0xFFFFFFFF;
-    rtcOccluded1(rtc_scene, &context, &ray);
-    return ray.tfar < 0.0f;
+    RTCRayHit hit{};
+    hit.ray.org_x = origin.x();
+    hit.ray.org_y = origin.y();
+    hit.ray.org_z = origin.z();
+    hit.ray.dir_x = dir.x();
+    hit.ray.dir_y = dir.y();
+    hit.ray.dir_z = dir.z();
+    hit.ray.tnear = t0;
+    hit.ray.tfar = t1;
+    hit.ray.mask = 0xFFFFFFFF;
+    hit.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rtcIntersect1(rtc_scene, &context, &hit);
+    if (hit.hit.geomID == RTC_INVALID_GEOMETRY_ID) return std::nullopt;
+    const RefTriangle& tri = triangles[hit.hit.primID];
+    const RefVertex& a = vertices[tri.vertex[0]];
+    const RefVertex& b = vertices[tri.vertex[1]];
+    const RefVertex& c = vertices[tri.vertex[2]];
+    const float u = hit.hit.u, v = hit.hit.v, w = 1.0f - u - v;
+    const Eigen::Vector3f normal = (w * a.base_normal + u * b.base_normal + v * c.base_normal).normalized();
+    const float depth_mm = (w * a.depth + u * b.depth + v * c.depth) * (w * a.scale + u * b.scale + v * c.scale);
+    return BlockerHit{hit.ray.tfar, origin + hit.ray.tfar * dir - depth_mm * normal};
   }
 
   // Radiance, coverage and macroscale shadow along one camera ray.
@@ -303,11 +319,30 @@ struct ReferenceRenderer::Impl {
     const Eigen::Vector3f wo = -dir;
     const float eps = static_cast<float>(epsilon);
     const float cos_base = base_normal.dot(wi);
-    // Where the shadow ray leaves the slab under p (flat-surface estimate).
-    const float slab_exit = cos_base > 0 ? -depth * scale / cos_base + 2 * eps : 0.0f;
-    const bool macro = cos_base <= 0 || Occluded(p, wi, std::max(slab_exit, eps), distance - eps);
-    const bool object_plain = tri.part < 0;
     const SceneObject& object = scene->objects[tri.object];
+    const float d_max = object.material >= 0 ? static_cast<float>(scene->materials[object.material].d_max_mm) : 0.0f;
+    bool macro = cos_base <= 0;  // facing away from the light: attached shadow
+    bool local = false;
+    if (!macro) {
+      // Walk the shadow ray's blockers. One whose base-surface point lies
+      // within the slab's footprint around p's, L = s d_max / cos(theta_l)
+      // (cos clamped at 0.05 as the GL shadow map clamps it), is mesoscale
+      // self-shadowing; one beyond belongs to another part of the scene.
+      const Eigen::Vector3f base_point = p - depth * scale * base_normal;
+      const float footprint = scale * d_max / std::max(cos_base, 0.05f) * 1.01f + 4 * eps;
+      float t = eps;
+      for (int step = 0; step < 256; ++step) {
+        const std::optional<BlockerHit> blocker = FirstHit(p, wi, t, distance - eps);
+        if (!blocker) break;
+        if ((blocker->base_point - base_point).norm() > footprint) {
+          macro = true;
+          break;
+        }
+        local = true;
+        t = blocker->t + eps;
+      }
+    }
+    const bool object_plain = tri.part < 0;
     Eigen::Vector3f radiance = Eigen::Vector3f::Zero();
     if (macro) {
       *shadow = 1.0f;
@@ -324,7 +359,7 @@ struct ReferenceRenderer::Impl {
         const int y = std::clamp(static_cast<int>(cell.y() * m.ambient.height), 0, m.ambient.height - 1);
         radiance = static_cast<float>(light.ambient) * m.ambient.at(x, y, m.ambient.views.Nearest(local));
       }
-    } else if (!Occluded(p, wi, eps, std::min(slab_exit, distance - eps))) {
+    } else if (!local) {
       const float irradiance = static_cast<float>(light.intensity) / (distance * distance);
       const float cos_true = std::max(n.dot(wi), 0.0f);
       if (object_plain) {

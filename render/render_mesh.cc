@@ -97,15 +97,22 @@ void ComputeTangentFrames(RenderMesh* mesh, double sample_size_mm) {
   }
 }
 
-RenderMesh MakeCylinder(double radius, double height, int segments, int rings, Eigen::Vector2d tiles) {
-  segments = std::max(segments, 3);
-  rings = std::max(rings, 1);
+RenderMesh MakeCylinderSide(double radius, double height, int segments, int rings, Eigen::Vector2d tiles) {
   RenderMesh mesh;
   AppendParametric(
       [&](double u, double v) {
         return Eigen::Vector3d(radius * std::cos(kTwoPi * u), radius * std::sin(kTwoPi * u), height * v);
       },
-      segments, rings, false, tiles, &mesh);
+      std::max(segments, 3), std::max(rings, 1), false, tiles, &mesh);
+  return mesh;
+}
+
+RenderMesh MakeCylinderCaps(double radius, double height, int segments, Eigen::Vector2d tiles) {
+  segments = std::max(segments, 3);
+  // The rim copies the side's first row exactly (same formula), so the caps
+  // meet the side without cracks.
+  const RenderMesh side = MakeCylinderSide(radius, height, segments, 1, tiles);
+  RenderMesh mesh;
   // Caps: a fan each, texture coordinates planar at the side's density.
   const double density = tiles.x() / (kTwoPi * radius);
   for (const bool top : {false, true}) {
@@ -115,9 +122,9 @@ RenderMesh MakeCylinder(double radius, double height, int segments, int rings, E
     mesh.positions.emplace_back(0.0f, 0.0f, z);
     mesh.normals.push_back(normal);
     mesh.texcoords.emplace_back(0.0f, 0.0f);
-    const int rim_row = top ? rings * (segments + 1) : 0;
+    const int rim_row = top ? segments + 1 : 0;
     for (int i = 0; i < segments; ++i) {
-      const Eigen::Vector3f p = mesh.positions[rim_row + i];
+      const Eigen::Vector3f p = side.positions[rim_row + i];
       mesh.positions.push_back(p);
       mesh.normals.push_back(normal);
       mesh.texcoords.emplace_back(static_cast<float>(p.x() * density), static_cast<float>(p.y() * density));
@@ -128,6 +135,17 @@ RenderMesh MakeCylinder(double radius, double height, int segments, int rings, E
       mesh.triangles.emplace_back(top ? Eigen::Vector3i(centre, a, b) : Eigen::Vector3i(centre, b, a));
     }
   }
+  return mesh;
+}
+
+RenderMesh MakeCylinder(double radius, double height, int segments, int rings, Eigen::Vector2d tiles) {
+  RenderMesh mesh = MakeCylinderSide(radius, height, segments, rings, tiles);
+  const RenderMesh caps = MakeCylinderCaps(radius, height, segments, tiles);
+  const int base = mesh.vertex_count();
+  mesh.positions.insert(mesh.positions.end(), caps.positions.begin(), caps.positions.end());
+  mesh.normals.insert(mesh.normals.end(), caps.normals.begin(), caps.normals.end());
+  mesh.texcoords.insert(mesh.texcoords.end(), caps.texcoords.begin(), caps.texcoords.end());
+  for (const Eigen::Vector3i& t : caps.triangles) mesh.triangles.push_back(t + Eigen::Vector3i::Constant(base));
   return mesh;
 }
 

@@ -40,8 +40,13 @@ void ComputeTangentFrames(RenderMesh* mesh, double sample_size_mm);
 // shape's (u, v) parameter square. Counts of segments are clamped to >= 3.
 // Cylinder about +z, base at z = 0, closed by caps (caps get a planar mapping
 // at the side's density; the rim vertices are split, so the displaced shell is
-// not watertight at the rim).
+// not watertight at the rim: the tiles of side and cap overlap at the crease,
+// where neither the MDF nor the true geometry is meaningful).
 RenderMesh MakeCylinder(double radius, double height, int segments, int rings, Eigen::Vector2d tiles);
+// The side alone and the two caps alone (a scene can give the caps a plain
+// albedo and so keep mesostructure off the crease).
+RenderMesh MakeCylinderSide(double radius, double height, int segments, int rings, Eigen::Vector2d tiles);
+RenderMesh MakeCylinderCaps(double radius, double height, int segments, Eigen::Vector2d tiles);
 // Torus about +z: u along the major circle, v around the tube.
 RenderMesh MakeTorus(double major_radius, double minor_radius, int major_segments, int minor_segments,
                      Eigen::Vector2d tiles);

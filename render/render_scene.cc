@@ -13,6 +13,12 @@ namespace {
 
 constexpr double kDegree = std::numbers::pi / 180.0;
 
+Eigen::Vector3f Albedo(const JsonFieldReader& o, std::string_view key) {
+  const Eigen::Vector3d albedo = o.Has(key) ? o.Vector3(key) : Eigen::Vector3d::Constant(0.5);
+  if (albedo.minCoeff() < 0 || albedo.maxCoeff() > 1) o.Fail(key, "expected three numbers in [0, 1]");
+  return albedo.cast<float>();
+}
+
 Eigen::Vector2d Tiles(const JsonFieldReader& o) {
   const Eigen::Vector2d tiles = o.Has("tiles") ? o.Vector2("tiles") : Eigen::Vector2d(1, 1);
   if (!(tiles.minCoeff() > 0) || tiles.maxCoeff() > 1000) o.Fail("tiles", "expected two numbers in (0, 1000]");
@@ -27,9 +33,12 @@ RenderMesh ReadShape(const JsonFieldReader& o) {
   const std::string shape = o.Choice("shape", {"cylinder", "torus", "torus_knot", "box"});
   if (shape == "cylinder") {
     o.RejectUnknownMembers({"name", "shape", "radius", "height", "segments", "rings", "tiles", "material", "albedo",
-                            "translate", "rotate_deg"});
-    return MakeCylinder(o.Number("radius", 1e-3, 1e5), o.Number("height", 1e-3, 1e5), Segments(o, "segments", 96),
-                        Segments(o, "rings", 8), Tiles(o));
+                            "cap_albedo", "translate", "rotate_deg"});
+    const double radius = o.Number("radius", 1e-3, 1e5), height = o.Number("height", 1e-3, 1e5);
+    const int segments = Segments(o, "segments", 96);
+    // With cap_albedo the caps become a plain object of their own (ReadRenderScene).
+    return o.Has("cap_albedo") ? MakeCylinderSide(radius, height, segments, Segments(o, "rings", 8), Tiles(o))
+                               : MakeCylinder(radius, height, segments, Segments(o, "rings", 8), Tiles(o));
   }
   if (shape == "torus") {
     o.RejectUnknownMembers({"name", "shape", "major_radius", "minor_radius", "segments", "tube_segments", "tiles",
@@ -116,19 +125,29 @@ RenderScene ReadRenderScene(const std::filesystem::path& file, const MaterialRes
       }
       sample_size_mm = scene.materials[object.material].sample_size_mm;
     } else {
-      const Eigen::Vector3d albedo = o.Has("albedo") ? o.Vector3("albedo") : Eigen::Vector3d::Constant(0.5);
-      if (albedo.minCoeff() < 0 || albedo.maxCoeff() > 1) o.Fail("albedo", "expected three numbers in [0, 1]");
-      object.albedo = albedo.cast<float>();
+      object.albedo = Albedo(o, "albedo");
+    }
+    std::vector<SceneObject> parts;
+    if (o.Has("cap_albedo")) {
+      SceneObject caps;
+      caps.name = object.name + " caps";
+      caps.mesh = MakeCylinderCaps(o.Number("radius"), o.Number("height"), Segments(o, "segments", 96), Tiles(o));
+      caps.albedo = Albedo(o, "cap_albedo");
+      ComputeTangentFrames(&caps.mesh, 1.0);
+      parts.push_back(std::move(caps));
     }
     ComputeTangentFrames(&object.mesh, sample_size_mm);
+    parts.insert(parts.begin(), std::move(object));
     const Eigen::Vector3d r = o.Has("rotate_deg") ? Eigen::Vector3d(o.Vector3("rotate_deg") * kDegree) : Eigen::Vector3d::Zero();
     const Eigen::Matrix3d rotation = (Eigen::AngleAxisd(r.z(), Eigen::Vector3d::UnitZ()) *
                                       Eigen::AngleAxisd(r.y(), Eigen::Vector3d::UnitY()) *
                                       Eigen::AngleAxisd(r.x(), Eigen::Vector3d::UnitX()))
                                          .toRotationMatrix();
     const Eigen::Vector3d translation = o.Has("translate") ? o.Vector3("translate") : Eigen::Vector3d::Zero();
-    TransformMesh(rotation.cast<float>(), translation.cast<float>(), &object.mesh);
-    scene.objects.push_back(std::move(object));
+    for (SceneObject& part : parts) {
+      TransformMesh(rotation.cast<float>(), translation.cast<float>(), &part.mesh);
+      scene.objects.push_back(std::move(part));
+    }
   }
   if (scene.objects.empty()) root.Fail("objects", "expected at least one object");
   return scene;
