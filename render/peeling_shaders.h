@@ -83,6 +83,27 @@ const float PI = 3.14159265358979;
 vec3 g_normal;
 vec3 g_tangent;
 vec3 g_bitangent;
+// Screen derivatives of position and normal, taken in main() before any
+// discard (derivatives need the whole 2x2 quad).
+vec3 g_dpx, g_dpy, g_dnx, g_dny;
+
+// The interpolated normal of the reference surface under a point q near
+// p, extrapolated from the normal's screen derivatives: the attached-shadow
+// test of the mesostructure point p' = p + s D v uses the surface it hangs
+// from, not p's (they differ by the surface's curvature over s D sin(theta_v)).
+// Conditioning: when the two screen derivatives of position are (nearly)
+// parallel (a triangle seen edge-on) the fit is skipped and p's normal used.
+vec3 NormalUnder(vec3 q) {
+  vec3 delta = q - v_position;
+  delta -= g_normal * dot(g_normal, delta);
+  float a11 = dot(g_dpx, g_dpx), a12 = dot(g_dpx, g_dpy), a22 = dot(g_dpy, g_dpy);
+  float det = a11 * a22 - a12 * a12;
+  if (det <= 1e-6 * a11 * a22) return g_normal;
+  float b1 = dot(g_dpx, delta), b2 = dot(g_dpy, delta);
+  float a = (b1 * a22 - b2 * a12) / det;
+  float b = (a11 * b2 - a12 * b1) / det;
+  return normalize(v_normal + a * g_dnx + b * g_dny);
+}
 
 vec3 ToLocal(vec3 d) { return vec3(dot(d, g_tangent), dot(d, g_bitangent), dot(d, g_normal)); }
 
@@ -195,20 +216,25 @@ void Shade(vec3 ray, float d) {
   vec3 l_world = to_light * inversesqrt(r2);
   vec3 l = ToLocal(l_world);
   // Facing away from the light is a macroscale (attached) shadow.
-  bool shadowed = l.z <= 0.0 || InShadow(q);
+  float facing = u_shadow_at_mesostructure ? dot(NormalUnder(q), l_world) : l.z;
+  bool shadowed = facing <= 0.0 || InShadow(q);
   vec3 radiance;
   if (u_has_material) {
     radiance = shadowed ? u_ambient_scale * AmbientTerm(v_texcoord, v)
-                        : Btf(v_texcoord, v, l) * l.z * (u_light_intensity / r2);
+                        : Btf(v_texcoord, v, l) * max(l.z, 0.0) * (u_light_intensity / r2);
   } else {
     // A plain Lambertian surface: T = albedo / pi, La = albedo.
-    radiance = shadowed ? u_ambient_scale * u_albedo : u_albedo / PI * l.z * (u_light_intensity / r2);
+    radiance = shadowed ? u_ambient_scale * u_albedo : u_albedo / PI * max(l.z, 0.0) * (u_light_intensity / r2);
   }
   out0 = vec4(u_exposure * radiance, 1.0);
   out1 = vec4(1.0, shadowed ? 1.0 : 0.0, 0.0, 1.0);
 }
 
 void main() {
+  g_dpx = dFdx(v_position);
+  g_dpy = dFdy(v_position);
+  g_dnx = dFdx(v_normal);
+  g_dny = dFdy(v_normal);
   g_normal = normalize(v_normal);
   g_tangent = normalize(v_tangent.xyz - g_normal * dot(g_normal, v_tangent.xyz));
   g_bitangent = v_tangent.w * cross(g_normal, g_tangent);
