@@ -14,5 +14,8 @@ struct GlobalOptions {
 void RegisterInfoCommand(CLI::App& app);
 void RegisterGroundTruthCommand(CLI::App& app);
 void RegisterSimulateCommand(CLI::App& app);
+void RegisterRenderCommand(CLI::App& app);
+void RegisterCompareCommand(CLI::App& app);
+void RegisterViewCommand(CLI::App& app);
 
 }  // namespace mesocap

@@ -28,6 +28,9 @@ int main(int argc, char** argv) {
   mesocap::RegisterInfoCommand(app);
   mesocap::RegisterGroundTruthCommand(app);
   mesocap::RegisterSimulateCommand(app);
+  mesocap::RegisterRenderCommand(app);
+  mesocap::RegisterCompareCommand(app);
+  mesocap::RegisterViewCommand(app);
 
   // Subcommands report failure by throwing; every failure is one line on
   // stderr and a non-zero exit (1 for errors, CLI11's codes for usage).

@@ -1,8 +1,7 @@
 // The peeling renderer against the CPU reference on the shipped cylinder and
-// torus scenes (issue 6 acceptance), on Mesa llvmpipe at small sizes. The
-// material is the true MDF of the built-in scene with a rank-1 Lambertian
-// BTF made by hand (T = 0.5 / pi, La = 0.5), so the test needs no BTF
-// compression; silhouettes and shadows depend on the MDF only.
+// torus scenes (issue 6 acceptance), on Mesa llvmpipe at small sizes, with
+// the scenes' sim: materials replaced by LambertianSimMaterial (true MDF,
+// hand-made rank-1 BTF).
 #include "render/peeling_renderer.h"
 
 #include <gtest/gtest.h>
@@ -14,40 +13,16 @@
 #include "render/gl_context.h"
 #include "render/image_comparison.h"
 #include "render/reference_renderer.h"
-#include "render/sim_material.h"
-#include "sim/builtin_scenes.h"
+#include "tests/render/lambertian_material.h"
 
 namespace mesocap::render {
 namespace {
 
-RenderMaterial LambertianSimMaterial(const std::string& spec, const std::filesystem::path&) {
-  const std::string name = spec.substr(4);  // "sim:blocks"
-  sim::GroundTruthOptions options = SimMaterialGroundTruthOptions(name);
-  options.texture_width = options.texture_height = 48;
-  const auto scene = sim::MakeBuiltinScene(name);
-  RenderMaterial m;
-  m.name = spec;
-  m.sample_size_mm = options.sample_size_mm;
-  m.d_max_mm = scene->d_max_mm();
-  m.mdf = sim::ComputeTrueMdf(*scene, options);
-  const int w = options.texture_width, h = options.texture_height;
-  m.btf.width = w;
-  m.btf.height = h;
-  m.btf.views = options.views;
-  m.btf.lights = options.lights;
-  m.btf.rows = {Image(w, h * options.lights.size(), 3, 0.5f / std::numbers::pi_v<float>)};
-  m.btf.columns = Image(options.views.size(), 1, 3, 1.0f);
-  m.ambient.width = w;
-  m.ambient.height = h;
-  m.ambient.views = options.views;
-  m.ambient.values = Image(w, h * options.views.size(), 3, 0.5f);
-  m.geometry = sim::BuiltinTileGeometry(name);
-  return m;
-}
-
 RenderScene ShippedScene(const std::string& name) {
   return ReadRenderScene(std::filesystem::path(MESOCAP_SOURCE_DIR) / "render/scenes" / (name + ".json"),
-                         LambertianSimMaterial);
+                         [](const std::string& spec, const std::filesystem::path&) {
+                           return LambertianSimMaterial(spec.substr(4), 48);  // "sim:blocks"
+                         });
 }
 
 struct Comparison {
