@@ -4,9 +4,12 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <map>
+#include <tuple>
 #include <numbers>
 
 #include "core/error.h"
+#include "core/obj_mesh.h"
 
 namespace mesocap::render {
 namespace {
@@ -217,6 +220,38 @@ RenderMesh MakeBox(const Eigen::Vector3d& min, const Eigen::Vector3d& max, doubl
         mesh.triangles.emplace_back(base, base + 3, base + 2);
       }
     }
+  }
+  return mesh;
+}
+
+RenderMesh LoadObjRenderMesh(const std::filesystem::path& file, double scale, Eigen::Vector2d tiles) {
+  const ObjMesh obj = ReadObjMesh(file);
+  // Smooth normals for corners that give none: area-weighted face normals.
+  std::vector<Eigen::Vector3d> smooth(obj.positions.size(), Eigen::Vector3d::Zero());
+  for (const auto& t : obj.triangles) {
+    const Eigen::Vector3d& a = obj.positions[t[0].position];
+    const Eigen::Vector3d face = (obj.positions[t[1].position] - a).cross(obj.positions[t[2].position] - a);
+    for (const auto& c : t) smooth[c.position] += face;
+  }
+  RenderMesh mesh;
+  std::map<std::tuple<int, int, int>, int> vertex_of;
+  for (const auto& t : obj.triangles) {
+    Eigen::Vector3i triangle;
+    for (int k = 0; k < 3; ++k) {
+      const ObjMesh::Corner& c = t[k];
+      if (c.texcoord < 0) throw FormatError(file, "f", "every face corner needs a texture coordinate (v/vt or v/vt/vn)");
+      const auto key = std::make_tuple(c.position, c.texcoord, c.normal);
+      auto [it, inserted] = vertex_of.try_emplace(key, mesh.vertex_count());
+      if (inserted) {
+        const Eigen::Vector3d n = c.normal >= 0 ? obj.normals[c.normal] : smooth[c.position];
+        if (!(n.norm() > 0)) throw FormatError(file, "vn", "a vertex has a zero normal (degenerate faces only)");
+        mesh.positions.push_back((scale * obj.positions[c.position]).cast<float>());
+        mesh.normals.push_back(n.normalized().cast<float>());
+        mesh.texcoords.push_back(obj.texcoords[c.texcoord].cwiseProduct(tiles).cast<float>());
+      }
+      triangle[k] = it->second;
+    }
+    mesh.triangles.push_back(triangle);
   }
   return mesh;
 }

@@ -57,6 +57,12 @@ RenderMesh MakeTorusKnot(double radius, double tube_radius, int p, int q, int se
 // of `tiles` per 100 mm.
 RenderMesh MakeBox(const Eigen::Vector3d& min, const Eigen::Vector3d& max, double tiles_per_100mm);
 
+// An OBJ mesh (core/obj_mesh.h) with texture coordinates on every face
+// corner, scaled by `scale` (to mm); texture coordinates times `tiles`.
+// Corners without normals get area-weighted face normals of their position.
+// Throws FormatError naming the file when a corner has no texture coordinate.
+RenderMesh LoadObjRenderMesh(const std::filesystem::path& file, double scale, Eigen::Vector2d tiles);
+
 // Applies x -> rotation * x + translation to positions, normals and tangents.
 void TransformMesh(const Eigen::Matrix3f& rotation, const Eigen::Vector3f& translation, RenderMesh* mesh);
 

@@ -29,8 +29,15 @@ int Segments(const JsonFieldReader& o, std::string_view key, int fallback) {
   return o.Has(key) ? static_cast<int>(o.Integer(key, 3, 4096)) : fallback;
 }
 
-RenderMesh ReadShape(const JsonFieldReader& o) {
-  const std::string shape = o.Choice("shape", {"cylinder", "torus", "torus_knot", "box"});
+RenderMesh ReadShape(const JsonFieldReader& o, const std::filesystem::path& scene_dir) {
+  const std::string shape = o.Choice("shape", {"cylinder", "torus", "torus_knot", "box", "obj"});
+  if (shape == "obj") {
+    o.RejectUnknownMembers({"name", "shape", "file", "scale", "tiles", "material", "albedo", "translate",
+                            "rotate_deg"});
+    const std::filesystem::path file(o.String("file"));
+    return LoadObjRenderMesh(file.is_absolute() ? file : scene_dir / file, o.NumberOr("scale", 1.0, 1e-9, 1e9),
+                             Tiles(o));
+  }
   if (shape == "cylinder") {
     o.RejectUnknownMembers({"name", "shape", "radius", "height", "segments", "rings", "tiles", "material", "albedo",
                             "cap_albedo", "translate", "rotate_deg"});
@@ -112,7 +119,7 @@ RenderScene ReadRenderScene(const std::filesystem::path& file, const MaterialRes
   for (const JsonFieldReader& o : root.Objects("objects", 64)) {
     SceneObject object;
     object.name = o.StringOr("name", "object");
-    object.mesh = ReadShape(o);
+    object.mesh = ReadShape(o, scene_dir);
     double sample_size_mm = 1.0;
     if (o.Has("material")) {
       if (o.Has("albedo")) o.Fail("albedo", "an object has either a material or an albedo, not both");

@@ -6,7 +6,11 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include <fstream>
 #include <numbers>
+
+#include "core/error.h"
+#include "tests/common/temporary_directory.h"
 
 namespace mesocap::render {
 namespace {
@@ -72,6 +76,39 @@ TEST(RenderMesh, DegenerateTextureCoordinatesGiveNoMesostructure) {
   for (int i = 0; i < 3; ++i) {
     EXPECT_EQ(mesh.texture_scale[i], 0.0f);
     EXPECT_NEAR(mesh.tangents[i].head<3>().dot(mesh.normals[i]), 0.0, 1e-6);
+  }
+}
+
+}  // namespace
+}  // namespace mesocap::render
+
+namespace mesocap::render {
+namespace {
+
+TEST(RenderMesh, ObjWithTextureCoordinatesAndDerivedNormals) {
+  testing::TemporaryDirectory dir;
+  std::ofstream(dir / "quad.obj") << "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n"
+                                     "f 1/1 2/2 3/3 4/4\n";
+  RenderMesh mesh = LoadObjRenderMesh(dir / "quad.obj", 10.0, {2, 3});
+  ASSERT_EQ(mesh.vertex_count(), 4);
+  ASSERT_EQ(mesh.triangles.size(), 2u);
+  EXPECT_NEAR(mesh.positions[2].x(), 10.0f, 1e-6);
+  EXPECT_NEAR(mesh.texcoords[2].y(), 3.0f, 1e-6);
+  EXPECT_NEAR(mesh.normals[0].z(), 1.0f, 1e-6);
+  // 10 mm per 1/2 texture unit: s = 5 mm per material mm for a 1 mm sample.
+  ComputeTangentFrames(&mesh, 1.0);
+  EXPECT_NEAR(mesh.texture_scale[0], std::sqrt(5.0 * 10.0 / 3.0), 1e-4);
+}
+
+TEST(RenderMesh, ObjWithoutTextureCoordinatesNamesTheFile) {
+  testing::TemporaryDirectory dir;
+  std::ofstream(dir / "bare.obj") << "v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 3\n";
+  try {
+    LoadObjRenderMesh(dir / "bare.obj", 1.0, {1, 1});
+    FAIL() << "no error";
+  } catch (const FormatError& e) {
+    EXPECT_NE(std::string(e.what()).find("bare.obj"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("texture coordinate"), std::string::npos) << e.what();
   }
 }
 
