@@ -1,12 +1,8 @@
 // GLSL of the peeling renderer (peeling_renderer.cc). One program; the
-// uniform u_kind selects what a draw does (kPass* below). The depths the
-// algorithm compares (Zpeel, z_pb - d_b, shadow depths) are the distance from
-// the eye (camera or light) divided by u_far, kept in float colour targets,
-// so that the MDF offsets of Sec. 4.1 (d_f, d_b, in mm along the ray) add to
-// them linearly. The depth buffer keeps the rasterizer's own depth: along one
-// pixel's ray it orders surfaces as the distance does, and not writing
-// gl_FragDepth lets the stencil and depth tests reject finished and hidden
-// fragments before they are shaded.
+// uniform u_kind selects what a draw does (kPass* below). Depths are the
+// distance from the eye (camera or light) divided by u_far, written to
+// gl_FragDepth, so that the MDF offsets of Sec. 4.1 (d_f, d_b, in mm along
+// the ray) add to depths linearly.
 #pragma once
 
 namespace mesocap::render {
@@ -246,6 +242,7 @@ void main() {
   float distance_from_eye = length(from_eye);
   vec3 ray = from_eye / distance_from_eye;
   float t = distance_from_eye / u_far;
+  gl_FragDepth = t;
   if (u_kind == 0) {  // kPassShade
     Shade(ray, u_has_material && u_shadow_at_mesostructure ? MdfDistance(v_texcoord, ToLocal(-ray)) : 0.0);
     return;
