@@ -45,10 +45,10 @@ GlContext& Context() {
 }
 
 SceneRun& Run(const std::string& name) {
+  Context();  // first, so that it outlives the renderers (statics die in reverse order)
   static std::map<std::string, std::unique_ptr<SceneRun>> runs;
   auto& run = runs[name];
   if (!run) {
-    Context();
     run = std::make_unique<SceneRun>();
     run->scene = ReadRenderScene(std::filesystem::path(MESOCAP_SOURCE_DIR) / "render/scenes" / (name + ".json"),
                                  [](const std::string& spec, const std::filesystem::path&) {
