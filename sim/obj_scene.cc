@@ -1,105 +1,28 @@
-// An OBJ mesh as a scene. Only the geometry subset is read: "v x y z" and
-// "f" with triangles, quads or (convex) polygons, indices 1-based or negative
-// (relative to the vertices so far), with optional /vt/vn parts. Every other
-// statement (vt, vn, g, o, s, usemtl, mtllib, l, ...) is ignored.
+// An OBJ mesh as a scene (core/obj_mesh.h reads it): only the positions and
+// faces are used.
 #include <Eigen/Geometry>
-#include <cctype>
-#include <charconv>
 #include <cmath>
-#include <fstream>
 #include <string>
-#include <string_view>
 #include <vector>
 
 #include "core/error.h"
+#include "core/obj_mesh.h"
 #include "sim/tile_geometry.h"
 #include "sim/tiled_scene.h"
 
 namespace mesocap::sim {
 namespace fs = std::filesystem;
-namespace {
-
-struct ObjMesh {
-  std::vector<Eigen::Vector3d> vertices;
-  std::vector<Eigen::Vector3i> triangles;
-};
-
-std::vector<std::string_view> SplitWhitespace(std::string_view line) {
-  std::vector<std::string_view> tokens;
-  std::size_t i = 0;
-  while (i < line.size()) {
-    while (i < line.size() && std::isspace(static_cast<unsigned char>(line[i]))) ++i;
-    const std::size_t start = i;
-    while (i < line.size() && !std::isspace(static_cast<unsigned char>(line[i]))) ++i;
-    if (i > start) tokens.push_back(line.substr(start, i - start));
-  }
-  return tokens;
-}
-
-// Whole-token number parse: "1.5x" is an error, not 1.5.
-template <class Number>
-bool ParseNumber(std::string_view token, Number* value) {
-  if (!token.empty() && token.front() == '+') token.remove_prefix(1);
-  const auto [end, error] = std::from_chars(token.data(), token.data() + token.size(), *value);
-  return error == std::errc() && end == token.data() + token.size();
-}
-
-ObjMesh ReadObjMesh(const fs::path& file) {
-  std::error_code ec;
-  if (!fs::is_regular_file(file, ec)) throw FormatError(file, "", "not found or not a regular file");
-  std::ifstream in(file);
-  if (!in) throw FormatError(file, "", "cannot open the file");
-  ObjMesh mesh;
-  std::string line;
-  for (int number = 1; std::getline(in, line); ++number) {
-    const auto fail = [&](const std::string& problem) {
-      throw FormatError(file, "line " + std::to_string(number), problem);
-    };
-    const std::vector<std::string_view> tokens = SplitWhitespace(line);
-    if (tokens.empty() || tokens[0].front() == '#') continue;
-    if (tokens[0] == "v") {
-      // "v x y z [w]" or "v x y z r g b": only x, y, z are used.
-      Eigen::Vector3d v;
-      if (tokens.size() < 4) fail("a vertex needs 3 coordinates");
-      for (int k = 0; k < 3; ++k) {
-        if (!ParseNumber(tokens[k + 1], &v[k]))
-          fail("vertex coordinate '" + std::string(tokens[k + 1]) + "' is not a number");
-      }
-      if (!v.allFinite()) fail("vertex coordinate is not finite");
-      mesh.vertices.push_back(v);
-    } else if (tokens[0] == "f") {
-      if (tokens.size() < 4) fail("a face needs at least 3 vertices");
-      std::vector<int> face;
-      for (std::size_t k = 1; k < tokens.size(); ++k) {
-        const std::string_view vertex = tokens[k].substr(0, tokens[k].find('/'));
-        long index = 0;
-        if (!ParseNumber(vertex, &index))
-          fail("face index '" + std::string(tokens[k]) + "' is not an integer");
-        const long count = static_cast<long>(mesh.vertices.size());
-        if (index < 0) index += count + 1;  // -1 is the last vertex so far
-        if (index < 1 || index > count) {
-          fail("face index " + std::string(vertex) + " does not name one of the " + std::to_string(count) +
-               " vertices so far");
-        }
-        face.push_back(static_cast<int>(index - 1));
-      }
-      // A fan: exact for the triangles and convex polygons OBJ exporters write.
-      for (std::size_t k = 1; k + 1 < face.size(); ++k)
-        mesh.triangles.emplace_back(face[0], face[k], face[k + 1]);
-    }
-  }
-  if (in.bad()) throw FormatError(file, "", "read error");
-  if (mesh.triangles.empty()) throw FormatError(file, "f", "the mesh has no faces");
-  return mesh;
-}
-
-}  // namespace
 
 std::unique_ptr<MesostructureScene> LoadObjScene(const fs::path& obj, double scale) {
   if (!(scale > 0.0) || !std::isfinite(scale)) {
     throw Error(obj.string() + ": OBJ scale must be positive and finite, got " + std::to_string(scale));
   }
-  const ObjMesh mesh = ReadObjMesh(obj);
+  const ObjMesh obj_mesh = ReadObjMesh(obj);
+  struct {
+    std::vector<Eigen::Vector3d> vertices;
+    std::vector<Eigen::Vector3i> triangles;
+  } mesh{obj_mesh.positions, {}};
+  for (const auto& t : obj_mesh.triangles) mesh.triangles.emplace_back(t[0].position, t[1].position, t[2].position);
 
   // Only vertices used by faces define the tile; stray points are dropped.
   TileGeometry g;

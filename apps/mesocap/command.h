@@ -32,5 +32,8 @@ inline CLI::App* GroupCommand(CLI::App& app, const std::string& name, const std:
     return group;
   }
 }
+void RegisterRenderCommand(CLI::App& app);
+void RegisterCompareCommand(CLI::App& app);
+void RegisterViewCommand(CLI::App& app);
 
 }  // namespace mesocap

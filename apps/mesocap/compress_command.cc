@@ -10,9 +10,7 @@
 #include <map>
 
 #include "apps/mesocap/command.h"
-#include "core/error.h"
-#include "core/material_package.h"
-#include "processing/btf_compression.h"
+#include "processing/material_compression.h"
 
 namespace mesocap {
 namespace {
@@ -25,33 +23,7 @@ struct CompressCommandOptions {
 };
 
 void RunCompress(const CompressCommandOptions& o) {
-  if (const auto problem = o.compression.Check(); !problem.empty()) throw Error("compress: " + problem);
-  const MaterialManifest manifest = ReadMaterialManifest(o.in);
-  if (!manifest.full_btf) {
-    throw Error("compress: " + o.in.string() + " holds no full BTF to factor (manifest.json has no btf.full)");
-  }
-  const FullBtf btf = ReadFullBtf(o.in, manifest);
-  spdlog::info("compressing the {}x{} BTF of {} ({} views x {} lights), {} layout, {}", btf.width, btf.height,
-               o.in.string(), btf.view_count(), btf.light_count(), ToString(o.compression.layout),
-               ToString(o.compression.color));
-  BtfCompressionReport report;
-  const FactoredBtf factored = CompressBtf(btf, o.compression, &report);
-  spdlog::info("rank {}: {}; measured relative RMS error {:.3g} ({:.2f} s)", report.rank, report.reason,
-               report.measured_relative_rms_error, report.seconds);
-
-  MaterialDescription description = manifest.description;
-  description.provenance.software_version.clear();
-  description.provenance.created_utc.clear();
-  description.provenance.source = "compress of " + o.in.string() + " (" + manifest.description.provenance.source + ")";
-  MaterialPackageWriter writer(o.out, description, o.replace);
-  if (manifest.mdf) writer.WriteMdf(ReadMdf(o.in, manifest), manifest.mdf->forms);
-  writer.WriteFactoredBtf(factored);
-  if (manifest.ambient) writer.WriteAmbientTerm(ReadAmbientTerm(o.in, manifest));
-  if (manifest.calibration) writer.WriteCalibration(ReadPackageCalibration(o.in, manifest));
-  nlohmann::json errors = manifest.error_report ? ReadErrorReport(o.in, manifest) : nlohmann::json::object();
-  errors["btf_compression"] = ToJson(report, factored);
-  writer.WriteErrorReport(errors);
-  writer.Commit();
+  CompressMaterialPackage(o.in, o.out, o.compression, o.replace);
   spdlog::info("wrote {}", o.out.string());
 }
 

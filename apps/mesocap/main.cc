@@ -33,6 +33,9 @@ int main(int argc, char** argv) {
   mesocap::RegisterProcessBtfCommand(app);
   mesocap::RegisterProcessMdfCommand(app);
   mesocap::RegisterEvalMdfCommand(app);
+  mesocap::RegisterRenderCommand(app);
+  mesocap::RegisterCompareCommand(app);
+  mesocap::RegisterViewCommand(app);
 
   // Subcommands report failure by throwing; every failure is one line on
   // stderr and a non-zero exit (1 for errors, CLI11's codes for usage).

@@ -1,0 +1,46 @@
+#include "render/image_comparison.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include "core/error.h"
+
+namespace mesocap::render {
+namespace {
+
+void ExpectSameShape(const Image& a, const Image& b) {
+  if (a.width() != b.width() || a.height() != b.height() || a.channels() != b.channels()) {
+    throw Error("image comparison: sizes differ (" + std::to_string(a.width()) + "x" + std::to_string(a.height()) +
+                "x" + std::to_string(a.channels()) + " vs " + std::to_string(b.width()) + "x" +
+                std::to_string(b.height()) + "x" + std::to_string(b.channels()) + ")");
+  }
+}
+
+}  // namespace
+
+double MaskIou(const Image& a, const Image& b) {
+  ExpectSameShape(a, b);
+  long both = 0, either = 0;
+  for (int y = 0; y < a.height(); ++y) {
+    for (int x = 0; x < a.width(); ++x) {
+      const bool in_a = a.at(x, y) > 0.5f, in_b = b.at(x, y) > 0.5f;
+      both += in_a && in_b;
+      either += in_a || in_b;
+    }
+  }
+  return either == 0 ? 1.0 : static_cast<double>(both) / static_cast<double>(either);
+}
+
+double Psnr(const Image& a, const Image& b) {
+  ExpectSameShape(a, b);
+  double sum = 0.0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    const double d = std::clamp(a.data()[i], 0.0f, 1.0f) - std::clamp(b.data()[i], 0.0f, 1.0f);
+    sum += d * d;
+  }
+  const double mse = sum / static_cast<double>(a.size());
+  return mse <= 1e-10 ? 100.0 : 10.0 * std::log10(1.0 / mse);
+}
+
+}  // namespace mesocap::render

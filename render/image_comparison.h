@@ -1,0 +1,19 @@
+// Error of a rendering against the CPU reference (issue 6, deliverables 7-8):
+// intersection over union of masks (coverage: mesostructure silhouettes;
+// shadow: shadow silhouettes) and PSNR of the images.
+#pragma once
+
+#include "core/image.h"
+
+namespace mesocap::render {
+
+// |A and B| / |A or B| of the pixels above 0.5 in channel 0; 1 when both
+// masks are empty. Throws Error when the sizes differ.
+double MaskIou(const Image& a, const Image& b);
+
+// 10 log10(1 / MSE) over all channels, values clamped to [0, 1] first (the
+// displayable range at the scene's exposure); capped at 100 dB for equal
+// images. Throws Error when the sizes or channel counts differ.
+double Psnr(const Image& a, const Image& b);
+
+}  // namespace mesocap::render

@@ -1,0 +1,283 @@
+// GLSL of the peeling renderer (peeling_renderer.cc). One program; the
+// uniform u_kind selects what a draw does (kPass* below). Depths are the
+// distance from the eye (camera or light) divided by u_far, written to
+// gl_FragDepth, so that the MDF offsets of Sec. 4.1 (d_f, d_b, in mm along
+// the ray) add to depths linearly.
+#pragma once
+
+namespace mesocap::render {
+
+inline constexpr int kPassShade = 0;            // BTF only: shade the nearest front face
+inline constexpr int kPassBackPeel = 1;         // Fig. 7: nearest back face beyond Zpeel_now -> z_pb, z_pb - d_b
+inline constexpr int kPassFrontPeel = 2;        // Fig. 7: front face with z_pf + d_f <= z_pb - d_b -> shade
+inline constexpr int kPassShadowPlain = 3;      // shadow map of the reference surface
+inline constexpr int kPassShadowFrontPeel = 4;  // Sec. 4.2: z(p_f) + s d_max / cos(theta_l)
+
+inline constexpr const char* kPeelingVertexShader = R"glsl(
+#version 450 core
+layout(location = 0) in vec3 a_position;
+layout(location = 1) in vec3 a_normal;
+layout(location = 2) in vec2 a_texcoord;
+layout(location = 3) in vec4 a_tangent;
+layout(location = 4) in float a_scale;
+uniform mat4 u_view_proj;
+out vec3 v_position;
+out vec3 v_normal;
+out vec2 v_texcoord;
+out vec4 v_tangent;
+out float v_scale;
+void main() {
+  v_position = a_position;
+  v_normal = a_normal;
+  v_texcoord = a_texcoord;
+  v_tangent = a_tangent;
+  v_scale = a_scale;
+  gl_Position = u_view_proj * vec4(a_position, 1.0);
+}
+)glsl";
+
+inline constexpr const char* kPeelingFragmentShader = R"glsl(
+#version 450 core
+in vec3 v_position;
+in vec3 v_normal;
+in vec2 v_texcoord;
+in vec4 v_tangent;
+in float v_scale;
+layout(location = 0) out vec4 out0;
+layout(location = 1) out vec4 out1;
+
+uniform int u_kind;
+uniform vec3 u_eye;
+uniform float u_far;
+uniform sampler2D u_peel_now;  // Zpeel_now
+uniform sampler2D u_zbo;       // z_pb - d_b of this layer
+
+uniform bool u_has_material;
+uniform vec3 u_albedo;
+uniform sampler2DArray u_mdf;      // layer = view; -1 = no hit
+uniform sampler2DArray u_rows;     // paper: layer k * Nlight + light; per_texel: layer k
+uniform sampler2D u_columns;       // x = view (paper) or view * Nlight + light (per_texel), y = k
+uniform sampler2DArray u_ambient;  // layer = view
+uniform isampler2D u_view_index;
+uniform sampler2D u_view_weight;
+uniform isampler2D u_light_index;
+uniform sampler2D u_light_weight;
+uniform int u_rank;
+uniform int u_light_count;
+uniform bool u_per_texel;
+uniform mat3 u_factored_to_rgb;
+uniform float u_d_max;
+
+uniform vec3 u_light_position;
+uniform float u_light_intensity;
+uniform float u_ambient_scale;
+uniform float u_exposure;
+uniform mat4 u_light_view_proj;
+uniform float u_light_far;
+uniform float u_shadow_texel;  // shadow-map texel size per mm of distance from the light
+uniform sampler2D u_shadow_map;
+uniform bool u_shadow_at_mesostructure;  // Sec. 4.2: test p' = p + s D(v) v instead of p
+
+const float PI = 3.14159265358979;
+
+vec3 g_normal;
+vec3 g_tangent;
+vec3 g_bitangent;
+// Screen derivatives of position and normal, taken in main() before any
+// discard (derivatives need the whole 2x2 quad).
+vec3 g_dpx, g_dpy, g_dnx, g_dny;
+
+// The interpolated normal of the reference surface under a point q near
+// p, extrapolated from the normal's screen derivatives: the attached-shadow
+// test of the mesostructure point p' = p + s D v uses the surface it hangs
+// from, not p's (they differ by the surface's curvature over s D sin(theta_v)).
+// Conditioning: when the two screen derivatives of position are (nearly)
+// parallel (a triangle seen edge-on) the fit is skipped and p's normal used.
+vec3 NormalUnder(vec3 q) {
+  vec3 delta = q - v_position;
+  delta -= g_normal * dot(g_normal, delta);
+  float a11 = dot(g_dpx, g_dpx), a12 = dot(g_dpx, g_dpy), a22 = dot(g_dpy, g_dpy);
+  float det = a11 * a22 - a12 * a12;
+  if (det <= 1e-6 * a11 * a22) return g_normal;
+  float b1 = dot(g_dpx, delta), b2 = dot(g_dpy, delta);
+  float a = (b1 * a22 - b2 * a12) / det;
+  float b = (a11 * b2 - a12 * b1) / det;
+  return normalize(v_normal + a * g_dnx + b * g_dny);
+}
+
+vec3 ToLocal(vec3 d) { return vec3(dot(d, g_tangent), dot(d, g_bitangent), dot(d, g_normal)); }
+
+// Neighbouring directions of the set and their weights (DirectionBlendTable).
+// Directions below the local horizon (interpolated normals at grazing) read
+// the last ring, as SamplingSet::Interpolate does.
+void Blend(isampler2D index_table, sampler2D weight_table, vec3 d, out ivec4 index, out vec4 weight) {
+  ivec2 size = textureSize(index_table, 0);
+  float theta = acos(clamp(d.z / max(length(d), 1e-20), -1.0, 1.0));
+  float phi = atan(d.y, d.x);
+  if (phi < 0.0) phi += 2.0 * PI;
+  int ip = clamp(int(phi / (2.0 * PI) * float(size.x)), 0, size.x - 1);
+  int it = clamp(int(theta / (0.5 * PI) * float(size.y)), 0, size.y - 1);
+  index = texelFetch(index_table, ivec2(ip, it), 0);
+  weight = texelFetch(weight_table, ivec2(ip, it), 0);
+}
+
+ivec2 Texel(vec2 t, ivec2 size) { return clamp(ivec2(fract(t) * vec2(size)), ivec2(0), size - 1); }
+
+// D(x, y, d) in mm for the local direction d (pointing away from the
+// surface); -1 for no hit. Neighbouring views are blended; when half or more
+// of the weight says no hit, the blend is no hit (a distance and "no hit" do
+// not average).
+float MdfDistance(vec2 t, vec3 d) {
+  ivec4 index;
+  vec4 weight;
+  Blend(u_view_index, u_view_weight, d, index, weight);
+  ivec2 texel = Texel(t, textureSize(u_mdf, 0).xy);
+  float sum = 0.0, total = 0.0, no_hit = 0.0;
+  for (int k = 0; k < 4; ++k) {
+    if (weight[k] <= 0.0) continue;
+    float value = texelFetch(u_mdf, ivec3(texel, index[k]), 0).r;
+    if (value < 0.0) {
+      no_hit += weight[k];
+    } else {
+      sum += weight[k] * value;
+      total += weight[k];
+    }
+  }
+  if (no_hit >= 0.5 || total <= 0.0) return -1.0;
+  return sum / total;
+}
+
+// T(x, y, v, l) from the factors, blended over 4 x 4 neighbouring directions.
+vec3 Btf(vec2 t, vec3 v, vec3 l) {
+  ivec4 vi, li;
+  vec4 vw, lw;
+  Blend(u_view_index, u_view_weight, v, vi, vw);
+  Blend(u_light_index, u_light_weight, l, li, lw);
+  ivec2 texel = Texel(t, textureSize(u_rows, 0).xy);
+  vec3 sum = vec3(0.0);
+  for (int a = 0; a < 4; ++a) {
+    if (vw[a] <= 0.0) continue;
+    for (int b = 0; b < 4; ++b) {
+      if (lw[b] <= 0.0) continue;
+      vec3 value = vec3(0.0);
+      for (int k = 0; k < u_rank; ++k) {
+        if (u_per_texel) {
+          value += texelFetch(u_rows, ivec3(texel, k), 0).rgb *
+                   texelFetch(u_columns, ivec2(vi[a] * u_light_count + li[b], k), 0).rgb;
+        } else {
+          value += texelFetch(u_rows, ivec3(texel, k * u_light_count + li[b]), 0).rgb *
+                   texelFetch(u_columns, ivec2(vi[a], k), 0).rgb;
+        }
+      }
+      sum += vw[a] * lw[b] * value;
+    }
+  }
+  return u_factored_to_rgb * sum;
+}
+
+vec3 AmbientTerm(vec2 t, vec3 v) {
+  ivec4 index;
+  vec4 weight;
+  Blend(u_view_index, u_view_weight, v, index, weight);
+  ivec2 texel = Texel(t, textureSize(u_ambient, 0).xy);
+  vec3 sum = vec3(0.0);
+  for (int k = 0; k < 4; ++k) {
+    if (weight[k] > 0.0) sum += weight[k] * texelFetch(u_ambient, ivec3(texel, index[k]), 0).rgb;
+  }
+  return sum;
+}
+
+// Macroscale shadow of point q from the shadow map. The bias covers the
+// depth change across one shadow-map texel on a surface tilted away from the
+// light (slope-scaled, capped at 10 texels for grazing light).
+bool InShadow(vec3 q) {
+  vec4 clip = u_light_view_proj * vec4(q, 1.0);
+  if (clip.w <= 0.0) return false;
+  vec2 ndc = clip.xy / clip.w;
+  if (any(greaterThan(abs(ndc), vec2(1.0)))) return false;
+  float stored = texture(u_shadow_map, ndc * 0.5 + 0.5).r;
+  vec3 to_light = u_light_position - q;
+  float distance_to_light = length(to_light);
+  float c = abs(dot(g_normal, to_light / distance_to_light));
+  float texel = distance_to_light * u_shadow_texel;
+  float bias = texel * (1.0 + min(sqrt(max(1.0 - c * c, 0.0)) / max(c, 1e-3), 10.0));
+  return distance_to_light > (stored * u_light_far) + bias;
+}
+
+// Shades the front-face point p (the reference surface) seen along `ray`
+// (from the eye); d = D(x, y, v) in mm (< 0: no hit) places the
+// mesostructure point p' = p + s D ray for the shadow test (Sec. 4.2).
+void Shade(vec3 ray, float d) {
+  vec3 v = ToLocal(-ray);
+  vec3 q = v_position;
+  if (u_shadow_at_mesostructure && d > 0.0) q += ray * (v_scale * d);
+  vec3 to_light = u_light_position - q;
+  float r2 = dot(to_light, to_light);
+  vec3 l_world = to_light * inversesqrt(r2);
+  vec3 l = ToLocal(l_world);
+  // Facing away from the light is a macroscale (attached) shadow.
+  float facing = u_shadow_at_mesostructure ? dot(NormalUnder(q), l_world) : l.z;
+  bool shadowed = facing <= 0.0 || InShadow(q);
+  vec3 radiance;
+  if (u_has_material) {
+    radiance = shadowed ? u_ambient_scale * AmbientTerm(v_texcoord, v)
+                        : Btf(v_texcoord, v, l) * max(l.z, 0.0) * (u_light_intensity / r2);
+  } else {
+    // A plain Lambertian surface: T = albedo / pi, La = albedo.
+    radiance = shadowed ? u_ambient_scale * u_albedo : u_albedo / PI * max(l.z, 0.0) * (u_light_intensity / r2);
+  }
+  out0 = vec4(u_exposure * radiance, 1.0);
+  out1 = vec4(1.0, shadowed ? 1.0 : 0.0, 0.0, 1.0);
+}
+
+void main() {
+  g_dpx = dFdx(v_position);
+  g_dpy = dFdy(v_position);
+  g_dnx = dFdx(v_normal);
+  g_dny = dFdy(v_normal);
+  g_normal = normalize(v_normal);
+  g_tangent = normalize(v_tangent.xyz - g_normal * dot(g_normal, v_tangent.xyz));
+  g_bitangent = v_tangent.w * cross(g_normal, g_tangent);
+  vec3 from_eye = v_position - u_eye;
+  float distance_from_eye = length(from_eye);
+  vec3 ray = from_eye / distance_from_eye;
+  float t = distance_from_eye / u_far;
+  gl_FragDepth = t;
+  if (u_kind == 0) {  // kPassShade
+    Shade(ray, u_has_material && u_shadow_at_mesostructure ? MdfDistance(v_texcoord, ToLocal(-ray)) : 0.0);
+    return;
+  }
+  if (u_kind == 3) {  // kPassShadowPlain
+    out0 = vec4(t);
+    return;
+  }
+  // Peeling: only layers beyond the previous one.
+  if (t <= texelFetch(u_peel_now, ivec2(gl_FragCoord.xy), 0).r) discard;
+  if (u_kind == 1) {  // kPassBackPeel
+    // At p_b the ray leaves the object: the outgoing direction points away
+    // from the surface, and D along its reverse is the distance from p_b back
+    // to the mesostructure (Sec. 4.1, d_b = s_b D(x_b, y_b, v_b)).
+    float d = u_has_material ? MdfDistance(v_texcoord, ToLocal(ray)) : 0.0;
+    float d_b = d < 0.0 ? 1e30 : v_scale * d;
+    out0 = vec4(t);
+    out1 = vec4(t - d_b / u_far);
+    return;
+  }
+  // Front faces (the depth test already keeps z_pf < z_pb).
+  float d = u_has_material ? MdfDistance(v_texcoord, ToLocal(-ray)) : 0.0;
+  if (d < 0.0) discard;  // the ray leaves the slab through a hole: no hit in this layer
+  float z_pb_minus_d_b = texelFetch(u_zbo, ivec2(gl_FragCoord.xy), 0).r;
+  if (t + v_scale * d / u_far > z_pb_minus_d_b) discard;  // passes beside the mesostructure
+  if (u_kind == 4) {  // kPassShadowFrontPeel
+    // Depth of the blocker's mesostructure base (Sec. 4.2): z(p_f) +
+    // s d_max / cos(theta_l); cos clamped at 0.05 (87 degrees) so grazing
+    // light does not push the base to infinity.
+    float c = max(ToLocal(-ray).z, 0.05);
+    out0 = vec4(t + v_scale * u_d_max / c / u_far);
+    return;
+  }
+  Shade(ray, d);
+}
+)glsl";
+
+}  // namespace mesocap::render

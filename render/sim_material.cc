@@ -1,0 +1,21 @@
+#include "render/sim_material.h"
+
+#include <cmath>
+
+#include "sim/builtin_scenes.h"
+
+namespace mesocap::render {
+
+sim::GroundTruthOptions SimMaterialGroundTruthOptions(const std::string& scene_name) {
+  const sim::TileGeometry geometry = sim::BuiltinTileGeometry(scene_name);
+  sim::GroundTruthOptions options;
+  options.sample_size_mm = geometry.tile_size_mm * std::ceil(12.0 / geometry.tile_size_mm);
+  options.texture_width = options.texture_height = 64;
+  // Polar rings every 90/8 degrees up to 84.4: the MDF near grazing decides
+  // silhouettes (SamplingSet::Interpolate holds the last ring beyond it).
+  options.views = SamplingSet::RegularGrid(12, 8);
+  options.lights = SamplingSet::RegularGrid(12, 4);
+  return options;
+}
+
+}  // namespace mesocap::render
