@@ -34,9 +34,7 @@ FullBtf SceneBtf(const std::string& name) {
   gt.sample_size_mm = 12.0;
   gt.views = SamplingSet::Named("paper12x8");
   gt.lights = SamplingSet::Named("paper12x8");
-  FullBtf btf = MakeFullBtf(32, 32, gt.views, gt.lights);
-  for (int v = 0; v < gt.views.size(); ++v) btf.view_images[v] = sim::RenderTrueBtfView(*scene, gt, v);
-  return btf;
+  return sim::RenderTrueBtf(*scene, gt);
 }
 
 const FullBtf& CachedSceneBtf(const std::string& name) {

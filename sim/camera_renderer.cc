@@ -92,6 +92,18 @@ Eigen::Vector3d CameraRenderer::PixelRay(int camera, double u, double v) const {
   return (c.pose.transform.rotation * Eigen::Vector3d(n.x(), n.y(), 1.0)).normalized();
 }
 
+double CameraRenderer::SlabExit(const Eigen::Vector3d& p, const Eigen::Vector3d& d) const {
+  double t = kInfinity;
+  if (d.z() > 0.0) t = -p.z() / d.z();
+  if (d.z() < 0.0) t = (-scene_.d_max_mm() - p.z()) / d.z();
+  const double half = rig_.sample_size_mm / 2;
+  for (int axis = 0; axis < 2; ++axis) {
+    if (d[axis] > 0) t = std::min(t, (half - p[axis]) / d[axis]);
+    if (d[axis] < 0) t = std::min(t, (-half - p[axis]) / d[axis]);
+  }
+  return t;
+}
+
 ViewSample CameraRenderer::SampleHit(const Eigen::Vector3d& origin_world, const Eigen::Vector3d& dir_world,
                                      double turntable_rad) const {
   ViewSample out;
@@ -112,11 +124,7 @@ ViewSample CameraRenderer::SampleHit(const Eigen::Vector3d& origin_world, const 
   }
   // Inside the pocket the ray can go as far as the slab's floor or the
   // pocket's walls, whichever comes first.
-  double t_exit = scene_.d_max_mm() / -d.z();
-  for (int axis = 0; axis < 2; ++axis) {
-    if (d[axis] > 0) t_exit = std::min(t_exit, (half - p0[axis]) / d[axis]);
-    if (d[axis] < 0) t_exit = std::min(t_exit, (-half - p0[axis]) / d[axis]);
-  }
+  const double t_exit = SlabExit(p0, d);
   // From the reference-plane point, as the ground truth casts (the tracer's
   // precision is relative to the tile, not to the camera distance). The
   // interval is closed, so a floor exactly at z = -d_max (a box's base) is hit.
@@ -199,16 +207,7 @@ std::optional<ViewSample> CameraRenderer::BounceHit(const CameraView& view, cons
   const Eigen::Matrix3d to_sample = RotationZ(-view.turntable_rad);
   const Eigen::Vector3d p = to_sample * s.point;
   const Eigen::Vector3d d = to_sample * dir;
-  // The slab ends at the reference plane (open), at its floor and at the
-  // pocket's walls (both black).
-  double t_exit = kInfinity;
-  if (d.z() > 0.0) t_exit = -p.z() / d.z();
-  if (d.z() < 0.0) t_exit = (-scene_.d_max_mm() - p.z()) / d.z();
-  const double half = rig_.sample_size_mm / 2;
-  for (int axis = 0; axis < 2; ++axis) {
-    if (d[axis] > 0) t_exit = std::min(t_exit, (half - p[axis]) / d[axis]);
-    if (d[axis] < 0) t_exit = std::min(t_exit, (-half - p[axis]) / d[axis]);
-  }
+  const double t_exit = SlabExit(p, d);
   const double eps = scene_.surface_epsilon_mm();
   if (!(t_exit > eps)) return std::nullopt;
   const auto hit = scene_.Intersect(p, d, eps, t_exit);

@@ -162,6 +162,10 @@ class CameraRenderer : public FrameRenderer {
   template <typename HitFunction>
   CameraView Trace(int camera, double turntable_rad, const HitFunction& first_hit) const;
   ViewSample SampleHit(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double turntable_rad) const;
+  // Distance along d (sample frame) from p, inside the sample's slab, to
+  // where the ray leaves it: the reference plane (open), the floor at
+  // -d_max or the pocket's walls (both black).
+  double SlabExit(const Eigen::Vector3d& p, const Eigen::Vector3d& d) const;
 
   // What Render keeps of one camera between frames.
   struct RenderCache;

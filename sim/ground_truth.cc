@@ -48,6 +48,12 @@ Mdf ComputeTrueMdf(const MesostructureScene& scene, const GroundTruthOptions& o)
   return mdf;
 }
 
+FullBtf RenderTrueBtf(const MesostructureScene& scene, const GroundTruthOptions& options) {
+  FullBtf btf = MakeFullBtf(options.texture_width, options.texture_height, options.views, options.lights);
+  for (int v = 0; v < options.views.size(); ++v) btf.view_images[v] = RenderTrueBtfView(scene, options, v);
+  return btf;
+}
+
 Image RenderTrueBtfView(const MesostructureScene& scene, const GroundTruthOptions& o, int v) {
   const int w = o.texture_width;
   const int h = o.texture_height;

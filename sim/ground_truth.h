@@ -46,6 +46,8 @@ Mdf ComputeTrueMdf(const MesostructureScene& scene, const GroundTruthOptions& op
 // flat Lambertian sample has T = albedo / pi. Rays through holes see a black
 // backing (T = 0).
 Image RenderTrueBtfView(const MesostructureScene& scene, const GroundTruthOptions& options, int view);
+// Every view of it, in memory (for small grids: tests and benchmarks).
+FullBtf RenderTrueBtf(const MesostructureScene& scene, const GroundTruthOptions& options);
 
 // La(x, y, v) = sum over lights of T(x, y, v, l) cos(theta_l) w_l (the
 // light set's solid-angle weights): the radiance under a uniform sky of unit

@@ -14,9 +14,7 @@ namespace {
 
 FullBtf TrueBtf(const std::string& scene_name, const sim::GroundTruthOptions& gt) {
   const auto scene = sim::MakeBuiltinScene(scene_name);
-  FullBtf btf = MakeFullBtf(gt.texture_width, gt.texture_height, gt.views, gt.lights);
-  for (int v = 0; v < gt.views.size(); ++v) btf.view_images[v] = sim::RenderTrueBtfView(*scene, gt, v);
-  return btf;
+  return sim::RenderTrueBtf(*scene, gt);
 }
 
 sim::GroundTruthOptions Options(const std::string& views, const std::string& lights) {

@@ -85,8 +85,7 @@ TEST(BtfCompression, FlatLambertianGroundTruthIsRankOne) {
   gt.sample_size_mm = 6.0;
   gt.views = SamplingSet::Named("grid6x3");
   gt.lights = SamplingSet::Named("grid6x4");
-  FullBtf btf = MakeFullBtf(8, 8, gt.views, gt.lights);
-  for (int v = 0; v < gt.views.size(); ++v) btf.view_images[v] = sim::RenderTrueBtfView(*scene, gt, v);
+  const FullBtf btf = sim::RenderTrueBtf(*scene, gt);
   for (auto layout : {BtfFactorLayout::kPaper, BtfFactorLayout::kPerTexel}) {
     for (auto color : {BtfFactorColor::kRgb, BtfFactorColor::kYCbCr}) {
       BtfCompressionReport report;
