@@ -26,7 +26,8 @@ function(mesocap_library name)
   add_library(mesocap::${name} ALIAS mesocap_${name})
 endfunction()
 
-# mesocap_test(NAME SOURCES ... DEPS ... [LABELS ...] [ONE_PROCESS]): one
+# mesocap_test(NAME SOURCES ... DEPS ... [LABELS ...] [ENVIRONMENT ...]
+# [ONE_PROCESS]): one
 # GoogleTest binary, registered test by test with ctest; with ONE_PROCESS as
 # one ctest test instead, for a suite whose fixture (SetUpTestSuite) is
 # expensive and would otherwise be rebuilt in every test's process.
@@ -34,19 +35,26 @@ endfunction()
 # they run in the release and debug presets; the sanitize preset leaves them
 # out, since the code they run is covered there by the smaller tests.
 function(mesocap_test name)
-  cmake_parse_arguments(ARG "ONE_PROCESS" "" "SOURCES;DEPS;LABELS" ${ARGN})
+  cmake_parse_arguments(ARG "ONE_PROCESS" "" "SOURCES;DEPS;LABELS;ENVIRONMENT" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
   target_link_libraries(${name} PRIVATE mesocap_warnings ${ARG_DEPS} GTest::gtest_main GTest::gmock)
   target_include_directories(${name} PRIVATE ${PROJECT_SOURCE_DIR})
   # Tests find shipped data (rig descriptions, scenes) from the source tree.
   target_compile_definitions(${name} PRIVATE MESOCAP_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
+  set(properties "")
+  if(ARG_LABELS)
+    list(APPEND properties LABELS "${ARG_LABELS}")
+  endif()
+  if(ARG_ENVIRONMENT)
+    list(APPEND properties ENVIRONMENT "${ARG_ENVIRONMENT}")
+  endif()
   if(ARG_ONE_PROCESS)
     add_test(NAME ${name} COMMAND ${name})
-    if(ARG_LABELS)
-      set_tests_properties(${name} PROPERTIES LABELS "${ARG_LABELS}")
+    if(properties)
+      set_tests_properties(${name} PROPERTIES ${properties})
     endif()
-  elseif(ARG_LABELS)
-    gtest_discover_tests(${name} DISCOVERY_TIMEOUT 60 PROPERTIES LABELS "${ARG_LABELS}")
+  elseif(properties)
+    gtest_discover_tests(${name} DISCOVERY_TIMEOUT 60 PROPERTIES ${properties})
   else()
     gtest_discover_tests(${name} DISCOVERY_TIMEOUT 60)
   endif()
