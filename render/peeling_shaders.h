@@ -11,7 +11,7 @@ inline constexpr int kPassShade = 0;            // BTF only: shade the nearest f
 inline constexpr int kPassBackPeel = 1;         // Fig. 7: nearest back face beyond Zpeel_now -> z_pb, z_pb - d_b
 inline constexpr int kPassFrontPeel = 2;        // Fig. 7: front face with z_pf + d_f <= z_pb - d_b -> shade
 inline constexpr int kPassShadowPlain = 3;      // shadow map of the reference surface
-inline constexpr int kPassShadowFrontPeel = 4;  // Sec. 4.2: z(p_f) + s d_max / cos(theta_l)
+inline constexpr int kPassShadowFrontPeel = 4;  // Sec. 4.2: z(p_f) + s d_max / cos(theta_l), curved
 
 inline constexpr const char* kPeelingVertexShader = R"glsl(
 #version 450 core
@@ -87,22 +87,54 @@ vec3 g_bitangent;
 // discard (derivatives need the whole 2x2 quad).
 vec3 g_dpx, g_dpy, g_dnx, g_dny;
 
+// Surface coordinates (a, b) of a tangent offset delta in the screen
+// derivatives of position, delta ~= a dp/dx + b dp/dy, by least squares.
+// Conditioning: when the two derivatives are (nearly) parallel (a triangle
+// seen edge-on) there is no fit and the result is false.
+bool ScreenCoordinates(vec3 delta, out vec2 ab) {
+  float a11 = dot(g_dpx, g_dpx), a12 = dot(g_dpx, g_dpy), a22 = dot(g_dpy, g_dpy);
+  float det = a11 * a22 - a12 * a12;
+  ab = vec2(0.0);
+  if (det <= 1e-6 * a11 * a22) return false;
+  float b1 = dot(g_dpx, delta), b2 = dot(g_dpy, delta);
+  ab = vec2(b1 * a22 - b2 * a12, a11 * b2 - a12 * b1) / det;
+  return true;
+}
+
 // The interpolated normal of the reference surface under a point q near
 // p, extrapolated from the normal's screen derivatives: the attached-shadow
 // test of the mesostructure point p' = p + s D v uses the surface it hangs
 // from, not p's (they differ by the surface's curvature over s D sin(theta_v)).
-// Conditioning: when the two screen derivatives of position are (nearly)
-// parallel (a triangle seen edge-on) the fit is skipped and p's normal used.
+// Edge-on triangles keep p's normal.
 vec3 NormalUnder(vec3 q) {
   vec3 delta = q - v_position;
-  delta -= g_normal * dot(g_normal, delta);
-  float a11 = dot(g_dpx, g_dpx), a12 = dot(g_dpx, g_dpy), a22 = dot(g_dpy, g_dpy);
-  float det = a11 * a22 - a12 * a12;
-  if (det <= 1e-6 * a11 * a22) return g_normal;
-  float b1 = dot(g_dpx, delta), b2 = dot(g_dpy, delta);
-  float a = (b1 * a22 - b2 * a12) / det;
-  float b = (a11 * b2 - a12 * b1) / det;
-  return normalize(v_normal + a * g_dnx + b * g_dny);
+  vec2 ab;
+  if (!ScreenCoordinates(delta - g_normal * dot(g_normal, delta), ab)) return g_normal;
+  return normalize(v_normal + ab.x * g_dnx + ab.y * g_dny);
+}
+
+// Length of the path of a ray entering the mesostructure slab at p (cosine c
+// to the normal) down to the slab's base at depth h. Sec. 4.2 takes h / c, the
+// flat slab's; on a curved base surface the path is longer on convex parts and
+// shorter on concave ones, which matters at the terminator, where light
+// grazes. With the normal curvature k of the surface along the ray's tangent
+// direction (from the normal's screen derivatives) the slab is locally a
+// shell of radius 1/k and the path solves |p + L ray - centre| = 1/k - h:
+// L = h (2 - k h) / (c + sqrt(c^2 - k h (2 - k h))), which is h / c at k = 0.
+// A ray that passes above the base of a convex shell leaves the slab again
+// after the chord 2 c / k. c is clamped at 0.05 (87 degrees) for flat and
+// concave parts, so grazing light does not push the base to infinity.
+float SlabPathLength(vec3 ray, float h) {
+  float c = max(dot(-ray, g_normal), 0.05);
+  vec3 along = ray - g_normal * dot(ray, g_normal);
+  float k = 0.0;
+  vec2 ab;
+  if (length(along) > 1e-4 && ScreenCoordinates(normalize(along), ab)) {
+    k = dot(ab.x * g_dnx + ab.y * g_dny, normalize(along));
+  }
+  float disc = c * c - k * h * (2.0 - k * h);
+  if (disc < 0.0) return 2.0 * c / k;
+  return h * (2.0 - k * h) / (c + sqrt(disc));
 }
 
 vec3 ToLocal(vec3 d) { return vec3(dot(d, g_tangent), dot(d, g_bitangent), dot(d, g_normal)); }
@@ -269,11 +301,9 @@ void main() {
   float z_pb_minus_d_b = texelFetch(u_zbo, ivec2(gl_FragCoord.xy), 0).r;
   if (t + v_scale * d / u_far > z_pb_minus_d_b) discard;  // passes beside the mesostructure
   if (u_kind == 4) {  // kPassShadowFrontPeel
-    // Depth of the blocker's mesostructure base (Sec. 4.2): z(p_f) +
-    // s d_max / cos(theta_l); cos clamped at 0.05 (87 degrees) so grazing
-    // light does not push the base to infinity.
-    float c = max(ToLocal(-ray).z, 0.05);
-    out0 = vec4(t + v_scale * u_d_max / c / u_far);
+    // Depth of the blocker's mesostructure base (Sec. 4.2): z(p_f) plus the
+    // light's path through the slab, s d_max / cos(theta_l) on a flat base.
+    out0 = vec4(t + 1.05 * SlabPathLength(ray, v_scale * u_d_max) / u_far);
     return;
   }
   Shade(ray, d);
