@@ -113,28 +113,40 @@ vec3 NormalUnder(vec3 q) {
   return normalize(v_normal + ab.x * g_dnx + ab.y * g_dny);
 }
 
+// The normal curvature of the reference surface at p along the tangent part
+// of `ray`, from the normal's screen derivatives (> 0 convex); 0 when the ray
+// is along the normal or the triangle is seen edge-on.
+float CurvatureAlong(vec3 ray) {
+  vec3 along = ray - g_normal * dot(ray, g_normal);
+  vec2 ab;
+  if (length(along) <= 1e-4 || !ScreenCoordinates(normalize(along), ab)) return 0.0;
+  return dot(ab.x * g_dnx + ab.y * g_dny, normalize(along));
+}
+
 // Length of the path of a ray entering the mesostructure slab at p (cosine c
-// to the normal) down to the slab's base at depth h. Sec. 4.2 takes h / c, the
-// flat slab's; on a curved base surface the path is longer on convex parts and
-// shorter on concave ones, which matters at the terminator, where light
-// grazes. With the normal curvature k of the surface along the ray's tangent
-// direction (from the normal's screen derivatives) the slab is locally a
-// shell of radius 1/k and the path solves |p + L ray - centre| = 1/k - h:
-// L = h (2 - k h) / (c + sqrt(c^2 - k h (2 - k h))), which is h / c at k = 0.
-// A ray that passes above the base of a convex shell leaves the slab again
-// after the chord 2 c / k. c is clamped at 0.05 (87 degrees) for flat and
-// concave parts, so grazing light does not push the base to infinity.
+// to the normal) down to depth h. On a flat slab it is h / c, which Sec. 4.1
+// and 4.2 use; on a curved one it is longer on convex parts and shorter on
+// concave ones, which matters where rays graze (silhouettes, terminators).
+// With the normal curvature k along the ray the slab is locally a shell of
+// radius 1/k and the path solves |p + L ray - centre| = 1/k - h:
+// L = h (2 - k h) / (c + sqrt(c^2 - k h (2 - k h))), h / c at k = 0 (this
+// form has no cancellation as k -> 0). Negative when the ray never gets that
+// deep: it leaves a convex shell again first.
+float PathToDepth(float c, float k, float h) {
+  float disc = c * c - k * h * (2.0 - k * h);
+  if (disc < 0.0) return -1.0;
+  return h * (2.0 - k * h) / (c + sqrt(disc));
+}
+
+// The light's path through the slab at p down to its base at depth h (the
+// shadow map's Sec. 4.2 offset), or the chord 2 c / k of a convex shell the
+// ray passes above the base of. c is clamped at 0.05 (87 degrees) so grazing
+// light does not push the base to infinity on flat and concave parts.
 float SlabPathLength(vec3 ray, float h) {
   float c = max(dot(-ray, g_normal), 0.05);
-  vec3 along = ray - g_normal * dot(ray, g_normal);
-  float k = 0.0;
-  vec2 ab;
-  if (length(along) > 1e-4 && ScreenCoordinates(normalize(along), ab)) {
-    k = dot(ab.x * g_dnx + ab.y * g_dny, normalize(along));
-  }
-  float disc = c * c - k * h * (2.0 - k * h);
-  if (disc < 0.0) return 2.0 * c / k;
-  return h * (2.0 - k * h) / (c + sqrt(disc));
+  float k = CurvatureAlong(ray);
+  float path = PathToDepth(c, k, h);
+  return path >= 0.0 ? path : 2.0 * c / k;
 }
 
 vec3 ToLocal(vec3 d) { return vec3(dot(d, g_tangent), dot(d, g_bitangent), dot(d, g_normal)); }
@@ -242,7 +254,13 @@ bool InShadow(vec3 q) {
 void Shade(vec3 ray, float d) {
   vec3 v = ToLocal(-ray);
   vec3 q = v_position;
-  if (u_shadow_at_mesostructure && d > 0.0) q += ray * (v_scale * d);
+  if (u_shadow_at_mesostructure && d > 0.0) {
+    // On the flat slab p' lies at depth s D cos(theta_v); on the curved one
+    // the ray reaches that depth after PathToDepth (flat where it never does).
+    float c = dot(-ray, g_normal);
+    float path = c > 0.0 ? PathToDepth(c, CurvatureAlong(ray), v_scale * d * c) : -1.0;
+    q += ray * (path >= 0.0 ? path : v_scale * d);
+  }
   vec3 to_light = u_light_position - q;
   float r2 = dot(to_light, to_light);
   vec3 l_world = to_light * inversesqrt(r2);
