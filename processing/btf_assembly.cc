@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <mutex>
 #include <numbers>
@@ -84,6 +85,7 @@ FullBtf AssembleBtf(const std::vector<BtfCaptureImage>& images, const Calibratio
   BtfAssemblyReport r;
   r.images = static_cast<int>(images.size());
   r.measured.assign(o.views.size(), std::vector<bool>(o.lights.size(), false));
+  r.min_pixels_per_texel = std::numeric_limits<double>::infinity();
 
   // Directions of every image, grouped by view.
   struct Placed {
@@ -192,6 +194,7 @@ FullBtf AssembleBtf(const std::vector<BtfCaptureImage>& images, const Calibratio
     std::lock_guard lock(report_mutex);
     r.filled_pairs += filled;
     r.max_samples_per_side = std::max(r.max_samples_per_side, rectifier.samples_per_side_max());
+    r.min_pixels_per_texel = std::min(r.min_pixels_per_texel, rectifier.min_pixels_per_texel());
   });
   for (const auto& row : r.measured)
     for (bool m : row) r.measured_pairs += m;
@@ -199,6 +202,12 @@ FullBtf AssembleBtf(const std::vector<BtfCaptureImage>& images, const Calibratio
     spdlog::warn("BTF assembly: {} of {} (view, light) pairs were not captured by the rig and are interpolated "
                  "from each view's measured lights",
                  r.filled_pairs, r.filled_pairs + r.measured_pairs);
+  }
+  if (r.min_pixels_per_texel < 1.0) {
+    spdlog::warn("BTF assembly: the texture grid is finer than the cameras resolve ({:.2f} pixels per texel at the "
+                 "most oblique view): detail below a pixel is interpolated, not measured; a coarser --texture-size "
+                 "keeps every texel resolved",
+                 r.min_pixels_per_texel);
   }
   if (report) *report = std::move(r);
   return btf;

@@ -71,6 +71,10 @@ struct BtfAssemblyReport {
   double max_view_offset_deg = 0.0;   // image direction to its set direction
   double max_light_offset_deg = 0.0;
   int max_samples_per_side = 1;  // the rectification prefilter's largest n
+  // The narrowest texel footprint in pixels over all views
+  // (ReferencePlaneRectifier::min_pixels_per_texel); below 1 the cameras do
+  // not resolve the texture grid.
+  double min_pixels_per_texel = 0.0;
 };
 
 // The BTF images a capture session plans (core/capture_session.h; written by

@@ -98,7 +98,8 @@ void RunProcessBtf(const ProcessBtfCommandOptions& o) {
                              {"interpolated_pairs", assembly.filled_pairs},
                              {"max_view_offset_deg", assembly.max_view_offset_deg},
                              {"max_light_offset_deg", assembly.max_light_offset_deg},
-                             {"max_samples_per_side", assembly.max_samples_per_side}}},
+                             {"max_samples_per_side", assembly.max_samples_per_side},
+                             {"min_pixels_per_texel", assembly.min_pixels_per_texel}}},
                            {"btf_compression", ToJson(compression, factored)}});
   writer.Commit();
   spdlog::info("wrote {}", o.out.string());
