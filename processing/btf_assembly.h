@@ -17,10 +17,13 @@
 // Directions: each image's view and light direction in the sample frame
 // (from the sample centre to the camera centre and to the lamp) is matched to
 // the nearest direction of the session's sets; farther than
-// max_direction_error_deg is an error (resampling off-grid captures onto the
-// sets is not implemented). Within the sample the true directions vary by the
+// max_direction_error_deg is an error unless `resample` is set, which
+// resamples the captures onto the sets (btf_resampling.h), each texel with
+// its own directions. Within the sample the true directions vary by the
 // sample's angular size seen from the camera or lamp (~1.5 degrees for a
-// 12 mm sample at 450 mm); the BTF ignores that, as the paper's does.
+// 12 mm sample at 450 mm); matched to the grid, the BTF ignores that, as the
+// paper's does (on the tiny rig's weave that costs nothing measurable: the
+// truth along each texel's own directions is 48 dB from the grid truth).
 //
 // Pairs the rig never captures (a light direction that, in the sample frame,
 // only occurs at other turntable angles than the view's) are filled by
@@ -58,7 +61,18 @@ struct BtfAssemblyOptions {
   std::vector<double> exposure_s;           // per calibration camera, > 0
   double signal_per_radiance_second = 0.0;  // the cameras' gain G, > 0
   int max_samples_per_side = 8;             // rectification's prefilter limit
+  // Without resampling: how far an image's direction (from the sample
+  // centre) may be from the nearest of the sets. With it: within this, a
+  // target pair counts as measured rather than interpolated.
   double max_direction_error_deg = 1.0;
+  // Off-grid captures resampled onto the sets (btf_resampling.h) instead of
+  // matched to the nearest direction.
+  bool resample = false;
+  // Resampling with each texel's own view and light directions (else the
+  // sample centre's for all texels).
+  bool per_texel_directions = true;
+  // Captured polar angles within this share a ring when resampling.
+  double ring_tolerance_deg = 0.5;
 
   CheckResult Check() const;
 };
@@ -66,11 +80,20 @@ struct BtfAssemblyOptions {
 struct BtfAssemblyReport {
   int images = 0;
   int measured_pairs = 0;  // (view, light) pairs with an image
-  int filled_pairs = 0;    // interpolated from the view's measured lights
+  int filled_pairs = 0;    // interpolated from the view's measured lights (or resampled)
+  bool resampled = false;
+  // Resampling: target views, and the most target lights of any captured
+  // view, outside the captured polar range (clamped to the nearest ring).
+  int extrapolated_views = 0;
+  int extrapolated_lights = 0;
   std::vector<std::vector<bool>> measured;  // [view][light]
   double max_view_offset_deg = 0.0;   // image direction to its set direction
   double max_light_offset_deg = 0.0;
   int max_samples_per_side = 1;  // the rectification prefilter's largest n
+  // The narrowest texel footprint in pixels over all views
+  // (ReferencePlaneRectifier::min_pixels_per_texel); below 1 the cameras do
+  // not resolve the texture grid.
+  double min_pixels_per_texel = 0.0;
 };
 
 // The BTF images a capture session plans (core/capture_session.h; written by

@@ -1,11 +1,24 @@
 #include "processing/btf_rectification.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <Eigen/SVD>
+#include <limits>
 
 #include "core/error.h"
 
 namespace mesocap {
+namespace {
+
+// Catmull-Rom (Keys, a = -1/2) weights of the 4 pixels x0 - 1 .. x0 + 2 for
+// a sample at x0 + t, t in [0, 1); they sum to 1.
+std::array<double, 4> CatmullRomWeights(double t) {
+  const double t2 = t * t, t3 = t2 * t;
+  return {0.5 * (-t3 + 2 * t2 - t), 0.5 * (3 * t3 - 5 * t2 + 2), 0.5 * (-3 * t3 + 4 * t2 + t), 0.5 * (t3 - t2)};
+}
+
+}  // namespace
 
 Eigen::Vector3d ReferencePlaneRectifier::TexelCentre(int i, int j, int width, int height, double s) {
   return {-s / 2 + (i + 0.5) * s / width, -s / 2 + (j + 0.5) * s / height, 0.0};
@@ -25,17 +38,22 @@ ReferencePlaneRectifier::ReferencePlaneRectifier(const CameraCalibration& camera
     return pixel;
   };
   first_tap_.reserve(static_cast<std::size_t>(width) * height + 1);
+  min_pixels_per_texel_ = std::numeric_limits<double>::infinity();
+  std::vector<Tap> texel_taps;
   for (int j = 0; j < height; ++j) {
     for (int i = 0; i < width; ++i) {
       const Eigen::Vector3d p = TexelCentre(i, j, width, height, sample_size_mm);
       // Footprint: the images of the texel's edges' midpoints.
       const Eigen::Vector2d du = project(p + Eigen::Vector3d(dx / 2, 0, 0)) - project(p - Eigen::Vector3d(dx / 2, 0, 0));
       const Eigen::Vector2d dv = project(p + Eigen::Vector3d(0, dy / 2, 0)) - project(p - Eigen::Vector3d(0, dy / 2, 0));
+      Eigen::Matrix2d jacobian;
+      jacobian << du, dv;
+      min_pixels_per_texel_ = std::min(min_pixels_per_texel_, Eigen::JacobiSVD<Eigen::Matrix2d>(jacobian).singularValues()[1]);
       const double extent = std::max(du.cwiseAbs().maxCoeff(), dv.cwiseAbs().maxCoeff());
       const int n = std::clamp(static_cast<int>(std::ceil(extent - 1e-9)), 1, max_samples_per_side);
       samples_per_side_max_ = std::max(samples_per_side_max_, n);
-      first_tap_.push_back(static_cast<int>(taps_.size()));
-      const float w = 1.0f / static_cast<float>(n * n);
+      texel_taps.clear();
+      const double w = 1.0 / (n * n);
       for (int b = 0; b < n; ++b) {
         for (int a = 0; a < n; ++a) {
           const Eigen::Vector3d q = p + Eigen::Vector3d(((a + 0.5) / n - 0.5) * dx, ((b + 0.5) / n - 0.5) * dy, 0);
@@ -46,12 +64,26 @@ ReferencePlaneRectifier::ReferencePlaneRectifier(const CameraCalibration& camera
             throw Error("rectification: texel (" + std::to_string(i) + ", " + std::to_string(j) +
                         ") of the sample is outside the image of camera " + camera.id);
           }
-          const float tx = static_cast<float>(uv.x() - fx), ty = static_cast<float>(uv.y() - fy);
-          const int base = y0 * image_width_ + x0;
-          taps_.push_back({base, w * (1 - tx) * (1 - ty)});
-          taps_.push_back({base + 1, w * tx * (1 - ty)});
-          taps_.push_back({base + image_width_, w * (1 - tx) * ty});
-          taps_.push_back({base + image_width_ + 1, w * tx * ty});
+          // The outer taps clamp to the image's edge (the sample is well
+          // inside the image on any usable rig).
+          const std::array<double, 4> kx = CatmullRomWeights(uv.x() - fx), ky = CatmullRomWeights(uv.y() - fy);
+          for (int b4 = 0; b4 < 4; ++b4) {
+            const int y = std::clamp(y0 - 1 + b4, 0, image_height_ - 1);
+            for (int a4 = 0; a4 < 4; ++a4) {
+              const int x = std::clamp(x0 - 1 + a4, 0, image_width_ - 1);
+              texel_taps.push_back({y * image_width_ + x, static_cast<float>(w * kx[a4] * ky[b4])});
+            }
+          }
+        }
+      }
+      // One tap per pixel: the footprint's samples share most of theirs.
+      std::sort(texel_taps.begin(), texel_taps.end(), [](const Tap& a, const Tap& b) { return a.pixel < b.pixel; });
+      first_tap_.push_back(static_cast<int>(taps_.size()));
+      for (const Tap& tap : texel_taps) {
+        if (taps_.size() > static_cast<std::size_t>(first_tap_.back()) && taps_.back().pixel == tap.pixel) {
+          taps_.back().weight += tap.weight;
+        } else {
+          taps_.push_back(tap);
         }
       }
     }

@@ -112,7 +112,11 @@ ViewSample CameraRenderer::SampleHit(const Eigen::Vector3d& origin_world, const 
   const Eigen::Vector3d d = to_sample * dir_world;
   if (d.z() >= 0.0) return out;  // looks up, away from the table
   const double t0 = -o.z() / d.z();
-  const Eigen::Vector3d p0 = o + t0 * d;  // on the reference plane
+  Eigen::Vector3d p0 = o + t0 * d;  // on the reference plane
+  // Exactly on it: rounding leaves z ~1e-14 off at turntable angles other
+  // than multiples of 90 degrees, and a ray starting that far below a top
+  // at z = 0 (the flat sample, box tops) misses it.
+  p0.z() = 0.0;
   const double half = rig_.sample_size_mm / 2;
   if (std::abs(p0.x()) > half || std::abs(p0.y()) > half) {
     out.surface = ViewSample::Surface::kTurntable;

@@ -34,6 +34,7 @@ struct ProcessBtfCommandOptions {
   int texture_size = 64;
   double gain = 0.0;
   bool full = false;
+  bool resample = false;
   bool replace = false;
   BtfCompressionOptions compression;
 };
@@ -53,6 +54,7 @@ void RunProcessBtf(const ProcessBtfCommandOptions& o) {
   a.sample_size_mm = rig.sample_size_mm;
   a.views = drivers::ViewDirections(rig);
   a.lights = drivers::LightDirections(rig);
+  a.resample = o.resample;
   bool all_simulated = true;
   for (const CameraCalibration& camera : calibration.cameras) {
     const auto it = std::find_if(rig.cameras.begin(), rig.cameras.end(), [&](const auto& c) { return c.id == camera.id; });
@@ -96,9 +98,13 @@ void RunProcessBtf(const ProcessBtfCommandOptions& o) {
                             {{"images", assembly.images},
                              {"measured_pairs", assembly.measured_pairs},
                              {"interpolated_pairs", assembly.filled_pairs},
+                             {"resampled", assembly.resampled},
+                             {"extrapolated_views", assembly.extrapolated_views},
+                             {"extrapolated_lights", assembly.extrapolated_lights},
                              {"max_view_offset_deg", assembly.max_view_offset_deg},
                              {"max_light_offset_deg", assembly.max_light_offset_deg},
-                             {"max_samples_per_side", assembly.max_samples_per_side}}},
+                             {"max_samples_per_side", assembly.max_samples_per_side},
+                             {"min_pixels_per_texel", assembly.min_pixels_per_texel}}},
                            {"btf_compression", ToJson(compression, factored)}});
   writer.Commit();
   spdlog::info("wrote {}", o.out.string());
@@ -125,6 +131,9 @@ void RegisterProcessBtfCommand(CLI::App& app) {
   sub->add_option("--gain", o->gain, "camera signal (fraction of full scale) per radiance second; "
                                      "default: the simulated cameras' own");
   sub->add_flag("--full", o->full, "also store the full (uncompressed) BTF");
+  sub->add_flag("--resample", o->resample,
+                "resample captures whose directions are off the session's sets (each texel with its own view and "
+                "light directions) instead of requiring them within 1 degree");
   sub->add_flag("--replace", o->replace, "replace an existing package at --out");
   sub->callback([o] { RunProcessBtf(*o); });
 }
