@@ -396,7 +396,11 @@ BonnImportReport ImportBonn(const fs::path& in, const fs::path& out, const BonnI
   const auto start = std::chrono::steady_clock::now();
   if (const auto problem = options.Check(); !problem.empty()) throw Error("import bonn: " + problem);
   std::error_code ec;
-  const std::string name = options.name.empty() ? in.filename().string() : options.name;
+  fs::path named = in;
+  if (named.filename().empty()) named = named.parent_path();  // "folder/"
+  const std::string name = !options.name.empty()           ? options.name
+                           : fs::is_directory(in, ec) ? named.filename().string()
+                                                      : named.stem().string();
   BonnImportReport report;
   nlohmann::json facts;
   if (fs::is_directory(in, ec)) {
@@ -443,7 +447,11 @@ BonnImportReport ImportBonn(const fs::path& in, const fs::path& out, const BonnI
     }
     std::optional<FactoredBtf> factored;
     if (parts != BonnImportParts::kFull) factored = FactoredFromBonn(btf, in);
-    BonnToRgb(btf);  // a full import needs a linear colour model too: fail before writing anything
+    try {
+      BonnToRgb(btf);  // a full import needs a linear colour model too: fail before writing anything
+    } catch (const Error& e) {
+      throw FormatError(in, "color_model", e.what());
+    }
     const MaterialDescription d =
         DescriptionFor(name, btf.width, btf.height, width_mm, options.d_max_mm, BonnViewSet(btf, in),
                        BonnLightSet(btf, in), std::string("import bonn ") + ToString(report.form) + " " + in.string());
