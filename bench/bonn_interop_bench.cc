@@ -11,6 +11,7 @@
 #include <benchmark/benchmark.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -41,18 +42,9 @@ const FullBtf& Truth() {
     gt.sample_size_mm = 12.0;
     gt.views = SamplingSet::Named("grid12x4");
     gt.lights = SamplingSet::Named("grid12x4");
-    const FullBtf b = sim::RenderTrueBtf(*sim::MakeBuiltinScene("weave"), gt);
-    MaterialPackage p;
-    p.description.name = "weave";
-    p.description.width = b.width;
-    p.description.height = b.height;
-    p.description.physical_size_mm = {12.0, 12.0};
-    p.description.d_max_mm = 3.0;
-    p.description.view_directions = b.views;
-    p.description.light_directions = b.lights;
-    p.full_btf = b;
-    WriteMaterialPackage(WorkDir() / "weave", p, true);
-    return b;
+    const auto scene = sim::MakeBuiltinScene("weave");
+    sim::WriteGroundTruthPackage(*scene, gt, nullptr, "bench", WorkDir() / "weave", true, Progress::Style::kSilent);
+    return sim::RenderTrueBtf(*scene, gt);
   }();
   return btf;
 }
@@ -62,11 +54,21 @@ struct Form {
   std::string out;
 };
 
+// The 8-bit images hold [0, 1]: scale the brightest value (weave has
+// highlights above 1) to 1 so that the error is quantization, not clipping.
+double ImageScale() {
+  float brightest = 0.0f;
+  for (const Image& view : Truth().view_images)
+    for (std::size_t i = 0; i < view.size(); ++i) brightest = std::max(brightest, view.data()[i]);
+  return 1.0 / brightest;
+}
+
 std::map<std::string, Form> Forms() {
   std::map<std::string, Form> forms;
   Form f;
   f.options.replace = true;
   f.options.form = BonnForm::kUbo2003;
+  f.options.scale = ImageScale();
   forms["ubo2003"] = f;
   f.options.encoding = Ubo2003Encoding::kHalfExr;
   forms["ubo2003_exr"] = f;
@@ -101,22 +103,39 @@ void Import(benchmark::State& state, const std::string& name) {
   o.width_mm = 12.0;
   o.replace = true;
   o.parts = BonnImportParts::kFull;
+  o.scale = form.options.scale;
   const fs::path out = WorkDir() / (name + ".imported");
   for (auto _ : state) ImportBonn(form.out, out, o);
-  const MaterialManifest m = ReadMaterialManifest(out);
-  double err = 0, norm = 0, worst = 0;
-  for (int v = 0; v < truth.view_count(); ++v) {
-    const Image got = ReadFullBtfView(out, m, v);
-    for (std::size_t i = 0; i < got.size(); ++i) {
-      const double d = got.data()[i] - truth.view_images[v].data()[i];
-      err += d * d;
-      norm += double(truth.view_images[v].data()[i]) * truth.view_images[v].data()[i];
-      worst = std::max(worst, std::abs(d));
-    }
-  }
-  state.counters["rel_rms"] = std::sqrt(err / norm);
+  const FullBtf got = ReadFullBtf(out, ReadMaterialManifest(out));
+  // ||a - b|| / ||truth||, and the largest |a - b|.
+  auto compare = [&](const FullBtf& a, const FullBtf& b, double* worst) {
+    double err = 0, norm = 0;
+    for (int v = 0; v < truth.view_count(); ++v)
+      for (std::size_t i = 0; i < truth.view_images[v].size(); ++i) {
+        const double d = a.view_images[v].data()[i] - b.view_images[v].data()[i];
+        const double t = truth.view_images[v].data()[i];
+        err += d * d;
+        norm += t * t;
+        *worst = std::max(*worst, std::abs(d));
+      }
+    return std::sqrt(err / norm);
+  };
+  double worst = 0.0;
+  state.counters["rel_rms"] = compare(got, truth, &worst);
   state.counters["max_abs"] = worst;
   if (truncation.count(name)) state.counters["truncation_rel_rms"] = truncation[name];
+  if (form.options.form != BonnForm::kUbo2003) {
+    // The same factors written as float: the difference is the half quantization.
+    BonnExportOptions f = form.options;
+    f.scalar = BonnScalar::kFloat;
+    const fs::path float_file = WorkDir() / (name + ".float");
+    ExportBonn(WorkDir() / "weave", float_file, f);
+    ImportBonn(float_file, WorkDir() / (name + ".float.imported"), o);
+    const fs::path float_out = WorkDir() / (name + ".float.imported");
+    double q_worst = 0.0;
+    state.counters["half_vs_float_rel_rms"] = compare(got, ReadFullBtf(float_out, ReadMaterialManifest(float_out)), &q_worst);
+    state.counters["half_vs_float_max_abs"] = q_worst;
+  }
 }
 
 void Register() {
@@ -129,8 +148,7 @@ void Register() {
     benchmark::RegisterBenchmark((std::string("Import/") + name).c_str(), Import, std::string(name))
         ->Unit(benchmark::kMillisecond)
         ->Iterations(1)
-        ->Repetitions(3)
-        ->ReportAggregatesOnly(true);
+        ->Repetitions(1);
   }
 }
 
