@@ -27,6 +27,7 @@ constexpr std::uintmax_t kMaxJsonBytes = 16u << 20;
 constexpr char kManifestFile[] = "manifest.json";
 constexpr char kMdfFloatFile[] = "mdf.exr";
 constexpr char kMdfUint8File[] = "mdf8.tif";
+constexpr char kMdfConfidenceFile[] = "mdf_confidence.exr";
 constexpr char kFullBtfFiles[] = "btf/view_{view:04d}.exr";
 constexpr char kRowFactorFiles[] = "btf/rows_{k:02d}.exr";
 constexpr char kColumnFactorFile[] = "btf/columns.exr";
@@ -192,6 +193,7 @@ nlohmann::ordered_json ManifestJson(const MaterialManifest& m) {
                       {"no_hit_code", QuantizedMdf::kNoHitCode},
                       {"unknown_code", QuantizedMdf::kUnknownCode}};
     }
+    if (m.mdf->confidence) mdf["confidence"] = {{"file", kMdfConfidenceFile}};
     j["mdf"] = mdf;
   }
   if (m.full_btf || m.factored_btf) {
@@ -282,6 +284,8 @@ MaterialManifest::MdfPart ReadMdfPart(const JsonFieldReader& mdf) {
     u.Integer("no_hit_code", QuantizedMdf::kNoHitCode, QuantizedMdf::kNoHitCode);
     u.Integer("unknown_code", QuantizedMdf::kUnknownCode, QuantizedMdf::kUnknownCode);
   }
+  part.confidence = mdf.Has("confidence");
+  if (part.confidence) mdf.Object("confidence").Choice("file", {kMdfConfidenceFile});
   return part;
 }
 
@@ -319,6 +323,7 @@ void ExpectFiles(const JsonFieldReader& root, const MaterialManifest& m, const f
   if (m.mdf) {
     if (m.mdf->forms.float32) ExpectFile(root, "mdf.float32.file", dir, kMdfFloatFile);
     if (m.mdf->forms.uint8) ExpectFile(root, "mdf.uint8.file", dir, kMdfUint8File);
+    if (m.mdf->confidence) ExpectFile(root, "mdf.confidence.file", dir, kMdfConfidenceFile);
   }
   if (m.full_btf) {
     for (int v = 0; v < m.description.view_directions.size(); ++v) {
@@ -434,6 +439,23 @@ void MaterialPackageWriter::WriteMdf(const Mdf& mdf, MdfForms forms) {
     part.scale_mm = q.scale_mm;
   }
   manifest_.mdf = part;
+}
+
+void MaterialPackageWriter::WriteMdfConfidence(const Image& confidence) {
+  ExpectOpen();
+  const MaterialDescription& d = manifest_.description;
+  if (!manifest_.mdf) throw Error(dir_.string() + ": the MDF confidence needs the MDF written first");
+  if (manifest_.mdf->confidence) throw Error(dir_.string() + ": the MDF confidence was already written");
+  ExpectImageSize(dir_, "MDF confidence", confidence, d.width, PackedHeight(d, d.view_directions), 1);
+  const float* values = confidence.data();
+  for (std::size_t i = 0; i < confidence.size(); ++i) {
+    if (!(values[i] >= 0.0f && values[i] <= 1.0f)) {
+      throw Error(dir_.string() + ": MDF confidence " + Text(values[i]) + " at index " + std::to_string(i) +
+                  " is outside [0, 1]");
+    }
+  }
+  WriteImage(folder_.temp_path() / kMdfConfidenceFile, confidence, PixelEncoding::kFloat32);
+  manifest_.mdf->confidence = true;
 }
 
 void MaterialPackageWriter::WriteFullBtfView(int view, const Image& values) {
@@ -630,6 +652,24 @@ Mdf ReadMdf(const fs::path& dir, const MaterialManifest& manifest) {
     }
   }
   return mdf;
+}
+
+Image ReadMdfConfidence(const fs::path& dir, const MaterialManifest& manifest) {
+  if (!manifest.mdf || !manifest.mdf->confidence) ThrowMissingPart(dir, "mdf.confidence", "MDF confidence");
+  const MaterialDescription& d = manifest.description;
+  const fs::path file = dir / kMdfConfidenceFile;
+  Image confidence = ReadPartImage(file, PixelEncoding::kFloat32, d.width, PackedHeight(d, d.view_directions), 1);
+  const float* values = confidence.data();
+  for (std::size_t i = 0; i < confidence.size(); ++i) {
+    if (!(values[i] >= 0.0f && values[i] <= 1.0f)) {
+      const std::size_t row = i / d.width;
+      throw FormatError(file, "pixels",
+                        "value " + Text(values[i]) + " at view " + std::to_string(row / d.height) + ", texel (" +
+                            std::to_string(i % d.width) + ", " + std::to_string(row % d.height) +
+                            "); expected a confidence in [0, 1]");
+    }
+  }
+  return confidence;
 }
 
 QuantizedMdf ReadQuantizedMdf(const fs::path& dir, const MaterialManifest& manifest) {

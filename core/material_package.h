@@ -81,7 +81,8 @@ struct MdfForms {
 struct MaterialManifest {
   struct MdfPart {
     MdfForms forms;
-    double scale_mm = 0.0;  // of the 8-bit form; 0 when there is none
+    double scale_mm = 0.0;    // of the 8-bit form; 0 when there is none
+    bool confidence = false;  // mdf_confidence.exr: a measured MDF's per-texel confidence
   };
   struct FactoredBtfPart {
     BtfFactorLayout layout = BtfFactorLayout::kPaper;
@@ -125,6 +126,10 @@ class MaterialPackageWriter {
   MaterialPackageWriter(const std::filesystem::path& dir, MaterialDescription description, bool replace);
 
   void WriteMdf(const Mdf& mdf, MdfForms forms = {});
+  // A measured MDF's per-texel confidence in [0, 1] (issue 4: the share of a
+  // view's scan weight that agrees on the texel; 0 where the MDF is unknown),
+  // 1 channel in the MDF's layout. After WriteMdf.
+  void WriteMdfConfidence(const Image& confidence);
   // One view of the full BTF: 3 channels, width x height * Nlight (light l
   // in rows [l*H, (l+1)*H)). Views may come in any order; all must be
   // written before Commit() once one is.
@@ -166,6 +171,9 @@ MaterialManifest ReadMaterialManifest(const std::filesystem::path& dir);
 //
 // The float form if present, else the 8-bit form decoded (within scale/2).
 Mdf ReadMdf(const std::filesystem::path& dir, const MaterialManifest& manifest);
+// The per-texel confidence (see WriteMdfConfidence); FormatError for a
+// value outside [0, 1].
+Image ReadMdfConfidence(const std::filesystem::path& dir, const MaterialManifest& manifest);
 // The 8-bit form as stored (what a renderer uploads as a 3D texture).
 QuantizedMdf ReadQuantizedMdf(const std::filesystem::path& dir, const MaterialManifest& manifest);
 // One view of the full BTF (see WriteFullBtfView for the layout).

@@ -9,8 +9,8 @@
 namespace mesocap::render {
 namespace {
 
-void ExpectSameShape(const Image& a, const Image& b) {
-  if (a.width() != b.width() || a.height() != b.height() || a.channels() != b.channels()) {
+void ExpectSameShape(const Image& a, const Image& b, bool same_channels = true) {
+  if (a.width() != b.width() || a.height() != b.height() || (same_channels && a.channels() != b.channels())) {
     throw Error("image comparison: sizes differ (" + std::to_string(a.width()) + "x" + std::to_string(a.height()) +
                 "x" + std::to_string(a.channels()) + " vs " + std::to_string(b.width()) + "x" +
                 std::to_string(b.height()) + "x" + std::to_string(b.channels()) + ")");
@@ -41,6 +41,23 @@ double Psnr(const Image& a, const Image& b) {
   }
   const double mse = sum / static_cast<double>(a.size());
   return mse <= 1e-10 ? 100.0 : 10.0 * std::log10(1.0 / mse);
+}
+
+Image MaskDifference(const Image& rendered, const Image& truth, const Image& background) {
+  ExpectSameShape(rendered, truth);
+  ExpectSameShape(background, truth, /*same_channels=*/false);
+  Image difference(truth.width(), truth.height(), 3);
+  for (int y = 0; y < truth.height(); ++y) {
+    for (int x = 0; x < truth.width(); ++x) {
+      const float grey = 0.4f * std::clamp(background.at(x, y), 0.0f, 1.0f);
+      const bool in_rendered = rendered.at(x, y) > 0.5f, in_truth = truth.at(x, y) > 0.5f;
+      float* p = difference.pixel(x, y);
+      p[0] = in_truth && !in_rendered ? 1.0f : grey;
+      p[1] = in_rendered && !in_truth ? 1.0f : grey;
+      p[2] = grey;
+    }
+  }
+  return difference;
 }
 
 }  // namespace mesocap::render

@@ -16,4 +16,10 @@ double MaskIou(const Image& a, const Image& b);
 // images. Throws Error when the sizes or channel counts differ.
 double Psnr(const Image& a, const Image& b);
 
+// Where two masks disagree, for a person to look at: red where only `truth`
+// is set, green where only `rendered` is, over a dim grey copy of
+// `background` (channel 0) so the places can be recognized. Throws Error
+// when the sizes differ.
+Image MaskDifference(const Image& rendered, const Image& truth, const Image& background);
+
 }  // namespace mesocap::render

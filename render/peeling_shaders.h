@@ -11,7 +11,7 @@ inline constexpr int kPassShade = 0;            // BTF only: shade the nearest f
 inline constexpr int kPassBackPeel = 1;         // Fig. 7: nearest back face beyond Zpeel_now -> z_pb, z_pb - d_b
 inline constexpr int kPassFrontPeel = 2;        // Fig. 7: front face with z_pf + d_f <= z_pb - d_b -> shade
 inline constexpr int kPassShadowPlain = 3;      // shadow map of the reference surface
-inline constexpr int kPassShadowFrontPeel = 4;  // Sec. 4.2: z(p_f) + s d_max / cos(theta_l)
+inline constexpr int kPassShadowFrontPeel = 4;  // Sec. 4.2: z(p_f) + s d_max / cos(theta_l), curved
 
 inline constexpr const char* kPeelingVertexShader = R"glsl(
 #version 450 core
@@ -87,22 +87,66 @@ vec3 g_bitangent;
 // discard (derivatives need the whole 2x2 quad).
 vec3 g_dpx, g_dpy, g_dnx, g_dny;
 
+// Surface coordinates (a, b) of a tangent offset delta in the screen
+// derivatives of position, delta ~= a dp/dx + b dp/dy, by least squares.
+// Conditioning: when the two derivatives are (nearly) parallel (a triangle
+// seen edge-on) there is no fit and the result is false.
+bool ScreenCoordinates(vec3 delta, out vec2 ab) {
+  float a11 = dot(g_dpx, g_dpx), a12 = dot(g_dpx, g_dpy), a22 = dot(g_dpy, g_dpy);
+  float det = a11 * a22 - a12 * a12;
+  ab = vec2(0.0);
+  if (det <= 1e-6 * a11 * a22) return false;
+  float b1 = dot(g_dpx, delta), b2 = dot(g_dpy, delta);
+  ab = vec2(b1 * a22 - b2 * a12, a11 * b2 - a12 * b1) / det;
+  return true;
+}
+
 // The interpolated normal of the reference surface under a point q near
 // p, extrapolated from the normal's screen derivatives: the attached-shadow
 // test of the mesostructure point p' = p + s D v uses the surface it hangs
 // from, not p's (they differ by the surface's curvature over s D sin(theta_v)).
-// Conditioning: when the two screen derivatives of position are (nearly)
-// parallel (a triangle seen edge-on) the fit is skipped and p's normal used.
+// Edge-on triangles keep p's normal.
 vec3 NormalUnder(vec3 q) {
   vec3 delta = q - v_position;
-  delta -= g_normal * dot(g_normal, delta);
-  float a11 = dot(g_dpx, g_dpx), a12 = dot(g_dpx, g_dpy), a22 = dot(g_dpy, g_dpy);
-  float det = a11 * a22 - a12 * a12;
-  if (det <= 1e-6 * a11 * a22) return g_normal;
-  float b1 = dot(g_dpx, delta), b2 = dot(g_dpy, delta);
-  float a = (b1 * a22 - b2 * a12) / det;
-  float b = (a11 * b2 - a12 * b1) / det;
-  return normalize(v_normal + a * g_dnx + b * g_dny);
+  vec2 ab;
+  if (!ScreenCoordinates(delta - g_normal * dot(g_normal, delta), ab)) return g_normal;
+  return normalize(v_normal + ab.x * g_dnx + ab.y * g_dny);
+}
+
+// The normal curvature of the reference surface at p along the tangent part
+// of `ray`, from the normal's screen derivatives (> 0 convex); 0 when the ray
+// is along the normal or the triangle is seen edge-on.
+float CurvatureAlong(vec3 ray) {
+  vec3 along = ray - g_normal * dot(ray, g_normal);
+  vec2 ab;
+  if (length(along) <= 1e-4 || !ScreenCoordinates(normalize(along), ab)) return 0.0;
+  return dot(ab.x * g_dnx + ab.y * g_dny, normalize(along));
+}
+
+// Length of the path of a ray entering the mesostructure slab at p (cosine c
+// to the normal) down to depth h. On a flat slab it is h / c, which Sec. 4.1
+// and 4.2 use; on a curved one it is longer on convex parts and shorter on
+// concave ones, which matters where rays graze (silhouettes, terminators).
+// With the normal curvature k along the ray the slab is locally a shell of
+// radius 1/k and the path solves |p + L ray - centre| = 1/k - h:
+// L = h (2 - k h) / (c + sqrt(c^2 - k h (2 - k h))), h / c at k = 0 (this
+// form has no cancellation as k -> 0). Negative when the ray never gets that
+// deep: it leaves a convex shell again first.
+float PathToDepth(float c, float k, float h) {
+  float disc = c * c - k * h * (2.0 - k * h);
+  if (disc < 0.0) return -1.0;
+  return h * (2.0 - k * h) / (c + sqrt(disc));
+}
+
+// The light's path through the slab at p down to its base at depth h (the
+// shadow map's Sec. 4.2 offset), or the chord 2 c / k of a convex shell the
+// ray passes above the base of. c is clamped at 0.05 (87 degrees) so grazing
+// light does not push the base to infinity on flat and concave parts.
+float SlabPathLength(vec3 ray, float h) {
+  float c = max(dot(-ray, g_normal), 0.05);
+  float k = CurvatureAlong(ray);
+  float path = PathToDepth(c, k, h);
+  return path >= 0.0 ? path : 2.0 * c / k;
 }
 
 vec3 ToLocal(vec3 d) { return vec3(dot(d, g_tangent), dot(d, g_bitangent), dot(d, g_normal)); }
@@ -210,7 +254,13 @@ bool InShadow(vec3 q) {
 void Shade(vec3 ray, float d) {
   vec3 v = ToLocal(-ray);
   vec3 q = v_position;
-  if (u_shadow_at_mesostructure && d > 0.0) q += ray * (v_scale * d);
+  if (u_shadow_at_mesostructure && d > 0.0) {
+    // On the flat slab p' lies at depth s D cos(theta_v); on the curved one
+    // the ray reaches that depth after PathToDepth (flat where it never does).
+    float c = dot(-ray, g_normal);
+    float path = c > 0.0 ? PathToDepth(c, CurvatureAlong(ray), v_scale * d * c) : -1.0;
+    q += ray * (path >= 0.0 ? path : v_scale * d);
+  }
   vec3 to_light = u_light_position - q;
   float r2 = dot(to_light, to_light);
   vec3 l_world = to_light * inversesqrt(r2);
@@ -269,11 +319,9 @@ void main() {
   float z_pb_minus_d_b = texelFetch(u_zbo, ivec2(gl_FragCoord.xy), 0).r;
   if (t + v_scale * d / u_far > z_pb_minus_d_b) discard;  // passes beside the mesostructure
   if (u_kind == 4) {  // kPassShadowFrontPeel
-    // Depth of the blocker's mesostructure base (Sec. 4.2): z(p_f) +
-    // s d_max / cos(theta_l); cos clamped at 0.05 (87 degrees) so grazing
-    // light does not push the base to infinity.
-    float c = max(ToLocal(-ray).z, 0.05);
-    out0 = vec4(t + v_scale * u_d_max / c / u_far);
+    // Depth of the blocker's mesostructure base (Sec. 4.2): z(p_f) plus the
+    // light's path through the slab, s d_max / cos(theta_l) on a flat base.
+    out0 = vec4(t + 1.05 * SlabPathLength(ray, v_scale * u_d_max) / u_far);
     return;
   }
   Shade(ray, d);

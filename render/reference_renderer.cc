@@ -124,8 +124,14 @@ struct ReferenceRenderer::Impl {
   const RenderScene* scene = nullptr;
   std::vector<RefVertex> vertices;
   std::vector<RefTriangle> triangles;
+  // The reference surfaces (the meshes of objects with mesostructure), to
+  // find where a shadow ray leaves the mesostructure slab.
+  std::vector<Eigen::Vector3f> surface_positions;
+  std::vector<Eigen::Vector3f> surface_normals;
+  std::vector<std::array<int, 3>> surface_triangles;
   RTCDevice device = nullptr;
   RTCScene rtc_scene = nullptr;
+  RTCScene surface_scene = nullptr;
   double epsilon = 1e-4;
 
   int AddVertex(const RefVertex& v) {
@@ -153,6 +159,10 @@ struct ReferenceRenderer::Impl {
   void AddDisplaced(const SceneObject& object, int index, const RenderMaterial& material) {
     const SquareGeometry square(*material.geometry, material.sample_size_mm);
     const RenderMesh& m = object.mesh;
+    const int first = static_cast<int>(surface_positions.size());
+    surface_positions.insert(surface_positions.end(), m.positions.begin(), m.positions.end());
+    surface_normals.insert(surface_normals.end(), m.normals.begin(), m.normals.end());
+    for (const Eigen::Vector3i& t : m.triangles) surface_triangles.push_back({first + t[0], first + t[1], first + t[2]});
     std::vector<int> stamp(square.triangles.size(), -1);
     int stamp_value = 0;
     for (const Eigen::Vector3i& tri : m.triangles) {
@@ -238,55 +248,79 @@ struct ReferenceRenderer::Impl {
     return v;
   }
 
+  // An Embree scene of one triangle geometry; throws Error when Embree cannot
+  // allocate or build it.
+  RTCScene BuildScene(const std::vector<Eigen::Vector3f>& positions, const std::vector<std::array<int, 3>>& faces,
+                      const std::string& what) const {
+    RTCScene scene = rtcNewScene(device);
+    rtcSetSceneFlags(scene, RTC_SCENE_FLAG_ROBUST);
+    RTCGeometry geometry = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+    auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                                          3 * sizeof(float), positions.size()));
+    auto* i = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                                             3 * sizeof(unsigned), faces.size()));
+    if (v == nullptr || i == nullptr) {
+      rtcReleaseGeometry(geometry);
+      rtcReleaseScene(scene);
+      throw Error("reference renderer: Embree cannot allocate " + what + " (" + std::to_string(faces.size()) +
+                  " triangles)");
+    }
+    for (std::size_t k = 0; k < positions.size(); ++k) {
+      for (int c = 0; c < 3; ++c) v[3 * k + c] = positions[k][c];
+    }
+    for (std::size_t k = 0; k < faces.size(); ++k) {
+      for (int c = 0; c < 3; ++c) i[3 * k + c] = static_cast<unsigned>(faces[k][c]);
+    }
+    rtcCommitGeometry(geometry);
+    rtcAttachGeometry(scene, geometry);
+    rtcReleaseGeometry(geometry);
+    rtcCommitScene(scene);
+    if (rtcGetDeviceError(device) != RTC_ERROR_NONE) {
+      rtcReleaseScene(scene);
+      throw Error("reference renderer: Embree cannot build " + what);
+    }
+    return scene;
+  }
+
   void Build() {
     device = rtcNewDevice(nullptr);
     if (device == nullptr) throw Error("reference renderer: Embree cannot create a device");
-    rtc_scene = rtcNewScene(device);
-    rtcSetSceneFlags(rtc_scene, RTC_SCENE_FLAG_ROBUST);
-    RTCGeometry geometry = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
-    auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                                          3 * sizeof(float), vertices.size()));
-    auto* i = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                                                             3 * sizeof(unsigned), triangles.size()));
-    if (v == nullptr || i == nullptr) {
-      rtcReleaseGeometry(geometry);
-      throw Error("reference renderer: Embree cannot allocate the displaced geometry (" +
-                  std::to_string(triangles.size()) + " triangles)");
-    }
-    for (std::size_t k = 0; k < vertices.size(); ++k) {
-      for (int c = 0; c < 3; ++c) v[3 * k + c] = vertices[k].position[c];
-    }
-    for (std::size_t k = 0; k < triangles.size(); ++k) {
-      for (int c = 0; c < 3; ++c) i[3 * k + c] = static_cast<unsigned>(triangles[k].vertex[c]);
-    }
-    rtcCommitGeometry(geometry);
-    rtcAttachGeometry(rtc_scene, geometry);
-    rtcReleaseGeometry(geometry);
-    rtcCommitScene(rtc_scene);
-    if (rtcGetDeviceError(device) != RTC_ERROR_NONE) throw Error("reference renderer: Embree cannot build the scene");
+    std::vector<Eigen::Vector3f> positions(vertices.size());
+    for (std::size_t k = 0; k < vertices.size(); ++k) positions[k] = vertices[k].position;
+    std::vector<std::array<int, 3>> faces(triangles.size());
+    for (std::size_t k = 0; k < triangles.size(); ++k) faces[k] = triangles[k].vertex;
+    rtc_scene = BuildScene(positions, faces, "the displaced geometry");
+    surface_scene = BuildScene(surface_positions, surface_triangles, "the reference surfaces");
   }
 
-  struct BlockerHit {
-    float t = 0.0f;
-    Eigen::Vector3f base_point;  // the hit moved back up to the reference surface
-  };
-
-  std::optional<BlockerHit> FirstHit(const Eigen::Vector3f& origin, const Eigen::Vector3f& dir, float t0,
-                                     float t1) const {
-    if (!(t1 > t0)) return std::nullopt;
+  // Whether the scene blocks the ray from origin along dir within (t0, t1).
+  bool Blocked(const Eigen::Vector3f& origin, const Eigen::Vector3f& dir, float t0, float t1) const {
+    if (!(t1 > t0)) return false;
     RTCIntersectContext context;
     rtcInitIntersectContext(&context);
-    RTCRayHit hit = RayHit(origin, dir, t0, t1);
-    rtcIntersect1(rtc_scene, &context, &hit);
-    if (hit.hit.geomID == RTC_INVALID_GEOMETRY_ID) return std::nullopt;
-    const RefTriangle& tri = triangles[hit.hit.primID];
-    const RefVertex& a = vertices[tri.vertex[0]];
-    const RefVertex& b = vertices[tri.vertex[1]];
-    const RefVertex& c = vertices[tri.vertex[2]];
-    const float u = hit.hit.u, v = hit.hit.v, w = 1.0f - u - v;
-    const Eigen::Vector3f normal = (w * a.base_normal + u * b.base_normal + v * c.base_normal).normalized();
-    const float depth_mm = (w * a.depth + u * b.depth + v * c.depth) * (w * a.scale + u * b.scale + v * c.scale);
-    return BlockerHit{hit.ray.tfar, origin + hit.ray.tfar * dir - depth_mm * normal};
+    RTCRay ray = RayHit(origin, dir, t0, t1).ray;
+    rtcOccluded1(rtc_scene, &context, &ray);
+    return ray.tfar < 0.0f;  // Embree marks an occluded ray with tfar = -inf
+  }
+
+  // Where the ray from p (on or under a reference surface) toward the light
+  // leaves the mesostructure slab: its first crossing of the reference
+  // surface going outward. Blockers before it are mesoscale self-shadowing
+  // (the BTF holds them); blockers after it belong to another part of the
+  // scene. The ray starts `back` behind p so a p lying on the surface (a
+  // tile's top) finds its own crossing at t ~ 0; 0 when the ray never leaves
+  // (it only enters a surface, or meets none: every blocker then counts).
+  float SlabExit(const Eigen::Vector3f& p, const Eigen::Vector3f& dir, float back) const {
+    RTCIntersectContext context;
+    rtcInitIntersectContext(&context);
+    RTCRayHit hit = RayHit(p - back * dir, dir, 0.0f, std::numeric_limits<float>::infinity());
+    rtcIntersect1(surface_scene, &context, &hit);
+    if (hit.hit.geomID == RTC_INVALID_GEOMETRY_ID) return 0.0f;
+    const std::array<int, 3>& tri = surface_triangles[hit.hit.primID];
+    const Eigen::Vector3f normal = (1.0f - hit.hit.u - hit.hit.v) * surface_normals[tri[0]] +
+                                   hit.hit.u * surface_normals[tri[1]] + hit.hit.v * surface_normals[tri[2]];
+    if (normal.dot(dir) <= 0.0f) return 0.0f;
+    return std::max(hit.ray.tfar - back, 0.0f);
   }
 
   // Radiance, coverage and macroscale shadow along one camera ray.
@@ -307,8 +341,6 @@ struct ReferenceRenderer::Impl {
     Eigen::Vector3f n = (b.position - a.position).cross(c.position - a.position).normalized();
     if (n.dot(dir) > 0) n = -n;
     const Eigen::Vector3f base_normal = (w * a.base_normal + u * b.base_normal + v * c.base_normal).normalized();
-    const float depth = w * a.depth + u * b.depth + v * c.depth;
-    const float scale = w * a.scale + u * b.scale + v * c.scale;
     const Eigen::Vector3f to_light = light.position.cast<float>() - p;
     const float distance = to_light.norm();
     const Eigen::Vector3f wi = to_light / distance;
@@ -316,29 +348,19 @@ struct ReferenceRenderer::Impl {
     const float eps = static_cast<float>(epsilon);
     const float cos_base = base_normal.dot(wi);
     const SceneObject& object = scene->objects[tri.object];
-    const float d_max = object.material >= 0 ? static_cast<float>(scene->materials[object.material].d_max_mm) : 0.0f;
+    const bool object_plain = tri.part < 0;
     bool macro = cos_base <= 0;  // facing away from the light: attached shadow
     bool local = false;
     if (!macro) {
-      // Walk the shadow ray's blockers. One whose base-surface point lies
-      // within the slab's footprint around p's, L = s d_max / cos(theta_l)
-      // (cos clamped at 0.05 as the GL shadow map clamps it), is mesoscale
-      // self-shadowing; one beyond belongs to another part of the scene.
-      const Eigen::Vector3f base_point = p - depth * scale * base_normal;
-      const float footprint = scale * d_max / std::max(cos_base, 0.05f) * 1.01f + 4 * eps;
-      float t = eps;
-      for (int step = 0; step < 256; ++step) {
-        const std::optional<BlockerHit> blocker = FirstHit(p, wi, t, distance - eps);
-        if (!blocker) break;
-        if ((blocker->base_point - base_point).norm() > footprint) {
-          macro = true;
-          break;
-        }
-        local = true;
-        t = blocker->t + eps;
-      }
+      // The slab is the paper's mesostructure layer; the GL renderer's shadow
+      // map stores its far side along the light (Sec. 4.2), so both split
+      // blockers at the slab exit. Plain objects have no slab.
+      // The search beyond the exit starts a few epsilons on: where the ray
+      // leaves through a tile's top, that top lies in the reference surface.
+      const float exit = object_plain ? 0.0f : SlabExit(p, wi, 4 * eps);
+      local = Blocked(p, wi, eps, exit);
+      macro = Blocked(p, wi, exit + 4 * eps, distance - eps);
     }
-    const bool object_plain = tri.part < 0;
     Eigen::Vector3f radiance = Eigen::Vector3f::Zero();
     if (macro) {
       *shadow = 1.0f;
@@ -394,6 +416,7 @@ ReferenceRenderer::ReferenceRenderer(const RenderScene& scene) : impl_(std::make
 
 ReferenceRenderer::~ReferenceRenderer() {
   if (impl_->rtc_scene != nullptr) rtcReleaseScene(impl_->rtc_scene);
+  if (impl_->surface_scene != nullptr) rtcReleaseScene(impl_->surface_scene);
   if (impl_->device != nullptr) rtcReleaseDevice(impl_->device);
 }
 

@@ -10,8 +10,9 @@
 // What the masks mean, matching the GL renderer's: coverage = a ray hits
 // geometry; shadow = the shown point is in macroscale shadow, i.e. the base
 // surface faces away from the light, or the shadow ray is blocked beyond the
-// point where it leaves the mesostructure slab under that point (a blocker
-// inside the slab is mesoscale self-shadowing, which the BTF holds).
+// point where it leaves the mesostructure slab through the reference surface
+// (a blocker inside the slab is mesoscale self-shadowing, which the BTF
+// holds; the GL shadow map stores the slab's far side along the light).
 // Shading: lit points get f_r (n . l) I / r^2 with the true normal (zero when
 // self-shadowed), macroscale-shadowed points ambient * La, as in Sec. 4.2.
 #pragma once

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <filesystem>
 #include <cstdio>
 #include <nlohmann/json.hpp>
 #include <vector>
@@ -13,6 +14,7 @@
 #include "apps/mesocap/command.h"
 #include "apps/mesocap/render_scene_option.h"
 #include "core/error.h"
+#include "core/image_io.h"
 #include "render/gl_context.h"
 #include "render/image_comparison.h"
 #include "render/peeling_renderer.h"
@@ -25,7 +27,21 @@ struct CompareCommandOptions {
   RenderSceneOptions scene;
   bool json = false;
   int repeat = 5;
+  std::filesystem::path images;  // empty: write no images
 };
+
+// --images DIR: every mode's colour, coverage and shadow images, the
+// reference's, and where the masks disagree with the reference.
+void WriteComparisonImages(const std::filesystem::path& dir, const std::string& name, const render::RenderResult& r,
+                           const render::ReferenceImage& truth) {
+  WriteImage(dir / (name + "_color.png"), r.color, PixelEncoding::kUInt8);
+  WriteImage(dir / (name + "_coverage.png"), r.coverage, PixelEncoding::kUInt8);
+  WriteImage(dir / (name + "_shadow.png"), r.shadow, PixelEncoding::kUInt8);
+  WriteImage(dir / (name + "_coverage_difference.png"), render::MaskDifference(r.coverage, truth.coverage, truth.color),
+             PixelEncoding::kUInt8);
+  WriteImage(dir / (name + "_shadow_difference.png"), render::MaskDifference(r.shadow, truth.shadow, truth.color),
+             PixelEncoding::kUInt8);
+}
 
 void RunCompare(const CompareCommandOptions& o) {
   const render::PeelingOptions base = o.scene.Peeling();
@@ -37,6 +53,12 @@ void RunCompare(const CompareCommandOptions& o) {
   const render::ReferenceImage truth = reference.Render(scene.camera, scene.light, base.width, base.height);
   const double reference_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  if (!o.images.empty()) {
+    std::filesystem::create_directories(o.images);
+    WriteImage(o.images / "reference_color.png", truth.color, PixelEncoding::kUInt8);
+    WriteImage(o.images / "reference_coverage.png", truth.coverage, PixelEncoding::kUInt8);
+    WriteImage(o.images / "reference_shadow.png", truth.shadow, PixelEncoding::kUInt8);
+  }
   nlohmann::json report = {{"scene", o.scene.scene.string()},
                            {"size", {base.width, base.height}},
                            {"device", context->Description()},
@@ -47,6 +69,7 @@ void RunCompare(const CompareCommandOptions& o) {
     render::PeelingOptions options = base;
     options.mode = mode;
     const render::RenderResult result = renderer.Render(scene.camera, scene.light, options);
+    if (!o.images.empty()) WriteComparisonImages(o.images, render::ToString(mode), result, truth);
     std::vector<double> times;
     for (int i = 0; i < o.repeat; ++i) times.push_back(renderer.Draw(scene.camera, scene.light, options).frame_ms);
     std::nth_element(times.begin(), times.begin() + times.size() / 2, times.end());
@@ -85,6 +108,9 @@ void RegisterCompareCommand(CLI::App& app) {
   sub->add_option("--repeat", o->repeat, "frames timed per mode (the median is reported)")
       ->check(CLI::Range(1, 1000))
       ->capture_default_str();
+  sub->add_option("--images", o->images,
+                  "folder to write every mode's colour, coverage and shadow images, the reference's, and "
+                  "*_difference.png (red: reference only, green: rendered only)");
   sub->callback([o] { RunCompare(*o); });
 }
 

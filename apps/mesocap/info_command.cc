@@ -40,7 +40,8 @@ json MaterialInfo(const fs::path& dir) {
   const auto& d = m.description;
   json parts = json::object();
   if (m.mdf) {
-    parts["mdf"] = {{"float32", m.mdf->forms.float32}, {"uint8", m.mdf->forms.uint8}};
+    parts["mdf"] = {
+        {"float32", m.mdf->forms.float32}, {"uint8", m.mdf->forms.uint8}, {"confidence", m.mdf->confidence}};
     if (m.mdf->forms.uint8) parts["mdf"]["scale_mm"] = m.mdf->scale_mm;
   }
   if (m.full_btf) parts["btf_full"] = true;

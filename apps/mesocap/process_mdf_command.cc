@@ -48,6 +48,7 @@ void RunProcessMdf(const ProcessMdfOptions& o) {
   description.provenance.source = "process mdf session=" + o.session.string();
   MaterialPackageWriter writer(o.out, description, o.replace);
   writer.WriteMdf(result.mdf);
+  writer.WriteMdfConfidence(result.confidence);
   writer.WriteCalibration(calibration);
   writer.Commit();
   spdlog::info("wrote {}: {} sweeps, {}x{} texels x {} views", o.out.string(), result.sweeps, description.width,

@@ -24,9 +24,10 @@ inline std::string Slurp(const std::filesystem::path& p) {
   return {std::istreambuf_iterator<char>(in), {}};
 }
 
-inline CommandResult Mesocap(const std::string& args) {
+// `env` prefixes the command line (e.g. "env -u DISPLAY", "MESOCAP_CACHE_DIR=...").
+inline CommandResult Mesocap(const std::string& args, const std::string& env = "") {
   TemporaryDirectory dir;
-  const std::string cmd = std::string(MESOCAP_BINARY) + " " + args + " >" + (dir / "out").string() + " 2>" +
+  const std::string cmd = env + " " + std::string(MESOCAP_BINARY) + " " + args + " >" + (dir / "out").string() + " 2>" +
                           (dir / "err").string();
   const int status = std::system(cmd.c_str());
   CommandResult r;

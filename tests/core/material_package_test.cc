@@ -499,6 +499,48 @@ TEST(MaterialPackage, AnySubsetOfPartsIsAPackage) {
   EXPECT_TRUE(SameMdfValue(ReadMdf(dir / "mdf-only", m).at(2, 1, 0), MdfUnknown()));
 }
 
+// A measured MDF's per-texel confidence: stored exactly beside the MDF, only
+// after it, only in [0, 1] and in the MDF's layout; a bad file is an error
+// naming the file and the texel.
+TEST(MaterialPackage, MdfConfidenceRoundTripsAndIsChecked) {
+  testing::TemporaryDirectory dir;
+  const MaterialDescription d = TestDescription();
+  const Mdf mdf = TestMdf();
+  Image confidence(mdf.distance_mm.width(), mdf.distance_mm.height(), 1, 0.0f);
+  for (std::size_t i = 0; i < confidence.size(); ++i) confidence.data()[i] = static_cast<float>(i % 7) / 6.0f;
+  {
+    MaterialPackageWriter writer(dir / "pkg", d, false);
+    EXPECT_THROW(writer.WriteMdfConfidence(confidence), Error) << "before the MDF";
+    writer.WriteMdf(mdf);
+    Image bad = confidence;
+    bad.data()[5] = 1.5f;
+    EXPECT_THROW(writer.WriteMdfConfidence(bad), Error);
+    bad.data()[5] = std::nanf("");
+    EXPECT_THROW(writer.WriteMdfConfidence(bad), Error);
+    EXPECT_THROW(writer.WriteMdfConfidence(Image(kW, kH, 1)), Error) << "one view's size";
+    writer.WriteMdfConfidence(confidence);
+    writer.Commit();
+  }
+  const MaterialManifest m = ReadMaterialManifest(dir / "pkg");
+  ASSERT_TRUE(m.mdf);
+  EXPECT_TRUE(m.mdf->confidence);
+  ExpectSameImage(ReadMdfConfidence(dir / "pkg", m), confidence);
+
+  Image mutated = confidence;
+  mutated.at(1, kH + 2) = 2.0f;  // view 1, texel (1, 2)
+  WriteImage(dir / "pkg" / "mdf_confidence.exr", mutated, PixelEncoding::kFloat32);
+  try {
+    ReadMdfConfidence(dir / "pkg", m);
+    ADD_FAILURE() << "expected a FormatError";
+  } catch (const FormatError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("mdf_confidence.exr"), std::string::npos) << what;
+    EXPECT_NE(what.find("view 1, texel (1, 2)"), std::string::npos) << what;
+  }
+  fs::remove(dir / "pkg" / "mdf_confidence.exr");
+  EXPECT_THROW(ReadMaterialManifest(dir / "pkg"), FormatError) << "the manifest names a missing file";
+}
+
 TEST(MaterialPackage, FullBtfIsWrittenAndReadViewByView) {
   testing::TemporaryDirectory dir;
   const FullBtf full = TestFullBtf();

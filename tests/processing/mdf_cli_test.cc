@@ -6,11 +6,13 @@
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
+#include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
 
 #include "core/frame_sequence.h"
+#include "core/material_package.h"
 #include "core/json_field_reader.h"
 #include "tests/common/mesocap_command.h"
 #include "tests/common/temporary_directory.h"
@@ -47,6 +49,22 @@ TEST_F(MdfCliTest, ProcessAndEvaluate) {
   ASSERT_EQ(p.exit_code, 0) << p.err;
   EXPECT_TRUE(fs::exists(material / "mdf.exr"));
   EXPECT_TRUE(fs::exists(material / "mdf8.tif"));
+  // The per-texel confidence: 0 exactly where the MDF is unknown, in (0, 1]
+  // where it is measured.
+  const MaterialManifest manifest = ReadMaterialManifest(material);
+  const Mdf mdf = ReadMdf(material, manifest);
+  const Image confidence = ReadMdfConfidence(material, manifest);
+  long measured = 0;
+  for (std::size_t i = 0; i < confidence.size(); ++i) {
+    const float d = mdf.distance_mm.data()[i], c = confidence.data()[i];
+    if (std::isnan(d)) {
+      EXPECT_EQ(c, 0.0f) << "texel-view " << i;
+    } else if (std::isfinite(d)) {
+      EXPECT_GT(c, 0.0f) << "texel-view " << i;
+      ++measured;
+    }
+  }
+  EXPECT_GT(measured, 0);
   const CommandResult e =
       Mesocap("eval mdf --json --truth " + truth_.string() + " --estimate " + material.string() + " --out " +
               (out / "table.json").string());

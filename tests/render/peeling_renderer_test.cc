@@ -74,9 +74,9 @@ GlContext* PeelingRendererTest::context_ = nullptr;
 
 // Coverage: BTF + MDF at least 0.95 and better than BTF only. Shadows: the
 // MDF shadow map better than the plain one by at least `shadow_gain`, and
-// at least `min_shadow_iou` (0.95 on the cylinder; the torus reaches 0.916,
-// short of 0.95, see the report: the attached-shadow terminator
-// and the inner ring, where p' and the true hit differ at grazing view).
+// at least `min_shadow_iou` (0.95 on the cylinder; the torus reaches 0.949,
+// short of 0.95, see the report: one-pixel disagreements along
+// the shadow outlines and the terminator at the silhouette).
 void ExpectMdfHelps(const Comparison& c, double min_shadow_iou, double shadow_gain) {
   const int btf = 0, silhouette = 1, full = 2;
   EXPECT_GE(c.coverage_iou[silhouette], 0.95);
@@ -92,7 +92,7 @@ TEST_F(PeelingRendererTest, CylinderSilhouettesAndShadowsMatchTheReference) {
 }
 
 TEST_F(PeelingRendererTest, TorusSilhouettesAndShadowsMatchTheReference) {
-  ExpectMdfHelps(Compare(ShippedScene("torus_8x3"), 320, 240), 0.90, 0.04);
+  ExpectMdfHelps(Compare(ShippedScene("torus_8x3"), 320, 240), 0.94, 0.04);
 }
 
 bool SameImages(const RenderResult& a, const RenderResult& b) {

@@ -10,6 +10,8 @@
 #include <numbers>
 
 #include "core/error.h"
+#include "render/render_scene.h"
+#include "tests/render/lambertian_material.h"
 #include "tests/common/temporary_directory.h"
 
 namespace mesocap::render {
@@ -110,6 +112,29 @@ TEST(RenderMesh, ObjWithoutTextureCoordinatesNamesTheFile) {
     EXPECT_NE(std::string(e.what()).find("bare.obj"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("texture coordinate"), std::string::npos) << e.what();
   }
+}
+
+// Every shipped scene reads, names built-in sim: materials, and carries
+// mesostructure on its textured object (the scenes README and FORMATS.md list).
+TEST(RenderScene, EveryShippedSceneReads) {
+  int scenes = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(std::filesystem::path(MESOCAP_SOURCE_DIR) /
+                                                                "render/scenes")) {
+    SCOPED_TRACE(entry.path().string());
+    std::vector<std::string> specs;
+    const RenderScene scene = ReadRenderScene(entry.path(), [&](const std::string& spec, const std::filesystem::path&) {
+      specs.push_back(spec);
+      EXPECT_EQ(spec.rfind("sim:", 0), 0u);
+      return LambertianSimMaterial(spec.substr(4), 8);
+    });
+    EXPECT_EQ(specs.size(), 1u);
+    EXPECT_EQ(scene.materials.size(), 1u);
+    int textured = 0;
+    for (const SceneObject& object : scene.objects) textured += object.material >= 0;
+    EXPECT_EQ(textured, 1);
+    ++scenes;
+  }
+  EXPECT_EQ(scenes, 7);
 }
 
 }  // namespace

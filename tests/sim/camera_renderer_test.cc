@@ -421,7 +421,7 @@ TEST(CameraRendererTest, SignalsLandInTheSensorsRange) {
 TEST(SimulateCommandTest, TinySessionIsCompleteAndReadable) {
   testing::TemporaryDirectory dir;
   const fs::path session = dir / "session";
-  const std::string cmd = std::string(MESOCAP_BINARY) + " -q simulate --scene flat --rig tiny --seed 3 --out " +
+  const std::string cmd = std::string(MESOCAP_BINARY) + " -q simulate --scene flat --rig tiny --seed 3 --samples-per-pixel-side 1 --out " +
                           session.string() + " 2>" + (dir / "err").string();
   ASSERT_EQ(std::system(cmd.c_str()), 0);
   const SessionManifest manifest = ReadSessionManifest(session);
