@@ -20,6 +20,8 @@ void RegisterEvalBtfCommand(CLI::App& app);     // `eval btf`
 void RegisterProcessBtfCommand(CLI::App& app);  // `process btf`
 void RegisterProcessMdfCommand(CLI::App& app);  // `process mdf`
 void RegisterEvalMdfCommand(CLI::App& app);     // `eval mdf`
+void RegisterExportBonnCommand(CLI::App& app);  // `export bonn`
+void RegisterImportBonnCommand(CLI::App& app);  // `import bonn`
 
 // The group command `name` ("process", "eval"), created on first use so that
 // each of its subcommands registers itself independently.

@@ -33,6 +33,8 @@ int main(int argc, char** argv) {
   mesocap::RegisterProcessBtfCommand(app);
   mesocap::RegisterProcessMdfCommand(app);
   mesocap::RegisterEvalMdfCommand(app);
+  mesocap::RegisterExportBonnCommand(app);
+  mesocap::RegisterImportBonnCommand(app);
   mesocap::RegisterRenderCommand(app);
   mesocap::RegisterCompareCommand(app);
   mesocap::RegisterViewCommand(app);

@@ -1,0 +1,78 @@
+// `mesocap export bonn --in MATERIAL --out PATH --form ubo2003|fmf|dfmf`:
+// writes a material package's BTF in a Bonn BTF database form
+// (processing/bonn_interop.h): the UBO2003 image folder (8-bit sRGB PNG or
+// linear half EXR), or the UBO2014 binary FMF / DFMF file that btflib reads.
+#include <spdlog/spdlog.h>
+
+#include <filesystem>
+#include <map>
+
+#include "apps/mesocap/command.h"
+#include "processing/bonn_interop.h"
+
+namespace mesocap {
+namespace {
+
+struct ExportBonnCommandOptions {
+  std::filesystem::path in;
+  std::filesystem::path out;
+  BonnExportOptions bonn;
+};
+
+void RunExportBonn(const ExportBonnCommandOptions& o) {
+  const BonnExportReport r = ExportBonn(o.in, o.out, o.bonn);
+  if (r.compression) {
+    spdlog::info("factored to rank {} ({}); relative RMS error {:.3g}", r.compression->rank, r.compression->reason,
+                 r.compression->measured_relative_rms_error);
+  }
+  spdlog::info("wrote {} ({}, from the {}{}; {} file(s), {:.2f} s)", o.out.string(), ToString(o.bonn.form), r.source,
+               r.rank > 0 ? ", " + std::to_string(r.rank) + " components" : std::string(), r.files, r.seconds);
+}
+
+}  // namespace
+
+void RegisterExportBonnCommand(CLI::App& app) {
+  auto o = std::make_shared<ExportBonnCommandOptions>();
+  CLI::App* group = GroupCommand(app, "export", "Write a material package in another tool's format");
+  CLI::App* sub = group->add_subcommand(
+      "bonn", "Write a package's BTF as a Bonn BTF database form: UBO2003 images, or a UBO2014 FMF/DFMF file");
+  sub->add_option("--in", o->in, "material package holding a BTF (full or factored)")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  sub->add_option("--out", o->out, "folder (ubo2003) or file (fmf, dfmf) to write")->required();
+  const std::map<std::string, BonnForm> forms{
+      {"ubo2003", BonnForm::kUbo2003}, {"fmf", BonnForm::kFmf}, {"dfmf", BonnForm::kDfmf}};
+  sub->add_option("--form", o->bonn.form,
+                  "ubo2003 (image folder tl..._pl..._tv..._pv...), fmf (!FMF12FCER) or dfmf (!DFMF08FCR)")
+      ->required()
+      ->transform(CLI::CheckedTransformer(forms, CLI::ignore_case));
+  const std::map<std::string, Ubo2003Encoding> encodings{{"png", Ubo2003Encoding::kSrgb8Png},
+                                                         {"exr", Ubo2003Encoding::kHalfExr}};
+  sub->add_option("--encoding", o->bonn.encoding, "ubo2003 images: png (8-bit sRGB) or exr (linear half)")
+      ->transform(CLI::CheckedTransformer(encodings, CLI::ignore_case))
+      ->default_str("png");
+  sub->add_option("--scale", o->bonn.scale, "ubo2003 images: image value = reflectance x scale")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  const std::map<std::string, BonnScalar> scalars{{"half", BonnScalar::kHalf}, {"float", BonnScalar::kFloat}};
+  sub->add_option("--scalar", o->bonn.scalar, "fmf/dfmf factor values: half (as btflib writes) or float")
+      ->transform(CLI::CheckedTransformer(scalars, CLI::ignore_case))
+      ->default_str("half");
+  auto* rank = sub->add_option("--rank", o->bonn.compression.rank,
+                               "fmf/dfmf when factoring here: number of SVD components, 1..100")
+                   ->check(CLI::Range(1, kMaxBtfRank));
+  sub->add_option("--max-error", o->bonn.compression.max_relative_error,
+                  "fmf/dfmf when factoring here: the smallest rank whose relative RMS error is at most this")
+      ->check(CLI::Range(1e-12, 1.0))
+      ->capture_default_str()
+      ->excludes(rank);
+  const std::map<std::string, BtfFactorColor> colors{{"rgb", BtfFactorColor::kRgb}, {"ycbcr", BtfFactorColor::kYCbCr}};
+  sub->add_option("--color", o->bonn.compression.color,
+                  "dfmf when factoring here: rgb (colour model 0) or ycbcr (written as the PCA model 3)")
+      ->transform(CLI::CheckedTransformer(colors, CLI::ignore_case))
+      ->default_str("rgb");
+  sub->add_flag("--replace", o->bonn.replace, "replace an existing file or folder at --out");
+  sub->callback([o] { RunExportBonn(*o); });
+}
+
+}  // namespace mesocap
