@@ -7,16 +7,17 @@
 
 #include <cmath>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <numbers>
 
 #include "core/capture_session.h"
 #include "core/image_io.h"
 #include "drivers/rig_description.h"
+#include "processing/btf_rectification.h"
+#include "processing/laser_sweep.h"
 #include "sim/camera_renderer.h"
 #include "sim/ground_truth.h"
 #include "sim/mesostructure_scene.h"
-#include "processing/btf_rectification.h"
-#include "processing/laser_sweep.h"
 #include "sim/shipped_rigs.h"
 #include "sim/true_calibration.h"
 #include "tests/common/temporary_directory.h"
