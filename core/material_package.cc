@@ -312,6 +312,15 @@ MaterialManifest::FactoredBtfPart ReadFactoredPart(const JsonFieldReader& f, con
   return part;
 }
 
+// Index of the first value outside [0, 1] (NaN included), or size() if none.
+std::size_t FirstOutsideUnitInterval(const Image& image) {
+  const float* values = image.data();
+  for (std::size_t i = 0; i < image.size(); ++i) {
+    if (!(values[i] >= 0.0f && values[i] <= 1.0f)) return i;
+  }
+  return image.size();
+}
+
 void ExpectFile(const JsonFieldReader& r, const std::string& key, const fs::path& dir, const fs::path& name) {
   std::error_code ec;
   if (!fs::is_regular_file(dir / name, ec)) {
@@ -447,12 +456,9 @@ void MaterialPackageWriter::WriteMdfConfidence(const Image& confidence) {
   if (!manifest_.mdf) throw Error(dir_.string() + ": the MDF confidence needs the MDF written first");
   if (manifest_.mdf->confidence) throw Error(dir_.string() + ": the MDF confidence was already written");
   ExpectImageSize(dir_, "MDF confidence", confidence, d.width, PackedHeight(d, d.view_directions), 1);
-  const float* values = confidence.data();
-  for (std::size_t i = 0; i < confidence.size(); ++i) {
-    if (!(values[i] >= 0.0f && values[i] <= 1.0f)) {
-      throw Error(dir_.string() + ": MDF confidence " + Text(values[i]) + " at index " + std::to_string(i) +
-                  " is outside [0, 1]");
-    }
+  if (const std::size_t i = FirstOutsideUnitInterval(confidence); i < confidence.size()) {
+    throw Error(dir_.string() + ": MDF confidence " + Text(confidence.data()[i]) + " at index " + std::to_string(i) +
+                " is outside [0, 1]");
   }
   WriteImage(folder_.temp_path() / kMdfConfidenceFile, confidence, PixelEncoding::kFloat32);
   manifest_.mdf->confidence = true;
@@ -659,15 +665,12 @@ Image ReadMdfConfidence(const fs::path& dir, const MaterialManifest& manifest) {
   const MaterialDescription& d = manifest.description;
   const fs::path file = dir / kMdfConfidenceFile;
   Image confidence = ReadPartImage(file, PixelEncoding::kFloat32, d.width, PackedHeight(d, d.view_directions), 1);
-  const float* values = confidence.data();
-  for (std::size_t i = 0; i < confidence.size(); ++i) {
-    if (!(values[i] >= 0.0f && values[i] <= 1.0f)) {
-      const std::size_t row = i / d.width;
-      throw FormatError(file, "pixels",
-                        "value " + Text(values[i]) + " at view " + std::to_string(row / d.height) + ", texel (" +
-                            std::to_string(i % d.width) + ", " + std::to_string(row % d.height) +
-                            "); expected a confidence in [0, 1]");
-    }
+  if (const std::size_t i = FirstOutsideUnitInterval(confidence); i < confidence.size()) {
+    const std::size_t row = i / d.width;
+    throw FormatError(file, "pixels",
+                      "value " + Text(confidence.data()[i]) + " at view " + std::to_string(row / d.height) +
+                          ", texel (" + std::to_string(i % d.width) + ", " + std::to_string(row % d.height) +
+                          "); expected a confidence in [0, 1]");
   }
   return confidence;
 }

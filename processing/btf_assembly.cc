@@ -26,11 +26,16 @@ std::string Degrees(const SphericalAngles& a) {
   return "(theta " + std::to_string(a.theta * kDegPerRad) + ", phi " + std::to_string(a.phi * kDegPerRad) + ") deg";
 }
 
+// Angle in degrees between direction i of `set` and d (sample frame).
+double OffsetDeg(const SamplingSet& set, int i, const Eigen::Vector3d& d) {
+  return std::acos(std::clamp(set.direction(i).dot(d.normalized()), -1.0, 1.0)) * kDegPerRad;
+}
+
 // Index of `d` (sample frame) in `set`, and how far it is from it.
 int MatchDirection(const SamplingSet& set, const Eigen::Vector3d& d, const std::string& what,
                    const BtfCaptureImage& image, double tolerance_deg, double* offset_deg, const std::string& hint) {
   const int i = set.Nearest(d);
-  const double offset = std::acos(std::clamp(set.direction(i).dot(d.normalized()), -1.0, 1.0)) * kDegPerRad;
+  const double offset = OffsetDeg(set, i, d);
   if (offset > tolerance_deg) {
     throw Error(image.file.string() + ": its " + what + " direction " + Degrees(AnglesFromDirection(d)) + " is " +
                 std::to_string(offset) + " deg from the nearest of the set '" + set.name() +
@@ -247,11 +252,10 @@ void AssembleResampled(const std::vector<BtfCaptureImage>& images, const Calibra
   // Which target pairs an image lies on (within the tolerance): measured.
   for (int k = 0; k < static_cast<int>(images.size()); ++k) {
     const int v = o.views.Nearest(directions[k].view), l = o.lights.Nearest(directions[k].light);
-    const double dv = std::acos(std::clamp(o.views.direction(v).dot(directions[k].view.normalized()), -1.0, 1.0));
-    const double dl = std::acos(std::clamp(o.lights.direction(l).dot(directions[k].light.normalized()), -1.0, 1.0));
-    r->max_view_offset_deg = std::max(r->max_view_offset_deg, dv * kDegPerRad);
-    r->max_light_offset_deg = std::max(r->max_light_offset_deg, dl * kDegPerRad);
-    if (dv <= tolerance && dl <= tolerance) r->measured[v][l] = true;
+    const double dv = OffsetDeg(o.views, v, directions[k].view), dl = OffsetDeg(o.lights, l, directions[k].light);
+    r->max_view_offset_deg = std::max(r->max_view_offset_deg, dv);
+    r->max_light_offset_deg = std::max(r->max_light_offset_deg, dl);
+    if (dv <= o.max_direction_error_deg && dl <= o.max_direction_error_deg) r->measured[v][l] = true;
   }
   std::vector<Eigen::Vector3d> view_centres;
   for (const CapturedView& c : captured) view_centres.push_back(directions[c.images.front()].view);

@@ -320,7 +320,9 @@ void main() {
   if (t + v_scale * d / u_far > z_pb_minus_d_b) discard;  // passes beside the mesostructure
   if (u_kind == 4) {  // kPassShadowFrontPeel
     // Depth of the blocker's mesostructure base (Sec. 4.2): z(p_f) plus the
-    // light's path through the slab, s d_max / cos(theta_l) on a flat base.
+    // light's path through the slab, s d_max / cos(theta_l) on a flat base;
+    // 5% more, because grooves at the full depth sit exactly at the base and
+    // the curvature is estimated (without it, large shadow maps show acne).
     out0 = vec4(t + 1.05 * SlabPathLength(ray, v_scale * u_d_max) / u_far);
     return;
   }

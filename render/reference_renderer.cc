@@ -10,7 +10,6 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
-#include <optional>
 #include <vector>
 
 #include "core/error.h"
@@ -41,8 +40,6 @@ struct RefVertex {
   Eigen::Vector3f position;
   Eigen::Vector3f base_normal;
   Eigen::Vector4f base_tangent;
-  float scale = 0.0f;
-  float depth = 0.0f;              // z <= 0, material mm
   Eigen::Vector2f cell{0.0f, 0.0f};  // texture coordinate within the sample square, [0, 1]
 };
 
@@ -242,34 +239,36 @@ struct ReferenceRenderer::Impl {
     v.base_normal = normal.cast<float>();
     v.base_tangent = tangent.cast<float>();
     v.base_tangent.w() = tangent.w() >= 0 ? 1.0f : -1.0f;
-    v.scale = static_cast<float>(scale);
-    v.depth = static_cast<float>(q.z());
     v.cell = uv.cast<float>();
     return v;
   }
 
-  // An Embree scene of one triangle geometry; throws Error when Embree cannot
-  // allocate or build it.
-  RTCScene BuildScene(const std::vector<Eigen::Vector3f>& positions, const std::vector<std::array<int, 3>>& faces,
+  // An Embree scene of one triangle geometry with `vertex_count` vertices
+  // (position(k)) and `face_count` triangles (face(k)), filled straight into
+  // Embree's buffers; throws Error when Embree cannot allocate or build it.
+  template <typename Position, typename Face>
+  RTCScene BuildScene(std::size_t vertex_count, Position position, std::size_t face_count, Face face,
                       const std::string& what) const {
     RTCScene scene = rtcNewScene(device);
     rtcSetSceneFlags(scene, RTC_SCENE_FLAG_ROBUST);
     RTCGeometry geometry = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
     auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                                          3 * sizeof(float), positions.size()));
+                                                          3 * sizeof(float), vertex_count));
     auto* i = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                                                             3 * sizeof(unsigned), faces.size()));
+                                                             3 * sizeof(unsigned), face_count));
     if (v == nullptr || i == nullptr) {
       rtcReleaseGeometry(geometry);
       rtcReleaseScene(scene);
-      throw Error("reference renderer: Embree cannot allocate " + what + " (" + std::to_string(faces.size()) +
+      throw Error("reference renderer: Embree cannot allocate " + what + " (" + std::to_string(face_count) +
                   " triangles)");
     }
-    for (std::size_t k = 0; k < positions.size(); ++k) {
-      for (int c = 0; c < 3; ++c) v[3 * k + c] = positions[k][c];
+    for (std::size_t k = 0; k < vertex_count; ++k) {
+      const Eigen::Vector3f& p = position(k);
+      for (int c = 0; c < 3; ++c) v[3 * k + c] = p[c];
     }
-    for (std::size_t k = 0; k < faces.size(); ++k) {
-      for (int c = 0; c < 3; ++c) i[3 * k + c] = static_cast<unsigned>(faces[k][c]);
+    for (std::size_t k = 0; k < face_count; ++k) {
+      const std::array<int, 3>& f = face(k);
+      for (int c = 0; c < 3; ++c) i[3 * k + c] = static_cast<unsigned>(f[c]);
     }
     rtcCommitGeometry(geometry);
     rtcAttachGeometry(scene, geometry);
@@ -285,12 +284,14 @@ struct ReferenceRenderer::Impl {
   void Build() {
     device = rtcNewDevice(nullptr);
     if (device == nullptr) throw Error("reference renderer: Embree cannot create a device");
-    std::vector<Eigen::Vector3f> positions(vertices.size());
-    for (std::size_t k = 0; k < vertices.size(); ++k) positions[k] = vertices[k].position;
-    std::vector<std::array<int, 3>> faces(triangles.size());
-    for (std::size_t k = 0; k < triangles.size(); ++k) faces[k] = triangles[k].vertex;
-    rtc_scene = BuildScene(positions, faces, "the displaced geometry");
-    surface_scene = BuildScene(surface_positions, surface_triangles, "the reference surfaces");
+    rtc_scene = BuildScene(
+        vertices.size(), [&](std::size_t k) -> const Eigen::Vector3f& { return vertices[k].position; },
+        triangles.size(), [&](std::size_t k) -> const std::array<int, 3>& { return triangles[k].vertex; },
+        "the displaced geometry");
+    surface_scene = BuildScene(
+        surface_positions.size(), [&](std::size_t k) -> const Eigen::Vector3f& { return surface_positions[k]; },
+        surface_triangles.size(), [&](std::size_t k) -> const std::array<int, 3>& { return surface_triangles[k]; },
+        "the reference surfaces");
   }
 
   // Whether the scene blocks the ray from origin along dir within (t0, t1).

@@ -30,13 +30,19 @@ struct CompareCommandOptions {
   std::filesystem::path images;  // empty: write no images
 };
 
-// --images DIR: every mode's colour, coverage and shadow images, the
-// reference's, and where the masks disagree with the reference.
+// --images DIR: one renderer's (a mode's, or the reference's) colour,
+// coverage and shadow images as NAME_color.png etc.
+void WriteRenderImages(const std::filesystem::path& dir, const std::string& name, const Image& color,
+                       const Image& coverage, const Image& shadow) {
+  WriteImage(dir / (name + "_color.png"), color, PixelEncoding::kUInt8);
+  WriteImage(dir / (name + "_coverage.png"), coverage, PixelEncoding::kUInt8);
+  WriteImage(dir / (name + "_shadow.png"), shadow, PixelEncoding::kUInt8);
+}
+
+// A mode's images and where its masks disagree with the reference's.
 void WriteComparisonImages(const std::filesystem::path& dir, const std::string& name, const render::RenderResult& r,
                            const render::ReferenceImage& truth) {
-  WriteImage(dir / (name + "_color.png"), r.color, PixelEncoding::kUInt8);
-  WriteImage(dir / (name + "_coverage.png"), r.coverage, PixelEncoding::kUInt8);
-  WriteImage(dir / (name + "_shadow.png"), r.shadow, PixelEncoding::kUInt8);
+  WriteRenderImages(dir, name, r.color, r.coverage, r.shadow);
   WriteImage(dir / (name + "_coverage_difference.png"), render::MaskDifference(r.coverage, truth.coverage, truth.color),
              PixelEncoding::kUInt8);
   WriteImage(dir / (name + "_shadow_difference.png"), render::MaskDifference(r.shadow, truth.shadow, truth.color),
@@ -55,9 +61,7 @@ void RunCompare(const CompareCommandOptions& o) {
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   if (!o.images.empty()) {
     std::filesystem::create_directories(o.images);
-    WriteImage(o.images / "reference_color.png", truth.color, PixelEncoding::kUInt8);
-    WriteImage(o.images / "reference_coverage.png", truth.coverage, PixelEncoding::kUInt8);
-    WriteImage(o.images / "reference_shadow.png", truth.shadow, PixelEncoding::kUInt8);
+    WriteRenderImages(o.images, "reference", truth.color, truth.coverage, truth.shadow);
   }
   nlohmann::json report = {{"scene", o.scene.scene.string()},
                            {"size", {base.width, base.height}},
