@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <utility>
 
 #include "core/error.h"
 
@@ -36,6 +37,56 @@ void ExpectSize(const Image& image, int width, int height, const std::string& wh
 }
 
 }  // namespace
+
+FullBtfReader::FullBtfReader(int width, int height, SamplingSet views, SamplingSet lights)
+    : width_(width), height_(height), views_(std::move(views)), lights_(std::move(lights)) {
+  if (width < 1 || height < 1) throw Error("a BTF needs at least one texel");
+  PackedHeight(height, lights_.size(), "light");
+  if (views_.size() < 1) throw Error("a BTF needs at least one view direction");
+}
+
+void FullBtfReader::ReadRows(int view, int first_row, int rows, float* out) {
+  const int image_rows = height_ * light_count();
+  if (view < 0 || view >= view_count() || first_row < 0 || rows < 0 || first_row > image_rows - rows) {
+    throw Error("BTF reader: view " + std::to_string(view) + " rows " + std::to_string(first_row) + ".." +
+                std::to_string(first_row + rows) + " outside " + std::to_string(view_count()) + " views of " +
+                std::to_string(image_rows) + " rows");
+  }
+  ReadRowsFromSource(view, first_row, rows, out);
+  const long long values = 3LL * width_ * rows;
+  for (long long i = 0; i < values; ++i) {
+    if (!std::isfinite(out[i])) {
+      const long long pixel = i / 3;
+      const int row = first_row + static_cast<int>(pixel / width_);
+      throw Error(Source(view) + ": non-finite value " + std::to_string(out[i]) + " at texel (" +
+                  std::to_string(pixel % width_) + ", " + std::to_string(row % height_) + "), light " +
+                  std::to_string(row / height_) + ", channel " + std::to_string(i % 3) +
+                  "; a BTF holds finite reflectance");
+    }
+  }
+}
+
+InMemoryFullBtfReader::InMemoryFullBtfReader(const FullBtf& btf)
+    : FullBtfReader(btf.width, btf.height, btf.views, btf.lights), btf_(btf) {
+  if (static_cast<int>(btf.view_images.size()) != btf.view_count()) {
+    throw Error("BTF: " + std::to_string(btf.view_images.size()) + " view images for " +
+                std::to_string(btf.view_count()) + " views");
+  }
+  for (int v = 0; v < btf.view_count(); ++v) {
+    const Image& image = btf.view_images[v];
+    if (image.width() != btf.width || image.height() != btf.height * btf.light_count() || image.channels() != 3) {
+      throw Error("BTF view " + std::to_string(v) + " image is " + SizeText(image) + ", expected " +
+                  std::to_string(btf.width) + "x" + std::to_string(btf.height * btf.light_count()) + "x3");
+    }
+  }
+}
+
+std::string InMemoryFullBtfReader::Source(int view) const { return "BTF view " + std::to_string(view); }
+
+void InMemoryFullBtfReader::ReadRowsFromSource(int view, int first_row, int rows, float* out) {
+  const float* begin = btf_.view_images[view].pixel(0, first_row);
+  std::copy(begin, begin + 3LL * btf_.width * rows, out);
+}
 
 FullBtf MakeFullBtf(int width, int height, SamplingSet views, SamplingSet lights) {
   const int rows = PackedHeight(height, lights.size(), "light");

@@ -45,6 +45,57 @@ struct FullBtf {
   }
 };
 
+// The full BTF read a range of view-image rows at a time, so that a pass
+// over a BTF larger than memory (compression, its error: a paper-rig BTF at
+// 128 x 128 is 1.5 GB of float RGB) holds only the rows it works on. From a
+// FullBtf in memory (InMemoryFullBtfReader) or from a material package's view
+// files (material_package.h: PackageFullBtfReader). Not thread-safe: one
+// reader is read from one thread at a time.
+class FullBtfReader {
+ public:
+  FullBtfReader(int width, int height, SamplingSet views, SamplingSet lights);
+  virtual ~FullBtfReader() = default;
+
+  int width() const { return width_; }
+  int height() const { return height_; }
+  const SamplingSet& views() const { return views_; }
+  const SamplingSet& lights() const { return lights_; }
+  int view_count() const { return views_.size(); }
+  int light_count() const { return lights_.size(); }
+
+  // Rows [first_row, first_row + rows) of view `view`'s image (3 channels,
+  // width x height * Nlight, light l in rows [l*H, (l+1)*H)) into `out`
+  // (3 * width * rows floats). Throws Error for a view or rows out of range,
+  // an unreadable source, or a non-finite value (naming the source, the
+  // texel, the light and the channel).
+  void ReadRows(int view, int first_row, int rows, float* out);
+
+ protected:
+  // What the messages name for view `view` ("BTF view 3", a file).
+  virtual std::string Source(int view) const = 0;
+  virtual void ReadRowsFromSource(int view, int first_row, int rows, float* out) = 0;
+
+ private:
+  int width_ = 0;
+  int height_ = 0;
+  SamplingSet views_;
+  SamplingSet lights_;
+};
+
+class InMemoryFullBtfReader : public FullBtfReader {
+ public:
+  // `btf` must outlive the reader. Throws Error when its view images do not
+  // have the sizes its directions imply.
+  explicit InMemoryFullBtfReader(const FullBtf& btf);
+
+ protected:
+  std::string Source(int view) const override;
+  void ReadRowsFromSource(int view, int first_row, int rows, float* out) override;
+
+ private:
+  const FullBtf& btf_;
+};
+
 // A full BTF of the given size, all zero. Throws Error on empty direction sets
 // or a view image too tall for one image.
 FullBtf MakeFullBtf(int width, int height, SamplingSet views, SamplingSet lights);

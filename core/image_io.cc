@@ -99,6 +99,21 @@ void ExpectDimension(const fs::path& file, const char* field, int expected, int 
   }
 }
 
+// The header of an open file, checked against what the caller expects.
+ImageHeader ExpectedHeader(const fs::path& file, const OIIO::ImageInput& in, const ImageReadOptions& options) {
+  const ImageHeader header = HeaderOf(file, in.spec());
+  ExpectDimension(file, "width", options.expected_width, header.width);
+  ExpectDimension(file, "height", options.expected_height, header.height);
+  ExpectDimension(file, "channels", options.expected_channels, header.channels);
+  return header;
+}
+
+[[noreturn]] void ThrowReadFailure(const fs::path& file, OIIO::ImageInput& in) {
+  std::string why = in.geterror();
+  if (why.empty()) why = "read failed";
+  throw FormatError(file, "pixels", "cannot read (truncated or corrupt?): " + why);
+}
+
 }  // namespace
 
 const char* ToString(PixelEncoding e) {
@@ -118,10 +133,7 @@ ImageHeader ReadImageHeader(const fs::path& file) {
 
 Image ReadImage(const fs::path& file, const ImageReadOptions& options) {
   auto in = OpenInput(file);
-  const ImageHeader header = HeaderOf(file, in->spec());
-  ExpectDimension(file, "width", options.expected_width, header.width);
-  ExpectDimension(file, "height", options.expected_height, header.height);
-  ExpectDimension(file, "channels", options.expected_channels, header.channels);
+  const ImageHeader header = ExpectedHeader(file, *in, options);
   const auto values = static_cast<std::size_t>(header.width) * static_cast<std::size_t>(header.height) *
                       static_cast<std::size_t>(header.channels);
   if (values > options.max_values) {
@@ -131,13 +143,33 @@ Image ReadImage(const fs::path& file, const ImageReadOptions& options) {
   }
   Image image(header.width, header.height, header.channels);
   const bool ok = in->read_image(0, 0, 0, header.channels, OIIO::TypeDesc::FLOAT, image.data());
-  if (!ok || in->has_error()) {
-    std::string why = in->geterror();
-    if (why.empty()) why = "read failed";
-    throw FormatError(file, "pixels", "cannot read (truncated or corrupt?): " + why);
-  }
+  if (!ok || in->has_error()) ThrowReadFailure(file, *in);
   in->close();
   return image;
+}
+
+struct ImageRowReader::Input {
+  std::unique_ptr<OIIO::ImageInput> in;
+};
+
+ImageRowReader::ImageRowReader(const fs::path& file, const ImageReadOptions& expected)
+    : file_(file), input_(std::make_unique<Input>()) {
+  input_->in = OpenInput(file);
+  header_ = ExpectedHeader(file, *input_->in, expected);
+}
+
+ImageRowReader::~ImageRowReader() = default;
+
+void ImageRowReader::Read(int first_row, int rows, float* out) {
+  if (first_row < 0 || rows < 0 || first_row > header_.height - rows) {
+    throw FormatError(file_, "rows", "rows " + std::to_string(first_row) + ".." + std::to_string(first_row + rows) +
+                                         " outside the image's " + std::to_string(header_.height));
+  }
+  if (rows == 0) return;
+  OIIO::ImageInput& in = *input_->in;
+  const bool ok = in.read_scanlines(0, 0, first_row, first_row + rows, 0, 0, header_.channels,
+                                    OIIO::TypeDesc::FLOAT, out);
+  if (!ok || in.has_error()) ThrowReadFailure(file_, in);
 }
 
 void WriteImage(const fs::path& file, const Image& image, PixelEncoding encoding) {

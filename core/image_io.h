@@ -5,6 +5,7 @@
 
 #include <cstddef>
 #include <filesystem>
+#include <memory>
 
 #include "core/image.h"
 
@@ -39,5 +40,30 @@ void WriteImage(const std::filesystem::path& file, const Image& image,
                 PixelEncoding encoding = PixelEncoding::kFloat32);
 
 const char* ToString(PixelEncoding encoding);
+
+// Reads an image a range of rows at a time, the file kept open between
+// reads: how a pass over data larger than memory (a paper-rig BTF, 1.5 GB)
+// holds only the rows it works on. Opening checks the header against
+// `expected` (sizes, channel count; 0 = any) before any pixel is read.
+class ImageRowReader {
+ public:
+  ImageRowReader(const std::filesystem::path& file, const ImageReadOptions& expected);
+  ~ImageRowReader();
+  ImageRowReader(const ImageRowReader&) = delete;
+  ImageRowReader& operator=(const ImageRowReader&) = delete;
+
+  const ImageHeader& header() const { return header_; }
+  const std::filesystem::path& file() const { return file_; }
+  // Rows [first_row, first_row + rows) as float, all channels interleaved,
+  // into `out` (width * rows * channels values). Throws FormatError naming
+  // the file for rows outside the image or a failed (truncated) read.
+  void Read(int first_row, int rows, float* out);
+
+ private:
+  struct Input;
+  std::filesystem::path file_;
+  ImageHeader header_;
+  std::unique_ptr<Input> input_;
+};
 
 }  // namespace mesocap

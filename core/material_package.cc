@@ -483,6 +483,18 @@ void MaterialPackageWriter::WriteFullBtfView(int view, const Image& values) {
   full_btf_views_written_[view] = true;
 }
 
+std::unique_ptr<FullBtfReader> MaterialPackageWriter::ReadBackFullBtf() const {
+  ExpectOpen();
+  const int views = manifest_.description.view_directions.size();
+  const auto missing = std::find(full_btf_views_written_.begin(), full_btf_views_written_.end(), false);
+  if (full_btf_views_written_.empty() || missing != full_btf_views_written_.end()) {
+    const int first = full_btf_views_written_.empty() ? 0 : static_cast<int>(missing - full_btf_views_written_.begin());
+    throw Error(dir_.string() + ": full BTF view " + std::to_string(first) + " of " + std::to_string(views) +
+                " is not written yet; the BTF cannot be read back");
+  }
+  return std::make_unique<PackageFullBtfReader>(folder_.temp_path(), manifest_.description);
+}
+
 void MaterialPackageWriter::WriteFactoredBtf(const FactoredBtf& btf) {
   ExpectOpen();
   const MaterialDescription& d = manifest_.description;
@@ -718,6 +730,46 @@ FullBtf ReadFullBtf(const fs::path& dir, const MaterialManifest& manifest) {
   for (int v = 0; v < d.view_directions.size(); ++v)
     btf.view_images.push_back(ReadFullBtfView(dir, manifest, v));
   return btf;
+}
+
+PackageFullBtfReader::PackageFullBtfReader(const fs::path& dir, const MaterialManifest& manifest)
+    : PackageFullBtfReader(dir, manifest.description) {
+  if (!manifest.full_btf) ThrowMissingPart(dir, "btf.full", "full BTF");
+}
+
+PackageFullBtfReader::PackageFullBtfReader(const fs::path& dir, const MaterialDescription& description)
+    : FullBtfReader(description.width, description.height, description.view_directions,
+                    description.light_directions),
+      dir_(dir),
+      open_(description.view_directions.size()) {}
+
+PackageFullBtfReader::~PackageFullBtfReader() = default;
+
+std::string PackageFullBtfReader::Source(int view) const { return (dir_ / FullBtfViewFile(view)).string(); }
+
+void PackageFullBtfReader::ReadRowsFromSource(int view, int first_row, int rows, float* out) {
+  std::unique_ptr<ImageRowReader>& reader = open_[view];
+  if (!reader) {
+    // Passes read the views in turn, band after band: closing all at the
+    // limit keeps the handles bounded for sets larger than it.
+    if (open_count_ == kMaxOpenViews) {
+      for (auto& r : open_) r.reset();
+      open_count_ = 0;
+    }
+    const fs::path file = dir_ / FullBtfViewFile(view);
+    ImageReadOptions expected;
+    expected.expected_width = width();
+    expected.expected_height = height() * light_count();
+    expected.expected_channels = 3;
+    auto opened = std::make_unique<ImageRowReader>(file, expected);
+    if (opened->header().encoding != PixelEncoding::kFloat32) {
+      throw FormatError(file, "pixel type",
+                        std::string("expected float32, got ") + ToString(opened->header().encoding));
+    }
+    reader = std::move(opened);
+    ++open_count_;
+  }
+  reader->Read(first_row, rows, out);
 }
 
 FactoredBtf ReadFactoredBtf(const fs::path& dir, const MaterialManifest& manifest) {

@@ -16,6 +16,7 @@
 
 #include <Eigen/Core>
 #include <filesystem>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -25,6 +26,7 @@
 #include "core/btf.h"
 #include "core/calibration.h"
 #include "core/image.h"
+#include "core/image_io.h"
 #include "core/mdf.h"
 #include "core/sampling_set.h"
 
@@ -134,6 +136,10 @@ class MaterialPackageWriter {
   // in rows [l*H, (l+1)*H)). Views may come in any order; all must be
   // written before Commit() once one is.
   void WriteFullBtfView(int view, const Image& values);
+  // The full BTF written so far, read back from the files (PackageFullBtfReader),
+  // e.g. to factor a BTF too large for memory; throws Error until every view
+  // is written. Valid while the writer lives.
+  std::unique_ptr<FullBtfReader> ReadBackFullBtf() const;
   void WriteFactoredBtf(const FactoredBtf& btf);
   void WriteAmbientTerm(const AmbientTerm& ambient);
   void WriteErrorReport(const nlohmann::json& report);
@@ -179,6 +185,28 @@ QuantizedMdf ReadQuantizedMdf(const std::filesystem::path& dir, const MaterialMa
 // One view of the full BTF (see WriteFullBtfView for the layout).
 Image ReadFullBtfView(const std::filesystem::path& dir, const MaterialManifest& manifest, int view);
 FullBtf ReadFullBtf(const std::filesystem::path& dir, const MaterialManifest& manifest);
+// The package's full BTF read from its view files a range of rows at a time
+// (core/btf.h: FullBtfReader), so a pass over it never holds the whole BTF.
+// Keeps up to kMaxOpenViews files open; FormatError (naming the file) for a
+// view file of another size, channel count or pixel type, or a truncated one.
+class PackageFullBtfReader : public FullBtfReader {
+ public:
+  static constexpr int kMaxOpenViews = 256;
+  // Throws FormatError when the manifest has no full BTF.
+  PackageFullBtfReader(const std::filesystem::path& dir, const MaterialManifest& manifest);
+  // The view files under `dir`/btf of a package being written.
+  PackageFullBtfReader(const std::filesystem::path& dir, const MaterialDescription& description);
+  ~PackageFullBtfReader() override;
+
+ protected:
+  std::string Source(int view) const override;
+  void ReadRowsFromSource(int view, int first_row, int rows, float* out) override;
+
+ private:
+  std::filesystem::path dir_;
+  std::vector<std::unique_ptr<ImageRowReader>> open_;  // per view; null when closed
+  int open_count_ = 0;
+};
 FactoredBtf ReadFactoredBtf(const std::filesystem::path& dir, const MaterialManifest& manifest);
 AmbientTerm ReadAmbientTerm(const std::filesystem::path& dir, const MaterialManifest& manifest);
 nlohmann::json ReadErrorReport(const std::filesystem::path& dir, const MaterialManifest& manifest);

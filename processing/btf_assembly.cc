@@ -150,8 +150,8 @@ std::vector<Eigen::Vector3d> TexelOffsets(const Eigen::Vector3d& target, const E
 // nearest of the sets (within max_direction_error_deg), unmeasured lights of
 // a view interpolated from its measured ones.
 void AssembleOnGrid(const std::vector<BtfCaptureImage>& images, const Calibration& calibration,
-                    const BtfAssemblyOptions& o, const std::vector<CentreDirections>& directions, FullBtf* btf,
-                    BtfAssemblyReport* r) {
+                    const BtfAssemblyOptions& o, const std::vector<CentreDirections>& directions,
+                    const BtfViewSink& sink, BtfAssemblyReport* r) {
   struct Placed {
     int image = 0;
     int light = 0;
@@ -195,7 +195,7 @@ void AssembleOnGrid(const std::vector<BtfCaptureImage>& images, const Calibratio
     const RigidTransform world_from_sample = WorldFromSample(calibration.turntable, view_turntable[v]);
     const ReferencePlaneRectifier rectifier(calibration.cameras[cam], camera_rays[cam], world_from_sample, w, h,
                                             o.sample_size_mm, o.max_samples_per_side);
-    Image& out = btf->view_images[v];
+    Image out(w, h * o.lights.size(), 3);
     for (const Placed& placed : by_view[v]) {
       const BtfCaptureImage& image = images[placed.image];
       const Image texture = RadiometricTexture(rectifier.Rectify(ReadCapture(image, calibration.cameras[cam])),
@@ -226,6 +226,7 @@ void AssembleOnGrid(const std::vector<BtfCaptureImage>& images, const Calibratio
       ++filled;
     }
     std::lock_guard lock(report_mutex);
+    sink(v, std::move(out));
     r->filled_pairs += filled;
     r->max_samples_per_side = std::max(r->max_samples_per_side, rectifier.samples_per_side_max());
     r->min_pixels_per_texel = std::min(r->min_pixels_per_texel, rectifier.min_pixels_per_texel());
@@ -238,8 +239,8 @@ void AssembleOnGrid(const std::vector<BtfCaptureImage>& images, const Calibratio
 // with its own view directions). Holds the captured views' light-resampled
 // images (one BTF view image each) besides the output.
 void AssembleResampled(const std::vector<BtfCaptureImage>& images, const Calibration& calibration,
-                       const BtfAssemblyOptions& o, const std::vector<CentreDirections>& directions, FullBtf* btf,
-                       BtfAssemblyReport* r) {
+                       const BtfAssemblyOptions& o, const std::vector<CentreDirections>& directions,
+                       const BtfViewSink& sink, BtfAssemblyReport* r) {
   const double tolerance = o.max_direction_error_deg / kDegPerRad;
   std::vector<CapturedView> captured;
   for (int k = 0; k < static_cast<int>(images.size()); ++k) {
@@ -323,8 +324,9 @@ void AssembleResampled(const std::vector<BtfCaptureImage>& images, const Calibra
     r->extrapolated_views += theta > captured_views.last_ring_theta + tolerance ||
                              theta < captured_views.first_ring_theta - tolerance;
   }
+  std::mutex sink_mutex;
   tbb::parallel_for(0, o.views.size(), [&](int v) {
-    Image& out = btf->view_images[v];
+    Image out(w, h * o.lights.size(), 3);
     for (std::size_t t = 0; t < texels; ++t) {
       const SamplingSet::Blend blend = ResampleBlend(captured_views.nominal, o.views.direction(v), [&](int c) {
         return o.per_texel_directions ? view_offsets[c][t] : captured_views.offset[c];
@@ -338,6 +340,8 @@ void AssembleResampled(const std::vector<BtfCaptureImage>& images, const Calibra
         }
       }
     }
+    std::lock_guard lock(sink_mutex);
+    sink(v, std::move(out));
   });
   for (const auto& row : r->measured)
     for (bool m : row) r->filled_pairs += !m;
@@ -345,8 +349,8 @@ void AssembleResampled(const std::vector<BtfCaptureImage>& images, const Calibra
 
 }  // namespace
 
-FullBtf AssembleBtf(const std::vector<BtfCaptureImage>& images, const Calibration& calibration,
-                    const BtfAssemblyOptions& o, BtfAssemblyReport* report) {
+void AssembleBtfViews(const std::vector<BtfCaptureImage>& images, const Calibration& calibration,
+                      const BtfAssemblyOptions& o, const BtfViewSink& sink, BtfAssemblyReport* report) {
   if (const auto problem = o.Check(); !problem.empty()) throw Error("BTF assembly: " + problem);
   if (o.exposure_s.size() != calibration.cameras.size()) {
     throw Error("BTF assembly: " + std::to_string(o.exposure_s.size()) + " exposures for " +
@@ -370,11 +374,10 @@ FullBtf AssembleBtf(const std::vector<BtfCaptureImage>& images, const Calibratio
     const Eigen::Vector3d camera_centre = calibration.cameras[image.camera].pose.transform.translation;
     directions.push_back({to_sample * (camera_centre - origin), to_sample * (LampInWorld(calibration, image) - origin)});
   }
-  FullBtf btf = MakeFullBtf(o.texture_width, o.texture_height, o.views, o.lights);
   if (o.resample) {
-    AssembleResampled(images, calibration, o, directions, &btf, &r);
+    AssembleResampled(images, calibration, o, directions, sink, &r);
   } else {
-    AssembleOnGrid(images, calibration, o, directions, &btf, &r);
+    AssembleOnGrid(images, calibration, o, directions, sink, &r);
   }
   for (const auto& row : r.measured)
     for (bool m : row) r.measured_pairs += m;
@@ -395,6 +398,13 @@ FullBtf AssembleBtf(const std::vector<BtfCaptureImage>& images, const Calibratio
                  r.min_pixels_per_texel);
   }
   if (report) *report = std::move(r);
+}
+
+FullBtf AssembleBtf(const std::vector<BtfCaptureImage>& images, const Calibration& calibration,
+                    const BtfAssemblyOptions& o, BtfAssemblyReport* report) {
+  FullBtf btf = MakeFullBtf(o.texture_width, o.texture_height, o.views, o.lights);
+  AssembleBtfViews(images, calibration, o, [&](int v, Image&& values) { btf.view_images[v] = std::move(values); },
+                   report);
   return btf;
 }
 

@@ -104,10 +104,22 @@ struct BtfAssemblyReport {
 std::vector<BtfCaptureImage> SessionBtfImages(const std::filesystem::path& session, const SessionManifest& manifest,
                                               const Calibration& calibration);
 
+// Receives each assembled view image of the BTF (3 channels, W x H * Nlight,
+// light l in rows [l*H, (l+1)*H)), once per view, in any order, never two
+// calls at once.
+using BtfViewSink = std::function<void(int view, Image&& values)>;
+
 // Reads, rectifies and calibrates every image; throws Error naming the file
 // for a missing or unreadable image, a value that is NaN, infinite or
 // negative, a size that differs from the calibrated camera's, a direction
 // off the sets, two images of the same pair, or a view with no image.
+// Each view is handed to `sink` as soon as it is done, so a large BTF can go
+// to disk without ever being whole in memory: on the grid, views are built
+// from their own images, at most one per worker at a time; resampling first
+// holds every captured view's light-resampled image (about one BTF).
+void AssembleBtfViews(const std::vector<BtfCaptureImage>& images, const Calibration& calibration,
+                      const BtfAssemblyOptions& options, const BtfViewSink& sink, BtfAssemblyReport* report = nullptr);
+// The same, into memory.
 FullBtf AssembleBtf(const std::vector<BtfCaptureImage>& images, const Calibration& calibration,
                     const BtfAssemblyOptions& options, BtfAssemblyReport* report = nullptr);
 

@@ -20,15 +20,43 @@ namespace {
 using Eigen::MatrixXd;
 using Eigen::VectorXd;
 
-// One channel of the BTF as the matrix A of a layout. Column j is a view
-// image (paper) or one light's slice of one (per_texel); row p is the pixel
-// index inside that column's W x H*Nlight (paper) or W x H (per_texel)
-// region, so both layouts read contiguous runs of a view image.
+// A block of the BTF matrix A of a layout, all three RGB channels: rows
+// [first_row, first_row + rows) x columns [first_column, first_column +
+// columns), column-major, the RGB of A(first_row + i, first_column + j) at
+// rgb[3 * (j * rows + i)]. Column j of A is a view image (paper) or one
+// light's slice of one (per_texel); row p is the pixel index inside it
+// (p = y * W + x), so a block of whole texture lines is a run of rows of
+// each view image.
+struct MatrixBlock {
+  long long first_row = 0, rows = 0, first_column = 0, columns = 0;
+  std::vector<float> rgb;
+
+  // out = weights . A(first_row + i0 .. + count, the block's columns).
+  void FillRows(long long i0, long long count, const Eigen::Vector3d& w, MatrixXd* out) const {
+    out->resize(count, columns);
+    for (long long j = 0; j < columns; ++j) {
+      const float* base = rgb.data() + 3 * (j * rows + i0);
+      for (long long i = 0; i < count; ++i) (*out)(i, j) = Weighted(w, base + 3 * i);
+    }
+  }
+  // out = (weights . A(the block's rows, first_column + j0 .. + count))^T.
+  void FillTransposedRows(long long j0, long long count, const Eigen::Vector3d& w, MatrixXd* out) const {
+    out->resize(count, rows);
+    for (long long j = 0; j < count; ++j) {
+      const float* base = rgb.data() + 3 * (j0 + j) * rows;
+      for (long long i = 0; i < rows; ++i) (*out)(j, i) = Weighted(w, base + 3 * i);
+    }
+  }
+  static double Weighted(const Eigen::Vector3d& w, const float* rgb) {
+    return w[0] * rgb[0] + w[1] * rgb[1] + w[2] * rgb[2];
+  }
+};
+
+// The BTF as the matrix A of a layout, read from `btf` in blocks.
 class BtfMatrix {
  public:
-  BtfMatrix(const FullBtf& btf, BtfFactorLayout layout, const Eigen::Vector3d& channel_weights)
-      : btf_(btf), layout_(layout), weights_(channel_weights) {
-    const long long texels = static_cast<long long>(btf.width) * btf.height;
+  BtfMatrix(FullBtfReader& btf, BtfFactorLayout layout) : btf_(btf), layout_(layout) {
+    const long long texels = static_cast<long long>(btf.width()) * btf.height();
     rows_ = layout == BtfFactorLayout::kPaper ? texels * btf.light_count() : texels;
     columns_ = layout == BtfFactorLayout::kPaper ? btf.view_count()
                                                  : static_cast<long long>(btf.view_count()) * btf.light_count();
@@ -36,47 +64,79 @@ class BtfMatrix {
 
   long long rows() const { return rows_; }
   long long columns() const { return columns_; }
+  int width() const { return btf_.width(); }
 
-  // out = A(r0 .. r0+count-1, all columns).
-  void FillRows(long long r0, long long count, MatrixXd* out) const {
-    out->resize(count, columns_);
-    for (long long j = 0; j < columns_; ++j) {
-      const float* base = ColumnStart(j) + 3 * r0;
-      for (long long i = 0; i < count; ++i) (*out)(i, j) = Value(base + 3 * i);
+  // Rows and columns as above; first_row and rows whole texture lines
+  // (multiples of the width), which every band below is.
+  MatrixBlock Read(long long first_row, long long rows, long long first_column, long long columns) const {
+    const int w = btf_.width();
+    MatrixBlock block{first_row, rows, first_column, columns, {}};
+    block.rgb.resize(static_cast<std::size_t>(3 * rows * columns));
+    for (long long j = 0; j < columns; ++j) {
+      const long long c = first_column + j;
+      const int view = static_cast<int>(layout_ == BtfFactorLayout::kPaper ? c : c / btf_.light_count());
+      const long long first_line = layout_ == BtfFactorLayout::kPaper ? 0 : (c % btf_.light_count()) * btf_.height();
+      btf_.ReadRows(view, static_cast<int>(first_line + first_row / w), static_cast<int>(rows / w),
+                    block.rgb.data() + 3 * j * rows);
     }
-  }
-  // out = A(all rows, c0 .. c0+count-1)^T: row blocks of A^T.
-  void FillTransposedRows(long long c0, long long count, MatrixXd* out) const {
-    out->resize(count, rows_);
-    for (long long j = 0; j < count; ++j) {
-      const float* base = ColumnStart(c0 + j);
-      for (long long i = 0; i < rows_; ++i) (*out)(j, i) = Value(base + 3 * i);
-    }
+    return block;
   }
 
  private:
-  const float* ColumnStart(long long j) const {
-    if (layout_ == BtfFactorLayout::kPaper) return btf_.view_images[j].data();
-    const int view = static_cast<int>(j / btf_.light_count());
-    const long long light = j % btf_.light_count();
-    return btf_.view_images[view].data() + 3 * light * btf_.height * btf_.width;
-  }
-  double Value(const float* rgb) const {
-    return weights_[0] * rgb[0] + weights_[1] * rgb[1] + weights_[2] * rgb[2];
-  }
-
-  const FullBtf& btf_;
+  FullBtfReader& btf_;
   BtfFactorLayout layout_;
-  Eigen::Vector3d weights_;
   long long rows_ = 0;
   long long columns_ = 0;
 };
 
-using FillBlock = std::function<void(long long first, long long count, MatrixXd* out)>;
+// Row bands of A: whole texture lines, all columns, about `bytes` of floats.
+long long RowBandRows(const BtfMatrix& a, long long bytes) {
+  const long long line = static_cast<long long>(a.width()) * a.columns() * 3 * sizeof(float);
+  return a.width() * std::max<long long>(1, bytes / line);
+}
 
-// Row-block sizes for streaming a rows x n matrix: about 2 MiB of doubles
-// per block, never fewer rows than columns; a fixed number of blocks per
-// parallel chunk, so the result does not depend on the thread count.
+// Column bands of A: whole columns, all rows.
+long long ColumnBandColumns(const BtfMatrix& a, long long bytes) {
+  return std::max<long long>(1, bytes / (a.rows() * 3 * static_cast<long long>(sizeof(float))));
+}
+
+// The matrix a pass streams: A, or A^T when A is wider than tall; its rows
+// come in bands, each band one block of A read from the BTF.
+class StreamedMatrix {
+ public:
+  StreamedMatrix(const BtfMatrix& a, bool transposed, long long band_bytes)
+      : a_(a), transposed_(transposed), band_bytes_(band_bytes) {}
+
+  long long rows() const { return transposed_ ? a_.columns() : a_.rows(); }
+  long long columns() const { return transposed_ ? a_.rows() : a_.columns(); }
+
+  // Calls body(band, first, count) for the bands of rows [first, first +
+  // count) in order; one band in memory at a time.
+  void ForEachBand(const std::function<void(const MatrixBlock&, long long, long long)>& body) const {
+    const long long band = transposed_ ? ColumnBandColumns(a_, band_bytes_) : RowBandRows(a_, band_bytes_);
+    for (long long first = 0; first < rows(); first += band) {
+      const long long count = std::min(band, rows() - first);
+      body(transposed_ ? a_.Read(0, a_.rows(), first, count) : a_.Read(first, count, 0, a_.columns()), first, count);
+    }
+  }
+  // Rows [i0, i0 + count) of a band (relative to it), one channel.
+  void Fill(const MatrixBlock& band, long long i0, long long count, const Eigen::Vector3d& w, MatrixXd* out) const {
+    if (transposed_) {
+      band.FillTransposedRows(i0, count, w, out);
+    } else {
+      band.FillRows(i0, count, w, out);
+    }
+  }
+
+ private:
+  const BtfMatrix& a_;
+  bool transposed_;
+  long long band_bytes_;
+};
+
+// Row-block sizes inside a band: about 2 MiB of doubles per block, never
+// fewer rows than columns; a fixed number of blocks per parallel chunk, so
+// the result does not depend on the thread count.
 long long BlockRows(long long n) { return std::max<long long>(n, (1 << 18) / std::max<long long>(n, 1)); }
 constexpr long long kBlocksPerChunk = 8;
 
@@ -90,28 +150,37 @@ MatrixXd StackedR(const MatrixXd& top, const MatrixXd& block) {
   return qr.matrixQR().topRows(k).triangularView<Eigen::Upper>();
 }
 
-// The R factor of a tall matrix given by row blocks (TSQR): each chunk of
-// blocks is reduced to its own R in parallel, the chunks' R are then stacked
-// and reduced in order.
-MatrixXd TallSkinnyR(long long rows, long long n, const FillBlock& fill) {
+using ChannelWeights = std::array<Eigen::Vector3d, 3>;
+
+// The R factors of the three channels' streamed matrices (TSQR): in each
+// band, every chunk of blocks is reduced to its own R in parallel; the
+// chunks' R are then stacked onto the running R in order.
+std::array<MatrixXd, 3> TallSkinnyR(const StreamedMatrix& s, const ChannelWeights& weights) {
+  const long long n = s.columns();
   const long long block = BlockRows(n);
   const long long chunk = block * kBlocksPerChunk;
-  const long long chunks = (rows + chunk - 1) / chunk;
-  std::vector<MatrixXd> chunk_r(chunks);
-  tbb::parallel_for(tbb::blocked_range<long long>(0, chunks, 1), [&](const tbb::blocked_range<long long>& range) {
-    MatrixXd a;
-    for (long long c = range.begin(); c < range.end(); ++c) {
-      MatrixXd r(0, n);
-      const long long end = std::min(rows, (c + 1) * chunk);
-      for (long long first = c * chunk; first < end; first += block) {
-        fill(first, std::min(block, end - first), &a);
-        r = StackedR(r, a);
+  std::array<MatrixXd, 3> r;
+  for (MatrixXd& c : r) c.resize(0, n);
+  s.ForEachBand([&](const MatrixBlock& band, long long, long long count) {
+    const long long chunks = (count + chunk - 1) / chunk;
+    std::vector<MatrixXd> chunk_r(3 * chunks);
+    tbb::parallel_for(tbb::blocked_range<long long>(0, 3 * chunks, 1), [&](const tbb::blocked_range<long long>& range) {
+      MatrixXd a;
+      for (long long t = range.begin(); t < range.end(); ++t) {
+        const int ch = static_cast<int>(t / chunks);
+        const long long c = t % chunks;
+        MatrixXd rc(0, n);
+        const long long end = std::min(count, (c + 1) * chunk);
+        for (long long first = c * chunk; first < end; first += block) {
+          s.Fill(band, first, std::min(block, end - first), weights[ch], &a);
+          rc = StackedR(rc, a);
+        }
+        chunk_r[t] = std::move(rc);
       }
-      chunk_r[c] = std::move(r);
-    }
+    });
+    for (int ch = 0; ch < 3; ++ch)
+      for (long long c = 0; c < chunks; ++c) r[ch] = StackedR(r[ch], chunk_r[ch * chunks + c]);
   });
-  MatrixXd r(0, n);
-  for (const MatrixXd& c : chunk_r) r = StackedR(r, c);
   return r;
 }
 
@@ -120,52 +189,37 @@ struct ChannelSvd {
   MatrixXd right;  // n x min(rows, n): right singular vectors of the streamed matrix
 };
 
-// Singular values and right singular vectors of a matrix given by row blocks.
-ChannelSvd TallSkinnySvd(long long rows, long long n, const FillBlock& fill) {
-  const MatrixXd r = TallSkinnyR(rows, n, fill);
-  Eigen::BDCSVD<MatrixXd> svd(r, Eigen::ComputeThinV);
-  ChannelSvd out;
-  out.sigma = svd.singularValues();
-  out.right = svd.matrixV();
+// Singular values and right singular vectors of the three channels'
+// streamed matrices: one pass over the BTF, then the SVD of each small R.
+std::array<ChannelSvd, 3> TallSkinnySvd(const StreamedMatrix& s, const ChannelWeights& weights) {
+  const std::array<MatrixXd, 3> r = TallSkinnyR(s, weights);
+  std::array<ChannelSvd, 3> out;
+  for (int ch = 0; ch < 3; ++ch) {
+    Eigen::BDCSVD<MatrixXd> svd(r[ch], Eigen::ComputeThinV);
+    out[ch].sigma = svd.singularValues();
+    out[ch].right = svd.matrixV();
+  }
   return out;
 }
 
-// Runs body(first, count) over [0, total) in blocks of `block`, in parallel.
-void ForBlocks(long long total, long long block, const std::function<void(long long, long long)>& body) {
-  const long long blocks = (total + block - 1) / block;
-  tbb::parallel_for(tbb::blocked_range<long long>(0, blocks, 1), [&](const tbb::blocked_range<long long>& range) {
-    for (long long b = range.begin(); b < range.end(); ++b) {
-      const long long first = b * block;
-      body(first, std::min(block, total - first));
-    }
-  });
-}
-
-void CheckFinite(const FullBtf& btf) {
-  if (btf.width < 1 || btf.height < 1) throw Error("compress: the BTF has no texels");
-  if (static_cast<int>(btf.view_images.size()) != btf.view_count() || btf.view_count() < 1 ||
-      btf.light_count() < 1) {
-    throw Error("compress: the BTF has " + std::to_string(btf.view_images.size()) + " view images for " +
-                std::to_string(btf.view_count()) + " views and " + std::to_string(btf.light_count()) +
-                " lights");
-  }
-  for (int v = 0; v < btf.view_count(); ++v) {
-    const Image& image = btf.view_images[v];
-    if (image.width() != btf.width || image.height() != btf.height * btf.light_count() || image.channels() != 3) {
-      throw Error("compress: BTF view " + std::to_string(v) + " image has the wrong size");
-    }
-    const float* data = image.data();
-    for (std::size_t i = 0; i < image.size(); ++i) {
-      if (!std::isfinite(data[i])) {
-        const std::size_t pixel = i / 3;
-        const int x = static_cast<int>(pixel % btf.width);
-        const int row = static_cast<int>(pixel / btf.width);
-        throw Error("compress: BTF view " + std::to_string(v) + " has a non-finite value at texel (" +
-                    std::to_string(x) + ", " + std::to_string(row % btf.height) + "), light " +
-                    std::to_string(row / btf.height) + ", channel " + std::to_string(i % 3));
+// One pass computing S(rows, :) * right[ch] for every row block of the
+// streamed matrix S and channel; sink(ch, first_row, product) runs in
+// parallel, each call for its own rows.
+void ForEachProduct(const StreamedMatrix& s, const ChannelWeights& weights, const std::array<MatrixXd, 3>& right,
+                    const std::function<void(int, long long, const MatrixXd&)>& sink) {
+  const long long block = BlockRows(s.columns());
+  s.ForEachBand([&](const MatrixBlock& band, long long band_first, long long count) {
+    const long long blocks = (count + block - 1) / block;
+    tbb::parallel_for(tbb::blocked_range<long long>(0, 3 * blocks, 1), [&](const tbb::blocked_range<long long>& range) {
+      MatrixXd a;
+      for (long long t = range.begin(); t < range.end(); ++t) {
+        const int ch = static_cast<int>(t / blocks);
+        const long long first = (t % blocks) * block;
+        s.Fill(band, first, std::min(block, count - first), weights[ch], &a);
+        sink(ch, band_first + first, a * right[ch]);
       }
-    }
-  }
+    });
+  });
 }
 
 // Relative error at every rank 1..max_rank from the spectra: the tail sums of
@@ -199,44 +253,38 @@ CheckResult BtfCompressionOptions::Check() const {
   if (rank < 0 || rank > kMaxBtfRank) {
     return "rank " + std::to_string(rank) + " is outside 0..100 (0 chooses the rank by the error budget)";
   }
+  if (band_bytes < 1) return "band_bytes " + std::to_string(band_bytes) + " must be positive";
   if (rank == 0 && !(std::isfinite(max_relative_error) && max_relative_error > 0.0 && max_relative_error <= 1.0)) {
     return "max_relative_error " + std::to_string(max_relative_error) + " is outside (0, 1]";
   }
   return {};
 }
 
-FactoredBtf CompressBtf(const FullBtf& btf, const BtfCompressionOptions& options, BtfCompressionReport* report) {
+FactoredBtf CompressBtf(FullBtfReader& btf, const BtfCompressionOptions& options, BtfCompressionReport* report) {
   const auto start = std::chrono::steady_clock::now();
   if (const auto problem = options.Check(); !problem.empty()) throw Error("compress: " + problem);
-  CheckFinite(btf);
 
   FactoredBtf out;
-  out.width = btf.width;
-  out.height = btf.height;
-  out.views = btf.views;
-  out.lights = btf.lights;
+  out.width = btf.width();
+  out.height = btf.height();
+  out.views = btf.views();
+  out.lights = btf.lights();
   out.layout = options.layout;
   out.color = options.color;
   out.rgb_to_factored =
       options.color == BtfFactorColor::kYCbCr ? YCbCrFromLinearRgbBt601() : Eigen::Matrix3d::Identity();
+  ChannelWeights weights;
+  for (int ch = 0; ch < 3; ++ch) weights[ch] = out.rgb_to_factored.row(ch).transpose();
 
-  const BtfMatrix shape(btf, options.layout, Eigen::Vector3d::UnitX());
-  const long long m = shape.rows();
-  const long long n = shape.columns();
+  const BtfMatrix a(btf, options.layout);
+  const long long m = a.rows();
+  const long long n = a.columns();
   const bool tall = m >= n;
   const long long small = std::min(m, n);
-
-  // Per channel: the SVD of A (tall) or of A^T (wide); `right` then holds
-  // the right singular vectors of A (tall) or its left ones (wide).
-  std::array<ChannelSvd, 3> svd;
-  for (int ch = 0; ch < 3; ++ch) {
-    const BtfMatrix a(btf, options.layout, out.rgb_to_factored.row(ch).transpose());
-    if (tall) {
-      svd[ch] = TallSkinnySvd(m, n, [&](long long f, long long c, MatrixXd* o) { a.FillRows(f, c, o); });
-    } else {
-      svd[ch] = TallSkinnySvd(n, m, [&](long long f, long long c, MatrixXd* o) { a.FillTransposedRows(f, c, o); });
-    }
-  }
+  // The SVD of A (tall) or of A^T (wide); `right` then holds the right
+  // singular vectors of A (tall) or its left ones (wide).
+  const StreamedMatrix s(a, !tall, options.band_bytes);
+  const std::array<ChannelSvd, 3> svd = TallSkinnySvd(s, weights);
 
   BtfCompressionReport local;
   BtfCompressionReport& r = report ? *report : local;
@@ -273,64 +321,63 @@ FactoredBtf CompressBtf(const FullBtf& btf, const BtfCompressionOptions& options
                          std::to_string(rank) + " leaves " + Percent(r.relative_rms_error[rank - 1]);
   }
 
-  // Builds the factors of rank k from the channel SVDs.
+  // Builds the factors of rank k from the channel SVDs: one pass over the
+  // BTF for the factor the SVD of R does not give.
   const auto build = [&](int k) {
-    out.rows.assign(k, Image(btf.width, out.row_image_height(), 3));
+    out.rows.assign(k, Image(out.width, out.row_image_height(), 3));
     out.columns = Image(static_cast<int>(n), k, 3);
+    std::array<MatrixXd, 3> right;
+    std::array<int, 3> usable{};
     for (int ch = 0; ch < 3; ++ch) {
-      const BtfMatrix a(btf, options.layout, out.rgb_to_factored.row(ch).transpose());
-      const ChannelSvd& s = svd[ch];
-      const int usable = static_cast<int>(std::min<long long>(k, s.sigma.size()));
-      // Numerically zero components (exactly rank-deficient data, a zero
-      // channel): their share of A is rounding noise.
-      const double tiny = static_cast<double>(small) * std::numeric_limits<double>::epsilon() *
-                          (s.sigma.size() > 0 ? s.sigma[0] : 0.0);
-      if (tall) {
-        const MatrixXd v = s.right.leftCols(usable);
-        for (int j = 0; j < usable; ++j) {
-          for (long long c = 0; c < n; ++c) out.columns.pixel(static_cast<int>(c), j)[ch] = static_cast<float>(v(c, j));
+      const ChannelSvd& c = svd[ch];
+      usable[ch] = static_cast<int>(std::min<long long>(k, c.sigma.size()));
+      right[ch] = c.right.leftCols(usable[ch]);
+    }
+    // Numerically zero components (exactly rank-deficient data, a zero
+    // channel): their share of A is rounding noise.
+    const auto zero = [&](int ch, int j) {
+      const VectorXd& sigma = svd[ch].sigma;
+      return !(sigma[j] > static_cast<double>(small) * std::numeric_limits<double>::epsilon() * sigma[0]);
+    };
+    if (tall) {
+      for (int ch = 0; ch < 3; ++ch)
+        for (int j = 0; j < usable[ch]; ++j)
+          for (long long c = 0; c < n; ++c) out.columns.pixel(static_cast<int>(c), j)[ch] = static_cast<float>(right[ch](c, j));
+      // r_k = A v_k, from the data (see the header).
+      ForEachProduct(s, weights, right, [&](int ch, long long first, const MatrixXd& rv) {
+        for (int j = 0; j < usable[ch]; ++j) {
+          float* dst = out.rows[j].data() + 3 * first + ch;
+          for (long long i = 0; i < rv.rows(); ++i) dst[3 * i] = static_cast<float>(rv(i, j));
         }
-        // r_k = A v_k, from the data (see the header).
-        ForBlocks(m, BlockRows(n), [&](long long first, long long count) {
-          MatrixXd block;
-          a.FillRows(first, count, &block);
-          const MatrixXd rv = block * v;
-          for (int j = 0; j < usable; ++j) {
-            float* dst = out.rows[j].data() + 3 * first + ch;
-            for (long long i = 0; i < count; ++i) dst[3 * i] = static_cast<float>(rv(i, j));
-          }
-        });
-      } else {
-        const MatrixXd u = s.right.leftCols(usable);
-        for (int j = 0; j < usable; ++j) {
-          if (!(s.sigma[j] > tiny)) continue;  // zero factors
+      });
+    } else {
+      for (int ch = 0; ch < 3; ++ch) {
+        for (int j = 0; j < usable[ch]; ++j) {
+          if (zero(ch, j)) continue;
           float* dst = out.rows[j].data() + ch;
-          for (long long i = 0; i < m; ++i) dst[3 * i] = static_cast<float>(s.sigma[j] * u(i, j));
+          for (long long i = 0; i < m; ++i) dst[3 * i] = static_cast<float>(svd[ch].sigma[j] * right[ch](i, j));
         }
-        // c_k = A^T u_k / sigma_k.
-        ForBlocks(n, BlockRows(m), [&](long long first, long long count) {
-          MatrixXd block;
-          a.FillTransposedRows(first, count, &block);
-          const MatrixXd au = block * u;
-          for (int j = 0; j < usable; ++j) {
-            if (!(s.sigma[j] > tiny)) continue;
-            for (long long i = 0; i < count; ++i) {
-              out.columns.pixel(static_cast<int>(first + i), j)[ch] = static_cast<float>(au(i, j) / s.sigma[j]);
-            }
-          }
-        });
       }
+      // c_k = A^T u_k / sigma_k.
+      ForEachProduct(s, weights, right, [&](int ch, long long first, const MatrixXd& au) {
+        for (int j = 0; j < usable[ch]; ++j) {
+          if (zero(ch, j)) continue;
+          for (long long i = 0; i < au.rows(); ++i) {
+            out.columns.pixel(static_cast<int>(first + i), j)[ch] = static_cast<float>(au(i, j) / svd[ch].sigma[j]);
+          }
+        }
+      });
     }
   };
 
   build(rank);
-  r.measured_relative_rms_error = RelativeRmsError(btf, out);
+  r.measured_relative_rms_error = RelativeRmsError(btf, out, options.band_bytes);
   // The budget is on RGB values; for ycbcr the spectrum measures the error in
   // the factored space, so the rank grows until the measured RGB error fits.
   if (options.rank == 0 && options.color == BtfFactorColor::kYCbCr) {
     while (r.measured_relative_rms_error > options.max_relative_error && rank < r.max_rank) {
       build(++rank);
-      r.measured_relative_rms_error = RelativeRmsError(btf, out);
+      r.measured_relative_rms_error = RelativeRmsError(btf, out, options.band_bytes);
       r.reason = "rank " + std::to_string(rank) + ": smallest rank whose measured RGB error " +
                  Percent(r.measured_relative_rms_error) + " meets the budget " +
                  Percent(options.max_relative_error);
@@ -341,6 +388,11 @@ FactoredBtf CompressBtf(const FullBtf& btf, const BtfCompressionOptions& options
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   spdlog::debug("compress: {} x {} matrix per channel, rank {} ({}), {:.3g} s", m, n, rank, r.reason, r.seconds);
   return out;
+}
+
+FactoredBtf CompressBtf(const FullBtf& btf, const BtfCompressionOptions& options, BtfCompressionReport* report) {
+  InMemoryFullBtfReader reader(btf);
+  return CompressBtf(reader, options, report);
 }
 
 nlohmann::json ToJson(const BtfCompressionReport& report, const FactoredBtf& factored) {
@@ -393,18 +445,16 @@ Image ReconstructBtfView(const FactoredBtf& f, int view) {
   return out;
 }
 
-double RelativeRmsError(const FullBtf& truth, const FactoredBtf& factored) {
+double RelativeRmsError(FullBtfReader& truth, const FactoredBtf& factored, long long band_bytes) {
   factored.CheckShape();
-  if (truth.width != factored.width || truth.height != factored.height ||
-      truth.view_count() != factored.view_count() || truth.light_count() != factored.light_count() ||
-      static_cast<int>(truth.view_images.size()) != truth.view_count()) {
+  if (truth.width() != factored.width || truth.height() != factored.height ||
+      truth.view_count() != factored.view_count() || truth.light_count() != factored.light_count()) {
     throw Error("relative error: the BTF and its factors differ in size");
   }
   Eigen::Matrix3d to_rgb = Eigen::Matrix3d::Identity();
   if (factored.color == BtfFactorColor::kYCbCr) to_rgb = factored.rgb_to_factored.inverse();
-  const BtfMatrix shape(truth, factored.layout, Eigen::Vector3d::UnitX());
-  const long long m = shape.rows();
-  const long long n = shape.columns();
+  const BtfMatrix a(truth, factored.layout);
+  const long long n = a.columns();
   const int k = factored.rank();
   // Column factors per channel, n x K.
   std::array<MatrixXd, 3> columns;
@@ -414,36 +464,52 @@ double RelativeRmsError(const FullBtf& truth, const FactoredBtf& factored) {
       for (long long c = 0; c < n; ++c) columns[ch](c, j) = factored.columns.pixel(static_cast<int>(c), j)[ch];
     }
   }
+  // Per row block, summed in block order so the result does not depend on
+  // the thread count.
   const long long block = BlockRows(n);
-  const long long blocks = (m + block - 1) / block;
-  std::vector<double> error(blocks, 0.0), norm(blocks, 0.0);
-  ForBlocks(m, block, [&](long long first, long long count) {
-    std::array<MatrixXd, 3> recon, value;
-    for (int ch = 0; ch < 3; ++ch) {
-      MatrixXd rows(count, k);
-      for (int j = 0; j < k; ++j) {
-        const float* src = factored.rows[j].data() + 3 * first + ch;
-        for (long long i = 0; i < count; ++i) rows(i, j) = src[3 * i];
+  std::vector<double> error, norm;
+  StreamedMatrix(a, false, band_bytes).ForEachBand([&](const MatrixBlock& band, long long band_first, long long count) {
+    const long long blocks = (count + block - 1) / block;
+    const std::size_t offset = error.size();
+    error.resize(offset + blocks, 0.0);
+    norm.resize(offset + blocks, 0.0);
+    tbb::parallel_for(tbb::blocked_range<long long>(0, blocks, 1), [&](const tbb::blocked_range<long long>& range) {
+      for (long long b = range.begin(); b < range.end(); ++b) {
+        const long long first = b * block;
+        const long long rows_here = std::min(block, count - first);
+        std::array<MatrixXd, 3> recon, value;
+        for (int ch = 0; ch < 3; ++ch) {
+          MatrixXd rows(rows_here, k);
+          for (int j = 0; j < k; ++j) {
+            const float* src = factored.rows[j].data() + 3 * (band_first + first) + ch;
+            for (long long i = 0; i < rows_here; ++i) rows(i, j) = src[3 * i];
+          }
+          recon[ch] = rows * columns[ch].transpose();
+          band.FillRows(first, rows_here, Eigen::Vector3d::Unit(ch), &value[ch]);
+        }
+        double e = 0.0, t = 0.0;
+        for (int ch = 0; ch < 3; ++ch) {
+          const MatrixXd rgb = to_rgb(ch, 0) * recon[0] + to_rgb(ch, 1) * recon[1] + to_rgb(ch, 2) * recon[2];
+          e += (rgb - value[ch]).squaredNorm();
+          t += value[ch].squaredNorm();
+        }
+        error[offset + b] = e;
+        norm[offset + b] = t;
       }
-      recon[ch] = rows * columns[ch].transpose();
-      BtfMatrix(truth, factored.layout, Eigen::Vector3d::Unit(ch)).FillRows(first, count, &value[ch]);
-    }
-    double e = 0.0, t = 0.0;
-    for (int ch = 0; ch < 3; ++ch) {
-      const MatrixXd rgb = to_rgb(ch, 0) * recon[0] + to_rgb(ch, 1) * recon[1] + to_rgb(ch, 2) * recon[2];
-      e += (rgb - value[ch]).squaredNorm();
-      t += value[ch].squaredNorm();
-    }
-    error[first / block] = e;
-    norm[first / block] = t;
+    });
   });
   double e = 0.0, t = 0.0;
-  for (long long b = 0; b < blocks; ++b) {
+  for (std::size_t b = 0; b < error.size(); ++b) {
     e += error[b];
     t += norm[b];
   }
   if (t == 0.0) return e == 0.0 ? 0.0 : std::numeric_limits<double>::infinity();
   return std::sqrt(e / t);
+}
+
+double RelativeRmsError(const FullBtf& truth, const FactoredBtf& factored) {
+  InMemoryFullBtfReader reader(truth);
+  return RelativeRmsError(reader, factored, BtfCompressionOptions{}.band_bytes);
 }
 
 }  // namespace mesocap

@@ -19,8 +19,13 @@
 // n * eps * sigma_max (numerically zero: exactly rank-deficient data, a
 // constant-zero channel) get zero factors instead of a division by ~0.
 //
-// Memory: besides the input, one row block (~thousands of rows x n doubles)
-// per worker, the n x n factors and the output factors (K images).
+// Memory: the BTF is read through a FullBtfReader (core/btf.h) in bands of
+// about band_bytes (64 MiB; whole texture lines x all columns, or whole columns when A is
+// wide), one band at a time, so a BTF on disk (a material package) is never
+// whole in memory: besides the band, one row block (~thousands of rows x n
+// doubles) per worker, the n x n factors and the output factors (K images).
+// Passes over the BTF: one for R, one for the remaining factor, one for the
+// measured error (and two more per rank the ycbcr budget search adds).
 #pragma once
 
 #include <Eigen/Core>
@@ -41,6 +46,10 @@ struct BtfCompressionOptions {
   // relative RMS error (over all RGB values) is at most max_relative_error.
   int rank = 0;
   double max_relative_error = 0.01;
+  // How much of the BTF a pass holds at a time: bands of about this many
+  // bytes of float RGB (at least one texture line x all columns, or one
+  // column). The result does not depend on it beyond rounding.
+  long long band_bytes = 64LL << 20;
 
   CheckResult Check() const;
 };
@@ -67,6 +76,8 @@ struct BtfCompressionReport {
 
 // Factors `btf`. Throws Error on invalid options, an empty or inconsistent
 // BTF, or a non-finite value (naming the view, texel and light).
+FactoredBtf CompressBtf(FullBtfReader& btf, const BtfCompressionOptions& options,
+                        BtfCompressionReport* report = nullptr);
 FactoredBtf CompressBtf(const FullBtf& btf, const BtfCompressionOptions& options,
                         BtfCompressionReport* report = nullptr);
 
@@ -82,6 +93,8 @@ Image ReconstructBtfView(const FactoredBtf& factored, int view);
 
 // ||T - F||_F / ||T||_F over all texels, directions and RGB channels (0 when
 // both are zero). Sizes must agree (throws Error otherwise).
+// Streamed in bands of about band_bytes.
+double RelativeRmsError(FullBtfReader& truth, const FactoredBtf& factored, long long band_bytes);
 double RelativeRmsError(const FullBtf& truth, const FactoredBtf& factored);
 
 }  // namespace mesocap

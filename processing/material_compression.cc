@@ -14,8 +14,9 @@ BtfCompressionReport CompressMaterialPackage(const std::filesystem::path& in, co
   if (!manifest.full_btf) {
     throw Error("compress: " + in.string() + " holds no full BTF to factor (manifest.json has no btf.full)");
   }
-  const FullBtf btf = ReadFullBtf(in, manifest);
-  spdlog::info("compressing the {}x{} BTF of {} ({} views x {} lights), {} layout, {}", btf.width, btf.height,
+  // Streamed from the view files: the BTF is never whole in memory.
+  PackageFullBtfReader btf(in, manifest);
+  spdlog::info("compressing the {}x{} BTF of {} ({} views x {} lights), {} layout, {}", btf.width(), btf.height(),
                in.string(), btf.view_count(), btf.light_count(), ToString(options.layout), ToString(options.color));
   BtfCompressionReport report;
   const FactoredBtf factored = CompressBtf(btf, options, &report);

@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <map>
 #include <numbers>
+#include <optional>
 
 #include "apps/mesocap/command.h"
 #include "core/capture_session.h"
@@ -71,12 +72,6 @@ void RunProcessBtf(const ProcessBtfCommandOptions& o) {
   const std::vector<BtfCaptureImage> images = SessionBtfImages(o.session, manifest, calibration);
   spdlog::info("assembling the BTF of {}: {} images, {} views x {} lights, {}x{} texels", o.session.string(),
                images.size(), a.views.size(), a.lights.size(), o.texture_size, o.texture_size);
-  BtfAssemblyReport assembly;
-  const FullBtf btf = AssembleBtf(images, calibration, a, &assembly);
-  BtfCompressionReport compression;
-  const FactoredBtf factored = CompressBtf(btf, o.compression, &compression);
-  spdlog::info("rank {}: {}", compression.rank, compression.reason);
-
   MaterialDescription d;
   d.name = manifest.rig.value("name", "") + " session";
   d.width = d.height = o.texture_size;
@@ -88,11 +83,31 @@ void RunProcessBtf(const ProcessBtfCommandOptions& o) {
   d.light_directions = a.lights;
   d.provenance.source = "process btf session=" + o.session.string();
   MaterialPackageWriter writer(o.out, d, o.replace);
-  if (o.full) {
-    for (int v = 0; v < btf.view_count(); ++v) writer.WriteFullBtfView(v, btf.view_images[v]);
-  }
+
+  // Each assembled view goes to disk as soon as it is made, and the SVD
+  // streams it back in bands, so the BTF (1.5 GB of float for a paper rig at
+  // 128 x 128) is never whole in memory. Without --full the views go to a
+  // scratch package beside the output that is never committed: it is
+  // removed when the command ends, however it ends.
+  std::optional<MaterialPackageWriter> scratch;
+  if (!o.full) scratch.emplace(fs::path(o.out.string() + ".assembled"), d, true);
+  MaterialPackageWriter& views = o.full ? writer : *scratch;
+  AmbientTerm ambient = MakeAmbientTerm(o.texture_size, o.texture_size, a.views);
+  BtfAssemblyReport assembly;
+  AssembleBtfViews(
+      images, calibration, a,
+      [&](int v, Image&& values) {
+        AddAmbientView(values, a.lights, v, &ambient);
+        views.WriteFullBtfView(v, values);
+      },
+      &assembly);
+  BtfCompressionReport compression;
+  const FactoredBtf factored = CompressBtf(*views.ReadBackFullBtf(), o.compression, &compression);
+  spdlog::info("rank {}: {}", compression.rank, compression.reason);
+  scratch.reset();
+
   writer.WriteFactoredBtf(factored);
-  writer.WriteAmbientTerm(ComputeAmbientTerm(btf));
+  writer.WriteAmbientTerm(ambient);
   writer.WriteCalibration(calibration);
   writer.WriteErrorReport({{"btf_assembly",
                             {{"images", assembly.images},

@@ -218,11 +218,30 @@ TEST(Cli, ProcessBtfTurnsASessionIntoAMaterial) {
   const auto e = nlohmann::json::parse(Mesocap("eval btf --json --truth " + gt + " --estimate " + out).out);
   EXPECT_GT(e["overall"]["psnr_db"].get<double>(), 30.0) << e.dump();
 
+  // Without --full the assembled views go through a scratch package that is
+  // gone afterwards; the factors are the same as with them kept.
+  const std::string compact = (dir / "m-compact").string();
+  ASSERT_EQ(Mesocap("-q process btf --session " + session + " --out " + compact +
+                    " --texture-size 8 --max-error 1e-3").exit_code, 0);
+  const MaterialManifest mc = ReadMaterialManifest(compact);
+  EXPECT_TRUE(!mc.full_btf && mc.factored_btf && mc.ambient);
+  const FactoredBtf with_full = ReadFactoredBtf(out, m), without = ReadFactoredBtf(compact, mc);
+  ASSERT_EQ(with_full.rank(), without.rank());
+  for (int k = 0; k < with_full.rank(); ++k) {
+    for (std::size_t i = 0; i < with_full.rows[k].size(); ++i) ASSERT_EQ(with_full.rows[k].data()[i], without.rows[k].data()[i]);
+  }
+  for (const auto& entry : std::filesystem::directory_iterator(dir.path())) {
+    EXPECT_EQ(entry.path().filename().string().find("assembled"), std::string::npos) << entry.path();
+  }
+
   std::filesystem::remove(std::filesystem::path(session) / "btf" / "t1_a0_l1_cam0.png");
   const CommandResult missing = Mesocap("process btf --session " + session + " --out " + (dir / "m2").string());
   EXPECT_EQ(missing.exit_code, 1);
   EXPECT_NE(missing.err.find("t1_a0_l1_cam0.png: missing BTF image"), std::string::npos) << missing.err;
   EXPECT_FALSE(std::filesystem::exists(dir / "m2"));
+  for (const auto& entry : std::filesystem::directory_iterator(dir.path())) {
+    EXPECT_EQ(entry.path().filename().string().find("m2"), std::string::npos) << entry.path();
+  }
 }
 
 }  // namespace

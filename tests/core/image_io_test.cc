@@ -3,6 +3,8 @@
 #include <cmath>
 #include <fstream>
 #include <limits>
+#include <utility>
+#include <vector>
 
 #include "core/error.h"
 #include "core/image_io.h"
@@ -112,6 +114,38 @@ TEST(ImageIo, TruncatedFilesAreErrorsNotCrashes) {
       EXPECT_THROW(ReadImage(file), FormatError) << ext << " truncated to " << keep;
       WriteImage(file, Gradient(64, 64, 3), std::string(ext) == ".png" ? PixelEncoding::kUInt8 : PixelEncoding::kFloat32);
     }
+  }
+}
+
+TEST(ImageIo, RowReaderReadsAnyRangeAsTheWholeImageHasIt) {
+  testing::TemporaryDirectory dir;
+  const Image image = Gradient(24, 70, 3);  // EXR zip blocks of 16 lines: ranges straddle them
+  WriteImage(dir / "r.exr", image);
+  ImageReadOptions expected;
+  expected.expected_width = 24;
+  expected.expected_channels = 3;
+  ImageRowReader reader(dir / "r.exr", expected);
+  EXPECT_EQ(reader.header().height, 70);
+  // Out of order, overlapping, straddling blocks, the last line.
+  for (const auto& [first, rows] : {std::pair{30, 20}, std::pair{0, 7}, std::pair{69, 1}, std::pair{5, 40}}) {
+    std::vector<float> out(3 * 24 * rows);
+    reader.Read(first, rows, out.data());
+    for (int i = 0; i < 3 * 24 * rows; ++i) ASSERT_EQ(out[i], image.pixel(0, first)[i]) << first << "+" << rows;
+  }
+  std::vector<float> out(3 * 24 * 2);
+  EXPECT_THROW(reader.Read(69, 2, out.data()), FormatError);
+  EXPECT_THROW(reader.Read(-1, 1, out.data()), FormatError);
+  expected.expected_height = 71;
+  EXPECT_THROW(ImageRowReader(dir / "r.exr", expected), FormatError);
+  // Truncated after opening is checked: the read fails, naming the file.
+  std::filesystem::resize_file(dir / "r.exr", std::filesystem::file_size(dir / "r.exr") / 2);
+  try {
+    ImageRowReader truncated(dir / "r.exr", {});
+    std::vector<float> all(3 * 24 * 70);
+    truncated.Read(0, 70, all.data());
+    FAIL() << "expected an error";
+  } catch (const FormatError& e) {
+    EXPECT_NE(std::string(e.what()).find("r.exr"), std::string::npos) << e.what();
   }
 }
 

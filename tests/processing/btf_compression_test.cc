@@ -10,8 +10,11 @@
 #include <functional>
 #include <random>
 
+#include "core/image_io.h"
+#include "core/material_package.h"
 #include "sim/ground_truth.h"
 #include "sim/mesostructure_scene.h"
+#include "tests/common/temporary_directory.h"
 
 namespace mesocap {
 namespace {
@@ -253,6 +256,104 @@ TEST(BtfCompression, RejectsNonFiniteValuesNamingTheView) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("view 2"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("texel (1, 3), light 1"), std::string::npos) << e.what();
+  }
+}
+
+
+// Largest |a - b| of the two factorizations' reconstructions over every value.
+double MaxAbsDifference(const FactoredBtf& a, const FactoredBtf& b) {
+  double worst = 0.0;
+  for (int v = 0; v < a.view_count(); ++v)
+    for (int l = 0; l < a.light_count(); ++l)
+      for (int y = 0; y < a.height; ++y)
+        for (int x = 0; x < a.width; ++x)
+          worst = std::max(worst, static_cast<double>((a.Reconstruct(x, y, v, l) - b.Reconstruct(x, y, v, l)).cwiseAbs().maxCoeff()));
+  return worst;
+}
+
+FullBtf RandomSmoothBtf(int size, const SamplingSet& views, const SamplingSet& lights, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<float> g(0.0f, 1.0f);
+  return MakeBtf(size, views, lights, [&](int x, int y, int v, int l) {
+    const float s = std::cos(0.3f * x * (v % 3 + 1) + 0.2f * y * (l % 2 + 1));
+    return Eigen::Vector3f(1.0f + s + 0.05f * g(rng), 0.5f + 0.3f * s, 0.2f + 0.01f * g(rng));
+  });
+}
+
+TEST(BtfCompression, BandsOfAnySizeGiveTheSameFactors) {
+  // Every case of the streamed matrix -- paper 384 x 6 and 96 x 6, per_texel
+  // 64 x 36 (all tall) and 16 x 36 (wide, streamed as A^T) -- in one band,
+  // and in bands of one texture line or one column: the same spectrum and
+  // reconstruction up to rounding.
+  for (const int size : {8, 4}) {
+    const FullBtf btf = RandomSmoothBtf(size, SamplingSet::Named("grid3x2"), SamplingSet::Named("grid3x2"), 5);
+    for (const BtfFactorLayout layout : {BtfFactorLayout::kPaper, BtfFactorLayout::kPerTexel}) {
+      BtfCompressionOptions whole = Options(layout, BtfFactorColor::kYCbCr, 5);
+      BtfCompressionOptions banded = whole;
+      banded.band_bytes = 1;
+      BtfCompressionReport rw, rb;
+      const FactoredBtf fw = CompressBtf(btf, whole, &rw);
+      const FactoredBtf fb = CompressBtf(btf, banded, &rb);
+      for (int ch = 0; ch < 3; ++ch) {
+        ASSERT_EQ(rw.singular_values[ch].size(), rb.singular_values[ch].size());
+        for (long long k = 0; k < rw.singular_values[ch].size(); ++k) {
+          EXPECT_NEAR(rb.singular_values[ch][k], rw.singular_values[ch][k], 1e-12 * rw.singular_values[ch][0])
+              << "size " << size << " layout " << ToString(layout) << " ch " << ch << " k " << k;
+        }
+      }
+      EXPECT_LT(MaxAbsDifference(fw, fb), 1e-5) << "size " << size << " layout " << ToString(layout);
+      EXPECT_NEAR(rb.measured_relative_rms_error, rw.measured_relative_rms_error, 1e-9);
+    }
+  }
+}
+
+TEST(BtfCompression, StreamsAPackagesViewFilesWithoutReadingThemWhole) {
+  testing::TemporaryDirectory dir;
+  const SamplingSet views = SamplingSet::Named("grid3x2");
+  const SamplingSet lights = SamplingSet::Named("grid3x1");
+  const FullBtf btf = RandomSmoothBtf(8, views, lights, 9);
+  MaterialDescription d;
+  d.name = "streamed";
+  d.width = d.height = 8;
+  d.physical_size_mm = {4.0, 4.0};
+  d.d_max_mm = 1.0;
+  d.view_directions = views;
+  d.light_directions = lights;
+  {
+    MaterialPackageWriter writer(dir / "pkg", d, false);
+    for (int v = 0; v < btf.view_count(); ++v) writer.WriteFullBtfView(v, btf.view_images[v]);
+    writer.Commit();
+  }
+  BtfCompressionOptions o = Options(BtfFactorLayout::kPaper, BtfFactorColor::kRgb, 4);
+  const FactoredBtf in_memory = CompressBtf(btf, o);
+  o.band_bytes = 1;  // one texture line of every view file at a time
+  PackageFullBtfReader reader(dir / "pkg", ReadMaterialManifest(dir / "pkg"));
+  BtfCompressionReport report;
+  const FactoredBtf streamed = CompressBtf(reader, o, &report);
+  EXPECT_LT(MaxAbsDifference(in_memory, streamed), 1e-5);
+  EXPECT_NEAR(report.measured_relative_rms_error, RelativeRmsError(btf, in_memory), 1e-9);
+
+  // A non-finite value in a view file: the error names the file, texel and light.
+  Image bad = btf.view_images[4];
+  bad.pixel(2, 8 * 1 + 5)[2] = std::numeric_limits<float>::infinity();
+  WriteImage(dir / "pkg" / FullBtfViewFile(4), bad);
+  PackageFullBtfReader bad_reader(dir / "pkg", ReadMaterialManifest(dir / "pkg"));
+  try {
+    CompressBtf(bad_reader, o);
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("view_0004.exr"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("texel (2, 5), light 1, channel 2"), std::string::npos) << e.what();
+  }
+  // A view file of another size: named before any value is used.
+  WriteImage(dir / "pkg" / FullBtfViewFile(2), Image(8, 8, 3));
+  PackageFullBtfReader short_reader(dir / "pkg", ReadMaterialManifest(dir / "pkg"));
+  try {
+    CompressBtf(short_reader, o);
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("view_0002.exr"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("height"), std::string::npos) << e.what();
   }
 }
 
