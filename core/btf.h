@@ -49,8 +49,9 @@ struct FullBtf {
 // over a BTF larger than memory (compression, its error: a paper-rig BTF at
 // 128 x 128 is 1.5 GB of float RGB) holds only the rows it works on. From a
 // FullBtf in memory (InMemoryFullBtfReader) or from a material package's view
-// files (material_package.h: PackageFullBtfReader). Not thread-safe: one
-// reader is read from one thread at a time.
+// files (material_package.h: PackageFullBtfReader). ReadRows may run
+// concurrently for different views (a band is read view by view in
+// parallel); calls for the same view are serialized by the implementation.
 class FullBtfReader {
  public:
   FullBtfReader(int width, int height, SamplingSet views, SamplingSet lights);

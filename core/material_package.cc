@@ -741,35 +741,34 @@ PackageFullBtfReader::PackageFullBtfReader(const fs::path& dir, const MaterialDe
     : FullBtfReader(description.width, description.height, description.view_directions,
                     description.light_directions),
       dir_(dir),
-      open_(description.view_directions.size()) {}
+      open_(description.view_directions.size()),
+      view_mutex_(description.view_directions.size()) {}
 
 PackageFullBtfReader::~PackageFullBtfReader() = default;
 
 std::string PackageFullBtfReader::Source(int view) const { return (dir_ / FullBtfViewFile(view)).string(); }
 
-void PackageFullBtfReader::ReadRowsFromSource(int view, int first_row, int rows, float* out) {
-  std::unique_ptr<ImageRowReader>& reader = open_[view];
-  if (!reader) {
-    // Passes read the views in turn, band after band: closing all at the
-    // limit keeps the handles bounded for sets larger than it.
-    if (open_count_ == kMaxOpenViews) {
-      for (auto& r : open_) r.reset();
-      open_count_ = 0;
-    }
-    const fs::path file = dir_ / FullBtfViewFile(view);
-    ImageReadOptions expected;
-    expected.expected_width = width();
-    expected.expected_height = height() * light_count();
-    expected.expected_channels = 3;
-    auto opened = std::make_unique<ImageRowReader>(file, expected);
-    if (opened->header().encoding != PixelEncoding::kFloat32) {
-      throw FormatError(file, "pixel type",
-                        std::string("expected float32, got ") + ToString(opened->header().encoding));
-    }
-    reader = std::move(opened);
-    ++open_count_;
+std::unique_ptr<ImageRowReader> PackageFullBtfReader::Open(int view) const {
+  const fs::path file = dir_ / FullBtfViewFile(view);
+  ImageReadOptions expected;
+  expected.expected_width = width();
+  expected.expected_height = height() * light_count();
+  expected.expected_channels = 3;
+  auto reader = std::make_unique<ImageRowReader>(file, expected);
+  if (reader->header().encoding != PixelEncoding::kFloat32) {
+    throw FormatError(file, "pixel type", std::string("expected float32, got ") + ToString(reader->header().encoding));
   }
-  reader->Read(first_row, rows, out);
+  return reader;
+}
+
+void PackageFullBtfReader::ReadRowsFromSource(int view, int first_row, int rows, float* out) {
+  if (view_count() > kMaxOpenViews) {
+    Open(view)->Read(first_row, rows, out);
+    return;
+  }
+  std::lock_guard lock(view_mutex_[view]);
+  if (!open_[view]) open_[view] = Open(view);
+  open_[view]->Read(first_row, rows, out);
 }
 
 FactoredBtf ReadFactoredBtf(const fs::path& dir, const MaterialManifest& manifest) {

@@ -17,6 +17,7 @@
 #include <Eigen/Core>
 #include <filesystem>
 #include <memory>
+#include <mutex>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -187,8 +188,10 @@ Image ReadFullBtfView(const std::filesystem::path& dir, const MaterialManifest& 
 FullBtf ReadFullBtf(const std::filesystem::path& dir, const MaterialManifest& manifest);
 // The package's full BTF read from its view files a range of rows at a time
 // (core/btf.h: FullBtfReader), so a pass over it never holds the whole BTF.
-// Keeps up to kMaxOpenViews files open; FormatError (naming the file) for a
-// view file of another size, channel count or pixel type, or a truncated one.
+// Keeps each view's file open between reads (up to kMaxOpenViews views; with
+// more, each read opens and closes its file); FormatError (naming the file)
+// for a view file of another size, channel count or pixel type, or a
+// truncated one.
 class PackageFullBtfReader : public FullBtfReader {
  public:
   static constexpr int kMaxOpenViews = 256;
@@ -203,9 +206,11 @@ class PackageFullBtfReader : public FullBtfReader {
   void ReadRowsFromSource(int view, int first_row, int rows, float* out) override;
 
  private:
+  std::unique_ptr<ImageRowReader> Open(int view) const;
+
   std::filesystem::path dir_;
-  std::vector<std::unique_ptr<ImageRowReader>> open_;  // per view; null when closed
-  int open_count_ = 0;
+  std::vector<std::unique_ptr<ImageRowReader>> open_;  // per view; null until first read
+  std::vector<std::mutex> view_mutex_;                 // guards open_[view] and its reads
 };
 FactoredBtf ReadFactoredBtf(const std::filesystem::path& dir, const MaterialManifest& manifest);
 AmbientTerm ReadAmbientTerm(const std::filesystem::path& dir, const MaterialManifest& manifest);

@@ -72,13 +72,20 @@ class BtfMatrix {
     const int w = btf_.width();
     MatrixBlock block{first_row, rows, first_column, columns, {}};
     block.rgb.resize(static_cast<std::size_t>(3 * rows * columns));
-    for (long long j = 0; j < columns; ++j) {
-      const long long c = first_column + j;
-      const int view = static_cast<int>(layout_ == BtfFactorLayout::kPaper ? c : c / btf_.light_count());
-      const long long first_line = layout_ == BtfFactorLayout::kPaper ? 0 : (c % btf_.light_count()) * btf_.height();
-      btf_.ReadRows(view, static_cast<int>(first_line + first_row / w), static_cast<int>(rows / w),
-                    block.rgb.data() + 3 * j * rows);
-    }
+    // The views in parallel (decoding a view file is the slow part), each
+    // view's columns in order.
+    const long long per_view = layout_ == BtfFactorLayout::kPaper ? 1 : btf_.light_count();
+    const int first_view = static_cast<int>(first_column / per_view);
+    const int last_view = static_cast<int>((first_column + columns - 1) / per_view);
+    tbb::parallel_for(first_view, last_view + 1, [&](int view) {
+      const long long begin = std::max(first_column, view * per_view);
+      const long long end = std::min(first_column + columns, (view + 1) * per_view);
+      for (long long c = begin; c < end; ++c) {
+        const long long first_line = layout_ == BtfFactorLayout::kPaper ? 0 : (c % per_view) * btf_.height();
+        btf_.ReadRows(view, static_cast<int>(first_line + first_row / w), static_cast<int>(rows / w),
+                      block.rgb.data() + 3 * (c - first_column) * rows);
+      }
+    });
     return block;
   }
 
