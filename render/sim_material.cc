@@ -13,7 +13,11 @@ sim::GroundTruthOptions SimMaterialGroundTruthOptions(const std::string& scene_n
   options.texture_width = options.texture_height = 64;
   // Polar rings every 90/8 degrees up to 84.4: the MDF near grazing decides
   // silhouettes (SamplingSet::Interpolate holds the last ring beyond it).
-  options.views = SamplingSet::RegularGrid(12, 8);
+  // 24 azimuths (15 degrees apart), not 12: blocky mesostructure seen from a
+  // grazing light changes faster in azimuth than 30-degree steps follow, and
+  // the torus 8x3 cast-shadow outline showed it (shadow IoU 0.947 -> 0.955
+  // at 320x240).
+  options.views = SamplingSet::RegularGrid(24, 8);
   options.lights = SamplingSet::RegularGrid(12, 4);
   return options;
 }

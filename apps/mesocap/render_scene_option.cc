@@ -39,6 +39,10 @@ std::filesystem::path CacheDir() {
 // The rank the built-in materials are factored to: the renderer's cost grows
 // with it, and 8 terms keep the brick and blocks BTFs' shading structure.
 constexpr int kSimMaterialRank = 8;
+// Part of the cache folder's name: changed whenever what a built-in material
+// holds changes (v3: 24 view azimuths instead of 12), so an older cache is
+// never read as the new one.
+constexpr const char* kSimMaterialCacheVersion = "v3";
 
 }  // namespace
 
@@ -69,12 +73,12 @@ render::RenderMaterial ResolveRenderMaterial(const std::string& spec, const std:
   if (spec.rfind("sim:", 0) != 0) return render::ResolvePackageMaterial(spec, scene_dir);
   const std::string name = spec.substr(4);
   const sim::TileGeometry geometry = sim::BuiltinTileGeometry(name);  // throws for an unknown name
-  const std::filesystem::path package = CacheDir() / "materials" / (name + "-v2");
+  const std::filesystem::path package = CacheDir() / "materials" / (name + "-" + kSimMaterialCacheVersion);
   if (!std::filesystem::exists(package / "manifest.json")) {
     // Ground truth (full BTF, MDF, ambient term), then its BTF factored at a
     // fixed rank, as a measured material would be (Sec. 5); the full-BTF
     // package is only a step on the way.
-    const std::filesystem::path truth = CacheDir() / "materials" / (name + "-v2-truth");
+    const std::filesystem::path truth = package.string() + "-truth";
     const auto scene = sim::MakeBuiltinScene(name);
     spdlog::info("building material {} from ground truth into {}", spec, package.string());
     sim::WriteGroundTruthPackage(*scene, render::SimMaterialGroundTruthOptions(name), nullptr,

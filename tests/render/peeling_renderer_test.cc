@@ -72,27 +72,26 @@ class PeelingRendererTest : public ::testing::Test {
 };
 GlContext* PeelingRendererTest::context_ = nullptr;
 
-// Coverage: BTF + MDF at least 0.95 and better than BTF only. Shadows: the
-// MDF shadow map better than the plain one by at least `shadow_gain`, and
-// at least `min_shadow_iou` (0.95 on the cylinder; the torus reaches 0.949,
-// short of 0.95, see the report: one-pixel disagreements along
-// the shadow outlines and the terminator at the silhouette).
-void ExpectMdfHelps(const Comparison& c, double min_shadow_iou, double shadow_gain) {
+// Coverage: BTF + MDF at least 0.95 and better than BTF only. Shadows:
+// likewise at least 0.95, and the MDF shadow map better than the plain one
+// by at least `shadow_gain` (measured: cylinder 0.991, torus 0.955; with
+// 12 view azimuths in the material instead of 24 the torus gave 0.947).
+void ExpectMdfHelps(const Comparison& c, double shadow_gain) {
   const int btf = 0, silhouette = 1, full = 2;
   EXPECT_GE(c.coverage_iou[silhouette], 0.95);
   EXPECT_GT(c.coverage_iou[silhouette], c.coverage_iou[btf]);
   EXPECT_EQ(c.coverage_iou[full], c.coverage_iou[silhouette]);
-  EXPECT_GE(c.shadow_iou[full], min_shadow_iou);
+  EXPECT_GE(c.shadow_iou[full], 0.95);
   EXPECT_GT(c.shadow_iou[full], c.shadow_iou[btf] + shadow_gain);
   EXPECT_GT(c.shadow_iou[full], c.shadow_iou[silhouette] + shadow_gain);
 }
 
 TEST_F(PeelingRendererTest, CylinderSilhouettesAndShadowsMatchTheReference) {
-  ExpectMdfHelps(Compare(ShippedScene("cylinder"), 320, 240), 0.95, 0.01);
+  ExpectMdfHelps(Compare(ShippedScene("cylinder"), 320, 240), 0.01);
 }
 
 TEST_F(PeelingRendererTest, TorusSilhouettesAndShadowsMatchTheReference) {
-  ExpectMdfHelps(Compare(ShippedScene("torus_8x3"), 320, 240), 0.94, 0.04);
+  ExpectMdfHelps(Compare(ShippedScene("torus_8x3"), 320, 240), 0.04);
 }
 
 bool SameImages(const RenderResult& a, const RenderResult& b) {

@@ -93,7 +93,7 @@ TEST(RenderCli, CompareReportsEveryModeAndWritesTheDifferences) {
   testing::TemporaryDirectory dir;
   WriteScene(dir.path(), "sim:blocks");
   // A cached sim: material, so the test does not build one from ground truth.
-  WritePackage(dir / "cache" / "materials" / "blocks-v2");
+  WritePackage(dir / "cache" / "materials" / "blocks-v3");
   const testing::CommandResult r =
       Mesocap("compare " + (dir / "scene.json").string() + " --size 48x36 --repeat 1 --json --images " +
                   (dir / "images").string(),
