@@ -58,8 +58,8 @@ struct BtfAssemblyOptions {
   double sample_size_mm = 0.0;  // side of the clipped square sample
   SamplingSet views;            // the session's direction sets
   SamplingSet lights;
-  std::vector<double> exposure_s;           // per calibration camera, > 0
-  double signal_per_radiance_second = 0.0;  // the cameras' gain G, > 0
+  std::vector<double> exposure_s;                  // per calibration camera, > 0
+  std::vector<double> signal_per_radiance_second;  // per calibration camera: its gain G, > 0
   int max_samples_per_side = 8;             // rectification's prefilter limit
   // Without resampling: how far an image's direction (from the sample
   // centre) may be from the nearest of the sets. With it: within this, a
