@@ -205,6 +205,7 @@ CameraCalibration ReadCamera(const JsonFieldReader& fields, int version) {
   if (version >= 2) {
     fields.RejectUnknownMembers({"id", "image_size", "intrinsics", "distortion", "pose", "radiometry"});
   } else {
+    if (fields.Has("radiometry")) fields.Fail("radiometry", "not in version 1 files; expected version 2");
     fields.RejectUnknownMembers({"id", "image_size", "intrinsics", "distortion", "pose"});
   }
   CameraCalibration c;

@@ -267,6 +267,11 @@ TEST(Calibration, Version1FileLoadsWithoutRadiometry) {
   EXPECT_EQ(written["version"], 2);
   for (const auto& camera : written["cameras"]) EXPECT_FALSE(camera.contains("radiometry"));
   ExpectSame(expected, ReadCalibration(dir / "v2.json"));
+  // Radiometry is new in version 2.
+  j["cameras"][1]["radiometry"] = {{"signal_per_radiance_second", 0.75}};
+  Spit(dir / "v1-radiometry.json", j.dump());
+  EXPECT_NE(FormatErrorOf(dir / "v1-radiometry.json").find("'cameras[1].radiometry': not in version 1 files"),
+            std::string::npos);
 }
 
 TEST(Calibration, DirectionsAreNormalizedOnReading) {
