@@ -6,7 +6,7 @@
 // Radiometry: the cameras record linear values (fraction of full scale; the
 // 16-bit files hold code / (2^bits - 1), no gamma), value = L t G with L the
 // radiance, t the exposure and G the camera's gain (signal per radiance
-// second). A lamp of radiant intensity I at distance r and angle theta_l
+// second; each camera's own, from its calibration's radiometry). A lamp of radiant intensity I at distance r and angle theta_l
 // from the sample normal gives the irradiance E = I cos(theta_l) / r^2 at a
 // texel; T = L / E, per texel (r and theta_l vary across the sample). That is
 // mesocap's T (sim/ground_truth.h: T = f_r (n.l) / cos theta_l; a flat
