@@ -19,7 +19,9 @@ using nlohmann::json;
 namespace {
 
 constexpr const char* kFormat = "mesocap.calibration";
-constexpr int kVersion = 1;
+constexpr int kVersion = 2;
+// Version 1 is version 2 without cameras' "radiometry".
+constexpr int kOldestVersion = 1;
 // The deepest valid calibration nests 6 levels (root, cameras, camera, pose,
 // std, translation_mm); anything far deeper is hostile.
 constexpr int kMaxDepth = 32;
@@ -190,8 +192,22 @@ Distortion ReadDistortion(const JsonFieldReader& fields) {
   return k;
 }
 
-CameraCalibration ReadCamera(const JsonFieldReader& fields) {
-  fields.RejectUnknownMembers({"id", "image_size", "intrinsics", "distortion", "pose"});
+CameraRadiometry ReadRadiometry(const JsonFieldReader& fields) {
+  fields.RejectUnknownMembers({"signal_per_radiance_second", "std"});
+  CameraRadiometry r;
+  r.signal_per_radiance_second = fields.Number("signal_per_radiance_second", kMinCameraGain, kMaxCameraGain);
+  const auto d = ReadDeviations(fields, {{"signal_per_radiance_second", 1, kMaxCameraGain}});
+  r.uncertainty.signal_per_radiance_second = Deviation1(d, "signal_per_radiance_second");
+  return r;
+}
+
+CameraCalibration ReadCamera(const JsonFieldReader& fields, int version) {
+  if (version >= 2) {
+    fields.RejectUnknownMembers({"id", "image_size", "intrinsics", "distortion", "pose", "radiometry"});
+  } else {
+    if (fields.Has("radiometry")) fields.Fail("radiometry", "not in version 1 files; expected version 2");
+    fields.RejectUnknownMembers({"id", "image_size", "intrinsics", "distortion", "pose"});
+  }
   CameraCalibration c;
   c.id = Id(fields);
   const auto size = BoundedNumbers(fields, "image_size", 2, 1, kMaxImageSide);
@@ -205,6 +221,7 @@ CameraCalibration ReadCamera(const JsonFieldReader& fields) {
   c.intrinsics = ReadIntrinsics(fields.Object("intrinsics"));
   c.distortion = ReadDistortion(fields.Object("distortion"));
   c.pose = ReadPose(fields.Object("pose"), "world", "camera:" + c.id);
+  if (fields.Has("radiometry")) c.radiometry = ReadRadiometry(fields.Object("radiometry"));
   return c;
 }
 
@@ -284,7 +301,7 @@ std::vector<Part> ReadParts(const JsonFieldReader& root, std::string_view key, R
 
 Calibration ParseCalibration(const json& document, const fs::path& file) {
   const JsonFieldReader root(document, file);
-  root.ExpectFormat(kFormat, kVersion);
+  const int version = root.ExpectFormat(kFormat, kOldestVersion, kVersion);
   root.RejectUnknownMembers({"format", "version", "units", "cameras", "turntable", "light_arc",
                               "lamps", "laser_mounts"});
   const JsonFieldReader units = root.Object("units");
@@ -293,7 +310,8 @@ Calibration ParseCalibration(const json& document, const fs::path& file) {
   units.Choice("angle", {"deg"});
 
   Calibration c;
-  c.cameras = ReadParts<CameraCalibration>(root, "cameras", ReadCamera);
+  c.cameras = ReadParts<CameraCalibration>(
+      root, "cameras", [version](const JsonFieldReader& fields) { return ReadCamera(fields, version); });
   if (c.cameras.empty()) root.Fail("cameras", "expected at least one camera");
   c.turntable = ReadTurntable(root.Object("turntable"));
   c.light_arc = ReadLightArc(root.Object("light_arc"));
@@ -352,11 +370,19 @@ json CameraJson(const CameraCalibration& c) {
   PutDeviation(d, "k3", t.uncertainty.k3);
   AttachDeviations(distortion, std::move(d));
 
-  return {{"id", c.id},
-          {"image_size", {c.width, c.height}},
-          {"intrinsics", std::move(intrinsics)},
-          {"distortion", std::move(distortion)},
-          {"pose", PoseJson(c.pose)}};
+  json j = {{"id", c.id},
+            {"image_size", {c.width, c.height}},
+            {"intrinsics", std::move(intrinsics)},
+            {"distortion", std::move(distortion)},
+            {"pose", PoseJson(c.pose)}};
+  if (c.radiometry) {
+    json radiometry = {{"signal_per_radiance_second", c.radiometry->signal_per_radiance_second}};
+    d = json::object();
+    PutDeviation(d, "signal_per_radiance_second", c.radiometry->uncertainty.signal_per_radiance_second);
+    AttachDeviations(radiometry, std::move(d));
+    j["radiometry"] = std::move(radiometry);
+  }
+  return j;
 }
 
 json TurntableJson(const TurntableCalibration& t) {

@@ -1,7 +1,8 @@
 // The rig calibration (DESIGN.md "On disk"; docs/FORMATS.md "Calibration"):
 // cameras on a fixed arc, a turntable carrying the sample, and a light arc
 // rotating in azimuth that carries the lamps and the laser unit's mount
-// positions (Wang et al. 2005, Sec. 3.1). One JSON file, version 1.
+// positions (Wang et al. 2005, Sec. 3.1). One JSON file, version 2 (version 1,
+// the same without camera radiometry, still reads).
 //
 // Frames: "world" is fixed to the rig. The "turntable" frame coincides with
 // world at turntable angle 0 and turns with the table about its axis; the
@@ -50,12 +51,28 @@ struct CalibratedPose {
   } uncertainty;
 };
 
+// The range of a camera's gain: it catches garbage (0, 1e308) and keeps the
+// radiance per signal value, 1 / (t G), finite for any real exposure.
+inline constexpr double kMinCameraGain = 1e-30;
+inline constexpr double kMaxCameraGain = 1e30;
+
+// A camera's radiometric gain G: its linear signal (fraction of full scale)
+// is L t G for radiance L (the rig's relative units, lamp intensity / mm^2)
+// and exposure t (processing/btf_assembly.h, "Radiometry").
+struct CameraRadiometry {
+  double signal_per_radiance_second = 1;  // G, in [kMinCameraGain, kMaxCameraGain]
+  struct Uncertainty {
+    std::optional<double> signal_per_radiance_second;
+  } uncertainty;
+};
+
 struct CameraCalibration {
   std::string id;
   int width = 0, height = 0;  // image size in pixels
   Intrinsics intrinsics;
   Distortion distortion;
   CalibratedPose pose;  // world <- camera:<id>
+  std::optional<CameraRadiometry> radiometry;  // absent where not calibrated
 };
 
 struct TurntableCalibration {

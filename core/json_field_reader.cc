@@ -223,13 +223,20 @@ void JsonFieldReader::RejectUnknownMembers(std::initializer_list<std::string_vie
 }
 
 void JsonFieldReader::ExpectFormat(std::string_view format, int version) const {
+  ExpectFormat(format, version, version);
+}
+
+int JsonFieldReader::ExpectFormat(std::string_view format, int oldest, int newest) const {
   const std::string f = String("format");
   if (f != format) Fail("format", "expected \"" + std::string(format) + "\", got \"" + f + "\"");
   const auto v = Integer("version", 0, 1 << 30);
-  if (v != version) {
-    Fail("version", "this build reads version " + std::to_string(version) + ", the file is version " +
-                        std::to_string(v));
+  if (v < oldest || v > newest) {
+    const std::string readable = oldest == newest ? "version " + std::to_string(newest)
+                                                  : "versions " + std::to_string(oldest) + " to " +
+                                                        std::to_string(newest);
+    Fail("version", "this build reads " + readable + ", the file is version " + std::to_string(v));
   }
+  return static_cast<int>(v);
 }
 
 }  // namespace mesocap

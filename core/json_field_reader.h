@@ -65,6 +65,9 @@ class JsonFieldReader {
 
   // Checks the "format" and "version" members every mesocap file carries.
   void ExpectFormat(std::string_view format, int version) const;
+  // The same for a reader of every version from `oldest` to `newest`;
+  // returns the file's version.
+  int ExpectFormat(std::string_view format, int oldest, int newest) const;
 
   std::string FieldPath(std::string_view key) const;
   [[noreturn]] void Fail(std::string_view key, const std::string& problem) const;

@@ -9,6 +9,7 @@
 #include <map>
 #include <mutex>
 #include <numbers>
+#include <utility>
 
 #include "core/image_io.h"
 #include "core/capture_session.h"
@@ -73,8 +74,8 @@ CheckResult BtfAssemblyOptions::Check() const {
   for (double t : exposure_s) {
     if (!(t > 0) || !std::isfinite(t)) return "every camera's exposure must be > 0 s";
   }
-  if (!(signal_per_radiance_second > 0) || !std::isfinite(signal_per_radiance_second)) {
-    return "the cameras' gain (signal per radiance second) must be > 0";
+  for (double g : signal_per_radiance_second) {
+    if (!(g > 0) || !std::isfinite(g)) return "every camera's gain (signal per radiance second) must be > 0";
   }
   if (max_samples_per_side < 1 || max_samples_per_side > 64) return "max samples per side must be 1..64";
   if (!(max_direction_error_deg >= 0)) return "max direction error must be >= 0 deg";
@@ -108,7 +109,7 @@ Image RadiometricTexture(const Image& rectified, const BtfCaptureImage& image, c
   const Eigen::Vector3d normal = world_from_sample.rotation.col(2);
   const Eigen::Vector3d lamp = LampInWorld(calibration, image);
   const Eigen::Vector3d intensity = calibration.lamps[image.lamp].intensity;
-  const double radiance_per_value = 1.0 / (o.exposure_s[image.camera] * o.signal_per_radiance_second);
+  const double radiance_per_value = 1.0 / (o.exposure_s[image.camera] * o.signal_per_radiance_second[image.camera]);
   Image out(w, h, 3);
   for (int j = 0; j < h; ++j) {
     for (int i = 0; i < w; ++i) {
@@ -352,9 +353,13 @@ void AssembleResampled(const std::vector<BtfCaptureImage>& images, const Calibra
 void AssembleBtfViews(const std::vector<BtfCaptureImage>& images, const Calibration& calibration,
                       const BtfAssemblyOptions& o, const BtfViewSink& sink, BtfAssemblyReport* report) {
   if (const auto problem = o.Check(); !problem.empty()) throw Error("BTF assembly: " + problem);
-  if (o.exposure_s.size() != calibration.cameras.size()) {
-    throw Error("BTF assembly: " + std::to_string(o.exposure_s.size()) + " exposures for " +
-                std::to_string(calibration.cameras.size()) + " calibrated cameras");
+  // One exposure and one gain per calibrated camera.
+  for (const auto& [per_camera, what] : {std::pair{&o.exposure_s, "exposures"},
+                                         std::pair{&o.signal_per_radiance_second, "gains"}}) {
+    if (per_camera->size() != calibration.cameras.size()) {
+      throw Error("BTF assembly: " + std::to_string(per_camera->size()) + " " + what + " for " +
+                  std::to_string(calibration.cameras.size()) + " calibrated cameras");
+    }
   }
   BtfAssemblyReport r;
   r.images = static_cast<int>(images.size());

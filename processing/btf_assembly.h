@@ -6,7 +6,7 @@
 // Radiometry: the cameras record linear values (fraction of full scale; the
 // 16-bit files hold code / (2^bits - 1), no gamma), value = L t G with L the
 // radiance, t the exposure and G the camera's gain (signal per radiance
-// second). A lamp of radiant intensity I at distance r and angle theta_l
+// second; each camera's own, from its calibration's radiometry). A lamp of radiant intensity I at distance r and angle theta_l
 // from the sample normal gives the irradiance E = I cos(theta_l) / r^2 at a
 // texel; T = L / E, per texel (r and theta_l vary across the sample). That is
 // mesocap's T (sim/ground_truth.h: T = f_r (n.l) / cos theta_l; a flat
@@ -58,8 +58,8 @@ struct BtfAssemblyOptions {
   double sample_size_mm = 0.0;  // side of the clipped square sample
   SamplingSet views;            // the session's direction sets
   SamplingSet lights;
-  std::vector<double> exposure_s;           // per calibration camera, > 0
-  double signal_per_radiance_second = 0.0;  // the cameras' gain G, > 0
+  std::vector<double> exposure_s;                  // per calibration camera, > 0
+  std::vector<double> signal_per_radiance_second;  // per calibration camera: its gain G, > 0
   int max_samples_per_side = 8;             // rectification's prefilter limit
   // Without resampling: how far an image's direction (from the sample
   // centre) may be from the nearest of the sets. With it: within this, a

@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "sim/camera_renderer.h"
+
 namespace mesocap::sim {
 namespace {
 
@@ -41,6 +43,8 @@ Calibration TrueCalibration(const drivers::RigDescription& rig) {
     const Eigen::Vector3d centre = drivers::CameraCentre(cam);
     out.pose.transform.rotation = LookAtOrigin(centre);
     out.pose.transform.translation = centre;
+    // Every simulated camera renders with the same exact gain.
+    out.radiometry = CameraRadiometry{.signal_per_radiance_second = kSignalPerRadianceSecond, .uncertainty = {}};
     c.cameras.push_back(out);
   }
   c.turntable.sample_pose.transform.parent_frame = "turntable";

@@ -11,7 +11,8 @@ namespace mesocap::sim {
 // Cameras look at the world origin with OpenCV's camera frame (+z forward,
 // +x right, +y down in the image); a laser mount's tilt axis is horizontal
 // and tangent to the arc, oriented so that a positive tilt moves the stripe
-// away from the laser (drivers::LaserTiltForOffset).
+// away from the laser (drivers::LaserTiltForOffset). Each camera's
+// radiometry is the simulated cameras' exact gain (kSignalPerRadianceSecond).
 Calibration TrueCalibration(const drivers::RigDescription& rig);
 
 }  // namespace mesocap::sim

@@ -107,7 +107,9 @@ json CalibrationInfo(const fs::path& file) {
                        {"k1", cam.distortion.k1},
                        {"position_mm", {cam.pose.transform.translation.x(), cam.pose.transform.translation.y(),
                                         cam.pose.transform.translation.z()}},
-                       {"has_uncertainty", cam.intrinsics.uncertainty.fx.has_value()}});
+                       {"has_uncertainty", cam.intrinsics.uncertainty.fx.has_value()},
+                       {"signal_per_radiance_second",
+                        cam.radiometry ? json(cam.radiometry->signal_per_radiance_second) : json(nullptr)}});
   }
   return {{"kind", "calibration"},
           {"path", file.string()},
@@ -175,7 +177,10 @@ void PrintText(const json& j) {
       for (const auto& cam : value) {
         std::cout << "  camera " << cam["id"].get<std::string>() << ": " << cam["image_size"][0] << "x"
                   << cam["image_size"][1] << " px, fx " << cam["fx"] << " fy " << cam["fy"] << ", k1 "
-                  << cam["k1"] << "\n";
+                  << cam["k1"] << ", gain "
+                  << (cam["signal_per_radiance_second"].is_null() ? "not calibrated"
+                                                                  : cam["signal_per_radiance_second"].dump())
+                  << "\n";
       }
       continue;
     }

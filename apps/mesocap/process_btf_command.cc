@@ -3,7 +3,8 @@
 // Sec. 3.1 and 5): every BTF image rectified into texture space, divided by
 // its lamp's irradiance, placed on the session's view and light sets,
 // factored by SVD; with the ambient term (Sec. 4.2) and the figures of each
-// stage in the error report.
+// stage in the error report. Each camera's gain (signal per radiance second)
+// is its calibration's radiometry unless --gain gives one for all.
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -21,7 +22,6 @@
 #include "processing/ambient_term.h"
 #include "processing/btf_assembly.h"
 #include "processing/btf_compression.h"
-#include "sim/camera_renderer.h"
 
 namespace mesocap {
 namespace {
@@ -56,18 +56,20 @@ void RunProcessBtf(const ProcessBtfCommandOptions& o) {
   a.views = drivers::ViewDirections(rig);
   a.lights = drivers::LightDirections(rig);
   a.resample = o.resample;
-  bool all_simulated = true;
   for (const CameraCalibration& camera : calibration.cameras) {
     const auto it = std::find_if(rig.cameras.begin(), rig.cameras.end(), [&](const auto& c) { return c.id == camera.id; });
     if (it == rig.cameras.end()) throw Error("process btf: calibrated camera " + camera.id + " is not in the rig");
     a.exposure_s.push_back(it->exposure_us * 1e-6);
-    all_simulated = all_simulated && it->backend == "sim";
-  }
-  // The gain is a radiometric calibration the calibration format does not
-  // hold yet; the simulated cameras' is known exactly.
-  a.signal_per_radiance_second = o.gain > 0 ? o.gain : (all_simulated ? sim::kSignalPerRadianceSecond : 0.0);
-  if (!(a.signal_per_radiance_second > 0)) {
-    throw Error("process btf: give --gain (camera signal per radiance second) for a rig with real cameras");
+    // The radiometric gain is the calibration's; --gain overrides it for all.
+    if (o.gain > 0) {
+      a.signal_per_radiance_second.push_back(o.gain);
+    } else if (camera.radiometry) {
+      a.signal_per_radiance_second.push_back(camera.radiometry->signal_per_radiance_second);
+    } else {
+      throw Error("process btf: " + calibration_file.string() + ": camera " + camera.id +
+                  " has no radiometry.signal_per_radiance_second (its gain); calibrate it or give --gain G for "
+                  "all cameras");
+    }
   }
   const std::vector<BtfCaptureImage> images = SessionBtfImages(o.session, manifest, calibration);
   spdlog::info("assembling the BTF of {}: {} images, {} views x {} lights, {}x{} texels", o.session.string(),
@@ -143,8 +145,10 @@ void RegisterProcessBtfCommand(CLI::App& app) {
       ->check(CLI::Range(1e-12, 1.0))
       ->capture_default_str()
       ->excludes(rank);
-  sub->add_option("--gain", o->gain, "camera signal (fraction of full scale) per radiance second; "
-                                     "default: the simulated cameras' own");
+  sub->add_option("--gain", o->gain,
+                  "camera signal (fraction of full scale) per radiance second, for every camera, overriding "
+                  "the calibration's radiometry (default: each camera's from the calibration)")
+      ->check(CLI::Range(kMinCameraGain, kMaxCameraGain));
   sub->add_flag("--full", o->full, "also store the full (uncompressed) BTF");
   sub->add_flag("--resample", o->resample,
                 "resample captures whose directions are off the session's sets (each texel with its own view and "

@@ -5,6 +5,7 @@
 
 #include <cstdio>
 #include <fstream>
+#include <iomanip>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
@@ -200,8 +201,9 @@ TEST(Cli, EvalBtfPrintsTheErrorOfACompressedPackage) {
 
 // `mesocap process btf` on a tiny-rig session of the flat sample: the package
 // holds the factored (and full) BTF, the ambient term and the assembly's
-// figures, and its BTF is within the rig's error of the ground truth; a
-// missing image is one error line naming it, and nothing is written.
+// figures, and its BTF is within the rig's error of the ground truth; each
+// camera's gain is the calibration's unless --gain overrides it; a missing
+// image is one error line naming it, and nothing is written.
 TEST(Cli, ProcessBtfTurnsASessionIntoAMaterial) {
   testing::TemporaryDirectory dir;
   const std::string session = (dir / "s").string(), out = (dir / "m").string(), gt = (dir / "gt").string();
@@ -233,6 +235,49 @@ TEST(Cli, ProcessBtfTurnsASessionIntoAMaterial) {
   for (const auto& entry : std::filesystem::directory_iterator(dir.path())) {
     EXPECT_EQ(entry.path().filename().string().find("assembled"), std::string::npos) << entry.path();
   }
+
+  // The cameras' gain comes from the calibration's radiometry: without it (a
+  // version 1 calibration) `process btf` is one error line naming the file
+  // and the camera and suggesting --gain, and writes nothing; --gain G
+  // supplies it for all cameras (here the simulated cameras' true gain,
+  // which the session's calibration records).
+  nlohmann::json calibration =
+      nlohmann::json::parse(std::ifstream(std::filesystem::path(session) / "calibration.json"));
+  ASSERT_EQ(calibration["version"], 2);
+  const double gain = calibration["cameras"][0]["radiometry"]["signal_per_radiance_second"];
+  EXPECT_EQ(calibration["cameras"][1]["radiometry"]["signal_per_radiance_second"], gain);
+  calibration["version"] = 1;
+  for (auto& camera : calibration["cameras"]) camera.erase("radiometry");
+  const std::string v1 = (dir / "v1-calibration.json").string();
+  std::ofstream(v1) << calibration.dump(1);
+
+  const std::string args =
+      "process btf --session " + session + " --calibration " + v1 + " --texture-size 4 --max-error 1e-4 --out ";
+  const CommandResult no_gain = Mesocap(args + (dir / "no-gain").string());
+  EXPECT_EQ(no_gain.exit_code, 1);
+  EXPECT_EQ(no_gain.err.find('\n'), no_gain.err.size() - 1) << "more than one line: " << no_gain.err;
+  EXPECT_NE(no_gain.err.find("v1-calibration.json: camera cam0 has no radiometry"), std::string::npos)
+      << no_gain.err;
+  EXPECT_NE(no_gain.err.find("--gain"), std::string::npos) << no_gain.err;
+  EXPECT_FALSE(std::filesystem::exists(dir / "no-gain"));
+
+  const auto gain_text = [](double g) {
+    std::ostringstream text;
+    text << std::setprecision(17) << g;
+    return text.str();
+  };
+  const std::string g1 = (dir / "g1").string(), g2 = (dir / "g2").string();
+  const CommandResult r1 = Mesocap("-q " + args + g1 + " --full --gain " + gain_text(gain));
+  ASSERT_EQ(r1.exit_code, 0) << r1.err;
+  // --gain also overrides a calibration that has radiometry: twice the gain
+  // halves every BTF value (the SVD factors scale alike; each package is
+  // within 1e-4 of its full BTF).
+  const CommandResult r2 = Mesocap("-q process btf --session " + session +
+                                   " --texture-size 4 --max-error 1e-4 --out " + g2 + " --gain " + gain_text(2 * gain));
+  ASSERT_EQ(r2.exit_code, 0) << r2.err;
+  const auto scaled = nlohmann::json::parse(Mesocap("eval btf --json --truth " + g1 + " --estimate " + g2).out);
+  EXPECT_NEAR(scaled["overall"]["relative_rms"].get<double>(), 0.5, 1e-3) << scaled.dump();
+  EXPECT_NE(Mesocap("process btf --help").out.find("overriding"), std::string::npos);
 
   std::filesystem::remove(std::filesystem::path(session) / "btf" / "t1_a0_l1_cam0.png");
   const CommandResult missing = Mesocap("process btf --session " + session + " --out " + (dir / "m2").string());

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <fstream>
 #include <functional>
 #include <random>
@@ -64,6 +65,9 @@ Calibration ExampleCalibration() {
   c.cameras[1].distortion.uncertainty = {1e-3, 2e-3, 1e-5, 1e-5, 0.01};
   c.cameras[2].pose.uncertainty.rotation_rad = Eigen::Vector3d(1e-4, 2e-4, 3e-4);
   c.cameras[2].pose.uncertainty.translation_mm = Eigen::Vector3d(0.1, 0.2, 0.05);
+  // Radiometry with an uncertainty, without one, and none (cameras[2]).
+  c.cameras[0].radiometry = CameraRadiometry{.signal_per_radiance_second = 1.6e7, .uncertainty = {2.5e4}};
+  c.cameras[1].radiometry = CameraRadiometry{.signal_per_radiance_second = 0.75, .uncertainty = {}};
 
   c.turntable.axis_point_mm = {1.5, -2.25, -40};
   c.turntable.axis_direction = Eigen::Vector3d(0.01, -0.02, 1).normalized();
@@ -153,6 +157,13 @@ void ExpectSame(const Calibration& a, const Calibration& b) {
     EXPECT_EQ(x.distortion.uncertainty.p2, y.distortion.uncertainty.p2);
     EXPECT_EQ(x.distortion.uncertainty.k3, y.distortion.uncertainty.k3);
     ExpectSamePose(x.pose, y.pose, at + ".pose");
+    ASSERT_EQ(x.radiometry.has_value(), y.radiometry.has_value()) << at;
+    if (x.radiometry) {
+      EXPECT_EQ(x.radiometry->signal_per_radiance_second, y.radiometry->signal_per_radiance_second) << at;
+      EXPECT_EQ(x.radiometry->uncertainty.signal_per_radiance_second,
+                y.radiometry->uncertainty.signal_per_radiance_second)
+          << at;
+    }
   }
   const auto &t = a.turntable, &u = b.turntable;
   ExpectNear(t.axis_point_mm, u.axis_point_mm, "turntable.axis_point_mm");
@@ -224,7 +235,7 @@ TEST(Calibration, RoundTripKeepsEveryField) {
 TEST(Calibration, FileUsesDegreesAndStdSiblings) {
   const json j = ToJson(ExampleCalibration());
   EXPECT_EQ(j["format"], "mesocap.calibration");
-  EXPECT_EQ(j["version"], 1);
+  EXPECT_EQ(j["version"], 2);
   EXPECT_EQ(j["units"], (json{{"length", "mm"}, {"angle", "deg"}}));
   EXPECT_NEAR(j["laser_mounts"][0]["tilt_range_deg"][1].get<double>(), 0.35 * 180 / kPi, 1e-12);
   EXPECT_NEAR(j["laser_mounts"][0]["std"]["tilt_range_deg"][0].get<double>(), 0.001 * 180 / kPi,
@@ -233,6 +244,34 @@ TEST(Calibration, FileUsesDegreesAndStdSiblings) {
   EXPECT_FALSE(j["cameras"][1]["intrinsics"].contains("std"));
   EXPECT_EQ(j["cameras"][2]["pose"]["child"], "camera:cam2");
   EXPECT_EQ(j["cameras"][2]["pose"]["std"]["translation_mm"], (json{0.1, 0.2, 0.05}));
+  EXPECT_EQ(j["cameras"][0]["radiometry"],
+            (json{{"signal_per_radiance_second", 1.6e7}, {"std", {{"signal_per_radiance_second", 2.5e4}}}}));
+  EXPECT_EQ(j["cameras"][1]["radiometry"], (json{{"signal_per_radiance_second", 0.75}}));
+  EXPECT_FALSE(j["cameras"][2].contains("radiometry"));
+}
+
+// Version 1 is version 2 without radiometry: it reads (with none), and
+// writing it again gives version 2.
+TEST(Calibration, Version1FileLoadsWithoutRadiometry) {
+  testing::TemporaryDirectory dir;
+  json j = ToJson(ExampleCalibration());
+  j["version"] = 1;
+  for (auto& camera : j["cameras"]) camera.erase("radiometry");
+  Spit(dir / "v1.json", j.dump());
+  const Calibration v1 = ReadCalibration(dir / "v1.json");
+  Calibration expected = ExampleCalibration();
+  for (auto& camera : expected.cameras) camera.radiometry.reset();
+  ExpectSame(expected, v1);
+  WriteCalibration(dir / "v2.json", v1);
+  const json written = json::parse(Slurp(dir / "v2.json"));
+  EXPECT_EQ(written["version"], 2);
+  for (const auto& camera : written["cameras"]) EXPECT_FALSE(camera.contains("radiometry"));
+  ExpectSame(expected, ReadCalibration(dir / "v2.json"));
+  // Radiometry is new in version 2.
+  j["cameras"][1]["radiometry"] = {{"signal_per_radiance_second", 0.75}};
+  Spit(dir / "v1-radiometry.json", j.dump());
+  EXPECT_NE(FormatErrorOf(dir / "v1-radiometry.json").find("'cameras[1].radiometry': not in version 1 files"),
+            std::string::npos);
 }
 
 TEST(Calibration, DirectionsAreNormalizedOnReading) {
@@ -267,7 +306,9 @@ std::vector<Edit> HostileEdits() {
   };
   return {
       {"other format", set("/format", "mesocap.material"), "format"},
-      {"version 2", set("/version", 2), "version"},
+      {"version 3", set("/version", 3), "version"},
+      {"version 0", set("/version", 0), "version"},
+      {"radiometry in version 1", set("/version", 1), "cameras[0].radiometry"},
       {"version as string", set("/version", "1"), "version"},
       {"no format", erase("", "format"), "format"},
       {"metres", set("/units/length", "m"), "units.length"},
@@ -314,6 +355,26 @@ std::vector<Edit> HostileEdits() {
       {"1e308 translation", set("/cameras/1/pose/translation_mm", {0, 1e308, 0}),
        "cameras[1].pose.translation_mm[1]"},
       {"no pose", erase("/cameras/1", "pose"), "cameras[1].pose"},
+      {"zero gain", set("/cameras/1/radiometry/signal_per_radiance_second", 0),
+       "cameras[1].radiometry.signal_per_radiance_second"},
+      {"negative gain", set("/cameras/0/radiometry/signal_per_radiance_second", -1.6e7),
+       "cameras[0].radiometry.signal_per_radiance_second"},
+      {"NaN gain (null in JSON)", set("/cameras/0/radiometry/signal_per_radiance_second", std::nan("")),
+       "cameras[0].radiometry.signal_per_radiance_second"},
+      {"string gain", set("/cameras/0/radiometry/signal_per_radiance_second", "1.6e7"),
+       "cameras[0].radiometry.signal_per_radiance_second"},
+      {"1e308 gain", set("/cameras/1/radiometry/signal_per_radiance_second", 1e308),
+       "cameras[1].radiometry.signal_per_radiance_second"},
+      {"denormal gain", set("/cameras/1/radiometry/signal_per_radiance_second", 1e-310),
+       "cameras[1].radiometry.signal_per_radiance_second"},
+      {"no gain", erase("/cameras/1/radiometry", "signal_per_radiance_second"),
+       "cameras[1].radiometry.signal_per_radiance_second"},
+      {"unknown radiometry member", set("/cameras/0/radiometry/black_level", 0.01),
+       "cameras[0].radiometry.black_level"},
+      {"radiometry not object", set("/cameras/1/radiometry", 0.75), "cameras[1].radiometry"},
+      {"negative gain std", set("/cameras/0/radiometry/std/signal_per_radiance_second", -1),
+       "cameras[0].radiometry.std.signal_per_radiance_second"},
+      {"gain std of non-parameter", set("/cameras/0/radiometry/std/fx", 1), "cameras[0].radiometry.std.fx"},
       {"duplicate camera",
        [](json& j) {
          j["cameras"][1]["id"] = "cam0";

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -78,7 +79,11 @@ class BtfAssemblyTest : public ::testing::Test {
     a.options.views = drivers::ViewDirections(tiny);
     a.options.lights = drivers::LightDirections(tiny);
     for (const auto& c : rig.cameras) a.options.exposure_s.push_back(c.exposure_us * 1e-6);
-    a.options.signal_per_radiance_second = sim::kSignalPerRadianceSecond;
+    // The simulated session's calibration carries each camera's true gain.
+    for (const auto& c : a.calibration.cameras) {
+      EXPECT_TRUE(c.radiometry) << c.id;
+      a.options.signal_per_radiance_second.push_back(c.radiometry ? c.radiometry->signal_per_radiance_second : 0.0);
+    }
     return a;
   }
 };
@@ -356,9 +361,70 @@ TEST_F(BtfAssemblyTest, MissingNanAndNegativeImagesAreErrorsNamingTheImage) {
   images = a.images;
   std::erase_if(images, [](const BtfCaptureImage& i) { return i.camera == 0 && i.turntable_rad == 0.0; });
   expect_error(images, "no image shows view");
-  // A wrong exposure count.
+  // A wrong gain count, a gain of 0, a wrong exposure count.
+  a.options.signal_per_radiance_second.pop_back();
+  expect_error(a.images, "1 gains for 2 calibrated cameras");
+  a.options.signal_per_radiance_second.push_back(0.0);
+  expect_error(a.images, "every camera's gain (signal per radiance second) must be > 0");
+  a.options.signal_per_radiance_second.back() = a.options.signal_per_radiance_second.front();
   a.options.exposure_s.pop_back();
   expect_error(a.images, "exposures for 2 calibrated cameras");
+}
+
+// Each camera's own gain: camera 1's images scaled by 0.4 (as a camera of
+// 0.4 times the gain would record them) with its gain scaled alike give the
+// BTF of the true session, within float rounding, and so the truth; with
+// camera 0's gain for both, camera 1's views come out 0.4 times too dark
+// and camera 0's stay as they were.
+TEST_F(BtfAssemblyTest, EachCameraUsesItsOwnGain) {
+  testing::TemporaryDirectory dir;
+  Assembled a = Prepare(Session("flat"), 8);
+  for (const auto& c : a.calibration.cameras) {
+    ASSERT_TRUE(c.radiometry);
+    EXPECT_EQ(c.radiometry->signal_per_radiance_second, sim::kSignalPerRadianceSecond) << c.id;
+  }
+  BtfAssemblyReport report;
+  const FullBtf reference = AssembleBtf(a.images, a.calibration, a.options, &report);
+
+  constexpr float kScale = 0.4f;
+  auto images = a.images;
+  for (std::size_t i = 0; i < images.size(); ++i) {
+    if (images[i].camera != 1) continue;
+    Image scaled = ReadImage(images[i].file);
+    for (std::size_t k = 0; k < scaled.size(); ++k) scaled.data()[k] *= kScale;
+    images[i].file = dir / ("scaled" + std::to_string(i) + ".exr");
+    WriteImage(images[i].file, scaled, PixelEncoding::kFloat32);
+  }
+  BtfAssemblyOptions own = a.options;
+  own.signal_per_radiance_second[1] *= kScale;
+  const FullBtf btf = AssembleBtf(images, a.calibration, own);
+  double worst = 0;
+  for (int v = 0; v < reference.view_count(); ++v) {
+    const Image &r = reference.view_images[v], &e = btf.view_images[v];
+    for (std::size_t k = 0; k < r.size(); ++k) {
+      worst = std::max(worst, std::abs(double(e.data()[k]) - r.data()[k]) / (r.data()[k] + 1e-6));
+    }
+  }
+  EXPECT_LT(worst, 1e-5);
+  const MeasuredFigures f = Measured(btf, Truth("flat", own), report, 1.0, own.sample_size_mm);
+  EXPECT_GE(f.psnr_db, 44.0) << "relative RMS " << f.relative_rms;
+
+  // Camera 0's gain for both: each view is either as it was (camera 0's) or
+  // kScale times it (camera 1's), and the tiny rig's two cameras each give
+  // half the views.
+  const FullBtf dark = AssembleBtf(images, a.calibration, a.options);
+  int darkened = 0;
+  for (int v = 0; v < reference.view_count(); ++v) {
+    double sum_reference = 0, sum_dark = 0;
+    for (std::size_t k = 0; k < dark.view_images[v].size(); ++k) {
+      sum_reference += reference.view_images[v].data()[k];
+      sum_dark += dark.view_images[v].data()[k];
+    }
+    const double ratio = sum_dark / sum_reference;
+    EXPECT_TRUE(std::abs(ratio - 1) < 1e-5 || std::abs(ratio - kScale) < 1e-5) << "view " << v << ": " << ratio;
+    darkened += std::abs(ratio - kScale) < 1e-5;
+  }
+  EXPECT_EQ(darkened, reference.view_count() / 2);
 }
 
 }  // namespace
