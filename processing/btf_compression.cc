@@ -20,18 +20,18 @@ namespace {
 using Eigen::MatrixXd;
 using Eigen::VectorXd;
 
-// A block of the BTF matrix A of a layout, all three RGB channels: rows
-// [first_row, first_row + rows) x columns [first_column, first_column +
-// columns), column-major, the RGB of A(first_row + i, first_column + j) at
+// A block of the BTF matrix A of a layout, all three RGB channels, as
+// BtfMatrix::Read gives it for rows [r0, r0 + rows) x columns [c0, c0 +
+// columns): column-major, the RGB of A(r0 + i, c0 + j) at
 // rgb[3 * (j * rows + i)]. Column j of A is a view image (paper) or one
 // light's slice of one (per_texel); row p is the pixel index inside it
 // (p = y * W + x), so a block of whole texture lines is a run of rows of
-// each view image.
+// each view image. The reader of a block knows its r0 and c0.
 struct MatrixBlock {
-  long long first_row = 0, rows = 0, first_column = 0, columns = 0;
+  long long rows = 0, columns = 0;
   std::vector<float> rgb;
 
-  // out = weights . A(first_row + i0 .. + count, the block's columns).
+  // out = weights . A(r0 + i0 .. + count, the block's columns).
   void FillRows(long long i0, long long count, const Eigen::Vector3d& w, MatrixXd* out) const {
     out->resize(count, columns);
     for (long long j = 0; j < columns; ++j) {
@@ -39,7 +39,7 @@ struct MatrixBlock {
       for (long long i = 0; i < count; ++i) (*out)(i, j) = Weighted(w, base + 3 * i);
     }
   }
-  // out = (weights . A(the block's rows, first_column + j0 .. + count))^T.
+  // out = (weights . A(the block's rows, c0 + j0 .. + count))^T.
   void FillTransposedRows(long long j0, long long count, const Eigen::Vector3d& w, MatrixXd* out) const {
     out->resize(count, rows);
     for (long long j = 0; j < count; ++j) {
@@ -70,7 +70,7 @@ class BtfMatrix {
   // (multiples of the width), which every band below is.
   MatrixBlock Read(long long first_row, long long rows, long long first_column, long long columns) const {
     const int w = btf_.width();
-    MatrixBlock block{first_row, rows, first_column, columns, {}};
+    MatrixBlock block{rows, columns, {}};
     block.rgb.resize(static_cast<std::size_t>(3 * rows * columns));
     // The views in parallel (decoding a view file is the slow part), each
     // view's columns in order.

@@ -34,15 +34,21 @@ FullBtf MakeBtf(int size, const SamplingSet& views, const SamplingSet& lights, c
   return btf;
 }
 
+// Largest of f(x, y, view, light) over every value of a BTF of `shape`'s size.
+double MaxOverValues(const FactoredBtf& shape, const std::function<double(int, int, int, int)>& f) {
+  double worst = 0.0;
+  for (int v = 0; v < shape.view_count(); ++v)
+    for (int l = 0; l < shape.light_count(); ++l)
+      for (int y = 0; y < shape.height; ++y)
+        for (int x = 0; x < shape.width; ++x) worst = std::max(worst, f(x, y, v, l));
+  return worst;
+}
+
 // Largest |reconstruction - input| over every value.
 double MaxAbsError(const FullBtf& btf, const FactoredBtf& f) {
-  double worst = 0.0;
-  for (int v = 0; v < btf.view_count(); ++v)
-    for (int l = 0; l < btf.light_count(); ++l)
-      for (int y = 0; y < btf.height; ++y)
-        for (int x = 0; x < btf.width; ++x)
-          worst = std::max(worst, static_cast<double>((f.Reconstruct(x, y, v, l) - btf.at(x, y, v, l)).cwiseAbs().maxCoeff()));
-  return worst;
+  return MaxOverValues(f, [&](int x, int y, int v, int l) {
+    return static_cast<double>((f.Reconstruct(x, y, v, l) - btf.at(x, y, v, l)).cwiseAbs().maxCoeff());
+  });
 }
 
 BtfCompressionOptions Options(BtfFactorLayout layout, BtfFactorColor color, int rank, double budget = 0.01) {
@@ -262,13 +268,9 @@ TEST(BtfCompression, RejectsNonFiniteValuesNamingTheView) {
 
 // Largest |a - b| of the two factorizations' reconstructions over every value.
 double MaxAbsDifference(const FactoredBtf& a, const FactoredBtf& b) {
-  double worst = 0.0;
-  for (int v = 0; v < a.view_count(); ++v)
-    for (int l = 0; l < a.light_count(); ++l)
-      for (int y = 0; y < a.height; ++y)
-        for (int x = 0; x < a.width; ++x)
-          worst = std::max(worst, static_cast<double>((a.Reconstruct(x, y, v, l) - b.Reconstruct(x, y, v, l)).cwiseAbs().maxCoeff()));
-  return worst;
+  return MaxOverValues(a, [&](int x, int y, int v, int l) {
+    return static_cast<double>((a.Reconstruct(x, y, v, l) - b.Reconstruct(x, y, v, l)).cwiseAbs().maxCoeff());
+  });
 }
 
 FullBtf RandomSmoothBtf(int size, const SamplingSet& views, const SamplingSet& lights, unsigned seed) {
