@@ -1,5 +1,6 @@
 #include "processing/space_time_analyzer.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -24,7 +25,11 @@ SpaceTimeAnalyzer::SpaceTimeAnalyzer(int width, int height, int frame_count, Spa
   }
   if (const auto problem = options.Check(); !problem.empty()) throw Error("space-time analysis: " + problem);
   const std::size_t n = static_cast<std::size_t>(width) * height;
-  best_.assign(n, -1.0f);
+  // Maxima below half the threshold are never tracked: the pixel is unknown
+  // whatever they were, and the sensor noise of dark pixels, which keeps
+  // setting new maxima early in a sweep, then takes the fast path. A peak
+  // at or above the threshold is found exactly as without the floor.
+  best_.assign(n, 0.5f * options_.threshold);
   best_index_.assign(n, -1);
   last_.assign(n, 0.0f);
   before_.assign(n, 0.0f);
@@ -51,29 +56,49 @@ void SpaceTimeAnalyzer::AddFrame(int index, const Image& frame) {
   const int previous = last_index_;
   const std::size_t n = best_.size();
   float* best = best_.data();
-  std::int32_t* best_index = best_index_.data();
   float* last = last_.data();
-  for (std::size_t p = 0; p < n; ++p) {
-    const float v = values[p];
-    if (v > best[p]) [[unlikely]] {
-      best[p] = v;
-      best_index[p] = index;
-      before_[p] = last[p];
-      before_index_[p] = previous;
-      after_index_[p] = -1;
-    } else if (best_index[p] == previous) [[unlikely]] {
-      after_[p] = v;
-      after_index_[p] = index;
+  // The frame after each maximum: only the pixels listed as having taken a
+  // new maximum in the previous frame (the stripe's rising edge), so the
+  // common pixel never reads its maximum's frame index.
+  for (const std::uint32_t p : new_maximum_) {
+    after_[p] = values[p];
+    after_index_[p] = index;
+  }
+  new_maximum_.clear();
+  // Blocks of pixels with neither a new maximum nor a saturated value (the
+  // common case: the stripe covers few pixels of a frame) only record the
+  // latest value; the test over a block vectorizes.
+  constexpr std::size_t kBlock = 32;
+  for (std::size_t b = 0; b < n; b += kBlock) {
+    const std::size_t end = std::min(n, b + kBlock);
+    int eventful = 0;
+    for (std::size_t p = b; p < end; ++p) {
+      eventful |= static_cast<int>(values[p] > best[p]) | static_cast<int>(values[p] >= saturation);
     }
-    if (v >= saturation) [[unlikely]] {
-      // A run continues when the previous frame was saturated too.
-      if (!(last[p] >= saturation) || previous < 0) run_start_[p] = index;
-      if (saturated_first_[p] < 0 || index - run_start_[p] > saturated_last_[p] - saturated_first_[p]) {
-        saturated_first_[p] = run_start_[p];
-        saturated_last_[p] = index;
+    if (!eventful) [[likely]] {
+      std::copy(values + b, values + end, last + b);
+      continue;
+    }
+    for (std::size_t p = b; p < end; ++p) {
+      const float v = values[p];
+      if (v > best[p]) {
+        best[p] = v;
+        best_index_[p] = index;
+        before_[p] = last[p];
+        before_index_[p] = previous;
+        after_index_[p] = -1;
+        new_maximum_.push_back(static_cast<std::uint32_t>(p));
       }
+      if (v >= saturation) {
+        // A run continues when the previous frame was saturated too.
+        if (!(last[p] >= saturation) || previous < 0) run_start_[p] = index;
+        if (saturated_first_[p] < 0 || index - run_start_[p] > saturated_last_[p] - saturated_first_[p]) {
+          saturated_first_[p] = run_start_[p];
+          saturated_last_[p] = index;
+        }
+      }
+      last[p] = v;
     }
-    last[p] = v;
   }
   last_index_ = index;
   ++frames_added_;
@@ -89,7 +114,7 @@ SweepAnalysis SpaceTimeAnalyzer::Result() const {
   result.peak_value.assign(n, 0.0f);
   result.planes.resize(frame_count_);
   for (std::size_t p = 0; p < n; ++p) {
-    result.peak_value[p] = std::max(best_[p], 0.0f);
+    result.peak_value[p] = best_index_[p] >= 0 ? best_[p] : 0.0f;
     if (best_[p] < options_.threshold) continue;
     double t = best_index_[p];
     if (best_[p] >= options_.saturation && saturated_first_[p] >= 0) {

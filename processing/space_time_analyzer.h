@@ -22,8 +22,12 @@ namespace mesocap {
 
 struct SpaceTimeOptions {
   // Peak brightness below this (fraction of full scale) is "unknown". The
-  // stripe peaks at 0.4-0.9 on the simulated rigs; noise stays under 0.01.
-  float threshold = 0.05f;
+  // stripe peaks at 0.4-0.9 on the simulated rigs on surfaces facing the
+  // laser, but at 0.005-0.05 where it grazes a round thread; the shipped
+  // rigs' 12-bit cameras (5-8 e- read noise of 20000) keep a dark pixel
+  // under 0.001, so 0.005 is 20 codes. An 8-bit or noisier camera needs more
+  // (one 8-bit code is 0.004): `process mdf --threshold`.
+  float threshold = 0.005f;
   // Values at or above this are saturated: the peak time is the middle of
   // the longest saturated run (a clipped profile has no vertex to fit).
   float saturation = 0.999f;
@@ -32,7 +36,8 @@ struct SpaceTimeOptions {
 };
 
 // The analysis of one sweep of one camera: per pixel (row-major) the peak
-// time in frames (NaN where unknown) and the peak value, plus each frame's
+// time in frames (NaN where unknown) and the peak value (0 where it never
+// exceeded half the threshold), plus each frame's
 // laser plane (invalid where no stripe line was found or the frame was
 // dropped).
 struct SweepAnalysis {
@@ -60,9 +65,11 @@ class SpaceTimeAnalyzer {
 
  private:
   // Per pixel, whatever the sweep length (structure of arrays): the arrays
-  // every frame touches (the brightest value so far and its frame, the
-  // latest value) apart from those only a new maximum, the frame after it or
-  // a saturated value touch, so the common pixel costs 16 bytes of traffic.
+  // every frame touches (the brightest value so far, the latest value)
+  // apart from those only a new maximum, the frame after it or a saturated
+  // value touch, so the common pixel reads its value and 8 bytes of state
+  // and writes 4. The pixels with a new maximum in the latest frame are
+  // listed (few: the stripe's rising edge), for their next frame's value.
   std::vector<float> best_;
   std::vector<std::int32_t> best_index_;
   std::vector<float> last_;
@@ -70,6 +77,7 @@ class SpaceTimeAnalyzer {
   std::vector<std::int32_t> before_index_, after_index_;
   std::vector<std::int32_t> run_start_;                         // current saturated run
   std::vector<std::int32_t> saturated_first_, saturated_last_;  // longest saturated run
+  std::vector<std::uint32_t> new_maximum_;  // pixels whose maximum is the latest frame
   int width_;
   int height_;
   int frame_count_;

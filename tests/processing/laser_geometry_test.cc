@@ -157,14 +157,15 @@ TEST_F(LaserGeometryTest, IllConditionedTriangulationIsRejectedNotWild) {
   };
   const RigidTransform identity = WorldFromSample(calibration_.turntable, 0.0);
   TriangulationOptions options;
-  for (double sine : {0.5, 0.2, 0.06}) {
+  const double limit = options.min_ray_plane_sine;
+  for (double sine : {0.5, 0.2, 1.3 * limit}) {
     a.planes = {plane_with_sine(sine), plane_with_sine(sine)};
     const auto points = TriangulateSweep(a, rays, identity, options);
     const Eigen::Vector3f q = points[static_cast<std::size_t>(y) * a.width + x];
     ASSERT_TRUE(q.allFinite()) << sine;
     EXPECT_LT((q.cast<double>() - on_ray).norm(), 1e-6);
   }
-  for (double sine : {0.04, 0.001, 0.0}) {
+  for (double sine : {0.7 * limit, 0.001, 0.0}) {
     a.planes = {plane_with_sine(sine), plane_with_sine(sine)};
     const auto points = TriangulateSweep(a, rays, identity, options);
     EXPECT_FALSE(points[static_cast<std::size_t>(y) * a.width + x].allFinite()) << sine;

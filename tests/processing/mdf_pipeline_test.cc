@@ -75,22 +75,23 @@ TEST(MdfPipelineTest, AcceptanceBlocksSmallRig) {
   // Cameras at 11.25 and 56.25 degrees, all eight laser locations.
   const ScanResult r = RunSimulatedScan(SmallRig("blocks", {0, 2}, {}));
   const MdfErrorRow row = Row(r, 60);
-  EXPECT_LE(row.median_texels, 0.25);  // issue 4 acceptance
-  EXPECT_GE(row.coverage, 0.98);       // issue 4 acceptance
-  // Issue 4 asks p95 <= 1 texel; measured 1.2-2.0: errors concentrate on
-  // the blocks' edges, where a pixel (0.25 mm) straddles two surfaces and
-  // the edge is placed to half a pixel. Not met yet; guarded at its level.
-  EXPECT_LE(row.p95_texels, 2.2);
+  // Issue 4 acceptance; measured median 0.018, p95 0.38, coverage 0.996.
+  EXPECT_LE(row.median_texels, 0.25);
+  EXPECT_LE(row.p95_texels, 1.0);
+  EXPECT_GE(row.coverage, 0.98);
 }
 
 TEST(MdfPipelineTest, AcceptanceWeaveSmallRig) {
   const ScanResult r = RunSimulatedScan(SmallRig("weave", {0, 2}, {}));
   const MdfErrorRow row = Row(r, 60);
-  EXPECT_LE(row.median_texels, 0.25);  // issue 4 acceptance
-  // Issue 4 asks coverage >= 98 % and p95 <= 1 texel; measured ~95 % and
-  // ~2.8 texels (thin crossing threads, many occluding edges). Not met yet.
-  EXPECT_GE(row.coverage, 0.93);
-  EXPECT_LE(row.p95_texels, 3.5);
+  // Issue 4 acceptance; measured median 0.037, coverage 0.981.
+  EXPECT_LE(row.median_texels, 0.25);
+  EXPECT_GE(row.coverage, 0.98);
+  // Issue 4 asks p95 <= 1 texel; measured 1.33 (1.07 at 11 degrees, 2.5 at
+  // 56): nearly every texel off by more than a texel is next to an occluding
+  // edge of a thread, placed to half a camera pixel (0.4 texel) while the
+  // depth jumps by up to 17 texels. Not met; guarded at its level.
+  EXPECT_LE(row.p95_texels, 1.5);
 }
 
 TEST(MdfPipelineTest, GrazingViewStaysBounded) {
@@ -127,8 +128,8 @@ TEST(MdfPipelineTest, InterreflectionGhostPeaks) {
   const auto [row, base] = AgainstBaseline(s);
   // The weaker ghost never wins the peak search, so the bulk is unchanged;
   // where one pixel sees two surfaces ~10 frames apart, the ghost of the
-  // first can outshine the second: the edges degrade (measured p95 1.95
-  // against 1.17 texels without the ghost).
+  // first can outshine the second: the edges degrade (measured p95 0.58
+  // against 0.45 texels without the ghost).
   EXPECT_LE(row.median_texels, base.median_texels + 0.02);
   EXPECT_GE(row.coverage, base.coverage - 0.01);
   EXPECT_LE(row.p95_texels, base.p95_texels + 1.0);
@@ -140,7 +141,7 @@ TEST(MdfPipelineTest, DroppedFrames) {
   const auto [row, base] = AgainstBaseline(s);
   // The planes of the dropped frames are bridged from their neighbours and
   // the peaks next to them interpolated over the real gap: measured equal
-  // coverage and p95 1.164 against 1.167 texels.
+  // coverage and p95 0.38 against 0.45 texels.
   EXPECT_LE(row.median_texels, base.median_texels + 0.01);
   EXPECT_GE(row.coverage, base.coverage - 0.002);
   EXPECT_LE(row.p95_texels, base.p95_texels + 0.1);
