@@ -50,7 +50,7 @@ BENCHMARK(ErrorAgainstLocations)->Arg(1)->Arg(2)->Arg(4)->Arg(8)->Iterations(1)-
 // the same camera; noise off / on (the rig's default: 20000 e- full well,
 // 5 e- read noise, 12 bit), and the small rig's cameras at half, full and
 // double resolution (image size and focal length scaled together, so the
-// field of view is the same and a pixel covers 0.5, 0.25, 0.125 mm).
+// field of view is the same and a pixel covers 0.25, 0.125, 0.0625 mm).
 void ErrorAgainstNoiseAndResolution(benchmark::State& state) {
   const bool noise = state.range(0) != 0;
   const double scale = state.range(1) / 100.0;
@@ -77,7 +77,8 @@ void ErrorAgainstNoiseAndResolution(benchmark::State& state) {
   std::filesystem::remove(file);
   const auto row = mesocap::EvaluateMdfViews(r.truth, r.estimate, r.texel_mm, {0, 90, true});
   state.counters["noise"] = noise;
-  state.counters["pixel_mm"] = 0.25 / scale;
+  // A pixel's footprint on the sample at normal incidence: distance / focal length.
+  state.counters["pixel_mm"] = rig["cameras"][1]["distance_mm"].get<double>() / rig["cameras"][1]["focal_px"].get<double>();
   state.counters["median_texels"] = row.median_texels;
   state.counters["p95_texels"] = row.p95_texels;
   state.counters["coverage"] = row.coverage;
