@@ -47,6 +47,76 @@ TEST(InterpolatePeakTest, ExactForGaussianSamplesAndUnevenSpacing) {
   EXPECT_EQ(InterpolatePeak(4, 1.0, 5, 1.0, 6, 1.0), 5.0);
 }
 
+// The streaming analyzer against the same rule applied to whole stored
+// sequences: the first brightest frame, interpolated with the frames
+// delivered just before and after it; the middle of the first longest
+// saturated run; unknown below the threshold. Random pixels mix noise,
+// pulses, a brighter second peak after a dip, saturated plateaus and
+// maxima in consecutive frames; 120 pixels leave a partial 32-pixel block,
+// and dropped frames make "before" and "after" span gaps.
+TEST(SpaceTimeAnalyzerTest, StreamingMatchesTheWholeSequenceRule) {
+  constexpr int kWidth = 40, kHeight = 3, kCount = 50, kPixels = kWidth * kHeight;
+  const SpaceTimeOptions options;
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  std::vector<std::vector<float>> values(kPixels, std::vector<float>(kCount));
+  for (int p = 0; p < kPixels; ++p) {
+    const int kind = p % 5;
+    for (int f = 0; f < kCount; ++f) {
+      double v = 0.002 * uniform(rng);  // dark-pixel noise, below half the threshold
+      if (kind >= 1) v += 0.6 * std::exp(-std::pow(f - (10 + p % 30), 2) / 4.0);
+      if (kind == 2) v += 0.8 * std::exp(-std::pow(f - (25 + p % 20), 2) / 2.0);  // brighter, after a dip
+      if (kind == 3 && f >= 20 && f < 20 + p % 4) v = 1.0;                     // a saturated run
+      if (kind == 4) v = 0.003 + 0.01 * uniform(rng);                              // around the threshold
+      values[p][f] = static_cast<float>(std::min(1.0, v));
+    }
+  }
+  const std::vector<int> delivered = [] {
+    std::vector<int> d;
+    for (int f = 0; f < kCount; ++f) {
+      if (f != 7 && f != 26 && f != 27) d.push_back(f);
+    }
+    return d;
+  }();
+  SpaceTimeAnalyzer analyzer(kWidth, kHeight, kCount, options);
+  for (int f : delivered) {
+    Image frame(kWidth, kHeight, 1);
+    for (int p = 0; p < kPixels; ++p) frame.data()[p] = values[p][f];
+    analyzer.AddFrame(f, frame);
+  }
+  const SweepAnalysis a = analyzer.Result();
+  for (int p = 0; p < kPixels; ++p) {
+    std::size_t k_best = 0;
+    for (std::size_t k = 1; k < delivered.size(); ++k) {
+      if (values[p][delivered[k]] > values[p][delivered[k_best]]) k_best = k;
+    }
+    const float best = values[p][delivered[k_best]];
+    if (best < options.threshold) {
+      EXPECT_TRUE(std::isnan(a.peak_time[p])) << p;
+      continue;
+    }
+    double expected = delivered[k_best];
+    int run_first = -1, run_last = -2;
+    for (std::size_t k = 0; k < delivered.size();) {
+      std::size_t e = k;
+      while (e < delivered.size() && values[p][delivered[e]] >= options.saturation) ++e;
+      if (e > k && static_cast<int>(e - k) > run_last - run_first + 1) {
+        run_first = static_cast<int>(k);
+        run_last = static_cast<int>(e) - 1;
+      }
+      k = e > k ? e : k + 1;
+    }
+    if (best >= options.saturation) {
+      expected = 0.5 * (delivered[run_first] + delivered[run_last]);
+    } else if (k_best > 0 && k_best + 1 < delivered.size()) {
+      const int b = delivered[k_best - 1], m = delivered[k_best], n = delivered[k_best + 1];
+      expected = InterpolatePeak(b, values[p][b], m, values[p][m], n, values[p][n]);
+    }
+    EXPECT_NEAR(a.peak_time[p], expected, 1e-5) << "pixel " << p;
+    EXPECT_EQ(a.peak_value[p], best) << "pixel " << p;
+  }
+}
+
 TEST(SpaceTimeAnalyzerTest, SubFramePeakTimeWithNoise) {
   std::mt19937_64 rng(1);
   SpaceTimeAnalyzer analyzer(kW, kH, kFrames);
