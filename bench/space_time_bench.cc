@@ -56,10 +56,14 @@ std::vector<mesocap::Image> StripeFrames(Sensor sensor) {
   return frames;
 }
 
+// Each sensor's frames are made on first use only.
 const std::vector<mesocap::Image>& Frames(Sensor sensor = kPaperCamera) {
-  static const std::vector<mesocap::Image> paper = StripeFrames(kPaperCamera);
+  if (sensor == kPaperCamera) {
+    static const std::vector<mesocap::Image> paper = StripeFrames(kPaperCamera);
+    return paper;
+  }
   static const std::vector<mesocap::Image> heavy = StripeFrames(kHeavyNoise);
-  return sensor == kPaperCamera ? paper : heavy;
+  return heavy;
 }
 
 void PlainCopy(benchmark::State& state) {
