@@ -69,16 +69,17 @@ std::vector<PlannedStep> MakeCapturePlan(const drivers::RigDescription& rig, con
         tilts.push_back(PlanDegrees(drivers::LaserTiltForOffset(laser, loc.mount, offset)));
       }
       const std::string stem = "t" + std::to_string(ti) + "_loc" + std::to_string(li);
-      plan.push_back(Step("laser-sweep-" + stem, StepKind::kLaserSweep,
-                          {{"turntable_index", ti},
-                           {"turntable_deg", PlanDegrees(tt)},
-                           {"location", li},
-                           {"mount", loc.mount},
-                           {"arc_deg", PlanDegrees(loc.arc_angle_rad)},
-                           {"offset_mm", offsets},
-                           {"tilt_deg", tilts},
-                           {"files", CameraFiles(rig, "laser/" + stem, ".tif")}},
-                          recording));
+      const bool analysis = laser.sweep_storage == drivers::LaserDescription::SweepStorage::kAnalysis;
+      json params = {{"turntable_index", ti},
+                     {"turntable_deg", PlanDegrees(tt)},
+                     {"location", li},
+                     {"mount", loc.mount},
+                     {"arc_deg", PlanDegrees(loc.arc_angle_rad)},
+                     {"offset_mm", offsets},
+                     {"tilt_deg", tilts},
+                     {"files", CameraFiles(rig, "laser/" + stem, analysis ? ".sweep.json" : ".tif")}};
+      if (analysis) params["stored_as"] = "analysis";
+      plan.push_back(Step("laser-sweep-" + stem, StepKind::kLaserSweep, std::move(params), recording));
     }
   }
   return plan;

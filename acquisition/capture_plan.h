@@ -12,7 +12,10 @@
 // Files, relative to the session folder:
 //   laser_calibration/loc<li>_h<hi>_<cam>.png   16-bit grey
 //   btf/t<ti>_a<ai>_l<lamp>_<cam>.png           16-bit RGB
-//   laser/t<ti>_loc<li>_<cam>.tif               16-bit grey frame sequence
+//   laser/t<ti>_loc<li>_<cam>.tif               16-bit grey frame sequence, or
+//   laser/t<ti>_loc<li>_<cam>.sweep.json        its space-time analysis (+ .exr)
+//                                               where the rig's sweep_storage
+//                                               is "analysis"
 // The turntable-major order lets the rig turn the sample once per angle.
 #pragma once
 

@@ -15,6 +15,7 @@
 #include "core/image_io.h"
 #include "core/progress.h"
 #include "drivers/device_error.h"
+#include "processing/laser_sweep.h"
 
 namespace mesocap::acquisition {
 namespace {
@@ -59,6 +60,11 @@ class SessionRun {
         throw Error(dir_.string() + ": step \"" + step.id + "\" is of kind \"other\", which a capture cannot run");
       }
       for (const json& f : step.params.at("files")) CameraFor(step, f);
+      if (step.kind == StepKind::kLaserSweep && step.params.value("stored_as", "frames") == "analysis" &&
+          !options_.calibration) {
+        throw Error(dir_.string() + ": step \"" + step.id +
+                    "\" stores a sweep analysis, which needs the rig's calibration (none was given)");
+      }
     }
     report_.steps_done_before = journal_.records().size();
     // The journal's lock keeps other writers out, so what looks like a
@@ -222,12 +228,19 @@ class SessionRun {
         MountLaser(p.at("mount").get<int>());
         const json& tilts = p.at("tilt_deg");
         Tilt(tilts.at(0).get<double>());
-        rig_.laser->SetEnabled(true);
-        // Frames go to disk as they arrive: a sweep is never in memory.
+        // Frames go to disk, or into the analysis, as they arrive: a sweep
+        // is never in memory.
         std::vector<std::unique_ptr<FrameSequenceWriter>> writers;
-        for (const json& tilt : tilts) {
-          Tilt(tilt.get<double>());
+        std::vector<std::unique_ptr<LaserSweepProcessor>> analyses;
+        if (p.value("stored_as", "frames") == "analysis") analyses = SweepProcessors(step);
+        rig_.laser->SetEnabled(true);
+        for (std::size_t f = 0; f < tilts.size(); ++f) {
+          Tilt(tilts[f].get<double>());
           const std::vector<Image> images = GrabAll(step);
+          if (!analyses.empty()) {
+            for (std::size_t i = 0; i < images.size(); ++i) analyses[i]->AddFrame(static_cast<int>(f), Grey(images[i]));
+            continue;
+          }
           if (writers.empty()) {
             for (std::size_t i = 0; i < images.size(); ++i) {
               writers.push_back(std::make_unique<FrameSequenceWriter>(FilePath(files[i]), images[i].width(),
@@ -238,11 +251,34 @@ class SessionRun {
         }
         rig_.laser->SetEnabled(false);
         for (auto& w : writers) w->Commit();
+        for (std::size_t i = 0; i < analyses.size(); ++i) WriteSweepAnalysis(FilePath(files[i]), analyses[i]->Finish());
         break;
       }
       case StepKind::kOther:
         break;  // refused in the constructor
     }
+  }
+
+  // One streaming analysis per file of the sweep step, in its files' order.
+  // The laser planes come from this session's calibration plates, which
+  // the plan captures before any sweep.
+  std::vector<std::unique_ptr<LaserSweepProcessor>> SweepProcessors(const PlannedStep& step) {
+    const fs::path manifest_file = dir_ / kSessionManifestName;
+    if (!sweep_geometry_) {
+      sweep_rig_ = drivers::ParseRigDescription(manifest_.rig, manifest_file);
+      sweep_geometry_ = std::make_unique<SessionSweepGeometry>(dir_, manifest_, sweep_rig_, *options_.calibration,
+                                                               options_.sweep_geometry);
+    }
+    const std::size_t index = static_cast<std::size_t>(&step - manifest_.plan.data());
+    const SweepStep sweep = ParseSweepStep(step, index, sweep_rig_, manifest_file);
+    std::vector<std::unique_ptr<LaserSweepProcessor>> processors;
+    for (const json& f : step.params.at("files")) {
+      const int camera = sweep_geometry_->CameraIndex(f.at("camera").get<std::string>());
+      processors.push_back(std::make_unique<LaserSweepProcessor>(sweep_geometry_->rays(camera),
+                                                                 sweep_geometry_->Geometry(sweep, camera),
+                                                                 options_.sweep_geometry.line, options_.space_time));
+    }
+    return processors;
   }
 
   void Journal(const PlannedStep& step) {
@@ -266,6 +302,9 @@ class SessionRun {
   std::map<std::string, std::size_t> camera_index_;
   std::map<std::string, std::uint64_t> next_sequence_;
   CaptureRunReport report_;
+  // Made at the first sweep that stores its analysis.
+  drivers::RigDescription sweep_rig_;
+  std::unique_ptr<SessionSweepGeometry> sweep_geometry_;
 };
 
 }  // namespace
@@ -274,6 +313,8 @@ CheckResult CaptureRunnerOptions::Check() const {
   if (frame_timeout.count() <= 0) return "frame_timeout must be positive";
   if (move_timeout.count() <= 0) return "move_timeout must be positive";
   if (retries < 0 || retries > 100) return "retries must be 0..100";
+  if (const auto problem = sweep_geometry.Check(); !problem.empty()) return problem;
+  if (const auto problem = space_time.Check(); !problem.empty()) return problem;
   return {};
 }
 

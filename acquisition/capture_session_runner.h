@@ -19,9 +19,12 @@
 #include <cstdint>
 #include <filesystem>
 
+#include "core/calibration.h"
 #include "core/error.h"
 #include "drivers/rig.h"
 #include "drivers/rig_operator.h"
+#include "processing/session_sweeps.h"
+#include "processing/space_time_analyzer.h"
 
 namespace mesocap::acquisition {
 
@@ -30,6 +33,14 @@ struct CaptureRunnerOptions {
   std::chrono::milliseconds move_timeout{120000};
   int retries = 3;
   bool show_progress = true;
+  // The rig's calibration, needed when the plan stores sweep analyses
+  // ("stored_as": "analysis"): each sweep is then streamed through line
+  // detection and space-time analysis (processing/laser_sweep.h) as its
+  // frames arrive, with the laser planes from the session's own
+  // calibration plates, and only the analysis is written. Not owned.
+  const Calibration* calibration = nullptr;
+  SweepGeometryOptions sweep_geometry;
+  SpaceTimeOptions space_time;
 
   CheckResult Check() const;
 };

@@ -124,6 +124,9 @@ RigDescription ParseRigDescription(const nlohmann::json& json, const std::filesy
     laser.Fail("calibration_heights_mm", "expected two different non-negative heights");
   }
   l.calibration_heights_mm = {heights[0], heights[1]};
+  if (laser.Has("sweep_storage") && laser.Choice("sweep_storage", {"frames", "analysis"}) == "analysis") {
+    l.sweep_storage = LaserDescription::SweepStorage::kAnalysis;
+  }
   return rig;
 }
 

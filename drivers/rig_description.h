@@ -74,6 +74,11 @@ struct LaserDescription {
   double stripe_sigma_mm = 0.0;        // Gaussian profile of the stripe, across it
   double power = 1.0;                  // peak stripe irradiance, relative to lamps
   std::array<double, 2> calibration_heights_mm{};  // Sec. 3.2: two planes of different height
+  // What a capture keeps of a sweep: its frames, or only the space-time
+  // analysis made while they arrive ("sweep_storage": "analysis"; a
+  // paper-size session's frames would be 1.5 TB).
+  enum class SweepStorage { kFrames, kAnalysis };
+  SweepStorage sweep_storage = SweepStorage::kFrames;
 };
 
 struct RigDescription {

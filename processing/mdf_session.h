@@ -14,21 +14,18 @@
 #include "core/progress.h"
 #include "processing/displacement_image.h"
 #include "processing/displacement_merge.h"
-#include "processing/laser_line.h"
+#include "processing/session_sweeps.h"
 #include "processing/space_time_analyzer.h"
 
 namespace mesocap {
 
 struct MdfProcessingOptions {
   int texture_size = 64;  // texels per side (the ground truth's default)
-  LaserLineOptions line;
+  // The stripe line detection and the reference region (laser planes).
+  SweepGeometryOptions geometry;
   SpaceTimeOptions space_time;
   TriangulationOptions triangulation;
   MergeOptions merge;
-  // The reference region: the turntable outside the sample square grown by
-  // this margin, within reference_extent x the sample size of the centre.
-  double reference_margin_mm = 1.0;
-  double reference_extent = 1.5;
   // Laser locations to use (indices into the rig's list); empty: all.
   std::vector<int> locations;
 

@@ -325,13 +325,33 @@ Image CameraRenderer::Render(const SimulatedRigState& state, int camera) {
   return image;
 }
 
+namespace {
+
+// Beyond 8 sigma the Gaussian is below 1.3e-14: nothing a 16-bit sensor sees.
+constexpr double kStripeCutoffSigmas = 8.0;
+// Tilt ranges are padded by this (radians) against the rounding of acos and
+// of their float storage; Frame still tests the distance itself, so the
+// padding changes which samples are visited, never a value.
+constexpr double kTiltRangePadding = 1e-6;
+// Ranges wider than this (radians: a sweep's stripe covers a point for ~3
+// milliradians on the shipped rigs) are not binned: points nearly in every
+// plane of the sweep, near the tilt axis.
+constexpr double kMaxBinnedSpan = 0.02;
+constexpr std::size_t kTiltBins = 1 << 16;
+
+// x in [-pi, pi).
+double WrapAngle(double x) {
+  const double two_pi = 2.0 * std::numbers::pi;
+  x = std::fmod(x + std::numbers::pi, two_pi);
+  if (x < 0.0) x += two_pi;
+  return x - std::numbers::pi;
+}
+
+}  // namespace
+
 LaserSweepRenderer::LaserSweepRenderer(const CameraRenderer& renderer, const CameraView& view, int mount,
                                        double arc_rad)
-    : width_(view.width),
-      height_(view.height),
-      samples_per_pixel_(view.samples_per_pixel),
-      sigma_mm_(renderer.rig().laser.stripe_sigma_mm),
-      samples_(view.samples.size()) {
+    : width_(view.width), height_(view.height), sigma_mm_(renderer.rig().laser.stripe_sigma_mm) {
   const LaserMountCalibration& m = renderer.calibration().laser_mounts.at(mount);
   const Eigen::Matrix3d arc = RotationZ(arc_rad);
   source_ = arc * m.source_mm;
@@ -342,19 +362,35 @@ LaserSweepRenderer::LaserSweepRenderer(const CameraRenderer& renderer, const Cam
   const double gain = ExposureSeconds(renderer.rig().cameras.at(view.camera)) * kSignalPerRadianceSecond *
                       renderer.LaserPeakIrradiance();
   const Eigen::Vector3d centre = renderer.CameraCentre(view.camera);
-  tbb::parallel_for(std::size_t{0}, view.samples.size(), [&](std::size_t i) {
-    const ViewSample& s = view.samples[i];
-    StripeSample& out = samples_[i];
-    Place(s.point, &out);
-    if (s.surface == ViewSample::Surface::kNothing) return;
-    const Eigen::Vector3d l = (source_ - s.point).normalized();
-    const double n_dot_l = s.normal.dot(l);
-    if (n_dot_l <= 0.0 || !renderer.Lit(view, s, source_)) return;
-    const Eigen::Vector3d to_camera = (centre - s.point).normalized();
-    out.weight = static_cast<float>(Grey(s.reflectance.Evaluate(s.normal, l, to_camera)) * n_dot_l * gain);
+  // Per row, the row's lit samples in pixel order, joined in order after.
+  std::vector<std::vector<LitSample>> rows(view.height);
+  tbb::parallel_for(0, view.height, [&](int y) {
+    for (int x = 0; x < view.width; ++x) {
+      const std::size_t pixel = static_cast<std::size_t>(y) * view.width + x;
+      for (int k = 0; k < view.samples_per_pixel; ++k) {
+        const ViewSample& s = view.samples[pixel * view.samples_per_pixel + k];
+        if (s.surface == ViewSample::Surface::kNothing) continue;
+        const Eigen::Vector3d l = (source_ - s.point).normalized();
+        const double n_dot_l = s.normal.dot(l);
+        if (n_dot_l <= 0.0 || !renderer.Lit(view, s, source_)) continue;
+        const Eigen::Vector3d to_camera = (centre - s.point).normalized();
+        StripeSample stripe;
+        Place(s.point, &stripe);
+        // The pixel averages its samples (a box filter).
+        stripe.weight = static_cast<float>(Grey(s.reflectance.Evaluate(s.normal, l, to_camera)) * n_dot_l * gain /
+                                           view.samples_per_pixel);
+        AddLit(stripe, static_cast<std::uint32_t>(pixel), &rows[y]);
+      }
+    }
   });
+  std::vector<LitSample> lit;
+  for (auto& row : rows) {
+    lit.insert(lit.end(), row.begin(), row.end());
+    std::vector<LitSample>().swap(row);
+  }
   const int rays = renderer.options().interreflection_rays_per_pixel;
-  if (rays > 0) AddBounces(renderer, view, gain, rays);
+  if (rays > 0) AddBounces(renderer, view, gain, rays, &lit);
+  Bin(std::move(lit));
 }
 
 void LaserSweepRenderer::Place(const Eigen::Vector3d& point, StripeSample* out) const {
@@ -364,12 +400,51 @@ void LaserSweepRenderer::Place(const Eigen::Vector3d& point, StripeSample* out) 
   out->c = k_k_n0_.dot(r);
 }
 
+void LaserSweepRenderer::AddLit(const StripeSample& s, std::uint32_t pixel, std::vector<LitSample>* lit) const {
+  if (!(s.weight > 0.0f)) return;
+  const double pi = std::numbers::pi;
+  const double cutoff = kStripeCutoffSigmas * sigma_mm_;
+  auto add = [&](double begin, double end) {
+    if (end - begin >= 2.0 * pi) {
+      lit->push_back({s, pixel, static_cast<float>(-pi), static_cast<float>(pi)});
+      return;
+    }
+    const double span = end - begin;
+    begin = WrapAngle(begin);
+    end = begin + span;
+    if (end <= pi) {
+      lit->push_back({s, pixel, static_cast<float>(begin), static_cast<float>(end)});
+    } else {  // across +-pi: two ranges
+      lit->push_back({s, pixel, static_cast<float>(begin), static_cast<float>(pi)});
+      lit->push_back({s, pixel, static_cast<float>(-pi), static_cast<float>(end - 2.0 * pi)});
+    }
+  };
+  // d(t) = a cos t + b sin t + c = r cos(t - phi) + c; |d| < cutoff where
+  // cos(t - phi) lies in (lo, hi).
+  const double r = std::hypot(s.a, s.b);
+  if (!(r > 1e-12)) {
+    if (std::abs(s.c) < cutoff) add(-pi, pi);
+    return;
+  }
+  const double lo = (-cutoff - s.c) / r, hi = (cutoff - s.c) / r;
+  if (lo >= 1.0 || hi <= -1.0) return;  // the plane never comes within the cutoff
+  const double phi = std::atan2(s.b, s.a);
+  const double near = hi >= 1.0 ? 0.0 : std::acos(hi);  // |t - phi| in (near, far)
+  const double far = lo <= -1.0 ? pi : std::acos(lo);
+  const double pad = kTiltRangePadding;
+  if (near <= pad) {
+    add(phi - far - pad, phi + far + pad);
+  } else {
+    add(phi + near - pad, phi + far + pad);
+    add(phi - far - pad, phi - near + pad);
+  }
+}
+
 void LaserSweepRenderer::AddBounces(const CameraRenderer& renderer, const CameraView& view, double gain,
-                                    int rays_per_pixel) {
+                                    int rays_per_pixel, std::vector<LitSample>* lit) const {
   const Eigen::Vector3d centre = renderer.CameraCentre(view.camera);
-  // Per row: the bounce samples and each pixel's count, joined in order after.
-  std::vector<std::vector<StripeSample>> row_bounces(height_);
-  std::vector<std::vector<std::uint32_t>> row_counts(height_, std::vector<std::uint32_t>(width_, 0));
+  // Per row: the bounce samples in pixel order, joined in order after.
+  std::vector<std::vector<LitSample>> rows(height_);
   tbb::parallel_for(0, height_, [&](int y) {
     for (int x = 0; x < width_; ++x) {
       const std::size_t pixel = static_cast<std::size_t>(y) * width_ + x;
@@ -377,7 +452,7 @@ void LaserSweepRenderer::AddBounces(const CameraRenderer& renderer, const Camera
       std::uniform_real_distribution<double> uniform(0.0, 1.0);
       for (int k = 0; k < rays_per_pixel; ++k) {
         const double u1 = uniform(rng), u2 = uniform(rng);
-        const ViewSample& s = view.samples[pixel * samples_per_pixel_ + k % samples_per_pixel_];
+        const ViewSample& s = view.samples[pixel * view.samples_per_pixel + k % view.samples_per_pixel];
         if (s.surface != ViewSample::Surface::kSample) continue;
         // Cosine-distributed about the normal (pdf cos / pi).
         const Eigen::Vector3d& n = s.normal;
@@ -402,45 +477,69 @@ void LaserSweepRenderer::AddBounces(const CameraRenderer& renderer, const Camera
         StripeSample bounce;
         Place(q->point, &bounce);
         bounce.weight = static_cast<float>(weight);
-        row_bounces[y].push_back(bounce);
-        ++row_counts[y][x];
+        AddLit(bounce, static_cast<std::uint32_t>(pixel), &rows[y]);
       }
     }
   });
-  bounce_begin_.assign(static_cast<std::size_t>(width_) * height_ + 1, 0);
-  std::size_t p = 0;
-  for (int y = 0; y < height_; ++y) {
-    bounces_.insert(bounces_.end(), row_bounces[y].begin(), row_bounces[y].end());
-    for (int x = 0; x < width_; ++x, ++p) bounce_begin_[p + 1] = bounce_begin_[p] + row_counts[y][x];
+  for (const auto& row : rows) lit->insert(lit->end(), row.begin(), row.end());
+}
+
+void LaserSweepRenderer::Bin(std::vector<LitSample> lit) {
+  std::vector<LitSample> binned;
+  double first = kInfinity, last = -kInfinity;
+  for (LitSample& s : lit) {
+    if (s.end - s.begin > kMaxBinnedSpan) {
+      wide_.push_back(s);
+      s.pixel = std::numeric_limits<std::uint32_t>::max();  // taken
+      continue;
+    }
+    first = std::min(first, static_cast<double>(s.begin));
+    last = std::max(last, static_cast<double>(s.begin));
+    max_span_ = std::max(max_span_, static_cast<double>(s.end - s.begin));
+  }
+  if (first > last) return;  // nothing binned
+  first_begin_ = first;
+  bin_width_ = std::max((last - first) / (kTiltBins - 1), 1e-12);
+  auto bin = [&](double begin) {
+    return std::min<std::size_t>(kTiltBins - 1, static_cast<std::size_t>((begin - first_begin_) / bin_width_));
+  };
+  bin_begin_.assign(kTiltBins + 1, 0);
+  for (const LitSample& s : lit) {
+    if (s.pixel != std::numeric_limits<std::uint32_t>::max()) ++bin_begin_[bin(s.begin) + 1];
+  }
+  for (std::size_t i = 0; i < kTiltBins; ++i) bin_begin_[i + 1] += bin_begin_[i];
+  binned_.resize(bin_begin_[kTiltBins]);
+  std::vector<std::uint32_t> next(bin_begin_.begin(), bin_begin_.end() - 1);
+  for (const LitSample& s : lit) {
+    if (s.pixel != std::numeric_limits<std::uint32_t>::max()) binned_[next[bin(s.begin)]++] = s;
   }
 }
 
 Image LaserSweepRenderer::Frame(double tilt_rad) const {
   const double cos_t = std::cos(tilt_rad);
   const double sin_t = std::sin(tilt_rad);
-  // Beyond 8 sigma the Gaussian is below 1.3e-14: nothing a 16-bit sensor sees.
-  const double cutoff = 8.0 * sigma_mm_;
+  const double cutoff = kStripeCutoffSigmas * sigma_mm_;
   const double inv_two_sigma2 = 1.0 / (2.0 * sigma_mm_ * sigma_mm_);
-  const auto stripe = [&](const StripeSample& s) {
-    const double d = cos_t * s.a + sin_t * s.b + s.c;
-    return std::abs(d) < cutoff ? s.weight * std::exp(-d * d * inv_two_sigma2) : 0.0;
-  };
+  const float tilt = static_cast<float>(WrapAngle(tilt_rad));
   Image out(width_, height_, 1);
-  tbb::parallel_for(0, height_, [&](int y) {
-    for (int x = 0; x < width_; ++x) {
-      const std::size_t pixel = static_cast<std::size_t>(y) * width_ + x;
-      const std::size_t first = pixel * samples_per_pixel_;
-      double sum = 0.0;
-      for (int k = 0; k < samples_per_pixel_; ++k) {
-        if (samples_[first + k].weight != 0.0f) sum += stripe(samples_[first + k]);
-      }
-      double bounced = 0.0;
-      if (!bounces_.empty()) {
-        for (std::uint32_t i = bounce_begin_[pixel]; i < bounce_begin_[pixel + 1]; ++i) bounced += stripe(bounces_[i]);
-      }
-      out.at(x, y) = static_cast<float>(sum / samples_per_pixel_ + bounced);
+  float* values = out.data();
+  const auto add = [&](const LitSample& s) {
+    if (!(s.begin <= tilt && tilt <= s.end)) return;
+    const double d = cos_t * s.stripe.a + sin_t * s.stripe.b + s.stripe.c;
+    if (std::abs(d) < cutoff) values[s.pixel] += static_cast<float>(s.stripe.weight * std::exp(-d * d * inv_two_sigma2));
+  };
+  for (const LitSample& s : wide_) add(s);
+  if (!binned_.empty()) {
+    // Ranges holding the tilt start in [tilt - max span, tilt].
+    const double lowest = tilt - max_span_ - bin_width_;
+    if (tilt >= first_begin_ - bin_width_ && lowest <= first_begin_ + kTiltBins * bin_width_) {
+      const auto bin = [&](double begin) {
+        const double b = std::floor((begin - first_begin_) / bin_width_);
+        return static_cast<std::size_t>(std::clamp(b, 0.0, static_cast<double>(kTiltBins - 1)));
+      };
+      for (std::uint32_t i = bin_begin_[bin(lowest)]; i < bin_begin_[bin(tilt) + 1]; ++i) add(binned_[i]);
     }
-  });
+  }
   return out;
 }
 

@@ -22,7 +22,9 @@ inline double MaxCode(const drivers::CameraDescription& camera) {
 // electrons = signal * full_well_electrons; with noise on, Poisson shot
 // noise on the electrons plus Gaussian read noise (read_noise_electrons),
 // the shot noise drawn exactly below a mean of 100 electrons and by its
-// normal approximation above;
+// normal approximation above (a zero signal's code, read noise alone, is
+// drawn from its exact distribution by one 64-bit draw: most of a sweep
+// frame is dark);
 // then code = round(electrons / full_well * MaxCode), clamped to
 // [0, MaxCode] (saturation). Returns code / MaxCode in [0, 1], the value
 // WriteImage stores in a 16-bit file without further rounding loss.

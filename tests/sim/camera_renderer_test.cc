@@ -229,6 +229,53 @@ TEST(CameraRendererTest, StripePeaksLieOnTheTrueLaserPlane) {
   }
 }
 
+// A sweep frame visits only the samples whose tilt range holds the tilt
+// (camera_renderer.h); it must equal the sum over every lit sample of the
+// pixel, sum_k w_k exp(-d_k^2 / (2 sigma^2)) / n with d_k the sample's
+// distance from the true plane (cut off at 8 sigma), at tilts across the
+// sweep and anywhere on the circle (the plane then meets the sample
+// elsewhere, or wraps past +-pi).
+TEST(CameraRendererTest, SweepFramesEqualTheSumOverEveryLitSample) {
+  const auto rig = LoadRig("tiny");
+  const auto scene = MakeBuiltinScene("weave");
+  const CameraRenderer renderer(*scene, rig, {2});
+  const int camera = 1;
+  const CameraView view = renderer.TraceSample(camera, 0.4);
+  const auto& loc = rig.laser.locations[2];
+  const LaserSweepRenderer sweep(renderer, view, loc.mount, loc.arc_angle_rad);
+  const Eigen::Vector3d source = renderer.LaserPlaneAt(loc.mount, loc.arc_angle_rad, 0.0).source;
+  const Eigen::Vector3d centre = renderer.CameraCentre(camera);
+  const double gain = rig.cameras[camera].exposure_us * 1e-6 * kSignalPerRadianceSecond * renderer.LaserPeakIrradiance();
+  const double sigma = rig.laser.stripe_sigma_mm;
+  std::vector<double> tilts;
+  for (const double offset : {-7.0, -2.0, 0.0, 0.3, 4.0, 7.0}) tilts.push_back(drivers::LaserTiltForOffset(rig.laser, loc.mount, offset));
+  for (const double t : {-3.14159, -1.2, 0.9, 3.1415926}) tilts.push_back(t);
+  int lit_pixels = 0;
+  for (const double tilt : tilts) {
+    const LaserPlane plane = renderer.LaserPlaneAt(loc.mount, loc.arc_angle_rad, tilt);
+    const Image frame = sweep.Frame(tilt);
+    for (int y = 0; y < view.height; ++y) {
+      for (int x = 0; x < view.width; ++x) {
+        double expected = 0.0;
+        for (int k = 0; k < view.samples_per_pixel; ++k) {
+          const ViewSample& s = view.samples[(static_cast<std::size_t>(y) * view.width + x) * view.samples_per_pixel + k];
+          if (s.surface == ViewSample::Surface::kNothing) continue;
+          const Eigen::Vector3d l = (source - s.point).normalized();
+          const double n_dot_l = s.normal.dot(l);
+          if (n_dot_l <= 0.0 || !renderer.Lit(view, s, source)) continue;
+          const double d = plane.normal.dot(s.point - plane.source);
+          if (std::abs(d) >= 8.0 * sigma) continue;
+          const Eigen::Vector3f f = s.reflectance.Evaluate(s.normal, l, (centre - s.point).normalized());
+          expected += (f.sum() / 3.0) * n_dot_l * gain * std::exp(-d * d / (2 * sigma * sigma)) / view.samples_per_pixel;
+        }
+        lit_pixels += expected > 1e-3 ? 1 : 0;
+        ASSERT_NEAR(frame.at(x, y), expected, 1e-6 + 1e-5 * expected) << "tilt " << tilt << " pixel " << x << ", " << y;
+      }
+    }
+  }
+  EXPECT_GT(lit_pixels, 500);
+}
+
 // One-bounce interreflection of the stripe: a plane cannot light itself, so
 // the flat sample's sweep is unchanged to the bit; in the weave's concave
 // crossings it adds light, less than the direct light it comes from (a
@@ -356,6 +403,39 @@ TEST(CameraSensorTest, FlatFieldVarianceIsShotPlusReadNoise) {
     // Within a quarter code: clamping at code 0 lifts the mean of the
     // faintest level (read noise 10 codes around a mean of 20) by ~0.07.
     EXPECT_NEAR(mean, electrons * codes_per_electron, 0.25) << "level " << level;
+  }
+}
+
+// A dark pixel (zero signal: most of a sweep frame) reads the read noise
+// alone, rounded and clamped at code 0. Its codes are drawn by a table
+// (camera_sensor.cc); their histogram must match the model's probabilities,
+// Phi((k + 1/2) / sigma) - Phi((k - 1/2) / sigma), within 5 standard errors,
+// and match the normal-draw path a faint signal (1e-9 of full scale) takes.
+TEST(CameraSensorTest, DarkPixelsReadTheRoundedClampedReadNoise) {
+  for (const double read_noise : {0.0, 8.0, 50.0}) {
+    const auto camera = TestCamera(read_noise);
+    const double sigma = read_noise * MaxCode(camera) / camera.full_well_electrons;  // in codes
+    auto histogram = [&](float level) {
+      const Image signal(512, 512, 1, level);
+      std::mt19937_64 rng(13);
+      const Image out = ApplySensor(signal, camera, rng, true);
+      std::vector<double> h(80, 0.0);
+      for (std::size_t i = 0; i < out.size(); ++i) {
+        const double code = out.data()[i] * MaxCode(camera);
+        EXPECT_NEAR(code, std::round(code), 1e-3);
+        h[std::min<std::size_t>(79, static_cast<std::size_t>(std::lround(code)))] += 1.0 / out.size();
+      }
+      return h;
+    };
+    const std::vector<double> dark = histogram(0.0f), faint = histogram(1e-9f);
+    const double n = 512.0 * 512.0;
+    for (int k = 0; k < 80; ++k) {
+      auto phi = [&](double x) { return sigma > 0 ? 0.5 * std::erfc(-x / (sigma * std::numbers::sqrt2)) : (x > 0 ? 1.0 : 0.0); };
+      const double p = k == 0 ? phi(0.5) : phi(k + 0.5) - phi(k - 0.5);
+      const double tolerance = 5.0 * std::sqrt(p * (1 - p) / n) + 1e-9;
+      EXPECT_NEAR(dark[k], p, tolerance) << "read noise " << read_noise << " code " << k;
+      EXPECT_NEAR(faint[k], p, tolerance) << "read noise " << read_noise << " code " << k;
+    }
   }
 }
 
