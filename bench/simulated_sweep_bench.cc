@@ -77,6 +77,9 @@ void SensorOnSweepFrame(benchmark::State& state) {
       for (int c = 0; c < 3; ++c) rgb.at(x, y, c) = stripe.at(x, y);
     }
   }
+  std::size_t lit = 0;
+  for (std::size_t i = 0; i < rgb.size(); ++i) lit += rgb.data()[i] > 0.0f ? 1 : 0;
+  state.counters["lit_share"] = static_cast<double>(lit) / static_cast<double>(rgb.size());
   std::mt19937_64 rng(5);
   for (auto _ : state) {
     mesocap::Image out = mesocap::sim::ApplySensor(rgb, s.rig.cameras[kCamera], rng, true);

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdint>
 #include <numbers>
+#include <optional>
 #include <vector>
 
 namespace mesocap::sim {
@@ -14,6 +15,11 @@ namespace {
 // Below this mean the shot noise is drawn exactly (Poisson); above it, by
 // the normal approximation.
 constexpr double kExactPoissonBelowElectrons = 100.0;
+// Below this mean the Poisson draw is by inversion (sequential search: ~mean
+// + 1 steps; std::poisson_distribution's set-up per value cost 100 ns, and a
+// sweep frame's stripe tails are ~60000 faint values), and a draw of no
+// electron reads the dark table.
+constexpr double kInversionBelowElectrons = 12.0;
 
 // The code a zero signal reads (read noise alone, rounded, clamped at 0) by
 // inverse transform of one 64-bit draw: code k where the draw lies between
@@ -99,8 +105,15 @@ Image ApplySensor(const Image& signal, const drivers::CameraDescription& camera,
   const std::uint64_t image_key = rng();
   const std::size_t row_values = static_cast<std::size_t>(signal.width()) * signal.channels();
   tbb::parallel_for(0, signal.height(), [&](int y) {
-    std::mt19937_64 row_rng(image_key ^ (0x9E3779B97F4A7C15ull * static_cast<std::uint64_t>(y + 1)));
-    SplitMix64 dark_rng(row_rng());
+    const std::uint64_t row_key = image_key ^ (0x9E3779B97F4A7C15ull * static_cast<std::uint64_t>(y + 1));
+    SplitMix64 dark_rng(row_key);
+    // Seeding a Mersenne twister costs a few microseconds: only rows with
+    // light draw from one.
+    std::optional<std::mt19937_64> row_twister;
+    auto row_rng = [&]() -> std::mt19937_64& {
+      if (!row_twister) row_twister.emplace(row_key);
+      return *row_twister;
+    };
     std::normal_distribution<double> read_noise(0.0, camera.read_noise_electrons);
     std::normal_distribution<double> unit_normal(0.0, 1.0);
     const float* in = signal.data() + y * row_values;
@@ -111,6 +124,24 @@ Image ApplySensor(const Image& signal, const drivers::CameraDescription& camera,
         result[i] = dark.Value(dark_rng());
         continue;
       }
+      if (dark_fast && in[i] * full_well < kInversionBelowElectrons) {
+        const double mean = in[i] * full_well;
+        const double u = static_cast<double>(dark_rng() >> 11) * 0x1p-53;  // [0, 1)
+        double p = std::exp(-mean), below = p;
+        int shot = 0;
+        while (u >= below && shot < 200) {
+          ++shot;
+          p *= mean / shot;
+          below += p;
+        }
+        if (shot == 0) {
+          result[i] = dark.Value(dark_rng());
+        } else {
+          const double code = std::clamp(std::round((shot + read_noise(row_rng())) * codes_per_electron), 0.0, max_code);
+          result[i] = static_cast<float>(code / max_code);
+        }
+        continue;
+      }
       // Anything above full scale saturates below, after the noise (a
       // saturated pixel has no noise).
       double electrons = std::max(0.0, static_cast<double>(in[i])) * full_well;
@@ -119,15 +150,15 @@ Image ApplySensor(const Image& signal, const drivers::CameraDescription& camera,
         // the mean so the draw stays finite.
         const double mean = std::min(electrons, 4.0 * full_well);
         if (mean <= 0.0) {
-          electrons = read_noise(row_rng);
+          electrons = read_noise(row_rng());
         } else if (mean < kExactPoissonBelowElectrons) {
           std::poisson_distribution<std::int64_t> shot(mean);
-          electrons = static_cast<double>(shot(row_rng)) + read_noise(row_rng);
+          electrons = static_cast<double>(shot(row_rng())) + read_noise(row_rng());
         } else {
           // Shot + read noise as one normal draw of variance mean + read^2:
           // the Poisson's skewness 1/sqrt(mean) is below 0.1 here, far under
           // what quantization keeps, and a draw costs a fifth of the exact one.
-          electrons = mean + std::sqrt(mean + read_variance) * unit_normal(row_rng);
+          electrons = mean + std::sqrt(mean + read_variance) * unit_normal(row_rng());
         }
       }
       const double code = std::clamp(std::round(electrons * codes_per_electron), 0.0, max_code);

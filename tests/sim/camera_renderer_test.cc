@@ -439,6 +439,29 @@ TEST(CameraSensorTest, DarkPixelsReadTheRoundedClampedReadNoise) {
   }
 }
 
+// Shot noise is Poisson, whichever way it is drawn (inversion below a mean
+// of 12 electrons, std::poisson_distribution above): a camera with one
+// electron per code and no read noise reads the electron count itself, and
+// the histogram matches the Poisson probabilities within 5 standard errors.
+TEST(CameraSensorTest, ShotNoiseIsPoisson) {
+  drivers::CameraDescription camera = TestCamera(0.0);
+  camera.full_well_electrons = MaxCode(camera);  // one electron a code
+  for (const double mean : {0.02, 3.0, 11.5, 30.0}) {
+    const Image signal(512, 256, 1, static_cast<float>(mean / camera.full_well_electrons));
+    std::mt19937_64 rng(17);
+    const Image out = ApplySensor(signal, camera, rng, true);
+    std::vector<double> histogram(100, 0.0);
+    for (std::size_t i = 0; i < out.size(); ++i) {
+      histogram[std::min<long>(99, std::lround(out.data()[i] * MaxCode(camera)))] += 1.0 / out.size();
+    }
+    double p = std::exp(-mean);
+    for (int k = 0; k < 99; ++k) {
+      if (k > 0) p *= mean / k;
+      EXPECT_NEAR(histogram[k], p, 5.0 * std::sqrt(p * (1 - p) / out.size()) + 1e-9) << "mean " << mean << " k " << k;
+    }
+  }
+}
+
 // (d) Determinism: the same seed gives the same noise, another seed other
 // noise; rendering is deterministic whatever the threads do.
 TEST(CameraSensorTest, NoiseIsDeterministicForASeed) {
