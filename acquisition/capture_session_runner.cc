@@ -1,6 +1,7 @@
 #include "acquisition/capture_session_runner.h"
 
 #include <spdlog/spdlog.h>
+#include <tbb/parallel_for.h>
 
 #include <map>
 #include <memory>
@@ -217,9 +218,11 @@ class SessionRun {
         Move(*rig_.light_arc, p.at("arc_deg").get<double>());
         rig_.lamps->SetLamp(p.at("lamp").get<int>(), true);
         const std::vector<Image> images = GrabAll(step);
-        for (std::size_t i = 0; i < images.size(); ++i) {
-          WriteImage(FilePath(files[i]), images[i], PixelEncoding::kUInt16);
-        }
+        // One encoder per camera at once: PNG encoding is single-threaded.
+        std::vector<fs::path> paths;
+        for (std::size_t i = 0; i < images.size(); ++i) paths.push_back(FilePath(files[i]));
+        tbb::parallel_for(std::size_t{0}, images.size(),
+                          [&](std::size_t i) { WriteImage(paths[i], images[i], PixelEncoding::kUInt16); });
         break;
       }
       case StepKind::kLaserSweep: {
@@ -238,7 +241,11 @@ class SessionRun {
           Tilt(tilts[f].get<double>());
           const std::vector<Image> images = GrabAll(step);
           if (!analyses.empty()) {
-            for (std::size_t i = 0; i < images.size(); ++i) analyses[i]->AddFrame(static_cast<int>(f), Grey(images[i]));
+            // The cameras' analyses are independent (line detection and the
+            // space-time state are single-threaded each).
+            tbb::parallel_for(std::size_t{0}, images.size(), [&](std::size_t i) {
+              analyses[i]->AddFrame(static_cast<int>(f), Grey(images[i]));
+            });
             continue;
           }
           if (writers.empty()) {

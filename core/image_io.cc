@@ -184,6 +184,10 @@ void WriteImage(const fs::path& file, const Image& image, PixelEncoding encoding
   if (!out) throw Error(file.string() + ": no image writer: " + OIIO::geterror());
   OIIO::ImageSpec spec(image.width(), image.height(), image.channels(), TypeOf(encoding));
   if (container == Container::kExr) spec.attribute("compression", "zip");
+  // zlib level 1: a noisy 16-bit 1024 x 768 RGB capture image writes 3x
+  // faster than at the default 6, for 5 % more bytes (a paper-rig session
+  // writes 9216 of them).
+  if (container == Container::kPng) spec.attribute("png:compressionLevel", 1);
   spec.attribute("oiio:UnassociatedAlpha", 1);
   if (!out->open(atomic.temp_path().string(), spec) ||
       !out->write_image(OIIO::TypeDesc::FLOAT, image.data()) || !out->close()) {

@@ -146,7 +146,7 @@ drivers::Frame SimulatedCamera::Grab(std::chrono::milliseconds timeout) {
   frame.timestamp_s = state_->clock_s;
   frame.settings = settings_;
   frame.bit_depth = info_.bit_depth;
-  const Image full = renderer_->Render(*state_, index_);
+  Image full = renderer_->Render(*state_, index_);
   state_->clock_s += exposure_s;
   if (full.width() != info_.sensor_width || full.height() != info_.sensor_height ||
       full.channels() != info_.channels) {
@@ -163,12 +163,17 @@ drivers::Frame SimulatedCamera::Grab(std::chrono::milliseconds timeout) {
   // The renderer's signal is at the description's exposure and 0 dB.
   const double scale =
       settings_.exposure_us / reference_exposure_us_ * std::pow(10.0, settings_.gain_db / 20.0);
-  Image signal(width, height, channels);
-  for (int y = 0; y < height; ++y) {
-    for (int x = 0; x < width; ++x) {
-      const float* in = full.pixel(r.x + x, r.y + y);
-      float* out = signal.pixel(x, y);
-      for (int c = 0; c < channels; ++c) out[c] = static_cast<float>(in[c] * scale);
+  Image signal;
+  if (width == info_.sensor_width && height == info_.sensor_height && scale == 1.0) {
+    signal = std::move(full);  // the whole sensor at the description's exposure: nothing to cut or scale
+  } else {
+    signal = Image(width, height, channels);
+    for (int y = 0; y < height; ++y) {
+      for (int x = 0; x < width; ++x) {
+        const float* in = full.pixel(r.x + x, r.y + y);
+        float* out = signal.pixel(x, y);
+        for (int c = 0; c < channels; ++c) out[c] = static_cast<float>(in[c] * scale);
+      }
     }
   }
   if (sensor_ == SensorModel::kIdeal) {
@@ -185,11 +190,13 @@ drivers::Frame SimulatedCamera::Grab(std::chrono::milliseconds timeout) {
     std::mt19937_64 rng = ImageNoiseGenerator(seed_, {static_cast<std::uint64_t>(index_), key, repeats_of_state_});
     frame.image = ApplySensor(signal, description_, rng, sensor_ == SensorModel::kNoisy);
   }
-  for (int y = 0; y < height; ++y) {
-    for (int x = 0; x < width; ++x) {
-      const float* px = frame.image.pixel(x, y);
-      if (std::any_of(px, px + channels, [](float v) { return v >= 1.0f; })) ++frame.saturated_pixels;
-    }
+  // Values are at most 1 (the top code), so a pixel's channels saturate
+  // where their largest is 1: a branch-free pass.
+  const float* values = frame.image.data();
+  for (std::size_t p = 0; p < static_cast<std::size_t>(width) * height; ++p) {
+    float top = values[p * channels];
+    for (int c = 1; c < channels; ++c) top = std::max(top, values[p * channels + c]);
+    frame.saturated_pixels += top >= 1.0f ? 1 : 0;
   }
   return frame;
 }
