@@ -434,6 +434,8 @@ void LaserSweepRenderer::AddLit(const StripeSample& s, std::uint32_t pixel, std:
   const double pad = kTiltRangePadding;
   if (near <= pad) {
     add(phi - far - pad, phi + far + pad);
+  } else if (far >= pi - pad) {  // the two ranges meet at phi + pi: one range, so no tilt counts twice
+    add(phi + near - pad, phi + 2.0 * pi - near + pad);
   } else {
     add(phi + near - pad, phi + far + pad);
     add(phi - far - pad, phi - near + pad);
