@@ -1,9 +1,11 @@
 // Runs a capture session's plan on a rig (MDF paper Sec. 3.1-3.2): moves the
 // turntable and the light arc, switches lamps and the laser, tilts the
 // stripe across the sample, triggers every camera and writes what they
-// deliver, journaling each step once all its files are on disk. The same
-// code drives the simulated rig (`mesocap simulate`) and, later, the real
-// one: it sees only the drivers/ interfaces and the operator.
+// deliver (or, for a sweep the plan stores as an analysis, what the
+// streaming analysis makes of it), journaling each step once all its files
+// are on disk. The same code drives the simulated rig (`mesocap simulate`)
+// and, later, the real one: it sees only the drivers/ interfaces and the
+// operator.
 //
 // Faults: a grab that times out is triggered again; a move that times out
 // is waited for again, a stalled stage is homed and moved again; each at

@@ -1,15 +1,11 @@
 #include "processing/mdf_session.h"
 
 #include <limits>
-#include <map>
-#include <numbers>
 #include <string>
 
 #include "core/capture_session.h"
 #include "core/error.h"
 #include "core/frame_sequence.h"
-#include "core/image_io.h"
-#include "core/json_field_reader.h"
 #include "drivers/rig_description.h"
 #include "processing/camera_rays.h"
 #include "processing/laser_sweep.h"
