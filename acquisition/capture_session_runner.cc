@@ -272,12 +272,12 @@ class SessionRun {
   std::vector<std::unique_ptr<LaserSweepProcessor>> SweepProcessors(const PlannedStep& step) {
     const fs::path manifest_file = dir_ / kSessionManifestName;
     if (!sweep_geometry_) {
-      sweep_rig_ = drivers::ParseRigDescription(manifest_.rig, manifest_file);
-      sweep_geometry_ = std::make_unique<SessionSweepGeometry>(dir_, manifest_, sweep_rig_, *options_.calibration,
-                                                               options_.sweep_geometry);
+      sweep_geometry_ = std::make_unique<SessionSweepGeometry>(
+          dir_, manifest_, drivers::ParseRigDescription(manifest_.rig, manifest_file), *options_.calibration,
+          options_.sweep_geometry);
     }
-    const std::size_t index = static_cast<std::size_t>(&step - manifest_.plan.data());
-    const SweepStep sweep = ParseSweepStep(step, index, sweep_rig_, manifest_file);
+    const std::size_t index = static_cast<std::size_t>(&step - manifest_.plan.data());  // step is in the plan
+    const SweepStep sweep = ParseSweepStep(step, index, sweep_geometry_->rig(), manifest_file);
     std::vector<std::unique_ptr<LaserSweepProcessor>> processors;
     for (const json& f : step.params.at("files")) {
       const int camera = sweep_geometry_->CameraIndex(f.at("camera").get<std::string>());
@@ -310,7 +310,6 @@ class SessionRun {
   std::map<std::string, std::uint64_t> next_sequence_;
   CaptureRunReport report_;
   // Made at the first sweep that stores its analysis.
-  drivers::RigDescription sweep_rig_;
   std::unique_ptr<SessionSweepGeometry> sweep_geometry_;
 };
 

@@ -117,12 +117,13 @@ MdfProcessingResult ProcessMdfSession(const fs::path& session, const Calibration
                                                      std::to_string(step.location));
       }
       const fs::path file = session / file_entry->second;
-      const SweepGeometry sweep_geometry = geometry.Geometry(step, static_cast<int>(c));
-      const SweepAnalysis analysis = step.stores_analysis
-                                         ? ReadStoredAnalysis(file, rays, step.tilts_rad.size(), options.space_time)
-                                         : AnalyseFrames(file, rays, sweep_geometry, options);
+      // A stored analysis needs no reference region: only the plane, for the weight.
+      const SweepAnalysis analysis =
+          step.stores_analysis ? ReadStoredAnalysis(file, rays, step.tilts_rad.size(), options.space_time)
+                               : AnalyseFrames(file, rays, geometry.Geometry(step, static_cast<int>(c)), options);
       const Eigen::Vector3d to_camera = sample_from_world.Apply(rays.centre()).normalized();
-      const double weight = ScanWeight(pose.source, rays.centre(), sweep_geometry.calibrated_plane, 0.5 * sample_size);
+      const double weight = ScanWeight(pose.source, rays.centre(),
+                                       geometry.CalibratedPlane(step.location, static_cast<int>(c)), 0.5 * sample_size);
       assembler.AddSweep(views.Nearest(to_camera), analysis, rays, world_from_sample, weight);
       ++result.sweeps;
       progress.Advance();

@@ -51,11 +51,11 @@ SweepStep ParseSweepStep(const PlannedStep& step, std::size_t index, const drive
 }
 
 SessionSweepGeometry::SessionSweepGeometry(fs::path session, const SessionManifest& manifest,
-                                           const drivers::RigDescription& rig, const Calibration& calibration,
+                                           drivers::RigDescription rig, const Calibration& calibration,
                                            SweepGeometryOptions options)
     : session_(std::move(session)),
       manifest_file_(session_ / kSessionManifestName),
-      rig_(rig),
+      rig_(std::move(rig)),
       calibration_(calibration),
       options_(std::move(options)) {
   if (const auto problem = options_.Check(); !problem.empty()) throw Error("sweep geometry: " + problem);

@@ -56,16 +56,21 @@ class SessionSweepGeometry {
   // naming what is missing. Plate frames are read when a location's plane
   // is first needed.
   SessionSweepGeometry(std::filesystem::path session, const SessionManifest& manifest,
-                       const drivers::RigDescription& rig, const Calibration& calibration,
+                       drivers::RigDescription rig, const Calibration& calibration,
                        SweepGeometryOptions options);
 
   // The rig's camera with this id; throws Error when there is none.
   int CameraIndex(const std::string& id) const;
   const CameraRays& rays(int camera) const { return rays_.at(camera); }
+  const drivers::RigDescription& rig() const { return rig_; }
 
-  // The geometry of `step`'s sweep seen by `camera`: the location's plane
-  // from its two plates (throws FormatError when the plan lacks them, Error
-  // when the stripe is not found on a plate), the reference region at the
+  // A location's plane seen by `camera` at its plates' tilt, fitted from
+  // the two plate frames on first use (throws FormatError when the plan
+  // lacks them, Error when the stripe is not found on a plate).
+  const Plane& CalibratedPlane(int location, int camera);
+
+  // The geometry of `step`'s sweep seen by `camera`, for analysing its
+  // frames: the location's CalibratedPlane, the reference region at the
   // step's turntable angle, the tilts relative to the plates'.
   SweepGeometry Geometry(const SweepStep& step, int camera);
 
@@ -74,7 +79,6 @@ class SessionSweepGeometry {
     double tilt_rad = 0.0;
     std::vector<std::pair<double, std::map<std::string, std::string>>> heights;  // (height, files)
   };
-  const Plane& CalibratedPlane(int location, int camera);
 
   std::filesystem::path session_;
   std::filesystem::path manifest_file_;

@@ -487,34 +487,34 @@ void LaserSweepRenderer::AddBounces(const CameraRenderer& renderer, const Camera
 }
 
 void LaserSweepRenderer::Bin(std::vector<LitSample> lit) {
-  std::vector<LitSample> binned;
-  double first = kInfinity, last = -kInfinity;
-  for (LitSample& s : lit) {
+  // Wide ranges out, narrow ones kept in order at the front.
+  std::size_t narrow = 0;
+  double last = -kInfinity;
+  first_begin_ = kInfinity;
+  for (const LitSample& s : lit) {
     if (s.end - s.begin > kMaxBinnedSpan) {
       wide_.push_back(s);
-      s.pixel = std::numeric_limits<std::uint32_t>::max();  // taken
       continue;
     }
-    first = std::min(first, static_cast<double>(s.begin));
+    first_begin_ = std::min(first_begin_, static_cast<double>(s.begin));
     last = std::max(last, static_cast<double>(s.begin));
     max_span_ = std::max(max_span_, static_cast<double>(s.end - s.begin));
+    lit[narrow++] = s;
   }
-  if (first > last) return;  // nothing binned
-  first_begin_ = first;
-  bin_width_ = std::max((last - first) / (kTiltBins - 1), 1e-12);
-  auto bin = [&](double begin) {
-    return std::min<std::size_t>(kTiltBins - 1, static_cast<std::size_t>((begin - first_begin_) / bin_width_));
-  };
+  lit.resize(narrow);
+  if (lit.empty()) return;
+  bin_width_ = std::max((last - first_begin_) / (kTiltBins - 1), 1e-12);
   bin_begin_.assign(kTiltBins + 1, 0);
-  for (const LitSample& s : lit) {
-    if (s.pixel != std::numeric_limits<std::uint32_t>::max()) ++bin_begin_[bin(s.begin) + 1];
-  }
+  for (const LitSample& s : lit) ++bin_begin_[BinOf(s.begin) + 1];
   for (std::size_t i = 0; i < kTiltBins; ++i) bin_begin_[i + 1] += bin_begin_[i];
-  binned_.resize(bin_begin_[kTiltBins]);
+  binned_.resize(lit.size());
   std::vector<std::uint32_t> next(bin_begin_.begin(), bin_begin_.end() - 1);
-  for (const LitSample& s : lit) {
-    if (s.pixel != std::numeric_limits<std::uint32_t>::max()) binned_[next[bin(s.begin)]++] = s;
-  }
+  for (const LitSample& s : lit) binned_[next[BinOf(s.begin)]++] = s;
+}
+
+std::size_t LaserSweepRenderer::BinOf(double begin) const {
+  const double b = std::floor((begin - first_begin_) / bin_width_);
+  return static_cast<std::size_t>(std::clamp(b, 0.0, static_cast<double>(kTiltBins - 1)));
 }
 
 Image LaserSweepRenderer::Frame(double tilt_rad) const {
@@ -532,15 +532,10 @@ Image LaserSweepRenderer::Frame(double tilt_rad) const {
   };
   for (const LitSample& s : wide_) add(s);
   if (!binned_.empty()) {
-    // Ranges holding the tilt start in [tilt - max span, tilt].
-    const double lowest = tilt - max_span_ - bin_width_;
-    if (tilt >= first_begin_ - bin_width_ && lowest <= first_begin_ + kTiltBins * bin_width_) {
-      const auto bin = [&](double begin) {
-        const double b = std::floor((begin - first_begin_) / bin_width_);
-        return static_cast<std::size_t>(std::clamp(b, 0.0, static_cast<double>(kTiltBins - 1)));
-      };
-      for (std::uint32_t i = bin_begin_[bin(lowest)]; i < bin_begin_[bin(tilt) + 1]; ++i) add(binned_[i]);
-    }
+    // Ranges holding the tilt start in [tilt - max span, tilt] (a bin's
+    // width of slack for the rounding of the bin index).
+    const std::size_t lowest = BinOf(tilt - max_span_ - bin_width_), highest = BinOf(tilt);
+    for (std::uint32_t i = bin_begin_[lowest]; i < bin_begin_[highest + 1]; ++i) add(binned_[i]);
   }
   return out;
 }

@@ -229,6 +229,8 @@ class LaserSweepRenderer {
   // so frames add in the same order on every run); ranges wider than
   // kMaxBinnedSpan go to wide_, checked at every frame.
   void Bin(std::vector<LitSample> lit);
+  // The bin of a range starting at `begin` (clamped to the first and last).
+  std::size_t BinOf(double begin) const;
   // The tilt-0 plane's rotation about the tilt axis k (Rodrigues):
   // n(t) = cos(t) n0 + sin(t) (k x n0) + (1 - cos(t)) (k.n0) k.
   Eigen::Vector3d source_ = Eigen::Vector3d::Zero();

@@ -124,24 +124,6 @@ Image ApplySensor(const Image& signal, const drivers::CameraDescription& camera,
         result[i] = dark.Value(dark_rng());
         continue;
       }
-      if (dark_fast && in[i] * full_well < kInversionBelowElectrons) {
-        const double mean = in[i] * full_well;
-        const double u = static_cast<double>(dark_rng() >> 11) * 0x1p-53;  // [0, 1)
-        double p = std::exp(-mean), below = p;
-        int shot = 0;
-        while (u >= below && shot < 200) {
-          ++shot;
-          p *= mean / shot;
-          below += p;
-        }
-        if (shot == 0) {
-          result[i] = dark.Value(dark_rng());
-        } else {
-          const double code = std::clamp(std::round((shot + read_noise(row_rng())) * codes_per_electron), 0.0, max_code);
-          result[i] = static_cast<float>(code / max_code);
-        }
-        continue;
-      }
       // Anything above full scale saturates below, after the noise (a
       // saturated pixel has no noise).
       double electrons = std::max(0.0, static_cast<double>(in[i])) * full_well;
@@ -151,6 +133,21 @@ Image ApplySensor(const Image& signal, const drivers::CameraDescription& camera,
         const double mean = std::min(electrons, 4.0 * full_well);
         if (mean <= 0.0) {
           electrons = read_noise(row_rng());
+        } else if (dark_fast && mean < kInversionBelowElectrons) {
+          // Poisson by inversion (sequential search from k = 0).
+          const double u = static_cast<double>(dark_rng() >> 11) * 0x1p-53;  // [0, 1)
+          double p = std::exp(-mean), below = p;
+          int shot = 0;
+          while (u >= below && shot < 200) {
+            ++shot;
+            p *= mean / shot;
+            below += p;
+          }
+          if (shot == 0) {  // no electron: the dark code
+            result[i] = dark.Value(dark_rng());
+            continue;
+          }
+          electrons = shot + read_noise(row_rng());
         } else if (mean < kExactPoissonBelowElectrons) {
           std::poisson_distribution<std::int64_t> shot(mean);
           electrons = static_cast<double>(shot(row_rng())) + read_noise(row_rng());
