@@ -13,6 +13,7 @@
 #include "core/capture_journal.h"
 #include "core/capture_session.h"
 #include "core/frame_sequence.h"
+#include "core/image.h"
 #include "core/image_io.h"
 #include "core/progress.h"
 #include "drivers/device_error.h"
@@ -25,22 +26,6 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 
 constexpr double kRadPerDeg = std::numbers::pi / 180.0;
-
-// The laser frames are stored grey: the mean of the camera's channels (the
-// stripe is one colour; processing needs its intensity, not its hue).
-Image Grey(const Image& image) {
-  if (image.channels() == 1) return image;
-  Image grey(image.width(), image.height(), 1);
-  for (int y = 0; y < image.height(); ++y) {
-    for (int x = 0; x < image.width(); ++x) {
-      const float* p = image.pixel(x, y);
-      float sum = 0.0f;
-      for (int c = 0; c < image.channels(); ++c) sum += p[c];
-      grey.at(x, y) = sum / static_cast<float>(image.channels());
-    }
-  }
-  return grey;
-}
 
 class SessionRun {
  public:
@@ -150,11 +135,17 @@ class SessionRun {
     ++report_.retries;
   }
 
-  // One frame of every camera the step names, in its files' order.
-  std::vector<Image> GrabAll(const PlannedStep& step) {
+  // One frame of every camera the step names, in its files' order. Laser
+  // frames are read mono: processing needs the stripe's intensity, not its
+  // hue (a camera that still gives colour is averaged to grey where the
+  // frames are used).
+  std::vector<Image> GrabAll(const PlannedStep& step, drivers::PixelFormat format) {
     const json& files = step.params.at("files");
     std::vector<drivers::Camera*> cameras;
     for (const json& f : files) cameras.push_back(&CameraFor(step, f));
+    for (drivers::Camera* c : cameras) {
+      if (c->settings().pixel_format != format) c->SetPixelFormat(format);
+    }
     for (drivers::Camera* c : cameras) c->Trigger();
     std::vector<Image> images;
     for (drivers::Camera* c : cameras) {
@@ -205,11 +196,11 @@ class SessionRun {
         operator_.PlaceCalibrationPlate(p.at("height_mm").get<double>());
         rig_.laser->SetEnabled(true);
         Tilt(p.at("tilt_deg").get<double>());
-        const std::vector<Image> images = GrabAll(step);
+        std::vector<Image> images = GrabAll(step, drivers::PixelFormat::kMono);
         rig_.laser->SetEnabled(false);
         operator_.RemoveCalibrationPlate();
         for (std::size_t i = 0; i < images.size(); ++i) {
-          WriteImage(FilePath(files[i]), Grey(images[i]), PixelEncoding::kUInt16);
+          WriteImage(FilePath(files[i]), ChannelMean(std::move(images[i])), PixelEncoding::kUInt16);
         }
         break;
       }
@@ -217,7 +208,7 @@ class SessionRun {
         Move(*rig_.turntable, p.at("turntable_deg").get<double>());
         Move(*rig_.light_arc, p.at("arc_deg").get<double>());
         rig_.lamps->SetLamp(p.at("lamp").get<int>(), true);
-        const std::vector<Image> images = GrabAll(step);
+        const std::vector<Image> images = GrabAll(step, drivers::PixelFormat::kNative);
         // One encoder per camera at once: PNG encoding is single-threaded.
         std::vector<fs::path> paths;
         for (std::size_t i = 0; i < images.size(); ++i) paths.push_back(FilePath(files[i]));
@@ -239,12 +230,12 @@ class SessionRun {
         rig_.laser->SetEnabled(true);
         for (std::size_t f = 0; f < tilts.size(); ++f) {
           Tilt(tilts[f].get<double>());
-          const std::vector<Image> images = GrabAll(step);
+          std::vector<Image> images = GrabAll(step, drivers::PixelFormat::kMono);
           if (!analyses.empty()) {
             // The cameras' analyses are independent (line detection and the
             // space-time state are single-threaded each).
             tbb::parallel_for(std::size_t{0}, images.size(), [&](std::size_t i) {
-              analyses[i]->AddFrame(static_cast<int>(f), Grey(images[i]));
+              analyses[i]->AddFrame(static_cast<int>(f), ChannelMean(std::move(images[i])));
             });
             continue;
           }
@@ -254,7 +245,7 @@ class SessionRun {
                                                                       images[i].height(), 1, PixelEncoding::kUInt16));
             }
           }
-          for (std::size_t i = 0; i < images.size(); ++i) writers[i]->Append(Grey(images[i]));
+          for (std::size_t i = 0; i < images.size(); ++i) writers[i]->Append(ChannelMean(std::move(images[i])));
         }
         rig_.laser->SetEnabled(false);
         for (auto& w : writers) w->Commit();

@@ -94,6 +94,7 @@ BENCHMARK(SensorOnSweepFrame)->Unit(benchmark::kMillisecond)->UseRealTime();
 // RGB frame) and the sensor.
 void RenderedSweepFrame(benchmark::State& state) {
   const int side = static_cast<int>(state.range(0));
+  const int channels = static_cast<int>(state.range(1));  // 3: RGB readout, 1: mono
   const SweepSetup& s = Setup(side);
   mesocap::sim::CameraRendererOptions options;
   options.samples_per_pixel_side = side;
@@ -104,20 +105,20 @@ void RenderedSweepFrame(benchmark::State& state) {
   rig_state.laser_mount = s.rig.laser.locations[kLocation].mount;
   rig_state.light_arc_rad = s.rig.laser.locations[kLocation].arc_angle_rad;
   rig_state.laser_tilt_rad = s.tilts[0];
-  renderer.Render(rig_state, kCamera);  // traces the view and the sweep's samples
+  renderer.Render(rig_state, kCamera, channels);  // traces the view and the sweep's samples
   std::mt19937_64 rng(5);
   std::size_t f = 0;
   for (auto _ : state) {
     rig_state.laser_tilt_rad = s.tilts[f];
     mesocap::Image out =
-        mesocap::sim::ApplySensor(renderer.Render(rig_state, kCamera), s.rig.cameras[kCamera], rng, true);
+        mesocap::sim::ApplySensor(renderer.Render(rig_state, kCamera, channels), s.rig.cameras[kCamera], rng, true);
     benchmark::DoNotOptimize(out.data());
     f = (f + 1) % s.tilts.size();
   }
   state.SetItemsProcessed(state.iterations());
   state.counters["frames_per_s"] = benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
 }
-BENCHMARK(RenderedSweepFrame)->Arg(1)->Arg(3)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(RenderedSweepFrame)->Args({1, 3})->Args({3, 3})->Args({1, 1})->Args({3, 1})->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace
 

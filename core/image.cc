@@ -18,4 +18,17 @@ Image::Image(int width, int height, int channels, float fill)
   data_.assign(static_cast<std::size_t>(width) * height * channels, fill);
 }
 
+Image ChannelMean(Image image) {
+  if (image.channels() == 1) return image;
+  Image mean(image.width(), image.height(), 1);
+  const std::size_t pixels = static_cast<std::size_t>(image.width()) * image.height();
+  const int channels = image.channels();
+  for (std::size_t p = 0; p < pixels; ++p) {
+    float sum = 0.0f;
+    for (int c = 0; c < channels; ++c) sum += image.data()[p * channels + c];
+    mean.data()[p] = sum / static_cast<float>(channels);
+  }
+  return mean;
+}
+
 }  // namespace mesocap

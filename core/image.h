@@ -38,4 +38,8 @@ class Image {
   std::vector<float> data_;
 };
 
+// One channel: the mean of `image`'s channels at each pixel (`image` itself
+// when it has one).
+Image ChannelMean(Image image);
+
 }  // namespace mesocap

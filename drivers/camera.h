@@ -19,6 +19,15 @@ struct CameraRegion {
   int height = 0;  // 0 = full sensor height
 };
 
+// What a frame holds per pixel. A laser scan needs only the stripe's
+// intensity: kMono reads one value a pixel (on a colour sensor the mean of
+// its channels), a third of the values of an RGB frame to read out, move
+// and process.
+enum class PixelFormat {
+  kNative,  // the sensor's channels (CameraInfo::channels)
+  kMono,    // one channel
+};
+
 enum class TriggerMode {
   kFreeRun,   // the camera streams; Grab returns the next frame
   kSoftware,  // each frame waits for Trigger()
@@ -28,6 +37,7 @@ struct CameraSettings {
   double exposure_us = 10000.0;
   double gain_db = 0.0;
   CameraRegion region;
+  PixelFormat pixel_format = PixelFormat::kNative;
   TriggerMode trigger = TriggerMode::kSoftware;
 };
 
@@ -60,6 +70,7 @@ class Camera {
   virtual void SetExposure(double exposure_us) = 0;
   virtual void SetGain(double gain_db) = 0;
   virtual void SetRegion(const CameraRegion& region) = 0;
+  virtual void SetPixelFormat(PixelFormat format) = 0;
   virtual void SetTrigger(TriggerMode mode) = 0;
 
   // Starts exposing one frame (kSoftware mode).

@@ -309,16 +309,21 @@ CameraRenderer::RenderCache& CameraRenderer::CachedRender(const SimulatedRigStat
   return *entry;
 }
 
-Image CameraRenderer::Render(const SimulatedRigState& state, int camera) {
+Image CameraRenderer::Render(const SimulatedRigState& state, int camera, int channels) {
+  if (channels != 1 && channels != 3) {
+    throw Error("camera renderer: a readout has 1 or 3 channels, not " + std::to_string(channels));
+  }
   const RenderCache& cached = CachedRender(state, camera);
   const bool any_lamp = std::find(state.lamps_on.begin(), state.lamps_on.end(), true) != state.lamps_on.end();
+  if (!any_lamp && state.laser_on && channels == 1) return cached.sweep->Frame(state.laser_tilt_rad);
   Image image = any_lamp ? RenderLamps(cached.view, state.light_arc_rad, state.lamps_on)
-                         : Image(cached.view.width, cached.view.height, 3);
+                         : Image(cached.view.width, cached.view.height, channels);
+  if (channels == 1) image = ChannelMean(image);
   if (state.laser_on) {
     const Image stripe = cached.sweep->Frame(state.laser_tilt_rad);
     for (int y = 0; y < image.height(); ++y) {
       for (int x = 0; x < image.width(); ++x) {
-        for (int c = 0; c < 3; ++c) image.at(x, y, c) += stripe.at(x, y);
+        for (int c = 0; c < channels; ++c) image.at(x, y, c) += stripe.at(x, y);
       }
     }
   }

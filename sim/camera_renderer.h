@@ -105,14 +105,15 @@ class CameraRenderer : public FrameRenderer {
 
   // Lamps that are on plus the laser when on (added equally to R, G and B:
   // the grey response of the sensor to the laser's light), on the sample or,
-  // while the operator has laid it there, the calibration plate. 3 channels.
+  // while the operator has laid it there, the calibration plate; 3 channels
+  // or, for a mono readout, 1 (their mean).
   // The camera's first hits stay cached while the turntable (or the plate)
   // stays put, and its sweep's stripe samples while the laser's mount and
   // the light arc do, so a capture that walks the rig in its plan's order
   // traces each camera once per turntable angle and a sweep frame costs
   // only the stripe (the pieces below). The cache holds one camera view per
   // camera: samples_per_pixel_side^2 ViewSamples a pixel.
-  Image Render(const SimulatedRigState& state, int camera) override;
+  Image Render(const SimulatedRigState& state, int camera, int channels) override;
 
   // First hits of the camera's rays on the sample at a turntable angle.
   CameraView TraceSample(int camera, double turntable_rad) const;

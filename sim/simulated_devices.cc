@@ -103,6 +103,11 @@ void SimulatedCamera::SetRegion(const drivers::CameraRegion& r) {
   settings_.region = r;
 }
 
+void SimulatedCamera::SetPixelFormat(drivers::PixelFormat format) {
+  Call();
+  settings_.pixel_format = format;
+}
+
 void SimulatedCamera::SetTrigger(drivers::TriggerMode mode) {
   Call();
   settings_.trigger = mode;
@@ -146,20 +151,19 @@ drivers::Frame SimulatedCamera::Grab(std::chrono::milliseconds timeout) {
   frame.timestamp_s = state_->clock_s;
   frame.settings = settings_;
   frame.bit_depth = info_.bit_depth;
-  Image full = renderer_->Render(*state_, index_);
+  const int channels = settings_.pixel_format == drivers::PixelFormat::kMono ? 1 : info_.channels;
+  Image full = renderer_->Render(*state_, index_, channels);
   state_->clock_s += exposure_s;
-  if (full.width() != info_.sensor_width || full.height() != info_.sensor_height ||
-      full.channels() != info_.channels) {
+  if (full.width() != info_.sensor_width || full.height() != info_.sensor_height || full.channels() != channels) {
     throw Error("camera " + info_.id + ": the frame renderer gave a " + std::to_string(full.width()) + " x " +
                 std::to_string(full.height()) + " x " + std::to_string(full.channels()) + " image for a " +
                 std::to_string(info_.sensor_width) + " x " + std::to_string(info_.sensor_height) + " x " +
-                std::to_string(info_.channels) + " sensor");
+                std::to_string(channels) + " readout");
   }
 
   const auto& r = settings_.region;
   const int width = r.width == 0 ? info_.sensor_width : r.width;
   const int height = r.height == 0 ? info_.sensor_height : r.height;
-  const int channels = info_.channels;
   // The renderer's signal is at the description's exposure and 0 dB.
   const double scale =
       settings_.exposure_us / reference_exposure_us_ * std::pow(10.0, settings_.gain_db / 20.0);

@@ -67,6 +67,7 @@ class SimulatedCamera : public drivers::Camera {
   void SetExposure(double exposure_us) override;
   void SetGain(double gain_db) override;
   void SetRegion(const drivers::CameraRegion& region) override;
+  void SetPixelFormat(drivers::PixelFormat format) override;
   void SetTrigger(drivers::TriggerMode mode) override;
   // In kFreeRun mode the camera streams anyway and a trigger does nothing.
   void Trigger() override;

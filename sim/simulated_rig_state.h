@@ -29,11 +29,12 @@ struct SimulatedRigState {
 // signal in units of full scale at the camera's nominal exposure and 0 dB.
 // The sensor model (shot and read noise, quantization; sim/camera_sensor.h)
 // comes after the exposure and gain, in SimulatedCamera, so that noise
-// follows the settings as on a real sensor.
+// follows the settings as on a real sensor. `channels` is the readout's: 3
+// (RGB) or 1 (mono: the mean of the RGB signal).
 class FrameRenderer {
  public:
   virtual ~FrameRenderer() = default;
-  virtual Image Render(const SimulatedRigState& state, int camera) = 0;
+  virtual Image Render(const SimulatedRigState& state, int camera, int channels) = 0;
 };
 
 }  // namespace mesocap::sim

@@ -14,6 +14,7 @@
 
 #include "core/capture_journal.h"
 #include "core/capture_session.h"
+#include "core/error.h"
 #include "core/frame_sequence.h"
 #include "core/image_io.h"
 #include "sim/camera_sensor.h"
@@ -488,9 +489,24 @@ TEST(CameraRendererTest, RenderingIsDeterministic) {
   state.laser_on = true;
   state.laser_mount = 1;
   state.laser_tilt_rad = 0.002;
-  const Image a = renderer.Render(state, 1), b = renderer.Render(state, 1);
+  const Image a = renderer.Render(state, 1, 3), b = renderer.Render(state, 1, 3);
   ASSERT_EQ(a.channels(), 3);
   EXPECT_TRUE(std::equal(a.data(), a.data() + a.size(), b.data()));
+  // A mono readout is the mean of the RGB signal (lamps and laser on here;
+  // the laser alone takes a shortcut, checked below).
+  const Image mono = renderer.Render(state, 1, 1);
+  ASSERT_EQ(mono.channels(), 1);
+  const Image mean = ChannelMean(a);
+  for (std::size_t i = 0; i < mono.size(); ++i) ASSERT_NEAR(mono.data()[i], mean.data()[i], 1e-6f) << i;
+  state.lamps_on = {false, false};
+  const Image laser_rgb = renderer.Render(state, 1, 3), laser_mono = renderer.Render(state, 1, 1);
+  double lit = 0;
+  for (std::size_t p = 0; p < laser_mono.size(); ++p) {
+    ASSERT_EQ(laser_mono.data()[p], laser_rgb.data()[3 * p]) << p;  // the stripe is grey
+    lit += laser_mono.data()[p];
+  }
+  EXPECT_GT(lit, 0.0);
+  EXPECT_THROW(renderer.Render(state, 1, 2), Error);
   float max_value = 0;
   for (std::size_t i = 0; i < a.size(); ++i) max_value = std::max(max_value, a.data()[i]);
   EXPECT_GT(max_value, 0.2f) << "signal scale: typical signals at 0.2-0.8 of full scale";

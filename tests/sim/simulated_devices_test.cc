@@ -34,10 +34,11 @@ drivers::RigDescription TinyWithSmallSensors() {
 
 // Test double: an image whose channels carry the state, so a test sees what
 // reached the renderer. Channel 0: turntable angle / 10; channel 1: 0.25 per
-// lamp on; channel 2: `base` + x / 1000 (to see the region's crop).
+// lamp on; channel 2: `base` + x / 1000 (to see the region's crop). A mono
+// readout gets their mean.
 class StateEchoRenderer : public FrameRenderer {
  public:
-  Image Render(const SimulatedRigState& state, int camera) override {
+  Image Render(const SimulatedRigState& state, int camera, int channels) override {
     ++renders;
     last_camera = camera;
     last_clock_s = state.clock_s;
@@ -52,7 +53,7 @@ class StateEchoRenderer : public FrameRenderer {
         image.at(x, y, 2) = base + static_cast<float>(x) / 1000.0f;
       }
     }
-    return image;
+    return channels == 1 ? ChannelMean(image) : image;
   }
 
   drivers::RigDescription rig;
@@ -353,6 +354,20 @@ TEST(SimulatedCamera, ExposureGainAndRegionShapeTheSignal) {
   ASSERT_EQ(f.image.height(), 30);
   EXPECT_NEAR(f.image.at(0, 0, 2), 0.9905 + 4 / 1000.0, 1e-6);  // sensor x 4
   EXPECT_EQ(f.saturated_pixels, 30u * (20u - 6u));              // sensor x 10..23
+
+  // Mono: one value a pixel, the mean of the channels, cut and scaled as RGB.
+  sim.renderer.base = 0.25f;
+  sim.state().turntable_rad = 1.0;  // channel 0: 0.1; no lamp on: channel 1 is 0
+  cam.SetExposure(40000);
+  cam.SetPixelFormat(drivers::PixelFormat::kMono);
+  EXPECT_EQ(cam.settings().pixel_format, drivers::PixelFormat::kMono);
+  f = cam.Grab(milliseconds(100));
+  ASSERT_EQ(f.image.channels(), 1);
+  ASSERT_EQ(f.image.width(), 20);
+  EXPECT_NEAR(f.image.at(0, 0), 2 * (0.1 + 0.0 + 0.25 + 4 / 1000.0) / 3, 1e-6);
+  EXPECT_EQ(f.settings.pixel_format, drivers::PixelFormat::kMono);
+  cam.SetPixelFormat(drivers::PixelFormat::kNative);
+  EXPECT_EQ(cam.Grab(milliseconds(100)).image.channels(), 3);
 }
 
 // ---------------------------------------------------------------- faults at a step
