@@ -367,6 +367,8 @@ LaserSweepRenderer::LaserSweepRenderer(const CameraRenderer& renderer, const Cam
   const double gain = ExposureSeconds(renderer.rig().cameras.at(view.camera)) * kSignalPerRadianceSecond *
                       renderer.LaserPeakIrradiance();
   const Eigen::Vector3d centre = renderer.CameraCentre(view.camera);
+  const CameraCalibration& camera = renderer.calibration().cameras.at(view.camera);
+  const int side = renderer.options().samples_per_pixel_side;
   // Per row, the row's lit samples in pixel order, joined in order after.
   std::vector<std::vector<LitSample>> rows(view.height);
   tbb::parallel_for(0, view.height, [&](int y) {
@@ -379,12 +381,13 @@ LaserSweepRenderer::LaserSweepRenderer(const CameraRenderer& renderer, const Cam
         const double n_dot_l = s.normal.dot(l);
         if (n_dot_l <= 0.0 || !renderer.Lit(view, s, source_)) continue;
         const Eigen::Vector3d to_camera = (centre - s.point).normalized();
-        StripeSample stripe;
-        Place(s.point, &stripe);
         // The pixel averages its samples (a box filter).
-        stripe.weight = static_cast<float>(Grey(s.reflectance.Evaluate(s.normal, l, to_camera)) * n_dot_l * gain /
-                                           view.samples_per_pixel);
-        AddLit(stripe, static_cast<std::uint32_t>(pixel), &rows[y]);
+        const double weight =
+            Grey(s.reflectance.Evaluate(s.normal, l, to_camera)) * n_dot_l * gain / view.samples_per_pixel;
+        // Sweeps tilt the plane by a few degrees (the stripe must stay on the
+        // turntable), which changes the footprint along it by < 1 - cos(tilt).
+        const double footprint = StripeFootprintVariance(camera, s, n0_, side);
+        AddLit(Stripe(s.point, weight, footprint), static_cast<std::uint32_t>(pixel), &rows[y]);
       }
     }
   });
@@ -398,17 +401,47 @@ LaserSweepRenderer::LaserSweepRenderer(const CameraRenderer& renderer, const Cam
   Bin(std::move(lit));
 }
 
-void LaserSweepRenderer::Place(const Eigen::Vector3d& point, StripeSample* out) const {
+LaserSweepRenderer::StripeSample LaserSweepRenderer::Stripe(const Eigen::Vector3d& point, double weight,
+                                                            double footprint_variance) const {
   const Eigen::Vector3d r = point - source_;
-  out->a = n0_.dot(r) - k_k_n0_.dot(r);
-  out->b = k_cross_n0_.dot(r);
-  out->c = k_k_n0_.dot(r);
+  StripeSample out;
+  out.a = n0_.dot(r) - k_k_n0_.dot(r);
+  out.b = k_cross_n0_.dot(r);
+  out.c = k_k_n0_.dot(r);
+  const double variance = sigma_mm_ * sigma_mm_ + footprint_variance;
+  const double sigma = std::sqrt(variance);
+  out.weight = static_cast<float>(weight * sigma_mm_ / sigma);
+  out.inv_two_sigma2 = static_cast<float>(1.0 / (2.0 * variance));
+  out.cutoff = static_cast<float>(kStripeCutoffSigmas * sigma);
+  return out;
+}
+
+double StripeFootprintVariance(const CameraCalibration& camera, const ViewSample& sample,
+                               const Eigen::Vector3d& plane_normal, int samples_per_pixel_side) {
+  // P(u, v) = C + z q(u, v) on the tangent plane, q the camera-frame ray
+  // (x, y, 1) in the world: dP/du = z / fx (X - (n.X) / (n.Q) Q), Q = (P - C) / z.
+  const Eigen::Matrix3d& rotation = camera.pose.transform.rotation;  // world <- camera
+  const Eigen::Vector3d offset = sample.point - camera.pose.transform.translation;
+  const double z = rotation.col(2).dot(offset);
+  if (!(z > 0.0)) return 0.0;
+  const Eigen::Vector3d q = offset / z;
+  const Eigen::Vector3d& n = sample.normal;
+  double n_dot_q = n.dot(q);
+  const double min_n_dot_q = kMinFootprintCosine * q.norm();
+  if (std::abs(n_dot_q) < min_n_dot_q) n_dot_q = n_dot_q < 0.0 ? -min_n_dot_q : min_n_dot_q;
+  auto change = [&](const Eigen::Vector3d& axis, double focal) {
+    const Eigen::Vector3d dp = z / focal * (axis - n.dot(axis) / n_dot_q * q);
+    return plane_normal.dot(dp) / samples_per_pixel_side;
+  };
+  const double g_u = change(rotation.col(0), camera.intrinsics.fx);
+  const double g_v = change(rotation.col(1), camera.intrinsics.fy);
+  return (g_u * g_u + g_v * g_v) / 12.0;
 }
 
 void LaserSweepRenderer::AddLit(const StripeSample& s, std::uint32_t pixel, std::vector<LitSample>* lit) const {
   if (!(s.weight > 0.0f)) return;
   const double pi = std::numbers::pi;
-  const double cutoff = kStripeCutoffSigmas * sigma_mm_;
+  const double cutoff = s.cutoff;
   auto add = [&](double begin, double end) {
     if (end - begin >= 2.0 * pi) {
       lit->push_back({s, pixel, static_cast<float>(-pi), static_cast<float>(pi)});
@@ -481,10 +514,8 @@ void LaserSweepRenderer::AddBounces(const CameraRenderer& renderer, const Camera
         const Eigen::Vector3f f_q = q->reflectance.Evaluate(q->normal, l_q, -w);
         const double weight = gain * std::numbers::pi / rays_per_pixel * Grey(f_s.cwiseProduct(f_q)) * n_dot_l;
         if (!(weight > 0.0)) continue;
-        StripeSample bounce;
-        Place(q->point, &bounce);
-        bounce.weight = static_cast<float>(weight);
-        AddLit(bounce, static_cast<std::uint32_t>(pixel), &rows[y]);
+        // q is lit by the stripe itself, not seen through a pixel: no footprint.
+        AddLit(Stripe(q->point, weight, 0.0), static_cast<std::uint32_t>(pixel), &rows[y]);
       }
     }
   });
@@ -525,15 +556,15 @@ std::size_t LaserSweepRenderer::BinOf(double begin) const {
 Image LaserSweepRenderer::Frame(double tilt_rad) const {
   const double cos_t = std::cos(tilt_rad);
   const double sin_t = std::sin(tilt_rad);
-  const double cutoff = kStripeCutoffSigmas * sigma_mm_;
-  const double inv_two_sigma2 = 1.0 / (2.0 * sigma_mm_ * sigma_mm_);
   const float tilt = static_cast<float>(WrapAngle(tilt_rad));
   Image out(width_, height_, 1);
   float* values = out.data();
   const auto add = [&](const LitSample& s) {
     if (!(s.begin <= tilt && tilt <= s.end)) return;
     const double d = cos_t * s.stripe.a + sin_t * s.stripe.b + s.stripe.c;
-    if (std::abs(d) < cutoff) values[s.pixel] += static_cast<float>(s.stripe.weight * std::exp(-d * d * inv_two_sigma2));
+    if (std::abs(d) < s.stripe.cutoff) {
+      values[s.pixel] += static_cast<float>(s.stripe.weight * std::exp(-d * d * s.stripe.inv_two_sigma2));
+    }
   };
   for (const LitSample& s : wide_) add(s);
   if (!binned_.empty()) {

@@ -208,10 +208,15 @@ class LaserSweepRenderer {
 
  private:
   // The signed distance of a sample from the plane at tilt t is
-  // cos(t) a + sin(t) b + c (Rodrigues' rotation of the tilt-0 normal).
+  // cos(t) a + sin(t) b + c (Rodrigues' rotation of the tilt-0 normal). The
+  // stripe's profile over the sample's footprint is a Gaussian of variance
+  // sigma^2 + StripeFootprintVariance (weight scaled by sigma / that sigma,
+  // so the light it gets over a sweep stays the same), cut off at 8 of it.
   struct StripeSample {
     double a = 0, b = 0, c = 0;
     float weight = 0;  // signal the pixel gets at the stripe's peak; 0 where unlit
+    float inv_two_sigma2 = 0;
+    float cutoff = 0;  // mm
   };
   // A lit sample, the pixel it adds to, and the tilts [begin, end] (in
   // [-pi, pi], padded) over which the stripe covers it.
@@ -220,8 +225,9 @@ class LaserSweepRenderer {
     std::uint32_t pixel = 0;
     float begin = 0, end = 0;
   };
-  // a, b, c of the point (see StripeSample).
-  void Place(const Eigen::Vector3d& point, StripeSample* out) const;
+  // The stripe at `point` for a sample of peak signal `weight` whose distance
+  // from the plane varies by `footprint_variance` (mm^2) over its footprint.
+  StripeSample Stripe(const Eigen::Vector3d& point, double weight, double footprint_variance) const;
   // Adds s's tilt range(s) for `pixel` to `lit` (none when never covered).
   void AddLit(const StripeSample& s, std::uint32_t pixel, std::vector<LitSample>* lit) const;
   void AddBounces(const CameraRenderer& renderer, const CameraView& view, double gain, int rays_per_pixel,
@@ -250,6 +256,21 @@ class LaserSweepRenderer {
   double max_span_ = 0.0;  // of the binned ranges
   std::vector<LitSample> wide_;
 };
+
+// A camera sample covers 1 / side of a pixel on each axis, and its footprint
+// on the surface (the tangent plane of the sample's hit) is a parallelogram;
+// a stripe narrower than that (at grazing views a paper-rig pixel spans
+// 1 mm of a sample, the stripe's sigma is 0.15 mm) would alias between the
+// sample points, so the sweep renderer widens the stripe by the variance of
+// the distance from the plane (normal `plane_normal`) over the footprint:
+// (g_u^2 + g_v^2) / 12, g the change of that distance across the footprint
+// on each image axis (the box filter's variance). Pinhole Jacobian (the
+// lens distortion changes a footprint by ~k1 r^2, a few percent at the
+// corners); the tangent plane is taken at least kMinFootprintCosine from
+// edge-on, where the footprint would have no bound.
+inline constexpr double kMinFootprintCosine = 0.05;
+double StripeFootprintVariance(const CameraCalibration& camera, const ViewSample& sample,
+                               const Eigen::Vector3d& plane_normal, int samples_per_pixel_side);
 
 // Brown-Conrady (OpenCV) distortion of normalized image coordinates, and its
 // inverse by fixed-point iteration (at most 100 steps, stopping when a step

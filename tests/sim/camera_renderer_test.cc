@@ -236,6 +236,28 @@ TEST(CameraRendererTest, StripePeaksLieOnTheTrueLaserPlane) {
 // distance from the true plane (cut off at 8 sigma), at tilts across the
 // sweep and anywhere on the circle (the plane then meets the sample
 // elsewhere, or wraps past +-pi).
+// The variance of a sample's distance from a plane (normal `normal`) over
+// its footprint, 1 / side of a pixel on each axis (camera_renderer.h), here
+// by central differences of pinhole rays met with the sample's tangent
+// plane; NaN where that plane is within kMinFootprintCosine of edge-on.
+double FootprintVarianceByDifferences(const CameraCalibration& c, const ViewSample& s, const Eigen::Vector3d& normal,
+                                      int side) {
+  const Eigen::Vector3d centre = c.pose.transform.translation;
+  const Eigen::Matrix3d& rotation = c.pose.transform.rotation;
+  const Eigen::Vector3d local = rotation.transpose() * (s.point - centre);
+  const Intrinsics& k = c.intrinsics;
+  const double u = k.fx * local.x() / local.z() + k.cx, v = k.fy * local.y() / local.z() + k.cy;
+  if (std::abs(s.normal.dot((s.point - centre).normalized())) < kMinFootprintCosine) return std::nan("");
+  auto hit = [&](double du, double dv) {
+    const Eigen::Vector3d dir = rotation * Eigen::Vector3d((u + du - k.cx) / k.fx, (v + dv - k.cy) / k.fy, 1.0);
+    return Eigen::Vector3d(centre + s.normal.dot(s.point - centre) / s.normal.dot(dir) * dir);
+  };
+  const double h = 1e-3;
+  const double g_u = normal.dot(hit(h, 0) - hit(-h, 0)) / (2 * h) / side;
+  const double g_v = normal.dot(hit(0, h) - hit(0, -h)) / (2 * h) / side;
+  return (g_u * g_u + g_v * g_v) / 12.0;
+}
+
 TEST(CameraRendererTest, SweepFramesEqualTheSumOverEveryLitSample) {
   const auto rig = LoadRig("tiny");
   const auto scene = MakeBuiltinScene("weave");
@@ -248,33 +270,89 @@ TEST(CameraRendererTest, SweepFramesEqualTheSumOverEveryLitSample) {
   const Eigen::Vector3d centre = renderer.CameraCentre(camera);
   const double gain = rig.cameras[camera].exposure_us * 1e-6 * kSignalPerRadianceSecond * renderer.LaserPeakIrradiance();
   const double sigma = rig.laser.stripe_sigma_mm;
+  const CameraCalibration& calibration = renderer.calibration().cameras.at(camera);
+  const Eigen::Vector3d plane_at_zero = renderer.LaserPlaneAt(loc.mount, loc.arc_angle_rad, 0.0).normal;
   std::vector<double> tilts;
   for (const double offset : {-7.0, -2.0, 0.0, 0.3, 4.0, 7.0}) tilts.push_back(drivers::LaserTiltForOffset(rig.laser, loc.mount, offset));
   for (const double t : {-3.14159, -1.2, 0.9, 3.1415926}) tilts.push_back(t);
-  int lit_pixels = 0;
+  int lit_pixels = 0, edge_on_pixels = 0, widened_pixels = 0;
   for (const double tilt : tilts) {
     const LaserPlane plane = renderer.LaserPlaneAt(loc.mount, loc.arc_angle_rad, tilt);
     const Image frame = sweep.Frame(tilt);
     for (int y = 0; y < view.height; ++y) {
       for (int x = 0; x < view.width; ++x) {
         double expected = 0.0;
+        bool edge_on = false, widened = false;
         for (int k = 0; k < view.samples_per_pixel; ++k) {
           const ViewSample& s = view.samples[(static_cast<std::size_t>(y) * view.width + x) * view.samples_per_pixel + k];
           if (s.surface == ViewSample::Surface::kNothing) continue;
           const Eigen::Vector3d l = (source - s.point).normalized();
           const double n_dot_l = s.normal.dot(l);
           if (n_dot_l <= 0.0 || !renderer.Lit(view, s, source)) continue;
+          const double footprint = FootprintVarianceByDifferences(calibration, s, plane_at_zero, 2);
+          edge_on |= std::isnan(footprint);
+          const double wide = std::sqrt(sigma * sigma + footprint);
+          widened |= wide > 1.1 * sigma;
           const double d = plane.normal.dot(s.point - plane.source);
-          if (std::abs(d) >= 8.0 * sigma) continue;
+          if (std::abs(d) >= 8.0 * wide) continue;
           const Eigen::Vector3f f = s.reflectance.Evaluate(s.normal, l, (centre - s.point).normalized());
-          expected += (f.sum() / 3.0) * n_dot_l * gain * std::exp(-d * d / (2 * sigma * sigma)) / view.samples_per_pixel;
+          expected += (f.sum() / 3.0) * n_dot_l * gain * (sigma / wide) * std::exp(-d * d / (2 * wide * wide)) /
+                      view.samples_per_pixel;
+        }
+        if (edge_on) {  // the footprint is bounded there (kMinFootprintCosine)
+          ++edge_on_pixels;
+          continue;
         }
         lit_pixels += expected > 1e-3 ? 1 : 0;
-        ASSERT_NEAR(frame.at(x, y), expected, 1e-6 + 1e-5 * expected) << "tilt " << tilt << " pixel " << x << ", " << y;
+        widened_pixels += expected > 1e-3 && widened ? 1 : 0;
+        ASSERT_NEAR(frame.at(x, y), expected, 1e-6 + 1e-4 * expected) << "tilt " << tilt << " pixel " << x << ", " << y;
       }
     }
   }
   EXPECT_GT(lit_pixels, 500);
+  EXPECT_GT(widened_pixels, 50) << "the tiny rig's 2 x 2 samples are wider than the stripe on slanted threads";
+  EXPECT_LT(edge_on_pixels, lit_pixels / 10);
+}
+
+// A stripe much narrower than a pixel's footprint (the paper rig's lowest
+// camera, 5.6 degrees above the plate: a pixel spans ~1.1 mm of it, the
+// stripe's sigma is 0.15 mm) must not alias at 1 ray per pixel: each
+// column's brightest value then matches the 5 x 5-ray rendering of the same
+// frame (the footprint's Gaussian has the box's energy but a 1.4x higher
+// peak at this width: within 50 %), where point samples between the pixel
+// centres would miss the stripe in most columns.
+TEST(CameraRendererTest, StripeNarrowerThanAPixelFootprintDoesNotAlias) {
+  auto rig = LoadRig("paper");
+  const int camera = 7;
+  // The middle 256 x 256 pixels of its 1024 x 768 (same focal length, so
+  // the same footprints), which hold the stripe on the 10 mm plate.
+  auto& cut = rig.cameras[camera];
+  cut.principal_point_px -= Eigen::Vector2d((cut.width - 256) / 2.0, (cut.height - 256) / 2.0);
+  cut.width = cut.height = 256;
+  const auto scene = MakeBuiltinScene("flat");
+  const auto& loc = rig.laser.locations[12];  // mount 2, arc 0: the stripe runs across the camera's view
+  std::vector<float> column_peaks[2];
+  for (const int side : {1, 5}) {
+    const CameraRenderer renderer(*scene, rig, {side});
+    const CameraView plate = renderer.TracePlate(camera, 10.0);
+    const Image frame = LaserSweepRenderer(renderer, plate, loc.mount, loc.arc_angle_rad).Frame(0.0);
+    std::vector<float>& peaks = column_peaks[side == 1 ? 0 : 1];
+    for (int x = 0; x < frame.width(); ++x) {
+      float peak = 0.0f;
+      for (int y = 0; y < frame.height(); ++y) peak = std::max(peak, frame.at(x, y));
+      peaks.push_back(peak);
+    }
+  }
+  int compared = 0, matched = 0;
+  for (std::size_t x = 0; x < column_peaks[0].size(); ++x) {
+    const float fine = column_peaks[1][x];
+    if (fine < 0.01f) continue;
+    ++compared;
+    const float ratio = column_peaks[0][x] / fine;
+    matched += ratio > 0.5f && ratio < 1.5f ? 1 : 0;
+  }
+  ASSERT_GT(compared, 200);
+  EXPECT_EQ(matched, compared);
 }
 
 // One-bounce interreflection of the stripe: a plane cannot light itself, so
