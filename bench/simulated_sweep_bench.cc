@@ -91,7 +91,7 @@ void SensorOnSweepFrame(benchmark::State& state) {
 BENCHMARK(SensorOnSweepFrame)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 // A sweep frame as the simulated camera makes it: Render (the stripe on an
-// RGB frame) and the sensor.
+// RGB frame, or the stripe alone for a mono readout) and the sensor.
 void RenderedSweepFrame(benchmark::State& state) {
   const int side = static_cast<int>(state.range(0));
   const int channels = static_cast<int>(state.range(1));  // 3: RGB readout, 1: mono

@@ -318,7 +318,7 @@ Image CameraRenderer::Render(const SimulatedRigState& state, int camera, int cha
   if (!any_lamp && state.laser_on && channels == 1) return cached.sweep->Frame(state.laser_tilt_rad);
   Image image = any_lamp ? RenderLamps(cached.view, state.light_arc_rad, state.lamps_on)
                          : Image(cached.view.width, cached.view.height, channels);
-  if (channels == 1) image = ChannelMean(image);
+  if (channels == 1) image = ChannelMean(std::move(image));
   if (state.laser_on) {
     const Image stripe = cached.sweep->Frame(state.laser_tilt_rad);
     for (int y = 0; y < image.height(); ++y) {
