@@ -80,7 +80,13 @@ RigDescription ParseRigDescription(const nlohmann::json& json, const std::filesy
   RigDescription rig;
   rig.json = json;
   rig.name = root.String("name");
-  rig.sample_size_mm = root.Object("sample").Number("size_mm", 1e-3, 1e4);
+  const auto sample = root.Object("sample");
+  rig.sample_size_mm = sample.Number("size_mm", 1e-3, 1e4);
+  if (sample.Has("backing")) {
+    const auto backing = sample.Object("backing");
+    rig.backing.depth_mm = backing.Number("depth_mm", 1e-3, 1e4);
+    rig.backing.albedo = backing.Number("albedo", 0.0, 1.0);
+  }
 
   std::set<std::string> ids;
   for (const auto& c : root.Objects("cameras", kMaxDevices)) {

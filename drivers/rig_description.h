@@ -81,9 +81,23 @@ struct LaserDescription {
   SweepStorage sweep_storage = SweepStorage::kFrames;
 };
 
+// The board at the bottom of the sample's pocket, under the sample. A camera
+// ray through a hole in the sample meets it below the mesostructure slab, so
+// the laser stripe on it is the evidence for "no hit" (MDF paper Sec. 3.2);
+// without a board (depth 0) such a ray sees black and stays unknown. It must
+// lie at least kMinBackingClearanceMm below the deepest mesostructure.
+struct SampleBacking {
+  double depth_mm = 0.0;  // below the reference plane; 0: no board
+  double albedo = 0.0;    // diffuse, grey
+
+  bool present() const { return depth_mm > 0.0; }
+};
+inline constexpr double kMinBackingClearanceMm = 1.0;
+
 struct RigDescription {
   std::string name;
   double sample_size_mm = 0.0;  // side of the clipped square sample
+  SampleBacking backing;
   std::vector<CameraDescription> cameras;
   StageDescription turntable;
   StageDescription light_arc;

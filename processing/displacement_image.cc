@@ -5,6 +5,8 @@
 #include <cmath>
 #include <limits>
 
+#include "drivers/rig_description.h"
+
 namespace mesocap {
 
 CheckResult TextureGrid::Check() const {
@@ -16,9 +18,15 @@ CheckResult TextureGrid::Check() const {
 CheckResult TriangulationOptions::Check() const {
   if (!(min_ray_plane_sine > 0 && min_ray_plane_sine < 1)) return "min_ray_plane_sine must be in (0, 1)";
   if (!(max_height_mm >= 0)) return "max_height_mm must be >= 0";
+  if (!(backing_depth_mm >= 0 && std::isfinite(backing_depth_mm))) return "backing_depth_mm must be >= 0";
   if (!(max_depth_step_ratio > 0) || !(max_depth_step_texels >= 0)) return "depth step limits must be positive";
   return {};
 }
+
+// Half the clearance the rig keeps between the mesostructure and its backing
+// (drivers::kMinBackingClearanceMm): points within it of the board are on
+// the board.
+constexpr double kBackingMarginMm = 0.5 * drivers::kMinBackingClearanceMm;
 
 std::vector<Eigen::Vector3f> TriangulateSweep(const SweepAnalysis& analysis, const CameraRays& rays,
                                               const RigidTransform& world_from_sample,
@@ -44,6 +52,7 @@ std::vector<Eigen::Vector3f> TriangulateSweep(const SweepAnalysis& analysis, con
       if (!(s > 0)) continue;
       const Eigen::Vector3d q = sample_from_world.Apply(rays.centre() + s * dir);
       if (q.z() > options.max_height_mm) continue;
+      if (options.backing_depth_mm > 0 && q.z() < -options.backing_depth_mm - kBackingMarginMm) continue;
       points[p] = q.cast<float>();
     }
   }
@@ -75,14 +84,17 @@ void Rasterize(const Vertex& a, const Vertex& b, const Vertex& c, const TextureG
   const int j0 = std::max(0, static_cast<int>(std::ceil(std::min({a.v, b.v, c.v}) - 1e-9)));
   const int j1 = std::min(grid.height - 1, static_cast<int>(std::floor(std::max({a.v, b.v, c.v}) + 1e-9)));
   constexpr double kEdge = -1e-9;  // texels on a shared edge belong to both
+  // Three points on the backing: the texels between them are seen through
+  // the hole too (no hit), unless a surface covers them.
+  const bool no_hit = std::isinf(a.d) && std::isinf(b.d) && std::isinf(c.d);
   for (int j = j0; j <= j1; ++j) {
     for (int i = i0; i <= i1; ++i) {
       const double wa = ((b.u - i) * (c.v - j) - (c.u - i) * (b.v - j)) / area;
       const double wb = ((c.u - i) * (a.v - j) - (a.u - i) * (c.v - j)) / area;
       const double wc = 1.0 - wa - wb;
       if (wa < kEdge || wb < kEdge || wc < kEdge) continue;
-      double interpolated = wa * a.d + wb * b.d + wc * c.d;
-      if (nearest) {
+      double interpolated = no_hit ? a.d : wa * a.d + wb * b.d + wc * c.d;
+      if (nearest && !no_hit) {
         const double da = std::hypot(a.u - i, a.v - j), db = std::hypot(b.u - i, b.v - j),
                      dc = std::hypot(c.u - i, c.v - j);
         interpolated = da <= db && da <= dc ? a.d : (db <= dc ? b.d : c.d);
@@ -119,12 +131,15 @@ DisplacementImage ResampleToTexture(const std::vector<Eigen::Vector3f>& points, 
     // p_ref = q + D v on z = 0; D >= 0 (a point a hair above the plane is 0).
     const double d = std::max(0.0, -q.z() / v.z());
     const Eigen::Vector3d ref = q + d * v;
+    const bool on_backing = options.backing_depth_mm > 0 && q.z() < -options.backing_depth_mm + kBackingMarginMm;
     vertices[p] = {(ref.x() + 0.5 * grid.sample_size_mm) / texel_u - 0.5,
-                   (ref.y() + 0.5 * grid.sample_size_mm) / texel_v - 0.5, d};
+                   (ref.y() + 0.5 * grid.sample_size_mm) / texel_v - 0.5,
+                   on_backing ? std::numeric_limits<double>::infinity() : d};
     valid[p] = true;
   }
   const double texel = std::min(texel_u, texel_v);
   auto continuous = [&](const Vertex& a, const Vertex& b, const Vertex& c) {
+    if (std::isinf(a.d) && std::isinf(b.d) && std::isinf(c.d)) return true;  // all through the hole
     const double extent =
         texel * std::max({std::hypot(a.u - b.u, a.v - b.v), std::hypot(b.u - c.u, b.v - c.v),
                           std::hypot(c.u - a.u, c.v - a.v)});
@@ -143,6 +158,11 @@ DisplacementImage ResampleToTexture(const std::vector<Eigen::Vector3f>& points, 
       for (const auto& [a, b, c] : {std::array{p00, p10, p11}, std::array{p00, p11, p01}}) {
         if (!valid[a] || !valid[b] || !valid[c]) continue;
         const bool smooth = continuous(vertices[a], vertices[b], vertices[c]);
+        // Across a hole's rim (a surface and the backing) nothing is filled:
+        // a texel there is no hit or a surface to within a pixel, and a false
+        // hit would close the hole (sponge: false hits 0.052 -> 0.072).
+        const bool rim = std::isinf(vertices[a].d) || std::isinf(vertices[b].d) || std::isinf(vertices[c].d);
+        if (!smooth && rim) continue;
         if (smooth || options.fill_discontinuities) {
           Rasterize(vertices[a], vertices[b], vertices[c], grid, !smooth, smooth ? &out.distance_mm : &edges);
         }

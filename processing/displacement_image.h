@@ -34,6 +34,11 @@ struct TriangulationOptions {
   // Mesostructure lies below the reference plane; points higher than this
   // (mm) are triangulation failures.
   double max_height_mm = 0.1;
+  // The rig's backing board (drivers::SampleBacking; 0: none). A point on it
+  // (deeper than half the board's clearance above it) was seen through a
+  // hole: "no hit" evidence for its texel. Points deeper still than that
+  // below the board are triangulation failures.
+  double backing_depth_mm = 0.0;
   // Resampling: a triangle of neighbouring pixels whose D values spread more
   // than ratio x its texture-space extent + texels x texel width spans a
   // depth discontinuity (an occluding edge) and is not interpolated.
@@ -56,9 +61,10 @@ std::vector<Eigen::Vector3f> TriangulateSweep(const SweepAnalysis& analysis, con
 
 // D(x, y) for one view and one laser location on the texture grid: distance
 // in mm from the texel's reference point along -view (sample frame, unit,
-// towards the camera) to the measured surface; NaN (unknown) where nothing
-// was measured. Unknown pixels stay unknown; no value is invented across a
-// discontinuity.
+// towards the camera) to the measured surface; +infinity (no hit, as in
+// core/mdf.h) where the texel's ray was seen to reach the backing; NaN
+// (unknown) where nothing was measured. Unknown pixels stay unknown; no
+// value is invented across a discontinuity.
 struct DisplacementImage {
   int width = 0;
   int height = 0;
@@ -71,7 +77,9 @@ struct DisplacementImage {
 // TriangulateSweep) to the grid: each point projects along `view` to the
 // reference plane (p = q + D view), neighbouring pixels form triangles that
 // are rasterized at texel centres with D interpolated, and the nearest
-// surface (smallest D, the first hit) wins where triangles overlap.
+// surface (smallest D, the first hit) wins where triangles overlap. Points on
+// the backing (options.backing_depth_mm) give "no hit", which any surface
+// covering the texel overrides.
 DisplacementImage ResampleToTexture(const std::vector<Eigen::Vector3f>& points, int pixel_width, int pixel_height,
                                     const Eigen::Vector3d& view, const TextureGrid& grid,
                                     const TriangulationOptions& options);

@@ -5,6 +5,8 @@
 #include <limits>
 #include <numeric>
 
+#include "core/mdf.h"
+
 namespace mesocap {
 
 double TetrahedronVolume(const Eigen::Vector3d& source, const Eigen::Vector3d& camera, const Eigen::Vector3d& line_a,
@@ -68,8 +70,15 @@ MergedDisplacement MergeDisplacementImages(const std::vector<DisplacementImage>&
       }
     }
     double sum = 0, sum_weight = 0;
+    if (IsNoHit(median)) {
+      // Most of the weight saw the texel's ray reach the backing.
+      for (const auto& s : samples) sum_weight += IsNoHit(s.first) ? s.second : 0.0;
+      out.image.distance_mm[p] = MdfNoHit();
+      out.confidence[p] = static_cast<float>(sum_weight / total_weight);
+      continue;
+    }
     for (const auto& s : samples) {
-      if (std::abs(s.first - median) > tolerance) continue;
+      if (!(std::abs(s.first - median) <= tolerance)) continue;  // no-hit votes too
       sum += s.second * s.first;
       sum_weight += s.second;
     }

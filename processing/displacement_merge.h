@@ -37,7 +37,10 @@ struct MergeOptions {
 
 // The merged image and a per-texel confidence in [0, 1]: the share of the
 // view's total scan weight whose scans agree on the texel's value (0 where
-// unknown).
+// unknown). "No hit" (+infinity) takes part in the weighted median like a
+// distance beyond all others: a texel is no hit when scans holding more than
+// half the weight that measured it saw its ray reach the backing (ties go
+// to the distance).
 struct MergedDisplacement {
   DisplacementImage image;
   std::vector<float> confidence;

@@ -45,7 +45,7 @@ MdfErrorRow EvaluateMdfViews(const Mdf& truth, const Mdf& estimate, double texel
   row.theta_min_deg = theta_min_deg;
   row.theta_max_deg = theta_max_deg;
   std::vector<double> errors;
-  long long covered = 0, false_no_hit = 0, false_hit = 0;
+  long long covered = 0, false_no_hit = 0, false_hit = 0, measured_no_hit = 0;
   for (int v = 0; v < truth.view_count(); ++v) {
     const double theta = truth.views.angles(v).theta * 180.0 / std::numbers::pi;
     if (theta < theta_min_deg - 1e-9 || theta > theta_max_deg + 1e-9) continue;
@@ -61,6 +61,7 @@ MdfErrorRow EvaluateMdfViews(const Mdf& truth, const Mdf& estimate, double texel
         if (IsNoHit(t)) {
           ++row.true_no_hits;
           if (std::isfinite(e)) ++false_hit;
+          if (IsNoHit(e)) ++measured_no_hit;
           continue;
         }
         ++row.true_hits;
@@ -80,6 +81,7 @@ MdfErrorRow EvaluateMdfViews(const Mdf& truth, const Mdf& estimate, double texel
   row.coverage = row.true_hits ? static_cast<double>(covered) / row.true_hits : kNaN;
   row.false_no_hit_rate = row.true_hits ? static_cast<double>(false_no_hit) / row.true_hits : kNaN;
   row.false_hit_rate = row.true_no_hits ? static_cast<double>(false_hit) / row.true_no_hits : kNaN;
+  row.no_hit_coverage = row.true_no_hits ? static_cast<double>(measured_no_hit) / row.true_no_hits : kNaN;
   return row;
 }
 
@@ -109,6 +111,7 @@ nlohmann::json RowJson(const MdfErrorRow& r, bool with_range) {
                       {"coverage", Number(r.coverage)},
                       {"false_no_hit_rate", Number(r.false_no_hit_rate)},
                       {"false_hit_rate", Number(r.false_hit_rate)},
+                      {"no_hit_coverage", Number(r.no_hit_coverage)},
                       {"true_hits", r.true_hits},
                       {"true_no_hits", r.true_no_hits},
                       {"compared", r.compared}};
@@ -129,12 +132,12 @@ nlohmann::json ToJson(const MdfErrorTable& table) {
 
 std::string FormatMdfErrorTable(const MdfErrorTable& table) {
   std::string out =
-      "theta (deg)   median mm   p95 mm  median tx   p95 tx  coverage  false no-hit  false hit   compared\n";
+      "theta (deg)   median mm   p95 mm  median tx   p95 tx  coverage  false no-hit  false hit  no-hit cov   compared\n";
   auto line = [&](const std::string& label, const MdfErrorRow& r) {
     char buffer[256];
-    std::snprintf(buffer, sizeof buffer, "%-12s %10.4f %8.4f %10.3f %8.3f %9.4f %13.4f %10.4f %10lld\n",
+    std::snprintf(buffer, sizeof buffer, "%-12s %10.4f %8.4f %10.3f %8.3f %9.4f %13.4f %10.4f %11.4f %10lld\n",
                   label.c_str(), r.median_mm, r.p95_mm, r.median_texels, r.p95_texels, r.coverage,
-                  r.false_no_hit_rate, r.false_hit_rate, r.compared);
+                  r.false_no_hit_rate, r.false_hit_rate, r.no_hit_coverage, r.compared);
     out += buffer;
   };
   for (const auto& r : table.by_polar_angle) {

@@ -2,8 +2,9 @@
 // polar-angle bucket and overall, the median and 95th percentile of
 // |D - D_true| in mm and texel widths over texel-directions where both have
 // a distance, the coverage (share of true hits with a measured distance),
-// the false "no hit" rate (true hits measured as no hit) and the false hit
-// rate (true no-hits measured as a distance).
+// the false "no hit" rate (true hits measured as no hit), the false hit
+// rate (true no-hits measured as a distance) and the no-hit coverage (true
+// no-hits measured as no hit).
 #pragma once
 
 #include <nlohmann/json.hpp>
@@ -22,6 +23,7 @@ struct MdfErrorRow {
   double coverage = 0;           // NaN when the truth has no hit here
   double false_no_hit_rate = 0;  // NaN when the truth has no hit here
   double false_hit_rate = 0;     // NaN when the truth has no "no hit" here
+  double no_hit_coverage = 0;    // true no-hits measured as no hit; NaN when the truth has none
   long long true_hits = 0;       // texel-directions with a hit in the truth
   long long true_no_hits = 0;
   long long compared = 0;        // with a distance in both

@@ -100,7 +100,9 @@ MdfProcessingResult ProcessMdfSession(const fs::path& session, const Calibration
   const double sample_size = rig.sample_size_mm;
   const SamplingSet views = drivers::ViewDirections(rig);
   TextureGrid grid{options.texture_size, options.texture_size, sample_size};
-  MdfAssembler assembler(grid, views, options.triangulation, options.merge);
+  TriangulationOptions triangulation = options.triangulation;
+  triangulation.backing_depth_mm = rig.backing.depth_mm;  // "no hit" evidence, if the rig has a backing
+  MdfAssembler assembler(grid, views, triangulation, options.merge);
   MdfProcessingResult result;
   result.sample_size_mm = sample_size;
   Progress progress("process mdf", sweeps.size() * rig.cameras.size(), progress_style);

@@ -8,6 +8,7 @@
 #include <limits>
 #include <numbers>
 #include <random>
+#include <sstream>
 
 #include "core/error.h"
 #include "sim/true_calibration.h"
@@ -73,6 +74,14 @@ Eigen::Vector2d ProjectToPixel(const CameraCalibration& camera, const Eigen::Vec
 CameraRenderer::CameraRenderer(const MesostructureScene& scene, const drivers::RigDescription& rig,
                                CameraRendererOptions options)
     : scene_(scene), rig_(rig), options_(options), calibration_(TrueCalibration(rig)) {
+  if (rig.backing.present() && rig.backing.depth_mm < scene.d_max_mm() + drivers::kMinBackingClearanceMm) {
+    std::ostringstream message;
+    message << "camera renderer: the backing of rig '" << rig.name << "' at " << rig.backing.depth_mm
+            << " mm lies within " << drivers::kMinBackingClearanceMm << " mm of the deepest point of scene '"
+            << scene.name() << "' (d_max " << scene.d_max_mm()
+            << " mm): use a rig description with a deeper sample.backing.depth_mm";
+    throw Error(message.str());
+  }
   if (options_.samples_per_pixel_side < 1 || options_.samples_per_pixel_side > 16) {
     throw Error("camera renderer: samples per pixel side must be 1..16");
   }
@@ -133,8 +142,20 @@ ViewSample CameraRenderer::SampleHit(const Eigen::Vector3d& origin_world, const 
   // precision is relative to the tile, not to the camera distance). The
   // interval is closed, so a floor exactly at z = -d_max (a box's base) is hit.
   const auto hit = scene_.Intersect(p0, d, 0.0, std::max(0.0, t_exit));
-  if (!hit) return out;  // black backing or pocket wall
   const Eigen::Matrix3d to_world = RotationZ(turntable_rad);
+  if (!hit) {
+    // Through a hole: on to the pocket's backing board, unless the ray leaves
+    // the (straight-walled) pocket first.
+    if (!rig_.backing.present()) return out;
+    const Eigen::Vector3d floor = p0 + (-rig_.backing.depth_mm / d.z()) * d;
+    if (std::abs(floor.x()) > half || std::abs(floor.y()) > half) return out;  // the pocket wall
+    out.surface = ViewSample::Surface::kBacking;
+    out.point = to_world * Eigen::Vector3d(floor.x(), floor.y(), -rig_.backing.depth_mm);
+    out.normal = Eigen::Vector3d::UnitZ();
+    out.reflectance.diffuse_albedo = Eigen::Vector3f::Constant(static_cast<float>(rig_.backing.albedo));
+    out.reflectance.specular_albedo = 0.0f;
+    return out;
+  }
   out.surface = ViewSample::Surface::kSample;
   out.point = to_world * hit->point;
   out.normal = to_world * hit->normal;
@@ -191,7 +212,10 @@ CameraView CameraRenderer::TracePlate(int camera, double height_mm) const {
 }
 
 bool CameraRenderer::Lit(const CameraView& view, const ViewSample& s, const Eigen::Vector3d& light) const {
-  if (s.surface != ViewSample::Surface::kSample) return s.surface != ViewSample::Surface::kNothing;
+  // The sample and the backing under it lie inside the pocket.
+  if (s.surface != ViewSample::Surface::kSample && s.surface != ViewSample::Surface::kBacking) {
+    return s.surface != ViewSample::Surface::kNothing;
+  }
   const Eigen::Matrix3d to_sample = RotationZ(-view.turntable_rad);
   const Eigen::Vector3d p = to_sample * s.point;
   const Eigen::Vector3d l = (to_sample * (light - s.point)).normalized();

@@ -10,8 +10,9 @@
 // turntable, its reference plane flush with the turntable plane z = 0:
 // outside the square a camera ray meets the turntable (diffuse grey, albedo
 // 0.3, the "reference region" of Sec. 3.2's laser-line detection); inside it
-// the mesostructure, or black where the ray finds none (the backing under
-// holes, the pocket walls). Light reaching a point inside the pocket must
+// the mesostructure, or where the ray finds none (through a hole) the
+// pocket's backing board (rig.backing, diffuse grey) or, without one or past
+// the pocket walls, black. Light reaching a point inside the pocket must
 // leave through the open square: a shadow ray that would leave the slab
 // outside it is blocked by the pocket wall. Camera poses and lamp and laser
 // mount positions come from TrueCalibration, the single source of rig
@@ -71,7 +72,7 @@ struct CameraRendererOptions {
 
 // What one camera ray meets; points and normals in the world frame.
 struct ViewSample {
-  enum class Surface : std::uint8_t { kNothing, kSample, kTurntable, kCalibrationPlate };
+  enum class Surface : std::uint8_t { kNothing, kSample, kTurntable, kCalibrationPlate, kBacking };
   Surface surface = Surface::kNothing;
   Eigen::Vector3d point = Eigen::Vector3d::Zero();
   Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();

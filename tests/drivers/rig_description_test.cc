@@ -95,6 +95,24 @@ TEST(RigDescription, HostileDescriptionsNameTheField) {
   j = TinyJson();
   j["cameras"] = nlohmann::json::array();
   EXPECT_NE(ErrorOf(j).find("cameras"), std::string::npos);
+  j = TinyJson();
+  j["sample"]["backing"]["albedo"] = 1.5;
+  EXPECT_NE(ErrorOf(j).find("sample.backing.albedo"), std::string::npos) << ErrorOf(j);
+  j = TinyJson();
+  j["sample"]["backing"]["depth_mm"] = -2;
+  EXPECT_NE(ErrorOf(j).find("sample.backing.depth_mm"), std::string::npos) << ErrorOf(j);
+}
+
+TEST(RigDescription, BackingIsOptional) {
+  // The shipped rigs hold their samples over a grey board 8 mm down.
+  for (const char* name : {"tiny", "small", "paper"}) {
+    const RigDescription rig = ReadRigDescription(RigFile(name));
+    EXPECT_TRUE(rig.backing.present()) << name;
+    EXPECT_DOUBLE_EQ(rig.backing.depth_mm, 8.0) << name;
+  }
+  auto j = TinyJson();
+  j["sample"].erase("backing");
+  EXPECT_FALSE(ParseRigDescription(j, "rig.json").backing.present());
 }
 
 TEST(Rig, MissingBackendIsNamed) {

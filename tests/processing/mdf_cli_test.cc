@@ -72,7 +72,7 @@ TEST_F(MdfCliTest, ProcessAndEvaluate) {
   const auto table = nlohmann::json::parse(e.out);
   EXPECT_EQ(table, ReadJsonFile(out / "table.json"));
   for (const char* name : {"median_mm", "p95_mm", "median_texels", "p95_texels", "coverage", "false_no_hit_rate",
-                           "false_hit_rate"}) {
+                           "false_hit_rate", "no_hit_coverage"}) {
     EXPECT_TRUE(table["overall"].contains(name)) << name;
   }
   ASSERT_EQ(table["by_polar_angle"].size(), 6u);

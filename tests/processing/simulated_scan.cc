@@ -45,7 +45,9 @@ ScanResult RunSimulatedScan(const ScanSetup& setup) {
 
   TextureGrid grid{setup.texture_size, setup.texture_size, rig.sample_size_mm};
   result.texel_mm = grid.texel_mm();
-  MdfAssembler assembler(grid, views, setup.triangulation, setup.merge);
+  TriangulationOptions triangulation = setup.triangulation;
+  triangulation.backing_depth_mm = rig.backing.depth_mm;
+  MdfAssembler assembler(grid, views, triangulation, setup.merge);
   const double outer_mm = 1.5 * rig.sample_size_mm;
   auto sense = [&](Image signal, int cam, std::uint64_t a, std::uint64_t b, std::uint64_t c) {
     if (setup.signal_gain != 1.0) {

@@ -428,6 +428,54 @@ TEST(CameraRendererTest, LaserPlanesFollowTheRigConventions) {
   }
 }
 
+TEST(CameraRendererTest, RaysThroughHolesMeetTheBackingBoard) {
+  // The sponge's open squares go right through its 1.2 mm slab; the small
+  // rig holds it over a grey board 8 mm down.
+  const auto rig = LoadRig("small");
+  ASSERT_TRUE(rig.backing.present());
+  const auto scene = MakeBuiltinScene("sponge");
+  const CameraRenderer renderer(*scene, rig);
+  auto no_board = rig;
+  no_board.backing = {};
+  const CameraRenderer black(*scene, no_board);
+  const int camera = 0;  // 11.25 degrees from the normal
+  const auto& c = rig.cameras[camera];
+  int through = 0, lit = 0;
+  const Eigen::Vector3d lamp(0.0, 0.0, 500.0);  // straight above: down through the holes
+  const CameraView view = renderer.TraceSample(camera, 0.0);
+  for (int y = c.height / 4; y < 3 * c.height / 4; y += 3) {
+    for (int x = c.width / 4; x < 3 * c.width / 4; x += 3) {
+      const ViewSample s = renderer.FirstHit(camera, 0.0, x, y);
+      if (s.surface != ViewSample::Surface::kBacking) {
+        EXPECT_EQ(black.FirstHit(camera, 0.0, x, y).surface, s.surface);
+        continue;
+      }
+      ++through;
+      EXPECT_NEAR(s.point.z(), -rig.backing.depth_mm, 1e-9);
+      EXPECT_LE(std::max(std::abs(s.point.x()), std::abs(s.point.y())), 0.5 * rig.sample_size_mm);
+      EXPECT_FLOAT_EQ(s.reflectance.diffuse_albedo.x(), static_cast<float>(rig.backing.albedo));
+      // The same ray finds no mesostructure above the board, and without a
+      // board it sees black.
+      EXPECT_EQ(black.FirstHit(camera, 0.0, x, y).surface, ViewSample::Surface::kNothing);
+      // Light reaches the board only through a hole above it: the lattice's
+      // open squares are (1.2 mm)^2 of every 2 mm x 2 mm.
+      if (renderer.Lit(view, s, lamp)) ++lit;
+    }
+  }
+  EXPECT_GT(through, 100);
+  EXPECT_GT(lit, 0);
+  EXPECT_LT(lit, through);
+  // A board inside (or too close to) the slab is refused, naming the field.
+  auto shallow = rig;
+  shallow.backing.depth_mm = scene->d_max_mm() + 0.5;
+  try {
+    CameraRenderer(*scene, shallow);
+    ADD_FAILURE() << "a backing 0.5 mm below the sponge was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("sample.backing.depth_mm"), std::string::npos) << e.what();
+  }
+}
+
 drivers::CameraDescription TestCamera(double read_noise) {
   drivers::CameraDescription camera;
   camera.bit_depth = 12;

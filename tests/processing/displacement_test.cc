@@ -1,0 +1,117 @@
+// Resampling displacement images to the texture grid and merging them
+// (processing/displacement_image.h, displacement_merge.h) on synthetic
+// points whose every distance is known: "no hit" from points on the rig's
+// backing board, and the weighted vote between distances and "no hit".
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "core/mdf.h"
+#include "processing/displacement_image.h"
+#include "processing/displacement_merge.h"
+
+namespace mesocap {
+namespace {
+
+constexpr double kBackingMm = 8.0;
+
+// A 20 mm sample seen straight down at 0.25 mm a pixel: a flat surface 0.5 mm
+// deep with a 6 mm square hole in the middle, through which the pixels see
+// the backing board.
+std::vector<Eigen::Vector3f> HoleyPlane(int side, double hole_half_mm) {
+  std::vector<Eigen::Vector3f> points;
+  for (int y = 0; y < side; ++y) {
+    for (int x = 0; x < side; ++x) {
+      const double px = -10.0 + 20.0 * (x + 0.5) / side, py = -10.0 + 20.0 * (y + 0.5) / side;
+      const bool hole = std::abs(px) < hole_half_mm && std::abs(py) < hole_half_mm;
+      points.emplace_back(static_cast<float>(px), static_cast<float>(py), hole ? -kBackingMm : -0.5f);
+    }
+  }
+  return points;
+}
+
+TEST(DisplacementImageTest, PointsOnTheBackingAreNoHitAndTheRimStaysUnknown) {
+  const int side = 80;
+  const TextureGrid grid{16, 16, 20.0};  // 1.25 mm texels
+  TriangulationOptions options;
+  options.backing_depth_mm = kBackingMm;
+  const auto points = HoleyPlane(side, 3.0);
+  const DisplacementImage image = ResampleToTexture(points, side, side, Eigen::Vector3d::UnitZ(), grid, options);
+  int no_hit = 0, surface = 0, unknown = 0;
+  for (int j = 0; j < grid.height; ++j) {
+    for (int i = 0; i < grid.width; ++i) {
+      const double x = -10.0 + (i + 0.5) * grid.texel_mm(), y = -10.0 + (j + 0.5) * grid.texel_mm();
+      const float d = image.at(i, j);
+      const double inside = std::max(std::abs(x), std::abs(y));
+      // Texel centres lie 0.625 mm + k 1.25 mm from the axes, pixel rows
+      // every 0.25 mm: more than a pixel from the rim (3 mm) either side.
+      if (inside < 2.5) {
+        EXPECT_TRUE(IsNoHit(d)) << i << " " << j << " " << d;
+      } else if (inside > 3.5) {
+        EXPECT_NEAR(d, 0.5, 1e-5) << i << " " << j;
+      }
+      no_hit += IsNoHit(d);
+      surface += std::isfinite(d);
+      unknown += IsUnknown(d);
+    }
+  }
+  EXPECT_EQ(no_hit, 16);           // the 4 x 4 texels inside the hole
+  EXPECT_EQ(surface, 256 - 16);    // the rim lies between texel centres
+  EXPECT_EQ(unknown, 0);
+  // Without a board the same points are a deep surface, not a hole.
+  const DisplacementImage deep =
+      ResampleToTexture(points, side, side, Eigen::Vector3d::UnitZ(), grid, TriangulationOptions{});
+  EXPECT_NEAR(deep.at(8, 8), kBackingMm, 1e-5);
+}
+
+TEST(DisplacementImageTest, TexelsBetweenTheRimAndTheBoardAreNotFilled) {
+  // Pixels every 0.125 mm, the hole's rim at 0.6 mm: texel (8, 8), centred
+  // at (0.625, 0.625), lies between the last pixels on the board (0.5625)
+  // and the first on the surface (0.6875). It is the surface or the hole to
+  // within a pixel, so it stays unknown rather than becoming a distance that
+  // would close the hole.
+  const int side = 160;
+  const TextureGrid grid{16, 16, 20.0};
+  TriangulationOptions options;
+  options.backing_depth_mm = kBackingMm;
+  const DisplacementImage image =
+      ResampleToTexture(HoleyPlane(side, 0.6), side, side, Eigen::Vector3d::UnitZ(), grid, options);
+  EXPECT_TRUE(IsUnknown(image.at(8, 8))) << image.at(8, 8);
+  EXPECT_NEAR(image.at(10, 10), 0.5, 1e-5);
+}
+
+DisplacementImage OneTexel(float d) {
+  DisplacementImage image;
+  image.width = image.height = 1;
+  image.distance_mm = {d};
+  return image;
+}
+
+TEST(DisplacementMergeTest, NoHitNeedsMoreThanHalfTheWeight) {
+  const float inf = MdfNoHit(), nan = MdfUnknown();
+  const MergeOptions options;
+  auto merge = [&](std::vector<float> values, std::vector<double> weights) {
+    std::vector<DisplacementImage> images;
+    for (float v : values) images.push_back(OneTexel(v));
+    const MergedDisplacement m = MergeDisplacementImages(images, weights, 0.3, options);
+    return std::pair{m.image.distance_mm[0], m.confidence[0]};
+  };
+  auto [d, c] = merge({inf, inf, 1.0f}, {1, 1, 1});
+  EXPECT_TRUE(IsNoHit(d));
+  EXPECT_NEAR(c, 2.0 / 3, 1e-6);
+  std::tie(d, c) = merge({inf, 1.0f, 1.1f}, {1, 1, 1});
+  EXPECT_NEAR(d, 1.05f, 1e-6);  // the no-hit vote is an outlier of the distance
+  EXPECT_NEAR(c, 2.0 / 3, 1e-6);
+  std::tie(d, c) = merge({inf, 1.0f}, {1, 1});
+  EXPECT_NEAR(d, 1.0f, 1e-6) << "a tie goes to the distance";
+  std::tie(d, c) = merge({inf, 1.0f, nan}, {3, 1, 5});
+  EXPECT_TRUE(IsNoHit(d));
+  EXPECT_NEAR(c, 3.0 / 9, 1e-6);  // of the view's whole weight, the unknown scan's included
+  std::tie(d, c) = merge({nan, nan}, {1, 1});
+  EXPECT_TRUE(IsUnknown(d));
+  EXPECT_EQ(c, 0.0f);
+}
+
+}  // namespace
+}  // namespace mesocap
