@@ -73,6 +73,12 @@ void RunSimulate(const SimulateCommandOptions& o) {
     throw Error((o.faults.empty() ? rig.name : o.faults.string()) + ": " + problem);
   }
   const Calibration calibration = sim::TrueCalibration(rig);
+  // Before anything is written: the renderer refuses a scene the rig cannot
+  // hold (its backing board too close below the mesostructure).
+  sim::CameraRendererOptions render_options;
+  render_options.samples_per_pixel_side = o.samples_per_pixel_side;
+  render_options.interreflection_rays_per_pixel = o.interreflection_rays;
+  sim::CameraRenderer renderer(*scene, rig, render_options);
   // What shaped the data beyond the rig; faults are left out, since they
   // change how long a capture takes, not what it records.
   const json recording = {{"simulated_scene", scene->name()},
@@ -102,10 +108,6 @@ void RunSimulate(const SimulateCommandOptions& o) {
   }
   if (!fs::exists(o.out / kCalibrationFile)) WriteCalibration(o.out / kCalibrationFile, calibration);
 
-  sim::CameraRendererOptions render_options;
-  render_options.samples_per_pixel_side = o.samples_per_pixel_side;
-  render_options.interreflection_rays_per_pixel = o.interreflection_rays;
-  sim::CameraRenderer renderer(*scene, rig, render_options);
   sim::SimulatedRigBackend backend(renderer, faults, o.seed,
                                    o.no_noise ? sim::SensorModel::kNoiseless : sim::SensorModel::kNoisy);
   drivers::Rig devices = drivers::BuildRig(rig, {{"sim", &backend}});

@@ -112,6 +112,21 @@ TEST(Cli, GroundTruthRejectsUnknownSceneAndRigWithoutOutput) {
   EXPECT_TRUE(std::filesystem::is_empty(dir.path())) << "a failed run left output behind";
 }
 
+// A rig whose backing board lies inside the scene's slab (weave is 3 mm
+// deep): `simulate` refuses it naming the field before it writes anything.
+TEST(Cli, SimulateRefusesABackingInsideTheSlabWithoutOutput) {
+  testing::TemporaryDirectory dir;
+  nlohmann::json rig = ReadJsonFile(std::filesystem::path(MESOCAP_SOURCE_DIR) / "sim" / "rigs" / "tiny.json");
+  rig["sample"]["backing"]["depth_mm"] = 2.5;
+  const std::filesystem::path rig_file = dir / "shallow.json";
+  std::ofstream(rig_file) << rig.dump();
+  const CommandResult r =
+      Mesocap("simulate --scene weave --rig " + rig_file.string() + " --out " + (dir / "s").string());
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("sample.backing.depth_mm"), std::string::npos) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir / "s")) << "a refused run left a session behind";
+}
+
 // A capture stopped by a fault the runner cannot cure exits 1 naming the
 // step and the device, keeps what it finished, and --resume completes it.
 TEST(Cli, SimulateStopsOnADisconnectAndResumes) {
