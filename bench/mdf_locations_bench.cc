@@ -23,6 +23,23 @@
 
 namespace {
 
+// Runs the scan (its processing time is the iteration's time) and reports
+// its error up to theta_max_deg as counters.
+mesocap::MdfErrorRow ScanAndReport(benchmark::State& state, const mesocap::test::ScanSetup& setup,
+                                   double theta_max_deg) {
+  mesocap::test::ScanResult r;
+  for (auto _ : state) {
+    r = mesocap::test::RunSimulatedScan(setup);
+    state.SetIterationTime(r.processing_seconds);
+  }
+  const auto row = mesocap::EvaluateMdfViews(r.truth, r.estimate, r.texel_mm, {0, theta_max_deg, true});
+  state.counters["median_texels"] = row.median_texels;
+  state.counters["p95_texels"] = row.p95_texels;
+  state.counters["coverage"] = row.coverage;
+  state.counters["processing_s"] = r.processing_seconds;
+  return row;
+}
+
 void ErrorAgainstLocations(benchmark::State& state) {
   const std::vector<int> order = {0, 4, 7, 2, 5, 1, 6, 3};
   mesocap::test::ScanSetup setup;
@@ -31,17 +48,8 @@ void ErrorAgainstLocations(benchmark::State& state) {
   setup.turntable_indices = {0};
   setup.cameras = {1};
   setup.locations.assign(order.begin(), order.begin() + state.range(0));
-  mesocap::test::ScanResult r;
-  for (auto _ : state) {
-    r = mesocap::test::RunSimulatedScan(setup);
-    state.SetIterationTime(r.processing_seconds);
-  }
-  const auto row = mesocap::EvaluateMdfViews(r.truth, r.estimate, r.texel_mm, {0, 90, true});
+  ScanAndReport(state, setup, 90);
   state.counters["locations"] = static_cast<double>(state.range(0));
-  state.counters["median_texels"] = row.median_texels;
-  state.counters["p95_texels"] = row.p95_texels;
-  state.counters["coverage"] = row.coverage;
-  state.counters["processing_s"] = r.processing_seconds;
 }
 BENCHMARK(ErrorAgainstLocations)->Arg(1)->Arg(2)->Arg(4)->Arg(8)->Iterations(1)->UseManualTime()->Unit(
     benchmark::kMillisecond);
@@ -69,19 +77,11 @@ void ErrorAgainstNoiseAndResolution(benchmark::State& state) {
   setup.turntable_indices = {0};
   setup.cameras = {1};
   setup.noise = noise;
-  mesocap::test::ScanResult r;
-  for (auto _ : state) {
-    r = mesocap::test::RunSimulatedScan(setup);
-    state.SetIterationTime(r.processing_seconds);
-  }
+  ScanAndReport(state, setup, 90);
   std::filesystem::remove(file);
-  const auto row = mesocap::EvaluateMdfViews(r.truth, r.estimate, r.texel_mm, {0, 90, true});
   state.counters["noise"] = noise;
   // A pixel's footprint on the sample at normal incidence: distance / focal length.
   state.counters["pixel_mm"] = rig["cameras"][1]["distance_mm"].get<double>() / rig["cameras"][1]["focal_px"].get<double>();
-  state.counters["median_texels"] = row.median_texels;
-  state.counters["p95_texels"] = row.p95_texels;
-  state.counters["coverage"] = row.coverage;
 }
 BENCHMARK(ErrorAgainstNoiseAndResolution)
     ->Args({0, 100})
@@ -101,17 +101,8 @@ void WholeSessionAcceptance(benchmark::State& state) {
   setup.scene = state.range(0) == 0 ? "blocks" : "weave";
   setup.rig = "small";
   setup.cameras = {0, 1, 2};
-  mesocap::test::ScanResult r;
-  for (auto _ : state) {
-    r = mesocap::test::RunSimulatedScan(setup);
-    state.SetIterationTime(r.processing_seconds);
-  }
+  ScanAndReport(state, setup, 60);
   state.SetLabel(setup.scene);
-  const auto row = mesocap::EvaluateMdfViews(r.truth, r.estimate, r.texel_mm, {0, 60, true});
-  state.counters["median_texels"] = row.median_texels;
-  state.counters["p95_texels"] = row.p95_texels;
-  state.counters["coverage"] = row.coverage;
-  state.counters["processing_s"] = r.processing_seconds;
 }
 BENCHMARK(WholeSessionAcceptance)->Arg(0)->Arg(1)->Iterations(1)->UseManualTime()->Unit(benchmark::kMillisecond);
 

@@ -16,6 +16,18 @@
 namespace mesocap::sim {
 namespace {
 
+// The rig's own flat grey surfaces (turntable, calibration plate, backing
+// board): horizontal, diffuse.
+ViewSample FlatGreySample(ViewSample::Surface surface, const Eigen::Vector3d& point_world, float albedo) {
+  ViewSample s;
+  s.surface = surface;
+  s.point = point_world;
+  s.normal = Eigen::Vector3d::UnitZ();
+  s.reflectance.diffuse_albedo = Eigen::Vector3f::Constant(albedo);
+  s.reflectance.specular_albedo = 0.0f;
+  return s;
+}
+
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
 
 Eigen::Matrix3d RotationZ(double angle_rad) {
@@ -128,12 +140,8 @@ ViewSample CameraRenderer::SampleHit(const Eigen::Vector3d& origin_world, const 
   p0.z() = 0.0;
   const double half = rig_.sample_size_mm / 2;
   if (std::abs(p0.x()) > half || std::abs(p0.y()) > half) {
-    out.surface = ViewSample::Surface::kTurntable;
-    out.point = RotationZ(turntable_rad) * Eigen::Vector3d(p0.x(), p0.y(), 0.0);
-    out.normal = Eigen::Vector3d::UnitZ();
-    out.reflectance.diffuse_albedo = Eigen::Vector3f::Constant(kTurntableAlbedo);
-    out.reflectance.specular_albedo = 0.0f;
-    return out;
+    return FlatGreySample(ViewSample::Surface::kTurntable,
+                          RotationZ(turntable_rad) * Eigen::Vector3d(p0.x(), p0.y(), 0.0), kTurntableAlbedo);
   }
   // Inside the pocket the ray can go as far as the slab's floor or the
   // pocket's walls, whichever comes first.
@@ -149,12 +157,9 @@ ViewSample CameraRenderer::SampleHit(const Eigen::Vector3d& origin_world, const 
     if (!rig_.backing.present()) return out;
     const Eigen::Vector3d floor = p0 + (-rig_.backing.depth_mm / d.z()) * d;
     if (std::abs(floor.x()) > half || std::abs(floor.y()) > half) return out;  // the pocket wall
-    out.surface = ViewSample::Surface::kBacking;
-    out.point = to_world * Eigen::Vector3d(floor.x(), floor.y(), -rig_.backing.depth_mm);
-    out.normal = Eigen::Vector3d::UnitZ();
-    out.reflectance.diffuse_albedo = Eigen::Vector3f::Constant(static_cast<float>(rig_.backing.albedo));
-    out.reflectance.specular_albedo = 0.0f;
-    return out;
+    return FlatGreySample(ViewSample::Surface::kBacking,
+                          to_world * Eigen::Vector3d(floor.x(), floor.y(), -rig_.backing.depth_mm),
+                          static_cast<float>(rig_.backing.albedo));
   }
   out.surface = ViewSample::Surface::kSample;
   out.point = to_world * hit->point;
@@ -199,15 +204,10 @@ ViewSample CameraRenderer::FirstHit(int camera, double turntable_rad, double u, 
 
 CameraView CameraRenderer::TracePlate(int camera, double height_mm) const {
   return Trace(camera, 0.0, [&](const Eigen::Vector3d& origin, const Eigen::Vector3d& dir) {
-    ViewSample s;
-    if (dir.z() >= 0.0 || origin.z() <= height_mm) return s;
-    s.surface = ViewSample::Surface::kCalibrationPlate;
-    s.point = origin + ((height_mm - origin.z()) / dir.z()) * dir;
-    s.point.z() = height_mm;
-    s.normal = Eigen::Vector3d::UnitZ();
-    s.reflectance.diffuse_albedo = Eigen::Vector3f::Constant(kCalibrationPlateAlbedo);
-    s.reflectance.specular_albedo = 0.0f;
-    return s;
+    if (dir.z() >= 0.0 || origin.z() <= height_mm) return ViewSample{};
+    Eigen::Vector3d point = origin + ((height_mm - origin.z()) / dir.z()) * dir;
+    point.z() = height_mm;
+    return FlatGreySample(ViewSample::Surface::kCalibrationPlate, point, kCalibrationPlateAlbedo);
   });
 }
 
