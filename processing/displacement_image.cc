@@ -151,9 +151,26 @@ DisplacementImage ResampleToTexture(const std::vector<Eigen::Vector3f>& points, 
     for (int x = 0; x + 1 < pixel_width; ++x) {
       const std::size_t p00 = static_cast<std::size_t>(y) * pixel_width + x;
       const std::size_t p10 = p00 + 1, p01 = p00 + pixel_width, p11 = p01 + 1;
-      for (const auto& [a, b, c] : {std::array{p00, p10, p11}, std::array{p00, p11, p01}}) {
-        if (!valid[a] || !valid[b] || !valid[c]) continue;
+      // A quad with one unknown corner (a pixel in the laser's shadow, or
+      // too dim, next to measured ones) still has the triangle of its other
+      // three corners, so a single unknown pixel does not open a hole a pixel
+      // wide around itself. That triangle is used only where it is
+      // continuous and off the board: its missing corner may have been the
+      // far side of an edge or a hole's rim, so it never places either.
+      const int unknown = !valid[p00] + !valid[p10] + !valid[p01] + !valid[p11];
+      if (unknown > 1) continue;
+      std::array<std::array<std::size_t, 3>, 2> triangles = {std::array{p00, p10, p11}, std::array{p00, p11, p01}};
+      const bool fallback = unknown == 1;
+      if (fallback) {
+        triangles[0] = !valid[p00]   ? std::array{p10, p11, p01}
+                       : !valid[p10] ? std::array{p00, p11, p01}
+                       : !valid[p11] ? std::array{p00, p10, p01}
+                                     : std::array{p00, p10, p11};
+      }
+      for (int k = 0; k < (fallback ? 1 : 2); ++k) {
+        const auto& [a, b, c] = triangles[k];
         const int on_board = std::isinf(vertices[a].d) + std::isinf(vertices[b].d) + std::isinf(vertices[c].d);
+        if (fallback && (on_board > 0 || !continuous(vertices[a], vertices[b], vertices[c]))) continue;
         if (on_board == 3) {
           // All three saw the board: the texels between them look through
           // the hole too (no hit, each its nearest vertex's), unless a

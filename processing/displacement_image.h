@@ -77,7 +77,9 @@ struct DisplacementImage {
 // TriangulateSweep) to the grid: each point projects along `view` to the
 // reference plane (p = q + D view), neighbouring pixels form triangles that
 // are rasterized at texel centres with D interpolated, and the nearest
-// surface (smallest D, the first hit) wins where triangles overlap. Points on
+// surface (smallest D, the first hit) wins where triangles overlap; a quad of
+// pixels with one unknown corner gives the triangle of its other three where
+// that is continuous and off the board. Points on
 // the backing (options.backing_depth_mm) give "no hit", which any surface
 // covering the texel overrides.
 DisplacementImage ResampleToTexture(const std::vector<Eigen::Vector3f>& points, int pixel_width, int pixel_height,

@@ -81,6 +81,49 @@ TEST(DisplacementImageTest, TexelsBetweenTheRimAndTheBoardAreNotFilled) {
   EXPECT_NEAR(image.at(10, 10), 0.5, 1e-5);
 }
 
+TEST(DisplacementImageTest, ALoneUnknownPixelLeavesOnlyItsDiamondUnknown) {
+  // A tilted plane seen straight down, pixels every 0.5 mm (40 x 40), 0.3125
+  // mm texels: pixel P = (20, 20), centred at (0.25, 0.25), saw no stripe.
+  // The four quads around it keep the triangles of their other three
+  // corners, so every texel in the 1 mm square around P is measured (by
+  // plain interpolation: the plane is exact) except inside the diamond
+  // |dx| + |dy| < 0.5 mm between P's four neighbours, which no triangle of
+  // measured pixels covers and which stays unknown. Before the fallback the
+  // whole square was unknown.
+  const int side = 40;
+  const TextureGrid grid{64, 64, 20.0};
+  auto depth = [](double x, double y) { return 1.0 + 0.05 * x + 0.02 * y; };
+  std::vector<Eigen::Vector3f> points;
+  for (int y = 0; y < side; ++y) {
+    for (int x = 0; x < side; ++x) {
+      const double px = -10.0 + 0.5 * (x + 0.5), py = -10.0 + 0.5 * (y + 0.5);
+      points.emplace_back(static_cast<float>(px), static_cast<float>(py), static_cast<float>(-depth(px, py)));
+    }
+  }
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  points[20 * side + 20] = Eigen::Vector3f::Constant(nan);
+  const DisplacementImage image =
+      ResampleToTexture(points, side, side, Eigen::Vector3d::UnitZ(), grid, TriangulationOptions{});
+  int square = 0, diamond = 0;
+  for (int j = 0; j < grid.height; ++j) {
+    for (int i = 0; i < grid.width; ++i) {
+      const double x = -10.0 + (i + 0.5) * grid.texel_mm(), y = -10.0 + (j + 0.5) * grid.texel_mm();
+      const double dx = std::abs(x - 0.25), dy = std::abs(y - 0.25);
+      // Texels inside the measured pixels' span: the outermost half pixel has no triangle.
+      if (std::abs(x) > 9.75 || std::abs(y) > 9.75) continue;
+      if (dx + dy < 0.5 - 1e-9) {
+        EXPECT_TRUE(IsUnknown(image.at(i, j))) << i << " " << j << " " << image.at(i, j);
+        ++diamond;
+      } else {
+        EXPECT_NEAR(image.at(i, j), depth(x, y), 1e-5) << i << " " << j;
+        square += dx < 0.5 && dy < 0.5;
+      }
+    }
+  }
+  EXPECT_EQ(diamond, 4);   // texel centres inside the diamond
+  EXPECT_EQ(square, 5);    // measured now, unknown before
+}
+
 DisplacementImage OneTexel(float d) {
   DisplacementImage image;
   image.width = image.height = 1;

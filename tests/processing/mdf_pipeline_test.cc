@@ -93,16 +93,21 @@ TEST(MdfPipelineTest, AcceptanceWeaveSmallRig) {
   // Issue 4 acceptance: the median is met (measured 0.038).
   EXPECT_LE(row.median_texels, 0.25);
   // Not met, guarded at their levels: p95 <= 1 texel and coverage >= 98 %
-  // are asked; measured p95 1.28, coverage 0.975 (whole session: 1.16,
-  // 0.959; the 33.75-degree camera sees 0.93). Nearly every texel off by
-  // more than a texel is next to an occluding edge of a thread: a pixel
-  // straddling it reports the nearer surface (the far one is in the laser's
-  // shadow or dimmer), so edges are placed up to half a camera pixel
-  // (0.2-0.36 texel) off while the depth jumps by up to 17 texels. The
-  // texels left unknown are mostly seen only by scans whose laser plane
-  // nearly contains the camera ray (rejected as ill-conditioned).
-  EXPECT_LE(row.p95_texels, 1.4);
-  EXPECT_GE(row.coverage, 0.97);
+  // are asked; measured p95 1.216, coverage 0.9762 (1.278 and 0.9745 before
+  // a quad of pixels with one unknown corner kept its other triangle; whole
+  // session: 1.16, 0.959). Nearly every texel off by more than a texel is
+  // next to an occluding edge of a thread: a pixel straddling it reports the
+  // nearer surface (the far one is in the laser's shadow or dimmer), so
+  // edges are placed up to half a camera pixel (0.2-0.36 texel) off while
+  // the depth jumps by up to 17 texels. Coverage: 0.8 % of the true hits
+  // inside the sample are lit by none of the 8 laser locations (shadow rays
+  // from the true point: the most this rig could reach is 0.992); of the
+  // other texels left unknown, a quarter are lit only by locations whose
+  // laser plane nearly contains the camera ray (rejected as
+  // ill-conditioned; accepting them down to sine 0.02 gives coverage 0.981
+  // at p95 1.31).
+  EXPECT_LE(row.p95_texels, 1.3);
+  EXPECT_GE(row.coverage, 0.975);
 }
 
 TEST(MdfPipelineTest, GrazingViewStaysBounded) {
@@ -175,7 +180,7 @@ TEST(MdfPipelineTest, SpongeThroughHoles) {
   // lit the board there, the stripe triangulates onto it: "no hit". Where
   // the board lay in the lattice's shadow for every scan the texel stays
   // unknown, and texels between a hole's rim and the board are not filled.
-  // Measured: no-hit coverage 0.233, false hits 0.052 (pixels straddling
+  // Measured: no-hit coverage 0.231, false hits 0.055 (pixels straddling
   // the rim report the bar), no false "no hit".
   EXPECT_GE(row.no_hit_coverage, 0.2);
   EXPECT_LE(row.false_hit_rate, 0.07);
