@@ -159,18 +159,18 @@ DisplacementImage ResampleToTexture(const std::vector<Eigen::Vector3f>& points, 
       // far side of an edge or a hole's rim, so it never places either.
       const int unknown = !valid[p00] + !valid[p10] + !valid[p01] + !valid[p11];
       if (unknown > 1) continue;
-      std::array<std::array<std::size_t, 3>, 2> triangles = {std::array{p00, p10, p11}, std::array{p00, p11, p01}};
       const bool fallback = unknown == 1;
+      std::array<std::array<std::size_t, 3>, 2> triangles = {std::array{p00, p10, p11}, std::array{p00, p11, p01}};
       if (fallback) {
-        triangles[0] = !valid[p00]   ? std::array{p10, p11, p01}
-                       : !valid[p10] ? std::array{p00, p11, p01}
-                       : !valid[p11] ? std::array{p00, p10, p01}
-                                     : std::array{p00, p10, p11};
+        int corner = 0;
+        for (const std::size_t p : {p00, p10, p11, p01}) {
+          if (valid[p]) triangles[0][corner++] = p;
+        }
       }
       for (int k = 0; k < (fallback ? 1 : 2); ++k) {
         const auto& [a, b, c] = triangles[k];
         const int on_board = std::isinf(vertices[a].d) + std::isinf(vertices[b].d) + std::isinf(vertices[c].d);
-        if (fallback && (on_board > 0 || !continuous(vertices[a], vertices[b], vertices[c]))) continue;
+        if (fallback && on_board > 0) continue;
         if (on_board == 3) {
           // All three saw the board: the texels between them look through
           // the hole too (no hit, each its nearest vertex's), unless a
@@ -183,7 +183,7 @@ DisplacementImage ResampleToTexture(const std::vector<Eigen::Vector3f>& points, 
         // hit would close the hole (sponge: false hits 0.052 -> 0.072).
         if (on_board > 0) continue;
         const bool smooth = continuous(vertices[a], vertices[b], vertices[c]);
-        if (smooth || options.fill_discontinuities) {
+        if (smooth || (options.fill_discontinuities && !fallback)) {
           Rasterize(vertices[a], vertices[b], vertices[c], grid, !smooth, smooth ? &out.distance_mm : &edges);
         }
       }
