@@ -28,34 +28,39 @@ CheckResult TriangulationOptions::Check() const {
 // the board.
 constexpr double kBackingMarginMm = 0.5 * drivers::kMinBackingClearanceMm;
 
-std::vector<Eigen::Vector3f> TriangulateSweep(const SweepAnalysis& analysis, const CameraRays& rays,
-                                              const RigidTransform& world_from_sample,
-                                              const TriangulationOptions& options) {
+SweepPoints TriangulateSweep(const SweepAnalysis& analysis, const CameraRays& rays,
+                             const RigidTransform& world_from_sample, const TriangulationOptions& options) {
   if (analysis.width != rays.width() || analysis.height != rays.height()) {
     throw Error("triangulation: sweep analysis and camera differ in image size");
   }
-  const float nan = std::numeric_limits<float>::quiet_NaN();
-  std::vector<Eigen::Vector3f> points(static_cast<std::size_t>(analysis.width) * analysis.height,
-                                      Eigen::Vector3f::Constant(nan));
   const RigidTransform sample_from_world = world_from_sample.Inverse();
-  for (int y = 0; y < analysis.height; ++y) {
-    for (int x = 0; x < analysis.width; ++x) {
-      const std::size_t p = static_cast<std::size_t>(y) * analysis.width + x;
-      const float t = analysis.peak_time[p];
-      if (std::isnan(t)) continue;
-      const Plane plane = PlaneAtTime(analysis.planes, t);
-      if (!plane.valid()) continue;
-      const Eigen::Vector3d& dir = rays.Ray(x, y);
-      const double sine = plane.normal.dot(dir);
-      if (std::abs(sine) < options.min_ray_plane_sine) continue;
-      const double s = -plane.SignedDistance(rays.centre()) / sine;
-      if (!(s > 0)) continue;
-      const Eigen::Vector3d q = sample_from_world.Apply(rays.centre() + s * dir);
-      if (q.z() > options.max_height_mm) continue;
-      if (options.backing_depth_mm > 0 && q.z() < -options.backing_depth_mm - kBackingMarginMm) continue;
-      points[p] = q.cast<float>();
+  auto triangulate = [&](const std::vector<float>& times) {
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    std::vector<Eigen::Vector3f> points(static_cast<std::size_t>(analysis.width) * analysis.height,
+                                        Eigen::Vector3f::Constant(nan));
+    for (int y = 0; y < analysis.height; ++y) {
+      for (int x = 0; x < analysis.width; ++x) {
+        const std::size_t p = static_cast<std::size_t>(y) * analysis.width + x;
+        const float t = times[p];
+        if (std::isnan(t)) continue;
+        const Plane plane = PlaneAtTime(analysis.planes, t);
+        if (!plane.valid()) continue;
+        const Eigen::Vector3d& dir = rays.Ray(x, y);
+        const double sine = plane.normal.dot(dir);
+        if (std::abs(sine) < options.min_ray_plane_sine) continue;
+        const double s = -plane.SignedDistance(rays.centre()) / sine;
+        if (!(s > 0)) continue;
+        const Eigen::Vector3d q = sample_from_world.Apply(rays.centre() + s * dir);
+        if (q.z() > options.max_height_mm) continue;
+        if (options.backing_depth_mm > 0 && q.z() < -options.backing_depth_mm - kBackingMarginMm) continue;
+        points[p] = q.cast<float>();
+      }
     }
-  }
+    return points;
+  };
+  SweepPoints points;
+  points.first = triangulate(analysis.peak_time);
+  if (analysis.second_time.size() == analysis.peak_time.size()) points.second = triangulate(analysis.second_time);
   return points;
 }
 
@@ -105,10 +110,11 @@ void Rasterize(const Vertex& a, const Vertex& b, const Vertex& c, const TextureG
 
 }  // namespace
 
-DisplacementImage ResampleToTexture(const std::vector<Eigen::Vector3f>& points, int pixel_width, int pixel_height,
+DisplacementImage ResampleToTexture(const SweepPoints& points, int pixel_width, int pixel_height,
                                     const Eigen::Vector3d& view, const TextureGrid& grid,
                                     const TriangulationOptions& options) {
-  if (points.size() != static_cast<std::size_t>(pixel_width) * pixel_height) {
+  const std::size_t n = static_cast<std::size_t>(pixel_width) * pixel_height;
+  if (points.first.size() != n || (!points.second.empty() && points.second.size() != n)) {
     throw Error("displacement image: point count does not match the image size");
   }
   if (!(view.z() > 1e-6)) throw Error("displacement image: the view direction must point above the reference plane");
@@ -120,75 +126,130 @@ DisplacementImage ResampleToTexture(const std::vector<Eigen::Vector3f>& points, 
   const Eigen::Vector3d v = view.normalized();
   const double texel_u = grid.sample_size_mm / grid.width;
   const double texel_v = grid.sample_size_mm / grid.height;
-  std::vector<Vertex> vertices(points.size());
-  std::vector<bool> valid(points.size(), false);
-  for (std::size_t p = 0; p < points.size(); ++p) {
-    if (!points[p].allFinite()) continue;
-    const Eigen::Vector3d q = points[p].cast<double>();
+  // A point's vertex; false where the point is unknown.
+  auto project = [&](const Eigen::Vector3f& point, Vertex* vertex) {
+    if (!point.allFinite()) return false;
+    const Eigen::Vector3d q = point.cast<double>();
     // p_ref = q + D v on z = 0; D >= 0 (a point a hair above the plane is 0).
     const double d = std::max(0.0, -q.z() / v.z());
     const Eigen::Vector3d ref = q + d * v;
     const bool on_backing = options.backing_depth_mm > 0 && q.z() < -options.backing_depth_mm + kBackingMarginMm;
-    vertices[p] = {(ref.x() + 0.5 * grid.sample_size_mm) / texel_u - 0.5,
-                   (ref.y() + 0.5 * grid.sample_size_mm) / texel_v - 0.5,
-                   on_backing ? std::numeric_limits<double>::infinity() : d};
-    valid[p] = true;
-  }
-  const double texel = std::min(texel_u, texel_v);
-  auto continuous = [&](const Vertex& a, const Vertex& b, const Vertex& c) {
-    const double extent =
-        texel * std::max({std::hypot(a.u - b.u, a.v - b.v), std::hypot(b.u - c.u, b.v - c.v),
-                          std::hypot(c.u - a.u, c.v - a.v)});
-    const double spread = std::max({a.d, b.d, c.d}) - std::min({a.d, b.d, c.d});
-    return spread <= options.max_depth_step_ratio * extent + options.max_depth_step_texels * texel;
+    *vertex = {(ref.x() + 0.5 * grid.sample_size_mm) / texel_u - 0.5,
+               (ref.y() + 0.5 * grid.sample_size_mm) / texel_v - 0.5,
+               on_backing ? std::numeric_limits<double>::infinity() : d};
+    return true;
   };
+  std::vector<Vertex> vertices(n);
+  std::vector<bool> valid(n, false);
+  for (std::size_t p = 0; p < n; ++p) valid[p] = project(points.first[p], &vertices[p]);
+  const double texel = std::min(texel_u, texel_v);
+  auto step_limit = [&](double extent_texels) {
+    return options.max_depth_step_ratio * texel * extent_texels + options.max_depth_step_texels * texel;
+  };
+  auto continuous_pair = [&](const Vertex& a, const Vertex& b) {
+    return std::abs(a.d - b.d) <= step_limit(std::hypot(a.u - b.u, a.v - b.v));
+  };
+  auto continuous = [&](const Vertex& a, const Vertex& b, const Vertex& c) {
+    const double extent = std::max({std::hypot(a.u - b.u, a.v - b.v), std::hypot(b.u - c.u, b.v - c.v),
+                                    std::hypot(c.u - a.u, c.v - a.v)});
+    const double spread = std::max({a.d, b.d, c.d}) - std::min({a.d, b.d, c.d});
+    return spread <= step_limit(extent);
+  };
+  // Pixels straddling an occluding edge: the second point continues the
+  // surface of a 4-neighbour whose first point is across a discontinuity
+  // from this pixel's first. Such a pixel is a vertex of both surfaces: of
+  // the near one in `vertices`, of the far one in `far`. The checks use the
+  // first points only, so the result does not depend on the scan order.
+  std::vector<Vertex> far;
+  std::vector<bool> straddles;
+  if (!points.second.empty()) {
+    const std::vector<Vertex> first = vertices;
+    for (int y = 0; y < pixel_height; ++y) {
+      for (int x = 0; x < pixel_width; ++x) {
+        const std::size_t p = static_cast<std::size_t>(y) * pixel_width + x;
+        Vertex second;
+        if (!valid[p] || std::isinf(first[p].d) || !project(points.second[p], &second) || std::isinf(second.d)) {
+          continue;
+        }
+        bool edge = false;
+        for (const auto& [dx, dy] : {std::pair{-1, 0}, std::pair{1, 0}, std::pair{0, -1}, std::pair{0, 1}}) {
+          const int xn = x + dx, yn = y + dy;
+          if (xn < 0 || yn < 0 || xn >= pixel_width || yn >= pixel_height) continue;
+          const std::size_t q = static_cast<std::size_t>(yn) * pixel_width + xn;
+          if (!valid[q] || std::isinf(first[q].d)) continue;
+          edge = edge || (continuous_pair(second, first[q]) && !continuous_pair(first[p], first[q]));
+        }
+        if (!edge) continue;
+        if (far.empty()) {
+          far = first;
+          straddles.assign(n, false);
+        }
+        straddles[p] = true;
+        vertices[p] = second.d < first[p].d ? second : first[p];
+        far[p] = second.d < first[p].d ? first[p] : second;
+      }
+    }
+  }
   // Pass 1 interpolates across continuous triangles; pass 2 fills texels
   // still unknown from triangles across a discontinuity, nearest vertex
   // first, so an edge is placed to within half a pixel instead of leaving a
   // pixel-wide strip unknown along every edge.
   std::vector<float> edges(out.distance_mm.size(), std::numeric_limits<float>::quiet_NaN());
-  for (int y = 0; y + 1 < pixel_height; ++y) {
-    for (int x = 0; x + 1 < pixel_width; ++x) {
-      const std::size_t p00 = static_cast<std::size_t>(y) * pixel_width + x;
-      const std::size_t p10 = p00 + 1, p01 = p00 + pixel_width, p11 = p01 + 1;
-      // A quad with one unknown corner (a pixel in the laser's shadow, or
-      // too dim, next to measured ones) still has the triangle of its other
-      // three corners, so a single unknown pixel does not open a hole a pixel
-      // wide around itself. That triangle is used only where it is
-      // continuous and off the board: its missing corner may have been the
-      // far side of an edge or a hole's rim, so it never places either.
-      const int unknown = !valid[p00] + !valid[p10] + !valid[p01] + !valid[p11];
-      if (unknown > 1) continue;
-      const bool fallback = unknown == 1;
-      std::array<std::array<std::size_t, 3>, 2> triangles = {std::array{p00, p10, p11}, std::array{p00, p11, p01}};
-      if (fallback) {
-        int corner = 0;
-        for (const std::size_t p : {p00, p10, p11, p01}) {
-          if (valid[p]) triangles[0][corner++] = p;
+  // One surface's triangles; with only_straddling, those of quads with a
+  // corner that straddles an edge (the other quads are the same in both).
+  auto rasterize_surface = [&](const std::vector<Vertex>& surface, bool only_straddling) {
+    for (int y = 0; y + 1 < pixel_height; ++y) {
+      for (int x = 0; x + 1 < pixel_width; ++x) {
+        const std::size_t p00 = static_cast<std::size_t>(y) * pixel_width + x;
+        const std::size_t p10 = p00 + 1, p01 = p00 + pixel_width, p11 = p01 + 1;
+        if (only_straddling && !(straddles[p00] || straddles[p10] || straddles[p01] || straddles[p11])) continue;
+        // A quad with one unknown corner (a pixel in the laser's shadow, or
+        // too dim, next to measured ones) still has the triangle of its other
+        // three corners, so a single unknown pixel does not open a hole a
+        // pixel wide around itself. That triangle is used only where it is
+        // continuous and off the board: its missing corner may have been the
+        // far side of an edge or a hole's rim, so it never places either.
+        const int unknown = !valid[p00] + !valid[p10] + !valid[p01] + !valid[p11];
+        if (unknown > 1) continue;
+        const bool fallback = unknown == 1;
+        std::array<std::array<std::size_t, 3>, 2> triangles = {std::array{p00, p10, p11},
+                                                               std::array{p00, p11, p01}};
+        if (fallback) {
+          int corner = 0;
+          for (const std::size_t p : {p00, p10, p11, p01}) {
+            if (valid[p]) triangles[0][corner++] = p;
+          }
         }
-      }
-      for (int k = 0; k < (fallback ? 1 : 2); ++k) {
-        const auto& [a, b, c] = triangles[k];
-        const int on_board = std::isinf(vertices[a].d) + std::isinf(vertices[b].d) + std::isinf(vertices[c].d);
-        if (fallback && on_board > 0) continue;
-        if (on_board == 3) {
-          // All three saw the board: the texels between them look through
-          // the hole too (no hit, each its nearest vertex's), unless a
-          // surface covers them.
-          Rasterize(vertices[a], vertices[b], vertices[c], grid, true, &out.distance_mm);
-          continue;
-        }
-        // Across a hole's rim (a surface and the board) nothing is filled:
-        // a texel there is no hit or a surface to within a pixel, and a false
-        // hit would close the hole (sponge: false hits 0.052 -> 0.072).
-        if (on_board > 0) continue;
-        const bool smooth = continuous(vertices[a], vertices[b], vertices[c]);
-        if (smooth || (options.fill_discontinuities && !fallback)) {
-          Rasterize(vertices[a], vertices[b], vertices[c], grid, !smooth, smooth ? &out.distance_mm : &edges);
+        for (int k = 0; k < (fallback ? 1 : 2); ++k) {
+          const Vertex& a = surface[triangles[k][0]];
+          const Vertex& b = surface[triangles[k][1]];
+          const Vertex& c = surface[triangles[k][2]];
+          const int on_board = std::isinf(a.d) + std::isinf(b.d) + std::isinf(c.d);
+          if (fallback && on_board > 0) continue;
+          if (on_board == 3) {
+            // All three saw the board: the texels between them look through
+            // the hole too (no hit, each its nearest vertex's), unless a
+            // surface covers them.
+            Rasterize(a, b, c, grid, true, &out.distance_mm);
+            continue;
+          }
+          // Across a hole's rim (a surface and the board) nothing is filled:
+          // a texel there is no hit or a surface to within a pixel, and a
+          // false hit would close the hole (sponge: false hits 0.052 -> 0.072).
+          if (on_board > 0) continue;
+          const bool smooth = continuous(a, b, c);
+          // Edges are placed from the near surface only: where a pixel
+          // straddles one, the far surface's continuous triangles cover
+          // the texels beyond its centre first.
+          if (smooth || (options.fill_discontinuities && !fallback && !only_straddling)) {
+            Rasterize(a, b, c, grid, !smooth, smooth ? &out.distance_mm : &edges);
+          }
         }
       }
     }
-  }
+  };
+  rasterize_surface(vertices, false);
+  if (!far.empty()) rasterize_surface(far, true);
   for (std::size_t t = 0; t < edges.size(); ++t) {
     if (std::isnan(out.distance_mm[t])) out.distance_mm[t] = edges[t];
   }

@@ -41,8 +41,12 @@ struct TriangulationOptions {
   double backing_depth_mm = 0.0;
   // Resampling: a triangle of neighbouring pixels whose D values spread more
   // than ratio x its texture-space extent + texels x texel width spans a
-  // depth discontinuity (an occluding edge) and is not interpolated.
-  double max_depth_step_ratio = 3.0;
+  // depth discontinuity (an occluding edge) and is not interpolated. A
+  // slope of 2 is 63 degrees from the reference plane along the view; a
+  // ratio of 3 (72 degrees) bridged the weave's thread-to-thread steps
+  // once pixels straddling an edge became vertices of both surfaces (small
+  // rig, weave: texels off by more than a texel 5.40 % -> 5.16 %).
+  double max_depth_step_ratio = 2.0;
   double max_depth_step_texels = 1.0;
   // Texels left unknown between measurements across a discontinuity take
   // the nearest measurement's D (the edge is then placed to half a pixel).
@@ -51,13 +55,17 @@ struct TriangulationOptions {
   CheckResult Check() const;
 };
 
-// The mesostructure point (sample frame) seen by each pixel: the pixel's ray
-// met with the laser plane at its peak time (planes blended between frames).
-// NaN where the pixel is unknown, its plane is invalid, or the intersection
-// is ill-conditioned or above the reference plane.
-std::vector<Eigen::Vector3f> TriangulateSweep(const SweepAnalysis& analysis, const CameraRays& rays,
-                                              const RigidTransform& world_from_sample,
-                                              const TriangulationOptions& options);
+// The mesostructure points (sample frame) seen by each pixel (row-major):
+// the pixel's ray met with the laser plane at its peak time (planes blended
+// between frames), and at its second peak's time. NaN where the pixel has
+// no such peak, its plane is invalid, or the intersection is ill-conditioned
+// or above the reference plane.
+struct SweepPoints {
+  std::vector<Eigen::Vector3f> first;
+  std::vector<Eigen::Vector3f> second;  // empty, or one per pixel
+};
+SweepPoints TriangulateSweep(const SweepAnalysis& analysis, const CameraRays& rays,
+                             const RigidTransform& world_from_sample, const TriangulationOptions& options);
 
 // D(x, y) for one view and one laser location on the texture grid: distance
 // in mm from the texel's reference point along -view (sample frame, unit,
@@ -82,7 +90,14 @@ struct DisplacementImage {
 // that is continuous and off the board. Points on
 // the backing (options.backing_depth_mm) give "no hit", which any surface
 // covering the texel overrides.
-DisplacementImage ResampleToTexture(const std::vector<Eigen::Vector3f>& points, int pixel_width, int pixel_height,
+//
+// A pixel whose first point is discontinuous with a 4-neighbour's while its
+// second point continues that neighbour's surface straddles an occluding
+// edge: it is a vertex of both surfaces, so the edge is placed at the
+// pixel's centre rather than at its far side (which the brighter, usually
+// nearer, surface alone would give). Other second points (interreflection
+// ghosts, points on the backing) are not used.
+DisplacementImage ResampleToTexture(const SweepPoints& points, int pixel_width, int pixel_height,
                                     const Eigen::Vector3d& view, const TextureGrid& grid,
                                     const TriangulationOptions& options);
 

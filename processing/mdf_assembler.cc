@@ -17,7 +17,7 @@ MdfAssembler::MdfAssembler(TextureGrid grid, SamplingSet views, TriangulationOpt
 void MdfAssembler::AddSweep(int view, const SweepAnalysis& analysis, const CameraRays& rays,
                             const RigidTransform& world_from_sample, double weight) {
   if (view < 0 || view >= views_.size()) throw Error("MDF assembly: view " + std::to_string(view) + " out of range");
-  const auto points = TriangulateSweep(analysis, rays, world_from_sample, triangulation_);
+  const SweepPoints points = TriangulateSweep(analysis, rays, world_from_sample, triangulation_);
   AddDisplacementImage(view,
                        ResampleToTexture(points, analysis.width, analysis.height, views_.direction(view), grid_,
                                          triangulation_),

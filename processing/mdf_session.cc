@@ -60,6 +60,9 @@ SweepAnalysis ReadStoredAnalysis(const fs::path& file, const CameraRays& rays, s
   }
   for (std::size_t p = 0; p < analysis.peak_time.size(); ++p) {
     if (!(analysis.peak_value[p] >= space_time.threshold)) analysis.peak_time[p] = std::numeric_limits<float>::quiet_NaN();
+    if (!(analysis.second_value[p] >= space_time.threshold)) {
+      analysis.second_time[p] = std::numeric_limits<float>::quiet_NaN();
+    }
   }
   return analysis;
 }

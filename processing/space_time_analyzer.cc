@@ -15,6 +15,7 @@ namespace mesocap {
 CheckResult SpaceTimeOptions::Check() const {
   if (!(threshold > 0 && threshold < 1)) return "threshold must be in (0, 1)";
   if (!(saturation > threshold && saturation <= 1)) return "saturation must be in (threshold, 1]";
+  if (min_peak_separation < 2) return "min_peak_separation must be at least 2 frames";
   return {};
 }
 
@@ -39,6 +40,14 @@ SpaceTimeAnalyzer::SpaceTimeAnalyzer(int width, int height, int frame_count, Spa
   run_start_.assign(n, -1);
   saturated_first_.assign(n, -1);
   saturated_last_.assign(n, -1);
+  second_.assign(n, 0.5f * options_.threshold);
+  second_index_.assign(n, -1);
+  second_before_.assign(n, 0.0f);
+  second_after_.assign(n, 0.0f);
+  second_before_index_.assign(n, -1);
+  second_after_index_.assign(n, -1);
+  gate_.assign(n, 0.5f * options_.threshold);
+  recent_maxima_.resize(options_.min_peak_separation);
 }
 
 void SpaceTimeAnalyzer::AddFrame(int index, const Image& frame) {
@@ -56,24 +65,52 @@ void SpaceTimeAnalyzer::AddFrame(int index, const Image& frame) {
   const int previous = last_index_;
   const std::size_t n = best_.size();
   float* best = best_.data();
+  float* second = second_.data();
   float* last = last_.data();
+  const int separation = options_.min_peak_separation;
   // The frame after each maximum: only the pixels listed as having taken a
   // new maximum in the previous frame (the stripe's rising edge), so the
   // common pixel never reads its maximum's frame index.
-  for (const std::uint32_t p : new_maximum_) {
-    after_[p] = values[p];
-    after_index_[p] = index;
+  if (previous >= 0 && recent_maxima_[previous % separation].frame == previous) {
+    for (const std::uint32_t p : recent_maxima_[previous % separation].pixels) {
+      after_[p] = values[p];
+      after_index_[p] = index;
+    }
   }
-  new_maximum_.clear();
-  // Blocks of pixels with neither a new maximum nor a saturated value (the
+  for (const std::uint32_t p : new_second_) {
+    second_after_[p] = values[p];
+    second_after_index_[p] = index;
+  }
+  new_second_.clear();
+  const float floor = 0.5f * options_.threshold;
+  const float threshold = options_.threshold;
+  float* gate = gate_.data();
+  // Maxima now min_peak_separation frames old or more: from here on a value
+  // above the pixel's second peak is a candidate, so its gate drops to it
+  // (never above the maximum: a dark pixel's maxima are still tracked).
+  for (RecentMaxima& slot : recent_maxima_) {
+    if (slot.frame < 0 || index - slot.frame < separation) continue;
+    for (const std::uint32_t p : slot.pixels) {
+      if (best_index_[p] == slot.frame) gate[p] = std::min(best[p], std::max(second[p], threshold));
+    }
+    slot.pixels.clear();
+    slot.frame = -1;
+  }
+  RecentMaxima& recent = recent_maxima_[index % separation];
+  recent.frame = index;
+  // Blocks of pixels with no value above their gate and none saturated (the
   // common case: the stripe covers few pixels of a frame) only record the
-  // latest value; the test over a block vectorizes.
+  // latest value; the test over a block vectorizes. The gate is the maximum
+  // until that is min_peak_separation frames old (no value in between can
+  // change the maximum or the second peak), then the second peak counted at
+  // no less than the threshold (one below it is never reported), so the
+  // stripe's falling flank and a lit pixel's read noise stay on this path.
   constexpr std::size_t kBlock = 32;
   for (std::size_t b = 0; b < n; b += kBlock) {
     const std::size_t end = std::min(n, b + kBlock);
     int eventful = 0;
     for (std::size_t p = b; p < end; ++p) {
-      eventful |= static_cast<int>(values[p] > best[p]) | static_cast<int>(values[p] >= saturation);
+      eventful |= static_cast<int>(values[p] > gate[p]) | static_cast<int>(values[p] >= saturation);
     }
     if (!eventful) [[likely]] {
       std::copy(values + b, values + end, last + b);
@@ -82,12 +119,40 @@ void SpaceTimeAnalyzer::AddFrame(int index, const Image& frame) {
     for (std::size_t p = b; p < end; ++p) {
       const float v = values[p];
       if (v > best[p]) {
+        const int old = best_index_[p];
+        if (old >= 0 && index - old >= separation) {
+          // The maximum so far was a peak of its own: it becomes the second.
+          second[p] = best[p];
+          second_index_[p] = old;
+          second_before_[p] = before_[p];
+          second_before_index_[p] = before_index_[p];
+          second_after_[p] = after_[p];
+          second_after_index_[p] = after_index_[p];
+        } else if (second_index_[p] >= 0 && index - second_index_[p] < separation) {
+          // The second peak was the rising flank of this one.
+          second[p] = floor;
+          second_index_[p] = -1;
+        }
         best[p] = v;
         best_index_[p] = index;
         before_[p] = last[p];
         before_index_[p] = previous;
         after_index_[p] = -1;
-        new_maximum_.push_back(static_cast<std::uint32_t>(p));
+        gate[p] = v;
+        recent.pixels.push_back(static_cast<std::uint32_t>(p));
+      } else if (v > gate[p] && v < saturation && index - best_index_[p] >= separation) {
+        // The brightest value far enough from the maximum, whether or not
+        // it is a local maximum: a dim far surface on the tail of the first
+        // peak is a shoulder, not a peak (requiring a rising value: texels
+        // off by more than a texel 5.16 % -> 5.63 %). Resampling keeps only
+        // the second points that continue a neighbour's surface.
+        second[p] = v;
+        second_index_[p] = index;
+        second_before_[p] = last[p];
+        second_before_index_[p] = previous;
+        second_after_index_[p] = -1;
+        new_second_.push_back(static_cast<std::uint32_t>(p));
+        gate[p] = v;
       }
       if (v >= saturation) {
         // A run continues when the previous frame was saturated too.
@@ -112,8 +177,19 @@ SweepAnalysis SpaceTimeAnalyzer::Result() const {
   const std::size_t n = best_.size();
   result.peak_time.assign(n, std::numeric_limits<float>::quiet_NaN());
   result.peak_value.assign(n, 0.0f);
+  result.second_time.assign(n, std::numeric_limits<float>::quiet_NaN());
+  result.second_value.assign(n, 0.0f);
   result.planes.resize(frame_count_);
   for (std::size_t p = 0; p < n; ++p) {
+    if (second_index_[p] >= 0 && second_[p] >= options_.threshold) {
+      result.second_value[p] = second_[p];
+      double t = second_index_[p];
+      if (second_before_index_[p] >= 0 && second_after_index_[p] >= 0) {
+        t = InterpolatePeak(second_before_index_[p], second_before_[p], second_index_[p], second_[p],
+                            second_after_index_[p], second_after_[p]);
+      }
+      result.second_time[p] = static_cast<float>(t);
+    }
     result.peak_value[p] = best_index_[p] >= 0 ? best_[p] : 0.0f;
     if (best_[p] < options_.threshold) continue;
     double t = best_index_[p];
@@ -139,20 +215,22 @@ std::filesystem::path ImageFile(const std::filesystem::path& file) {
 
 void WriteSweepAnalysis(const std::filesystem::path& file, const SweepAnalysis& analysis) {
   const std::size_t n = static_cast<std::size_t>(analysis.width) * analysis.height;
-  if (analysis.peak_time.size() != n || analysis.peak_value.size() != n ||
-      analysis.planes.size() != static_cast<std::size_t>(analysis.frame_count)) {
+  if (analysis.peak_time.size() != n || analysis.peak_value.size() != n || analysis.second_time.size() != n ||
+      analysis.second_value.size() != n || analysis.planes.size() != static_cast<std::size_t>(analysis.frame_count)) {
     throw Error("sweep analysis " + file.string() + ": sizes do not match width, height and frame_count");
   }
-  Image image(analysis.width, analysis.height, 2);
+  Image image(analysis.width, analysis.height, 4);
   for (std::size_t p = 0; p < n; ++p) {
-    image.data()[2 * p] = analysis.peak_time[p];
-    image.data()[2 * p + 1] = analysis.peak_value[p];
+    image.data()[4 * p] = analysis.peak_time[p];
+    image.data()[4 * p + 1] = analysis.peak_value[p];
+    image.data()[4 * p + 2] = analysis.second_time[p];
+    image.data()[4 * p + 3] = analysis.second_value[p];
   }
   WriteImage(ImageFile(file), image, PixelEncoding::kFloat32);
   nlohmann::json planes = nlohmann::json::array();
   for (const Plane& plane : analysis.planes) planes.push_back(ToJson(plane));
   WriteJsonFileAtomically(file, {{"format", "mesocap.sweep_analysis"},
-                                 {"version", 1},
+                                 {"version", 2},
                                  {"width", analysis.width},
                                  {"height", analysis.height},
                                  {"frame_count", analysis.frame_count},
@@ -172,7 +250,8 @@ SweepAnalysis ReadSweepAnalysis(const std::filesystem::path& file) {
   if (!doc.is_object() || doc.value("format", std::string()) != "mesocap.sweep_analysis") {
     throw FormatError(file, "format", "\"mesocap.sweep_analysis\"");
   }
-  if (doc.value("version", 0) != 1) throw FormatError(file, "version", "1");
+  const int version = doc.value("version", 0);
+  if (version != 1 && version != 2) throw FormatError(file, "version", "1 or 2");
   SweepAnalysis analysis;
   analysis.width = integer("width", 1 << 15);
   analysis.height = integer("height", 1 << 15);
@@ -187,18 +266,28 @@ SweepAnalysis ReadSweepAnalysis(const std::filesystem::path& file) {
   ImageReadOptions options;
   options.expected_width = analysis.width;
   options.expected_height = analysis.height;
-  options.expected_channels = 2;
+  const int channels = version == 1 ? 2 : 4;  // version 1: no second peaks
+  options.expected_channels = channels;
   const Image image = ReadImage(ImageFile(file), options);
   const std::size_t n = static_cast<std::size_t>(analysis.width) * analysis.height;
   analysis.peak_time.resize(n);
   analysis.peak_value.resize(n);
-  for (std::size_t p = 0; p < n; ++p) {
-    const float t = image.data()[2 * p];
+  analysis.second_time.assign(n, std::numeric_limits<float>::quiet_NaN());
+  analysis.second_value.assign(n, 0.0f);
+  auto frame_time = [&](float t, const char* field) {
     if (!std::isnan(t) && !(t >= 0 && t <= analysis.frame_count - 1)) {
-      throw FormatError(ImageFile(file), "peak time", "NaN or a frame time in [0, frame_count - 1]");
+      throw FormatError(ImageFile(file), field, "NaN or a frame time in [0, frame_count - 1]");
     }
-    analysis.peak_time[p] = t;
-    analysis.peak_value[p] = image.data()[2 * p + 1];
+    return t;
+  };
+  for (std::size_t p = 0; p < n; ++p) {
+    const float* texel = image.data() + channels * p;
+    analysis.peak_time[p] = frame_time(texel[0], "peak time");
+    analysis.peak_value[p] = texel[1];
+    if (channels == 4) {
+      analysis.second_time[p] = frame_time(texel[2], "second peak time");
+      analysis.second_value[p] = texel[3];
+    }
   }
   return analysis;
 }

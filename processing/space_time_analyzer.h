@@ -31,6 +31,12 @@ struct SpaceTimeOptions {
   // Values at or above this are saturated: the peak time is the middle of
   // the longest saturated run (a clipped profile has no vertex to fit).
   float saturation = 0.999f;
+  // The second peak (below) is the brightest unsaturated value at least
+  // this many frames from the first: the shipped rigs' stripe profiles have a
+  // sigma of 1.1-1.9 frames, so a second surface closer in time than this
+  // merges with the first (measured on weave, small rig: 3, 4, 6 and 8
+  // frames place edges no better than 5).
+  int min_peak_separation = 5;
 
   CheckResult Check() const;
 };
@@ -40,12 +46,22 @@ struct SpaceTimeOptions {
 // exceeded half the threshold), plus each frame's
 // laser plane (invalid where no stripe line was found or the frame was
 // dropped).
+//
+// The second peak is the stripe crossing a second surface inside the same
+// pixel: a pixel straddling an occluding edge sees the near surface and,
+// later or earlier in the sweep, the far one. Its time and value (NaN and 0
+// where none reached the threshold) let resampling place the edge inside
+// the pixel instead of giving the whole pixel to the brighter surface. A
+// second peak may also be an interreflection ghost: resampling decides
+// whether its point continues a neighbour's surface.
 struct SweepAnalysis {
   int width = 0;
   int height = 0;
   int frame_count = 0;
   std::vector<float> peak_time;
   std::vector<float> peak_value;
+  std::vector<float> second_time;
+  std::vector<float> second_value;
   std::vector<Plane> planes;  // frame_count
 };
 
@@ -65,11 +81,12 @@ class SpaceTimeAnalyzer {
 
  private:
   // Per pixel, whatever the sweep length (structure of arrays): the arrays
-  // every frame touches (the brightest value so far, the latest value)
+  // every frame touches (the gate below, the latest value)
   // apart from those only a new maximum, the frame after it or a saturated
   // value touch, so the common pixel reads its value and 8 bytes of state
-  // and writes 4. The pixels with a new maximum in the latest frame are
-  // listed (few: the stripe's rising edge), for their next frame's value.
+  // and writes 4. The pixels with a new maximum in each recent frame are
+  // listed (few: the stripe's rising edge), for their next frame's value
+  // and their gate (below).
   std::vector<float> best_;
   std::vector<std::int32_t> best_index_;
   std::vector<float> last_;
@@ -77,7 +94,24 @@ class SpaceTimeAnalyzer {
   std::vector<std::int32_t> before_index_, after_index_;
   std::vector<std::int32_t> run_start_;                         // current saturated run
   std::vector<std::int32_t> saturated_first_, saturated_last_;  // longest saturated run
-  std::vector<std::uint32_t> new_maximum_;  // pixels whose maximum is the latest frame
+  // The second peak: the brightest value at least min_peak_separation
+  // frames from the maximum, with its neighbouring frames, and the pixels
+  // whose second peak is the latest frame.
+  std::vector<float> second_;
+  std::vector<std::int32_t> second_index_;
+  std::vector<float> second_before_, second_after_;
+  std::vector<std::int32_t> second_before_index_, second_after_index_;
+  std::vector<std::uint32_t> new_second_;
+  // What a value must exceed to need the per-pixel update (as must a
+  // saturated value): the maximum for min_peak_separation frames after it
+  // was set, then min(maximum, max(second peak, threshold)). The pixels
+  // that set a maximum in each of the last min_peak_separation frames.
+  std::vector<float> gate_;
+  struct RecentMaxima {
+    int frame = -1;
+    std::vector<std::uint32_t> pixels;
+  };
+  std::vector<RecentMaxima> recent_maxima_;
   int width_;
   int height_;
   int frame_count_;
@@ -87,8 +121,10 @@ class SpaceTimeAnalyzer {
 };
 
 // A sweep analysis on disk: <file> (JSON: sizes, planes) beside <file>.exr
-// (2 channels: peak time, peak value). Both written atomically, the EXR
-// first, so the JSON only ever names a complete image.
+// (4 channels: peak time, peak value, second peak time, second peak value;
+// version 1 files have the first two only and read with no second peaks).
+// Both written atomically, the EXR first, so the JSON only ever names a
+// complete image.
 void WriteSweepAnalysis(const std::filesystem::path& file, const SweepAnalysis& analysis);
 // Throws FormatError naming the file and field on anything malformed.
 SweepAnalysis ReadSweepAnalysis(const std::filesystem::path& file);

@@ -37,7 +37,7 @@ TEST(DisplacementImageTest, PointsOnTheBackingAreNoHitAndTheRimStaysUnknown) {
   TriangulationOptions options;
   options.backing_depth_mm = kBackingMm;
   const auto points = HoleyPlane(side, 3.0);
-  const DisplacementImage image = ResampleToTexture(points, side, side, Eigen::Vector3d::UnitZ(), grid, options);
+  const DisplacementImage image = ResampleToTexture({points, {}}, side, side, Eigen::Vector3d::UnitZ(), grid, options);
   int no_hit = 0, surface = 0, unknown = 0;
   for (int j = 0; j < grid.height; ++j) {
     for (int i = 0; i < grid.width; ++i) {
@@ -61,7 +61,7 @@ TEST(DisplacementImageTest, PointsOnTheBackingAreNoHitAndTheRimStaysUnknown) {
   EXPECT_EQ(unknown, 0);
   // Without a board the same points are a deep surface, not a hole.
   const DisplacementImage deep =
-      ResampleToTexture(points, side, side, Eigen::Vector3d::UnitZ(), grid, TriangulationOptions{});
+      ResampleToTexture({points, {}}, side, side, Eigen::Vector3d::UnitZ(), grid, TriangulationOptions{});
   EXPECT_NEAR(deep.at(8, 8), kBackingMm, 1e-5);
 }
 
@@ -76,7 +76,7 @@ TEST(DisplacementImageTest, TexelsBetweenTheRimAndTheBoardAreNotFilled) {
   TriangulationOptions options;
   options.backing_depth_mm = kBackingMm;
   const DisplacementImage image =
-      ResampleToTexture(HoleyPlane(side, 0.6), side, side, Eigen::Vector3d::UnitZ(), grid, options);
+      ResampleToTexture({HoleyPlane(side, 0.6), {}}, side, side, Eigen::Vector3d::UnitZ(), grid, options);
   EXPECT_TRUE(IsUnknown(image.at(8, 8))) << image.at(8, 8);
   EXPECT_NEAR(image.at(10, 10), 0.5, 1e-5);
 }
@@ -103,7 +103,7 @@ TEST(DisplacementImageTest, ALoneUnknownPixelLeavesOnlyItsDiamondUnknown) {
   const float nan = std::numeric_limits<float>::quiet_NaN();
   points[20 * side + 20] = Eigen::Vector3f::Constant(nan);
   const DisplacementImage image =
-      ResampleToTexture(points, side, side, Eigen::Vector3d::UnitZ(), grid, TriangulationOptions{});
+      ResampleToTexture({points, {}}, side, side, Eigen::Vector3d::UnitZ(), grid, TriangulationOptions{});
   int square = 0, diamond = 0;
   for (int j = 0; j < grid.height; ++j) {
     for (int i = 0; i < grid.width; ++i) {
@@ -122,6 +122,62 @@ TEST(DisplacementImageTest, ALoneUnknownPixelLeavesOnlyItsDiamondUnknown) {
   }
   EXPECT_EQ(diamond, 4);   // texel centres inside the diamond
   EXPECT_EQ(square, 5);    // measured now, unknown before
+}
+
+// A step seen straight down, pixels every 0.5 mm (40 x 40), 0.3125 mm
+// texels: the surface is 1 mm deep left of x = 0.3 mm and 3 mm deep right
+// of it, so pixel column 20 (x in [0, 0.5]) straddles the edge. Its first
+// (brighter) peak is the near surface, its second the far one. The texel
+// at x = 0.469 sees the far surface: with the second points the edge is
+// placed at the straddling pixels' centre (x = 0.25) and the texel is far;
+// without them at the middle of columns 20 and 21 (x = 0.5), and the texel
+// takes the near surface. Second points that continue no neighbour's
+// surface (ghosts; here on the flat parts and a wrong depth at the edge)
+// change nothing.
+TEST(DisplacementImageTest, APixelStraddlingAnEdgeIsAVertexOfBothSurfaces) {
+  const int side = 40;
+  const TextureGrid grid{64, 64, 20.0};
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  SweepPoints points;
+  for (int y = 0; y < side; ++y) {
+    for (int x = 0; x < side; ++x) {
+      const float px = static_cast<float>(-10.0 + 0.5 * (x + 0.5)), py = static_cast<float>(-10.0 + 0.5 * (y + 0.5));
+      points.first.emplace_back(px, py, x <= 20 ? -1.0f : -3.0f);
+      points.second.emplace_back(nan, nan, nan);
+    }
+  }
+  const TriangulationOptions options;
+  auto texel = [&](const DisplacementImage& image, double x) {
+    return image.at(static_cast<int>(std::floor((x + 10.0) / grid.texel_mm())), 32);
+  };
+  const DisplacementImage without = ResampleToTexture(points, side, side, Eigen::Vector3d::UnitZ(), grid, options);
+  EXPECT_NEAR(texel(without, 0.469), 1.0, 1e-6);
+
+  // Ghosts: far second points on the flat parts, a wrong depth at the edge.
+  for (int y = 0; y < side; ++y) {
+    for (int x = 0; x < side; ++x) {
+      const float depth = x == 20 ? 6.0f : (x <= 20 ? 2.5f : 4.5f);
+      points.second[y * side + x] = {points.first[y * side + x].x(), points.first[y * side + x].y(), -depth};
+    }
+  }
+  // Texels whose value differs (unknown in both counts as the same).
+  auto differing = [&](const DisplacementImage& a) {
+    int count = 0;
+    for (std::size_t t = 0; t < a.distance_mm.size(); ++t) {
+      const float x = a.distance_mm[t], y = without.distance_mm[t];
+      count += !(x == y || (std::isnan(x) && std::isnan(y)));
+    }
+    return count;
+  };
+  const DisplacementImage ghosts = ResampleToTexture(points, side, side, Eigen::Vector3d::UnitZ(), grid, options);
+  EXPECT_EQ(differing(ghosts), 0);
+
+  for (int y = 0; y < side; ++y) points.second[y * side + 20].z() = -3.0f;
+  const DisplacementImage with = ResampleToTexture(points, side, side, Eigen::Vector3d::UnitZ(), grid, options);
+  EXPECT_NEAR(texel(with, 0.469), 3.0, 1e-6);
+  EXPECT_NEAR(texel(with, 0.156), 1.0, 1e-6);  // left of the straddling pixels' centre: near
+  // Everything else as without.
+  EXPECT_EQ(differing(with), 62);  // the texel column at x = 0.469, inside the pixels' span (|y| < 9.75)
 }
 
 DisplacementImage OneTexel(float d) {

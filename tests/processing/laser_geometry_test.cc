@@ -161,14 +161,14 @@ TEST_F(LaserGeometryTest, IllConditionedTriangulationIsRejectedNotWild) {
   for (double sine : {0.5, 0.2, 1.3 * limit}) {
     a.planes = {plane_with_sine(sine), plane_with_sine(sine)};
     const auto points = TriangulateSweep(a, rays, identity, options);
-    const Eigen::Vector3f q = points[static_cast<std::size_t>(y) * a.width + x];
+    const Eigen::Vector3f q = points.first[static_cast<std::size_t>(y) * a.width + x];
     ASSERT_TRUE(q.allFinite()) << sine;
     EXPECT_LT((q.cast<double>() - on_ray).norm(), 1e-6);
   }
   for (double sine : {0.7 * limit, 0.001, 0.0}) {
     a.planes = {plane_with_sine(sine), plane_with_sine(sine)};
     const auto points = TriangulateSweep(a, rays, identity, options);
-    EXPECT_FALSE(points[static_cast<std::size_t>(y) * a.width + x].allFinite()) << sine;
+    EXPECT_FALSE(points.first[static_cast<std::size_t>(y) * a.width + x].allFinite()) << sine;
   }
 }
 

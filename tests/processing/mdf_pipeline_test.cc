@@ -80,8 +80,9 @@ const std::vector<int> kAcceptanceCameras = {0, 1, 2};
 TEST(MdfPipelineTest, AcceptanceBlocksSmallRig) {
   const ScanResult r = RunSimulatedScan(SmallRig("blocks", kAcceptanceCameras, {}));
   const MdfErrorRow row = Row(r, 60);
-  // Issue 4 acceptance; measured median 0.016, p95 0.40, coverage 0.996
-  // (whole session: 0.022, 0.41, 0.996).
+  // Issue 4 acceptance; measured median 0.016, p95 0.31, coverage 0.996
+  // (0.40 before pixels straddling an edge took their second peak; whole
+  // session, before: 0.022, 0.41, 0.996).
   EXPECT_LE(row.median_texels, 0.25);
   EXPECT_LE(row.p95_texels, 1.0);
   EXPECT_GE(row.coverage, 0.98);
@@ -93,21 +94,21 @@ TEST(MdfPipelineTest, AcceptanceWeaveSmallRig) {
   // Issue 4 acceptance: the median is met (measured 0.038).
   EXPECT_LE(row.median_texels, 0.25);
   // Not met, guarded at their levels: p95 <= 1 texel and coverage >= 98 %
-  // are asked; measured p95 1.216, coverage 0.9762 (1.278 and 0.9745 before
-  // a quad of pixels with one unknown corner kept its other triangle; whole
-  // session: 1.16, 0.959). Nearly every texel off by more than a texel is
-  // next to an occluding edge of a thread: a pixel straddling it reports the
-  // nearer surface (the far one is in the laser's shadow or dimmer), so
-  // edges are placed up to half a camera pixel (0.2-0.36 texel) off while
-  // the depth jumps by up to 17 texels. Coverage: 0.8 % of the true hits
-  // inside the sample are lit by none of the 8 laser locations (shadow rays
-  // from the true point: the most this rig could reach is 0.992); of the
-  // other texels left unknown, a quarter are lit only by locations whose
-  // laser plane nearly contains the camera ray (rejected as
-  // ill-conditioned; accepting them down to sine 0.02 gives coverage 0.981
-  // at p95 1.31).
-  EXPECT_LE(row.p95_texels, 1.3);
-  EXPECT_GE(row.coverage, 0.975);
+  // are asked; measured p95 1.033, coverage 0.9757 (1.216 and 0.9762 before
+  // a pixel straddling an occluding edge became a vertex of both surfaces
+  // through its second temporal peak, and the discontinuity ratio went from
+  // 3 to 2). Nearly every texel off by more than a texel (5.2 % of them) is
+  // next to an edge or on the base seen through a gap, where only the laser
+  // locations nearly coplanar with the camera reach (11.25 degrees,
+  // location 6: sine 0.066, so the base and a thread flank in one pixel
+  // blend into one peak). Coverage: 0.8 % of the true hits inside the
+  // sample are lit by none of the 8 laser locations (shadow rays from the
+  // true point: the most this rig could reach is 0.992; the 33.75-degree
+  // view at most 0.980, and 0.978 even with 24 locations); accepting
+  // ill-conditioned scans down to sine 0.02 gives coverage 0.981 at p95
+  // 1.13 (docs/BENCHMARKS.md, tenth session).
+  EXPECT_LE(row.p95_texels, 1.1);
+  EXPECT_GE(row.coverage, 0.974);
 }
 
 TEST(MdfPipelineTest, GrazingViewStaysBounded) {
@@ -144,8 +145,9 @@ TEST(MdfPipelineTest, InterreflectionGhostPeaks) {
   const auto [row, base] = AgainstBaseline(s);
   // The weaker ghost never wins the peak search, so the bulk is unchanged;
   // where one pixel sees two surfaces ~10 frames apart, the ghost of the
-  // first can outshine the second: the edges degrade (measured p95 0.58
-  // against 0.45 texels without the ghost).
+  // first can outshine the second, and it is the second peak of every lit
+  // pixel: the edges degrade (measured p95 0.38 against 0.24 texels
+  // without the ghost).
   EXPECT_LE(row.median_texels, base.median_texels + 0.02);
   EXPECT_GE(row.coverage, base.coverage - 0.01);
   EXPECT_LE(row.p95_texels, base.p95_texels + 1.0);
@@ -157,7 +159,7 @@ TEST(MdfPipelineTest, DroppedFrames) {
   const auto [row, base] = AgainstBaseline(s);
   // The planes of the dropped frames are bridged from their neighbours and
   // the peaks next to them interpolated over the real gap: measured equal
-  // coverage and p95 0.38 against 0.45 texels.
+  // coverage and p95 0.255 against 0.244 texels.
   EXPECT_LE(row.median_texels, base.median_texels + 0.01);
   EXPECT_GE(row.coverage, base.coverage - 0.002);
   EXPECT_LE(row.p95_texels, base.p95_texels + 0.1);
@@ -180,7 +182,7 @@ TEST(MdfPipelineTest, SpongeThroughHoles) {
   // lit the board there, the stripe triangulates onto it: "no hit". Where
   // the board lay in the lattice's shadow for every scan the texel stays
   // unknown, and texels between a hole's rim and the board are not filled.
-  // Measured: no-hit coverage 0.231, false hits 0.055 (pixels straddling
+  // Measured: no-hit coverage 0.231, false hits 0.059 (pixels straddling
   // the rim report the bar), no false "no hit".
   EXPECT_GE(row.no_hit_coverage, 0.2);
   EXPECT_LE(row.false_hit_rate, 0.07);
