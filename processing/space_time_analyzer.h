@@ -6,7 +6,7 @@
 // Streaming: frames are fed one at a time as they arrive (the capture daemon
 // and the offline path call the same code) and each pixel keeps O(1) state,
 // so no sequence is ever held in memory. The result (SweepAnalysis) is small
-// (two floats per pixel plus one plane per frame), so a session can keep it
+// (four floats per pixel plus one plane per frame), so a session can keep it
 // instead of the raw frames.
 #pragma once
 
