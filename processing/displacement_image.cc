@@ -158,17 +158,17 @@ DisplacementImage ResampleToTexture(const SweepPoints& points, int pixel_width, 
   // Pixels straddling an occluding edge: the second point continues the
   // surface of a 4-neighbour whose first point is across a discontinuity
   // from this pixel's first. Such a pixel is a vertex of both surfaces: of
-  // the near one in `vertices`, of the far one in `far`. The checks use the
-  // first points only, so the result does not depend on the scan order.
+  // the near one in `vertices`, of the far one in `far`. The tests read the
+  // first points only (`vertices` changes after them), so the result does
+  // not depend on the scan order.
   std::vector<Vertex> far;
   std::vector<bool> straddles;
   if (!points.second.empty()) {
-    const std::vector<Vertex> first = vertices;
     for (int y = 0; y < pixel_height; ++y) {
       for (int x = 0; x < pixel_width; ++x) {
         const std::size_t p = static_cast<std::size_t>(y) * pixel_width + x;
         Vertex second;
-        if (!valid[p] || std::isinf(first[p].d) || !project(points.second[p], &second) || std::isinf(second.d)) {
+        if (!valid[p] || std::isinf(vertices[p].d) || !project(points.second[p], &second) || std::isinf(second.d)) {
           continue;
         }
         bool edge = false;
@@ -176,18 +176,20 @@ DisplacementImage ResampleToTexture(const SweepPoints& points, int pixel_width, 
           const int xn = x + dx, yn = y + dy;
           if (xn < 0 || yn < 0 || xn >= pixel_width || yn >= pixel_height) continue;
           const std::size_t q = static_cast<std::size_t>(yn) * pixel_width + xn;
-          if (!valid[q] || std::isinf(first[q].d)) continue;
-          edge = edge || (continuous_pair(second, first[q]) && !continuous_pair(first[p], first[q]));
+          if (!valid[q] || std::isinf(vertices[q].d)) continue;
+          edge = edge || (continuous_pair(second, vertices[q]) && !continuous_pair(vertices[p], vertices[q]));
         }
         if (!edge) continue;
         if (far.empty()) {
-          far = first;
+          far = vertices;
           straddles.assign(n, false);
         }
         straddles[p] = true;
-        vertices[p] = second.d < first[p].d ? second : first[p];
-        far[p] = second.d < first[p].d ? first[p] : second;
+        far[p] = second;
       }
+    }
+    for (std::size_t p = 0; p < straddles.size(); ++p) {
+      if (straddles[p] && far[p].d < vertices[p].d) std::swap(vertices[p], far[p]);
     }
   }
   // Pass 1 interpolates across continuous triangles; pass 2 fills texels

@@ -180,25 +180,26 @@ SweepAnalysis SpaceTimeAnalyzer::Result() const {
   result.second_time.assign(n, std::numeric_limits<float>::quiet_NaN());
   result.second_value.assign(n, 0.0f);
   result.planes.resize(frame_count_);
+  // A peak's sub-frame time from the frames delivered around it (its own
+  // frame where one of them is missing: the first or last frame).
+  auto vertex = [](int before_index, float before, int index, float value, int after_index, float after) {
+    if (before_index < 0 || after_index < 0) return static_cast<float>(index);
+    return static_cast<float>(InterpolatePeak(before_index, before, index, value, after_index, after));
+  };
   for (std::size_t p = 0; p < n; ++p) {
     if (second_index_[p] >= 0 && second_[p] >= options_.threshold) {
       result.second_value[p] = second_[p];
-      double t = second_index_[p];
-      if (second_before_index_[p] >= 0 && second_after_index_[p] >= 0) {
-        t = InterpolatePeak(second_before_index_[p], second_before_[p], second_index_[p], second_[p],
-                            second_after_index_[p], second_after_[p]);
-      }
-      result.second_time[p] = static_cast<float>(t);
+      result.second_time[p] = vertex(second_before_index_[p], second_before_[p], second_index_[p], second_[p],
+                                     second_after_index_[p], second_after_[p]);
     }
     result.peak_value[p] = best_index_[p] >= 0 ? best_[p] : 0.0f;
     if (best_[p] < options_.threshold) continue;
-    double t = best_index_[p];
     if (best_[p] >= options_.saturation && saturated_first_[p] >= 0) {
-      t = 0.5 * (saturated_first_[p] + saturated_last_[p]);
-    } else if (before_index_[p] >= 0 && after_index_[p] >= 0) {
-      t = InterpolatePeak(before_index_[p], before_[p], best_index_[p], best_[p], after_index_[p], after_[p]);
+      result.peak_time[p] = static_cast<float>(0.5 * (saturated_first_[p] + saturated_last_[p]));
+    } else {
+      result.peak_time[p] =
+          vertex(before_index_[p], before_[p], best_index_[p], best_[p], after_index_[p], after_[p]);
     }
-    result.peak_time[p] = static_cast<float>(t);
   }
   return result;
 }

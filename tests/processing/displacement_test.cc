@@ -81,6 +81,20 @@ TEST(DisplacementImageTest, TexelsBetweenTheRimAndTheBoardAreNotFilled) {
   EXPECT_NEAR(image.at(10, 10), 0.5, 1e-5);
 }
 
+// A surface seen straight down, pixels every 0.5 mm (side x side over the
+// 20 mm sample): each pixel's point at depth(x, y).
+template <typename Depth>
+std::vector<Eigen::Vector3f> SeenStraightDown(int side, Depth depth) {
+  std::vector<Eigen::Vector3f> points;
+  for (int y = 0; y < side; ++y) {
+    for (int x = 0; x < side; ++x) {
+      const double px = -10.0 + 0.5 * (x + 0.5), py = -10.0 + 0.5 * (y + 0.5);
+      points.emplace_back(static_cast<float>(px), static_cast<float>(py), static_cast<float>(-depth(px, py)));
+    }
+  }
+  return points;
+}
+
 TEST(DisplacementImageTest, ALoneUnknownPixelLeavesOnlyItsDiamondUnknown) {
   // A tilted plane seen straight down, pixels every 0.5 mm (40 x 40), 0.3125
   // mm texels: pixel P = (20, 20), centred at (0.25, 0.25), saw no stripe.
@@ -93,13 +107,7 @@ TEST(DisplacementImageTest, ALoneUnknownPixelLeavesOnlyItsDiamondUnknown) {
   const int side = 40;
   const TextureGrid grid{64, 64, 20.0};
   auto depth = [](double x, double y) { return 1.0 + 0.05 * x + 0.02 * y; };
-  std::vector<Eigen::Vector3f> points;
-  for (int y = 0; y < side; ++y) {
-    for (int x = 0; x < side; ++x) {
-      const double px = -10.0 + 0.5 * (x + 0.5), py = -10.0 + 0.5 * (y + 0.5);
-      points.emplace_back(static_cast<float>(px), static_cast<float>(py), static_cast<float>(-depth(px, py)));
-    }
-  }
+  std::vector<Eigen::Vector3f> points = SeenStraightDown(side, depth);
   const float nan = std::numeric_limits<float>::quiet_NaN();
   points[20 * side + 20] = Eigen::Vector3f::Constant(nan);
   const DisplacementImage image =
@@ -137,15 +145,10 @@ TEST(DisplacementImageTest, ALoneUnknownPixelLeavesOnlyItsDiamondUnknown) {
 TEST(DisplacementImageTest, APixelStraddlingAnEdgeIsAVertexOfBothSurfaces) {
   const int side = 40;
   const TextureGrid grid{64, 64, 20.0};
-  const float nan = std::numeric_limits<float>::quiet_NaN();
+  // Column 20 is x in [0, 0.5]: its first points are near.
   SweepPoints points;
-  for (int y = 0; y < side; ++y) {
-    for (int x = 0; x < side; ++x) {
-      const float px = static_cast<float>(-10.0 + 0.5 * (x + 0.5)), py = static_cast<float>(-10.0 + 0.5 * (y + 0.5));
-      points.first.emplace_back(px, py, x <= 20 ? -1.0f : -3.0f);
-      points.second.emplace_back(nan, nan, nan);
-    }
-  }
+  points.first = SeenStraightDown(side, [](double x, double) { return x < 0.5 ? 1.0 : 3.0; });
+  points.second.assign(points.first.size(), Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN()));
   const TriangulationOptions options;
   auto texel = [&](const DisplacementImage& image, double x) {
     return image.at(static_cast<int>(std::floor((x + 10.0) / grid.texel_mm())), 32);
