@@ -84,7 +84,7 @@ TEST_F(LaserGeometryTest, NoStripeInTheReferenceRegionGivesNoLine) {
 }
 
 TEST_F(LaserGeometryTest, TwoHeightCalibrationRecoversThePlaneAngle) {
-  for (int li : {0, 4, 7}) {  // one per mount (35, 55, 75 degrees)
+  for (int li : {0, 4, 7}) {  // one per mount (45, 67.5, 84.375 degrees)
     const auto& loc = rig_.laser.locations[li];
     const int cam = 2;
     const CameraRays rays(calibration_.cameras[cam]);

@@ -2,10 +2,12 @@
 // the simulated rig and fed straight to the streaming code, default sensor
 // noise) against the exact MDF (sim/ground_truth.h). The small rig's full
 // session (6 turntable angles x 4 cameras x 8 locations x 128 frames) takes
-// minutes to render, so these use turntable angle 0 and the cameras and
-// locations named in each test; the errors are per view, so fewer views do
-// not change them. Error units: texel widths of the 64 x 64 grid over the
-// 20 mm sample (0.3125 mm).
+// minutes to render, so these use turntable angle 0 (and 60 degrees for
+// `weave`) and the cameras and locations named in each test. The errors
+// depend on the sample's orientation under the lasers, not only on the view:
+// `weave` at 60 degrees has its threads oblique to every laser stripe, and
+// the whole session's figures are in docs/BENCHMARKS.md. Error units: texel
+// widths of the 64 x 64 grid over the 20 mm sample (0.3125 mm).
 //
 // Coverage is counted inside the sample pocket (MdfEvaluationScope): the
 // exact MDF is computed on the infinitely tiled mesostructure, but on the
@@ -17,9 +19,14 @@
 #include <cmath>
 #include <cstdio>
 #include <deque>
+#include <filesystem>
+#include <fstream>
 #include <map>
+#include <nlohmann/json.hpp>
+#include <string>
 
 #include "processing/mdf_evaluation.h"
+#include "tests/common/temporary_directory.h"
 #include "tests/processing/simulated_scan.h"
 
 namespace mesocap::test {
@@ -59,7 +66,7 @@ ScanSetup SmallRig(const std::string& scene, std::vector<int> cameras, std::vect
 
 // One camera (33.75 degrees) and four laser locations, one per side and
 // mount: the baseline the hard cases compare with.
-const std::vector<int> kFourLocations = {0, 2, 4, 7};
+const std::vector<int> kFourLocations = {1, 2, 4, 7};
 const ScanResult& Baseline() {
   static const ScanResult r = RunSimulatedScan(SmallRig("blocks", {1}, kFourLocations));
   return r;
@@ -80,9 +87,9 @@ const std::vector<int> kAcceptanceCameras = {0, 1, 2};
 TEST(MdfPipelineTest, AcceptanceBlocksSmallRig) {
   const ScanResult r = RunSimulatedScan(SmallRig("blocks", kAcceptanceCameras, {}));
   const MdfErrorRow row = Row(r, 60);
-  // Issue 4 acceptance; measured median 0.016, p95 0.31, coverage 0.996
-  // (0.40 before pixels straddling an edge took their second peak; whole
-  // session, before: 0.022, 0.41, 0.996).
+  // Issue 4 acceptance; measured median 0.022, p95 0.32, coverage 0.996
+  // (0.016, 0.31, 0.996 with the earlier laser layout; 0.40 before pixels
+  // straddling an edge took their second peak).
   EXPECT_LE(row.median_texels, 0.25);
   EXPECT_LE(row.p95_texels, 1.0);
   EXPECT_GE(row.coverage, 0.98);
@@ -91,24 +98,69 @@ TEST(MdfPipelineTest, AcceptanceBlocksSmallRig) {
 TEST(MdfPipelineTest, AcceptanceWeaveSmallRig) {
   const ScanResult r = RunSimulatedScan(SmallRig("weave", kAcceptanceCameras, {}));
   const MdfErrorRow row = Row(r, 60);
-  // Issue 4 acceptance: the median is met (measured 0.038).
+  // Issue 4 acceptance; measured median 0.041, p95 0.88, coverage 0.993.
+  // With the rig's earlier laser layout, three of whose eight locations
+  // nearly contained a camera's rays (sine 0.02-0.07), the same code gave
+  // p95 1.03 and coverage 0.976 (docs/BENCHMARKS.md, eleventh session).
   EXPECT_LE(row.median_texels, 0.25);
-  // Not met, guarded at their levels: p95 <= 1 texel and coverage >= 98 %
-  // are asked; measured p95 1.033, coverage 0.9757 (1.216 and 0.9762 before
-  // a pixel straddling an occluding edge became a vertex of both surfaces
-  // through its second temporal peak, and the discontinuity ratio went from
-  // 3 to 2). Nearly every texel off by more than a texel (5.2 % of them) is
-  // next to an edge or on the base seen through a gap, where only the laser
-  // locations nearly coplanar with the camera reach (11.25 degrees,
-  // location 6: sine 0.066, so the base and a thread flank in one pixel
-  // blend into one peak). Coverage: 0.8 % of the true hits inside the
-  // sample are lit by none of the 8 laser locations (shadow rays from the
-  // true point: the most this rig could reach is 0.992; the 33.75-degree
-  // view at most 0.980, and 0.978 even with 24 locations); accepting
-  // ill-conditioned scans down to sine 0.02 gives coverage 0.981 at p95
-  // 1.13 (docs/BENCHMARKS.md, tenth session).
+  EXPECT_LE(row.p95_texels, 1.0);
+  EXPECT_GE(row.coverage, 0.98);
+}
+
+TEST(MdfPipelineTest, WeaveAtTurntable60Degrees) {
+  // Turntable angles 60, 120, 240 and 300 degrees, two thirds of the
+  // session, put the weave's threads at 30 degrees to the cameras' plane
+  // (the weave repeats under a quarter turn). Not met there, guarded at
+  // their levels: measured p95 1.05, coverage 0.974 (1.22 and 0.956 with the
+  // earlier laser layout). All 72 locations of 6 mounts x 12 arcs give p95
+  // 1.11 at coverage 0.998, so more or other locations do not fix the p95:
+  // with them, 240 of the 242 texels off by more than a texel in the
+  // 56.25-degree view lie next to an occluding edge, 226 of them on the
+  // near surface's value (200 such texels at turntable angle 0;
+  // docs/BENCHMARKS.md, eleventh session).
+  ScanSetup s = SmallRig("weave", kAcceptanceCameras, {});
+  s.turntable_indices = {1};
+  const MdfErrorRow row = Row(RunSimulatedScan(s), 60);
+  EXPECT_LE(row.median_texels, 0.25);
   EXPECT_LE(row.p95_texels, 1.1);
-  EXPECT_GE(row.coverage, 0.974);
+  EXPECT_GE(row.coverage, 0.97);
+}
+
+// The small rig plus two locations on a mount at camera 1's elevation:
+// location 8 at the camera's azimuth, whose laser plane contains the
+// camera's rays (ray-plane sine below 0.01), and location 9 at 25 degrees
+// from it (sine about 0.04 at the image centre).
+std::string RigWithNearlyCoplanarLocations(const std::filesystem::path& folder) {
+  nlohmann::json rig = nlohmann::json::parse(std::ifstream(std::string(MESOCAP_SOURCE_DIR) + "/sim/rigs/small.json"));
+  rig["laser"]["mount_elevations_deg"].push_back(56.25);
+  rig["laser"]["locations"].push_back({{"mount", 3}, {"arc_angle_deg", 0.0}});
+  rig["laser"]["locations"].push_back({{"mount", 3}, {"arc_angle_deg", 25.0}});
+  const std::string file = (folder / "coplanar.json").string();
+  std::ofstream(file) << rig.dump(2);
+  return file;
+}
+
+TEST(MdfPipelineTest, LaserPlaneNearlyContainingTheCameraRays) {
+  const testing::TemporaryDirectory folder;
+  ScanSetup s = SmallRig("blocks", {1}, {8});
+  s.rig = RigWithNearlyCoplanarLocations(folder.path());
+  // Rejected: triangulation refuses rays within sine 0.03 of the plane.
+  EXPECT_EQ(Row(RunSimulatedScan(s), 60).compared, 0);
+  // Never wild: what passes has the errors of a short baseline (measured
+  // median 0.11, p95 0.98, coverage 0.86), and the worst is no more than
+  // taking the other side of a block's wall: 2.5 mm deep, 3.0 mm = 9.6
+  // texels along this view (measured 8.3).
+  s.locations = {9};
+  const ScanResult nearly = RunSimulatedScan(s);
+  EXPECT_LE(Row(nearly, 60).p95_texels, 1.2);
+  EXPECT_LE(MaxErrorTexels(nearly), 9.6);
+  // Down-weighted: merged with four well-conditioned scans it changes little
+  // (measured p95 0.454 against 0.464, coverage 0.9949 against 0.9947).
+  s.locations = {1, 2, 4, 7, 8, 9};
+  const MdfErrorRow row = Row(RunSimulatedScan(s), 60), base = Row(Baseline(), 60);
+  EXPECT_LE(row.median_texels, base.median_texels + 0.01);
+  EXPECT_LE(row.p95_texels, base.p95_texels + 0.1);
+  EXPECT_GE(row.coverage, base.coverage - 0.002);
 }
 
 TEST(MdfPipelineTest, GrazingViewStaysBounded) {
@@ -145,11 +197,12 @@ TEST(MdfPipelineTest, InterreflectionGhostPeaks) {
   const auto [row, base] = AgainstBaseline(s);
   // The weaker ghost never wins the peak search, so the bulk is unchanged;
   // where one pixel sees two surfaces ~10 frames apart, the ghost of the
-  // first can outshine the second, and it is the second peak of every lit
-  // pixel: the edges degrade (measured p95 0.38 against 0.24 texels
-  // without the ghost).
+  // first adds to the second, can make it the brighter, and is the second
+  // peak of every lit pixel: the edges degrade. Measured p95 0.67 against
+  // 0.46 texels without the ghost, coverage 0.982 against 0.995: 46 of the
+  // 49 texels lost lie within a texel of a block's wall.
   EXPECT_LE(row.median_texels, base.median_texels + 0.02);
-  EXPECT_GE(row.coverage, base.coverage - 0.01);
+  EXPECT_GE(row.coverage, base.coverage - 0.02);
   EXPECT_LE(row.p95_texels, base.p95_texels + 1.0);
 }
 
@@ -159,7 +212,7 @@ TEST(MdfPipelineTest, DroppedFrames) {
   const auto [row, base] = AgainstBaseline(s);
   // The planes of the dropped frames are bridged from their neighbours and
   // the peaks next to them interpolated over the real gap: measured equal
-  // coverage and p95 0.255 against 0.244 texels.
+  // coverage and p95 0.48 against 0.46 texels.
   EXPECT_LE(row.median_texels, base.median_texels + 0.01);
   EXPECT_GE(row.coverage, base.coverage - 0.002);
   EXPECT_LE(row.p95_texels, base.p95_texels + 0.1);
@@ -182,9 +235,9 @@ TEST(MdfPipelineTest, SpongeThroughHoles) {
   // lit the board there, the stripe triangulates onto it: "no hit". Where
   // the board lay in the lattice's shadow for every scan the texel stays
   // unknown, and texels between a hole's rim and the board are not filled.
-  // Measured: no-hit coverage 0.231, false hits 0.059 (pixels straddling
+  // Measured: no-hit coverage 0.389, false hits 0.054 (pixels straddling
   // the rim report the bar), no false "no hit".
-  EXPECT_GE(row.no_hit_coverage, 0.2);
+  EXPECT_GE(row.no_hit_coverage, 0.3);
   EXPECT_LE(row.false_hit_rate, 0.07);
   EXPECT_EQ(row.false_no_hit_rate, 0.0);
 }
