@@ -5,8 +5,8 @@
 // minutes to render, so these use turntable angle 0 (and 60 degrees for
 // `weave`) and the cameras and locations named in each test. The errors
 // depend on the sample's orientation under the lasers, not only on the view:
-// `weave` at 60 degrees has its threads oblique to every laser stripe, and
-// the whole session's figures are in docs/BENCHMARKS.md. Error units: texel
+// `weave` at 60 degrees has its threads at 30 degrees to the cameras' plane,
+// and the whole session's figures are in docs/BENCHMARKS.md. Error units: texel
 // widths of the 64 x 64 grid over the 20 mm sample (0.3125 mm).
 //
 // Coverage is counted inside the sample pocket (MdfEvaluationScope): the
@@ -127,9 +127,10 @@ TEST(MdfPipelineTest, WeaveAtTurntable60Degrees) {
 }
 
 // The small rig plus two locations on a mount at camera 1's elevation:
-// location 8 at the camera's azimuth, whose laser plane contains the
-// camera's rays (ray-plane sine below 0.01), and location 9 at 25 degrees
-// from it (sine about 0.04 at the image centre).
+// location 8 at the camera's azimuth, whose laser plane passes through the
+// camera in mid-sweep (no ray reaches the 0.03 sine limit in the whole
+// sweep), and location 9 at 25 degrees from it (sine about 0.04 at the
+// sample centre).
 std::string RigWithNearlyCoplanarLocations(const std::filesystem::path& folder) {
   nlohmann::json rig = nlohmann::json::parse(std::ifstream(std::string(MESOCAP_SOURCE_DIR) + "/sim/rigs/small.json"));
   rig["laser"]["mount_elevations_deg"].push_back(56.25);
@@ -144,7 +145,8 @@ TEST(MdfPipelineTest, LaserPlaneNearlyContainingTheCameraRays) {
   const testing::TemporaryDirectory folder;
   ScanSetup s = SmallRig("blocks", {1}, {8});
   s.rig = RigWithNearlyCoplanarLocations(folder.path());
-  // Rejected: triangulation refuses rays within sine 0.03 of the plane.
+  // Rejected: triangulation refuses rays within sine 0.03 of the plane, so
+  // nothing is measured.
   EXPECT_EQ(Row(RunSimulatedScan(s), 60).compared, 0);
   // Never wild: what passes has the errors of a short baseline (measured
   // median 0.11, p95 0.98, coverage 0.86), and the worst is no more than
