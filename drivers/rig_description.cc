@@ -1,5 +1,6 @@
 #include "drivers/rig_description.h"
 
+#include <Eigen/Geometry>
 #include <cmath>
 #include <numbers>
 #include <set>
@@ -203,6 +204,14 @@ double LaserTiltForOffset(const LaserDescription& laser, int mount, double offse
   const double r = laser.distance_mm * std::cos(e);
   const double h = laser.distance_mm * std::sin(e);
   return std::atan2(r + offset_mm, h) - std::atan2(r, h);
+}
+
+double LaserRaySine(const RigDescription& rig, int camera, int location) {
+  const LaserLocation& loc = rig.laser.locations.at(location);
+  const Eigen::Vector3d source = LaserSource(rig.laser, loc);
+  const Eigen::Vector3d stripe(-std::sin(loc.arc_angle_rad), std::cos(loc.arc_angle_rad), 0.0);
+  const Eigen::Vector3d normal = source.cross(stripe).normalized();
+  return std::abs(normal.dot(CameraCentre(rig.cameras.at(camera)).normalized()));
 }
 
 }  // namespace mesocap::drivers

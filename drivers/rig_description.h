@@ -129,4 +129,14 @@ Eigen::Vector3d LaserSource(const LaserDescription& laser, const LaserLocation& 
 // on the turntable plane away from the laser by `offset_mm`.
 double LaserTiltForOffset(const LaserDescription& laser, int mount, double offset_mm);
 
+// How well a camera and a laser location triangulate (MDF paper Sec. 3.2):
+// the sine of the angle between the camera's ray to the turntable centre and
+// the location's laser plane at tilt 0 (through the centre, its stripe across
+// the source's azimuth). A timing error becomes a depth error growing as
+// 1 / sine; at 0 the plane contains the ray. For a camera at elevation c and
+// a source at elevation e, arc a from the camera's azimuth, it is
+// |sin c cos e - cos c sin e cos a|: zero where a mount shares a camera's
+// elevation at its azimuth.
+double LaserRaySine(const RigDescription& rig, int camera, int location);
+
 }  // namespace mesocap::drivers

@@ -4,6 +4,7 @@
 // `info` is also the quickest check that a file is sound.
 #include <filesystem>
 #include <iomanip>
+#include <cmath>
 #include <iostream>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -19,6 +20,7 @@
 #include "core/json_field_reader.h"
 #include "core/material_package.h"
 #include "drivers/rig_description.h"
+#include "processing/displacement_image.h"
 
 namespace mesocap {
 namespace {
@@ -120,18 +122,40 @@ json CalibrationInfo(const fs::path& file) {
                               c.turntable.axis_direction.z()}}};
 }
 
+// Per laser location, the ray-plane sine with each camera (LaserRaySine), and
+// the worst pair: a rig designer's check that no location's laser plane
+// nearly contains a camera's rays (MDF triangulation rejects rays under
+// TriangulationOptions::min_ray_plane_sine).
+json LaserConditioning(const drivers::RigDescription& r) {
+  json sines = json::array();
+  json worst = {{"sine", 2.0}};
+  for (int l = 0; l < static_cast<int>(r.laser.locations.size()); ++l) {
+    json row = json::array();
+    for (int c = 0; c < static_cast<int>(r.cameras.size()); ++c) {
+      const double sine = drivers::LaserRaySine(r, c, l);
+      row.push_back(std::round(sine * 1000) / 1000);
+      if (sine < worst["sine"].get<double>()) worst = {{"sine", sine}, {"camera", r.cameras[c].id}, {"location", l}};
+    }
+    sines.push_back(row);
+  }
+  worst["below_triangulation_limit"] = worst["sine"].get<double>() < TriangulationOptions{}.min_ray_plane_sine;
+  return {{"laser_ray_sines", sines}, {"smallest_laser_ray_sine", worst}};
+}
+
 json RigInfo(const fs::path& file) {
   const drivers::RigDescription r = drivers::ReadRigDescription(file);
-  return {{"kind", "rig"},
-          {"path", file.string()},
-          {"name", r.name},
-          {"sample_size_mm", r.sample_size_mm},
-          {"cameras", r.cameras.size()},
-          {"camera_image_size", {r.cameras[0].width, r.cameras[0].height}},
-          {"views", r.view_count()},
-          {"lights", r.light_count()},
-          {"laser_locations", r.laser.locations.size()},
-          {"frames_per_sweep", r.laser.frames_per_sweep}};
+  json info = {{"kind", "rig"},
+               {"path", file.string()},
+               {"name", r.name},
+               {"sample_size_mm", r.sample_size_mm},
+               {"cameras", r.cameras.size()},
+               {"camera_image_size", {r.cameras[0].width, r.cameras[0].height}},
+               {"views", r.view_count()},
+               {"lights", r.light_count()},
+               {"laser_locations", r.laser.locations.size()},
+               {"frames_per_sweep", r.laser.frames_per_sweep}};
+  info.update(LaserConditioning(r));
+  return info;
 }
 
 json ImageInfo(const fs::path& file) {

@@ -3,10 +3,12 @@
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <iomanip>
 #include <nlohmann/json.hpp>
+#include <numbers>
 #include <sstream>
 #include <string>
 
@@ -44,6 +46,20 @@ TEST(Cli, InfoOnRigDescriptionPrintsJson) {
   EXPECT_EQ(j["kind"], "rig");
   EXPECT_EQ(j["views"], 96);
   EXPECT_EQ(j["laser_locations"], 26);
+  ASSERT_EQ(j["laser_ray_sines"].size(), 26u);
+  EXPECT_EQ(j["laser_ray_sines"][0].size(), 8u);  // one per camera
+}
+
+TEST(Cli, InfoOnRigDescriptionNamesItsWorstLaserCameraPair) {
+  // The small rig's worst pair (docs/BENCHMARKS.md, eleventh session): the
+  // top mount (84.375 degrees) at arc 0 with camera 0 at 78.75 degrees
+  // elevation, 5.625 degrees below it on the same side.
+  const auto j = nlohmann::json::parse(Mesocap("info --json " + RigFile("small")).out);
+  const auto& worst = j["smallest_laser_ray_sine"];
+  EXPECT_NEAR(worst["sine"].get<double>(), std::sin(5.625 * std::numbers::pi / 180), 1e-9);
+  EXPECT_EQ(worst["camera"], "cam0");
+  EXPECT_EQ(worst["location"], 6);
+  EXPECT_FALSE(worst["below_triangulation_limit"].get<bool>());
 }
 
 // The acceptance check of the Foundation issue: a hostile file gives a

@@ -45,6 +45,29 @@ TEST(RigDescription, DevicePositionsLieAtTheirDistances) {
   EXPECT_NEAR(std::atan2(lamp.y(), lamp.x()), 0.7, 1e-12);
 }
 
+TEST(RigDescription, LaserRaySineIsTheAngleBetweenTheCameraRayAndTheLaserPlane) {
+  RigDescription rig = ReadRigDescription(RigFile("small"));
+  // The closed form of the header, camera azimuth subtracted from the arc.
+  for (int c = 0; c < static_cast<int>(rig.cameras.size()); ++c) {
+    for (int l = 0; l < static_cast<int>(rig.laser.locations.size()); ++l) {
+      const double ce = rig.cameras[c].elevation_rad;
+      const double e = rig.laser.mount_elevations_rad[rig.laser.locations[l].mount];
+      const double a = rig.laser.locations[l].arc_angle_rad - rig.cameras[c].azimuth_rad;
+      const double expected = std::abs(std::sin(ce) * std::cos(e) - std::cos(ce) * std::sin(e) * std::cos(a));
+      EXPECT_NEAR(LaserRaySine(rig, c, l), expected, 1e-12) << "camera " << c << " location " << l;
+      // Cameras up to 60 degrees from the normal: nothing near-coplanar.
+      if (ce >= std::numbers::pi / 6) {
+        EXPECT_GT(LaserRaySine(rig, c, l), 0.09) << "camera " << c << " location " << l;
+      }
+    }
+  }
+  // A mount at a camera's elevation, at its azimuth: the plane holds the ray.
+  rig.laser.mount_elevations_rad.push_back(rig.cameras[1].elevation_rad);
+  rig.laser.locations.push_back({static_cast<int>(rig.laser.mount_elevations_rad.size()) - 1,
+                                 rig.cameras[1].azimuth_rad});
+  EXPECT_LT(LaserRaySine(rig, 1, static_cast<int>(rig.laser.locations.size()) - 1), 1e-12);
+}
+
 TEST(RigDescription, LaserTiltMovesTheStripeByTheOffset) {
   const RigDescription rig = ReadRigDescription(RigFile("paper"));
   for (int mount = 0; mount < static_cast<int>(rig.laser.mount_elevations_rad.size()); ++mount) {
