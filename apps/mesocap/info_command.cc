@@ -2,14 +2,15 @@
 // description, a capture session folder, a material package folder or an
 // image; `--json` prints one JSON object instead. Every reader validates, so
 // `info` is also the quickest check that a file is sound.
+#include <cmath>
 #include <filesystem>
 #include <iomanip>
-#include <cmath>
 #include <iostream>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <sstream>
+#include <tuple>
 
 #include "apps/mesocap/command.h"
 #include "core/calibration.h"
@@ -128,18 +129,23 @@ json CalibrationInfo(const fs::path& file) {
 // TriangulationOptions::min_ray_plane_sine).
 json LaserConditioning(const drivers::RigDescription& r) {
   json sines = json::array();
-  json worst = {{"sine", 2.0}};
+  double worst = 2.0;
+  int worst_camera = 0, worst_location = 0;
   for (int l = 0; l < static_cast<int>(r.laser.locations.size()); ++l) {
     json row = json::array();
     for (int c = 0; c < static_cast<int>(r.cameras.size()); ++c) {
       const double sine = drivers::LaserRaySine(r, c, l);
       row.push_back(std::round(sine * 1000) / 1000);
-      if (sine < worst["sine"].get<double>()) worst = {{"sine", sine}, {"camera", r.cameras[c].id}, {"location", l}};
+      if (sine < worst) std::tie(worst, worst_camera, worst_location) = std::tuple(sine, c, l);
     }
     sines.push_back(row);
   }
-  worst["below_triangulation_limit"] = worst["sine"].get<double>() < TriangulationOptions{}.min_ray_plane_sine;
-  return {{"laser_ray_sines", sines}, {"smallest_laser_ray_sine", worst}};
+  return {{"laser_ray_sines", sines},
+          {"smallest_laser_ray_sine",
+           {{"sine", worst},
+            {"camera", r.cameras[worst_camera].id},
+            {"location", worst_location},
+            {"below_triangulation_limit", worst < TriangulationOptions{}.min_ray_plane_sine}}}};
 }
 
 json RigInfo(const fs::path& file) {
