@@ -20,6 +20,7 @@ CheckResult TriangulationOptions::Check() const {
   if (!(max_height_mm >= 0)) return "max_height_mm must be >= 0";
   if (!(backing_depth_mm >= 0 && std::isfinite(backing_depth_mm))) return "backing_depth_mm must be >= 0";
   if (!(max_depth_step_ratio > 0) || !(max_depth_step_texels >= 0)) return "depth step limits must be positive";
+  if (!(edge_shift_weight >= 0 && edge_shift_weight <= 1)) return "edge_shift_weight must be in [0, 1]";
   return {};
 }
 
@@ -60,6 +61,7 @@ SweepPoints TriangulateSweep(const SweepAnalysis& analysis, const CameraRays& ra
   };
   SweepPoints points;
   points.first = triangulate(analysis.peak_time);
+  points.brightness = analysis.peak_value;
   if (analysis.second_time.size() == analysis.peak_time.size()) points.second = triangulate(analysis.second_time);
   return points;
 }
@@ -68,6 +70,7 @@ namespace {
 
 struct Vertex {
   double u, v, d;  // texel coordinates (texel i centred at u = i), distance
+  double fill_penalty = 0;  // texels added to the vertex's distance in the nearest-vertex fill
 };
 
 // nearest: give each texel the D of its nearest vertex instead of the
@@ -97,8 +100,9 @@ void Rasterize(const Vertex& a, const Vertex& b, const Vertex& c, const TextureG
       if (wa < kEdge || wb < kEdge || wc < kEdge) continue;
       double interpolated = wa * a.d + wb * b.d + wc * c.d;
       if (nearest) {
-        const double da = std::hypot(a.u - i, a.v - j), db = std::hypot(b.u - i, b.v - j),
-                     dc = std::hypot(c.u - i, c.v - j);
+        const double da = std::hypot(a.u - i, a.v - j) + a.fill_penalty;
+        const double db = std::hypot(b.u - i, b.v - j) + b.fill_penalty;
+        const double dc = std::hypot(c.u - i, c.v - j) + c.fill_penalty;
         interpolated = da <= db && da <= dc ? a.d : (db <= dc ? b.d : c.d);
       }
       const float d = static_cast<float>(std::max(0.0, interpolated));
@@ -190,6 +194,36 @@ DisplacementImage ResampleToTexture(const SweepPoints& points, int pixel_width, 
     }
     for (std::size_t p = 0; p < straddles.size(); ++p) {
       if (straddles[p] && far[p].d < vertices[p].d) std::swap(vertices[p], far[p]);
+    }
+  }
+  // Near-side edge pixels without a second point (see edge_shift_weight):
+  // with near share f of the footprint, the edge lies f - 1/2 pixels past
+  // the pixel's centre rather than 1/2. Penalizing the pixel's vertex by
+  // 2 w (1 - f) pixels in the nearest-vertex fill moves the fill's boundary
+  // with the far neighbour by w (1 - f) pixels towards it.
+  if (options.edge_shift_weight > 0 && points.brightness.size() == n) {
+    auto inside = [&](int x, int y) { return x >= 0 && y >= 0 && x < pixel_width && y < pixel_height; };
+    for (int y = 0; y < pixel_height; ++y) {
+      for (int x = 0; x < pixel_width; ++x) {
+        const std::size_t p = static_cast<std::size_t>(y) * pixel_width + x;
+        if (!valid[p] || std::isinf(vertices[p].d) || (!straddles.empty() && straddles[p])) continue;
+        for (const auto& [dx, dy] : {std::pair{-1, 0}, std::pair{1, 0}, std::pair{0, -1}, std::pair{0, 1}}) {
+          if (!inside(x + dx, y + dy) || !inside(x - dx, y - dy)) continue;
+          const std::size_t far_side = static_cast<std::size_t>(y + dy) * pixel_width + (x + dx);
+          const std::size_t same_side = static_cast<std::size_t>(y - dy) * pixel_width + (x - dx);
+          if (!valid[far_side] || !valid[same_side] || std::isinf(vertices[far_side].d) ||
+              std::isinf(vertices[same_side].d) || !(points.brightness[same_side] > 0)) {
+            continue;
+          }
+          Vertex& near = vertices[p];
+          const Vertex& beyond = vertices[far_side];
+          const Vertex& before = vertices[same_side];
+          if (!(beyond.d > near.d) || continuous_pair(near, beyond) || !continuous_pair(near, before)) continue;
+          const double share = std::clamp(points.brightness[p] / points.brightness[same_side], 0.0f, 1.0f);
+          const double pixel = std::hypot(near.u - before.u, near.v - before.v);
+          near.fill_penalty = std::max(near.fill_penalty, 2.0 * options.edge_shift_weight * (1.0 - share) * pixel);
+        }
+      }
     }
   }
   // Pass 1 interpolates across continuous triangles; pass 2 fills texels

@@ -37,7 +37,7 @@ TEST(DisplacementImageTest, PointsOnTheBackingAreNoHitAndTheRimStaysUnknown) {
   TriangulationOptions options;
   options.backing_depth_mm = kBackingMm;
   const auto points = HoleyPlane(side, 3.0);
-  const DisplacementImage image = ResampleToTexture({points, {}}, side, side, Eigen::Vector3d::UnitZ(), grid, options);
+  const DisplacementImage image = ResampleToTexture({points, {}, {}}, side, side, Eigen::Vector3d::UnitZ(), grid, options);
   int no_hit = 0, surface = 0, unknown = 0;
   for (int j = 0; j < grid.height; ++j) {
     for (int i = 0; i < grid.width; ++i) {
@@ -61,7 +61,7 @@ TEST(DisplacementImageTest, PointsOnTheBackingAreNoHitAndTheRimStaysUnknown) {
   EXPECT_EQ(unknown, 0);
   // Without a board the same points are a deep surface, not a hole.
   const DisplacementImage deep =
-      ResampleToTexture({points, {}}, side, side, Eigen::Vector3d::UnitZ(), grid, TriangulationOptions{});
+      ResampleToTexture({points, {}, {}}, side, side, Eigen::Vector3d::UnitZ(), grid, TriangulationOptions{});
   EXPECT_NEAR(deep.at(8, 8), kBackingMm, 1e-5);
 }
 
@@ -76,7 +76,7 @@ TEST(DisplacementImageTest, TexelsBetweenTheRimAndTheBoardAreNotFilled) {
   TriangulationOptions options;
   options.backing_depth_mm = kBackingMm;
   const DisplacementImage image =
-      ResampleToTexture({HoleyPlane(side, 0.6), {}}, side, side, Eigen::Vector3d::UnitZ(), grid, options);
+      ResampleToTexture({HoleyPlane(side, 0.6), {}, {}}, side, side, Eigen::Vector3d::UnitZ(), grid, options);
   EXPECT_TRUE(IsUnknown(image.at(8, 8))) << image.at(8, 8);
   EXPECT_NEAR(image.at(10, 10), 0.5, 1e-5);
 }
@@ -111,7 +111,7 @@ TEST(DisplacementImageTest, ALoneUnknownPixelLeavesOnlyItsDiamondUnknown) {
   const float nan = std::numeric_limits<float>::quiet_NaN();
   points[20 * side + 20] = Eigen::Vector3f::Constant(nan);
   const DisplacementImage image =
-      ResampleToTexture({points, {}}, side, side, Eigen::Vector3d::UnitZ(), grid, TriangulationOptions{});
+      ResampleToTexture({points, {}, {}}, side, side, Eigen::Vector3d::UnitZ(), grid, TriangulationOptions{});
   int square = 0, diamond = 0;
   for (int j = 0; j < grid.height; ++j) {
     for (int i = 0; i < grid.width; ++i) {
@@ -181,6 +181,47 @@ TEST(DisplacementImageTest, APixelStraddlingAnEdgeIsAVertexOfBothSurfaces) {
   EXPECT_NEAR(texel(with, 0.156), 1.0, 1e-6);  // left of the straddling pixels' centre: near
   // Everything else as without.
   EXPECT_EQ(differing(with), 62);  // the texel column at x = 0.469, inside the pixels' span (|y| < 9.75)
+}
+
+// The same step without second points, with each pixel's brightness: the
+// edge pixels (column 20, near) at 0.2 of their near neighbours' say that
+// the near surface covers a fifth of them. The fill's boundary with column
+// 21 then moves from x = 0.5 by weight x (1 - 0.2) x 0.5 mm: at the default
+// weight 0.5 to x = 0.3, so the texel at x = 0.469 takes the far surface.
+// A dim pixel on the far side, or a full-bright edge pixel, moves nothing.
+TEST(DisplacementImageTest, ADimNearSidePixelMovesTheEdgeTowardsItsCentre) {
+  const int side = 40;
+  const TextureGrid grid{64, 64, 20.0};
+  SweepPoints points;
+  points.first = SeenStraightDown(side, [](double x, double) { return x < 0.5 ? 1.0 : 3.0; });
+  auto texel = [&](const DisplacementImage& image, double x) {
+    return image.at(static_cast<int>(std::floor((x + 10.0) / grid.texel_mm())), 32);
+  };
+  auto resample = [&](int dim_column, float brightness, double weight) {
+    points.brightness.assign(points.first.size(), 0.8f);
+    for (int y = 0; y < side; ++y) points.brightness[y * side + dim_column] = brightness;
+    TriangulationOptions options;
+    options.edge_shift_weight = weight;
+    EXPECT_TRUE(options.Check().empty());
+    return ResampleToTexture(points, side, side, Eigen::Vector3d::UnitZ(), grid, options);
+  };
+  const DisplacementImage midway = resample(20, 0.16f, 0.0);
+  EXPECT_NEAR(texel(midway, 0.469), 1.0, 1e-6);
+  const DisplacementImage moved = resample(20, 0.16f, 0.5);
+  EXPECT_NEAR(texel(moved, 0.469), 3.0, 1e-6);
+  EXPECT_NEAR(texel(moved, 0.156), 1.0, 1e-6);
+  int differing = 0;
+  for (std::size_t t = 0; t < moved.distance_mm.size(); ++t) {
+    const float a = moved.distance_mm[t], b = midway.distance_mm[t];
+    differing += !(a == b || (std::isnan(a) && std::isnan(b)));
+  }
+  EXPECT_EQ(differing, 62);  // the texel column at x = 0.469, inside the pixels' span
+  EXPECT_NEAR(texel(resample(20, 0.8f, 0.5), 0.469), 1.0, 1e-6);
+  EXPECT_NEAR(texel(resample(21, 0.16f, 0.5), 0.469), 1.0, 1e-6);
+
+  TriangulationOptions bad;
+  bad.edge_shift_weight = 1.5;
+  EXPECT_NE(bad.Check().find("edge_shift_weight"), std::string::npos);
 }
 
 DisplacementImage OneTexel(float d) {
