@@ -159,6 +159,14 @@ Eigen::Vector3d LaserSource(const LaserDescription& laser, const LaserLocation& 
   return laser.distance_mm * Eigen::Vector3d(std::cos(e) * std::cos(a), std::cos(e) * std::sin(a), std::sin(e));
 }
 
+Eigen::Vector3d LaserTiltAxis(const LaserLocation& location) {
+  return Eigen::AngleAxisd(location.arc_angle_rad, Eigen::Vector3d::UnitZ()) * Eigen::Vector3d::UnitY();
+}
+
+Eigen::Vector3d LaserPlaneNormalAtZeroTilt(const LaserDescription& laser, const LaserLocation& location) {
+  return LaserTiltAxis(location).cross(-LaserSource(laser, location)).normalized();
+}
+
 namespace {
 
 // Adds the direction of `world_position` seen from the origin, in the sample
@@ -207,10 +215,7 @@ double LaserTiltForOffset(const LaserDescription& laser, int mount, double offse
 }
 
 double LaserRaySine(const RigDescription& rig, int camera, int location) {
-  const LaserLocation& loc = rig.laser.locations.at(location);
-  const Eigen::Vector3d source = LaserSource(rig.laser, loc);
-  const Eigen::Vector3d stripe(-std::sin(loc.arc_angle_rad), std::cos(loc.arc_angle_rad), 0.0);
-  const Eigen::Vector3d normal = source.cross(stripe).normalized();
+  const Eigen::Vector3d normal = LaserPlaneNormalAtZeroTilt(rig.laser, rig.laser.locations.at(location));
   return std::abs(normal.dot(CameraCentre(rig.cameras.at(camera)).normalized()));
 }
 

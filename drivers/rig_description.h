@@ -125,6 +125,12 @@ SamplingSet LightDirections(const RigDescription& rig);
 Eigen::Vector3d CameraCentre(const CameraDescription& camera);
 Eigen::Vector3d LampPosition(const LampBankDescription& lamps, int lamp, double arc_angle_rad);
 Eigen::Vector3d LaserSource(const LaserDescription& laser, const LaserLocation& location);
+// The laser's tilt axis at a location: the arc's tangent there (y rotated by
+// the arc angle), along which the stripe runs on the turntable plane.
+Eigen::Vector3d LaserTiltAxis(const LaserLocation& location);
+// The unit normal of the location's laser plane at tilt 0, which holds the
+// tilt axis and passes through the source and the turntable centre.
+Eigen::Vector3d LaserPlaneNormalAtZeroTilt(const LaserDescription& laser, const LaserLocation& location);
 // Tilt 0 aims the laser plane at the origin; a positive tilt moves the stripe
 // on the turntable plane away from the laser by `offset_mm`.
 double LaserTiltForOffset(const LaserDescription& laser, int mount, double offset_mm);

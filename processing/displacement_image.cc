@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <utility>
 
 #include "drivers/rig_description.h"
 
@@ -165,6 +166,15 @@ DisplacementImage ResampleToTexture(const SweepPoints& points, int pixel_width, 
   // the near one in `vertices`, of the far one in `far`. The tests read the
   // first points only (`vertices` changes after them), so the result does
   // not depend on the scan order.
+  // A pixel's 4-neighbour, where it lies in the image with a point off the
+  // board (kNone otherwise).
+  constexpr std::array<std::pair<int, int>, 4> kNeighbours = {{{-1, 0}, {1, 0}, {0, -1}, {0, 1}}};
+  constexpr std::size_t kNone = std::numeric_limits<std::size_t>::max();
+  auto surface_pixel = [&](int x, int y) {
+    if (x < 0 || y < 0 || x >= pixel_width || y >= pixel_height) return kNone;
+    const std::size_t q = static_cast<std::size_t>(y) * pixel_width + x;
+    return valid[q] && !std::isinf(vertices[q].d) ? q : kNone;
+  };
   std::vector<Vertex> far;
   std::vector<bool> straddles;
   if (!points.second.empty()) {
@@ -176,11 +186,9 @@ DisplacementImage ResampleToTexture(const SweepPoints& points, int pixel_width, 
           continue;
         }
         bool edge = false;
-        for (const auto& [dx, dy] : {std::pair{-1, 0}, std::pair{1, 0}, std::pair{0, -1}, std::pair{0, 1}}) {
-          const int xn = x + dx, yn = y + dy;
-          if (xn < 0 || yn < 0 || xn >= pixel_width || yn >= pixel_height) continue;
-          const std::size_t q = static_cast<std::size_t>(yn) * pixel_width + xn;
-          if (!valid[q] || std::isinf(vertices[q].d)) continue;
+        for (const auto& [dx, dy] : kNeighbours) {
+          const std::size_t q = surface_pixel(x + dx, y + dy);
+          if (q == kNone) continue;
           edge = edge || (continuous_pair(second, vertices[q]) && !continuous_pair(vertices[p], vertices[q]));
         }
         if (!edge) continue;
@@ -202,19 +210,14 @@ DisplacementImage ResampleToTexture(const SweepPoints& points, int pixel_width, 
   // 2 w (1 - f) pixels in the nearest-vertex fill moves the fill's boundary
   // with the far neighbour by w (1 - f) pixels towards it.
   if (options.edge_shift_weight > 0 && points.brightness.size() == n) {
-    auto inside = [&](int x, int y) { return x >= 0 && y >= 0 && x < pixel_width && y < pixel_height; };
     for (int y = 0; y < pixel_height; ++y) {
       for (int x = 0; x < pixel_width; ++x) {
         const std::size_t p = static_cast<std::size_t>(y) * pixel_width + x;
         if (!valid[p] || std::isinf(vertices[p].d) || (!straddles.empty() && straddles[p])) continue;
-        for (const auto& [dx, dy] : {std::pair{-1, 0}, std::pair{1, 0}, std::pair{0, -1}, std::pair{0, 1}}) {
-          if (!inside(x + dx, y + dy) || !inside(x - dx, y - dy)) continue;
-          const std::size_t far_side = static_cast<std::size_t>(y + dy) * pixel_width + (x + dx);
-          const std::size_t same_side = static_cast<std::size_t>(y - dy) * pixel_width + (x - dx);
-          if (!valid[far_side] || !valid[same_side] || std::isinf(vertices[far_side].d) ||
-              std::isinf(vertices[same_side].d) || !(points.brightness[same_side] > 0)) {
-            continue;
-          }
+        for (const auto& [dx, dy] : kNeighbours) {
+          const std::size_t far_side = surface_pixel(x + dx, y + dy);
+          const std::size_t same_side = surface_pixel(x - dx, y - dy);
+          if (far_side == kNone || same_side == kNone || !(points.brightness[same_side] > 0)) continue;
           Vertex& near = vertices[p];
           const Vertex& beyond = vertices[far_side];
           const Vertex& before = vertices[same_side];

@@ -415,14 +415,9 @@ LaserSweepRenderer::LaserSweepRenderer(const CameraRenderer& renderer, const Cam
       }
     }
   });
-  std::vector<LitSample> lit;
-  for (auto& row : rows) {
-    lit.insert(lit.end(), row.begin(), row.end());
-    std::vector<LitSample>().swap(row);
-  }
   const int rays = renderer.options().interreflection_rays_per_pixel;
-  if (rays > 0) AddBounces(renderer, view, gain, rays, &lit);
-  Bin(std::move(lit));
+  if (rays > 0) AddBounces(renderer, view, gain, rays, &rows);
+  Bin(rows);
 }
 
 LaserSweepRenderer::StripeSample LaserSweepRenderer::Stripe(const Eigen::Vector3d& point, double weight,
@@ -505,9 +500,9 @@ void LaserSweepRenderer::AddLit(const StripeSample& s, std::uint32_t pixel, std:
 }
 
 void LaserSweepRenderer::AddBounces(const CameraRenderer& renderer, const CameraView& view, double gain,
-                                    int rays_per_pixel, std::vector<LitSample>* lit) const {
+                                    int rays_per_pixel, std::vector<std::vector<LitSample>>* lit_rows) const {
   const Eigen::Vector3d centre = renderer.CameraCentre(view.camera);
-  // Per row: the bounce samples in pixel order, joined in order after.
+  // Per row: the bounce samples in pixel order, after the direct ones.
   std::vector<std::vector<LitSample>> rows(height_);
   tbb::parallel_for(0, height_, [&](int y) {
     for (int x = 0; x < width_; ++x) {
@@ -543,33 +538,43 @@ void LaserSweepRenderer::AddBounces(const CameraRenderer& renderer, const Camera
       }
     }
   });
-  for (const auto& row : rows) lit->insert(lit->end(), row.begin(), row.end());
+  for (auto& row : rows) lit_rows->push_back(std::move(row));
 }
 
-void LaserSweepRenderer::Bin(std::vector<LitSample> lit) {
-  // Wide ranges out, narrow ones kept in order at the front.
-  std::size_t narrow = 0;
+void LaserSweepRenderer::Bin(const std::vector<std::vector<LitSample>>& rows) {
+  // Wide ranges out; the narrow ones are binned in the order they come.
+  auto narrow = [](const LitSample& s) { return s.end - s.begin <= kMaxBinnedSpan; };
+  std::size_t narrow_count = 0;
   double last = -kInfinity;
   first_begin_ = kInfinity;
-  for (const LitSample& s : lit) {
-    if (s.end - s.begin > kMaxBinnedSpan) {
-      wide_.push_back(s);
-      continue;
+  for (const auto& row : rows) {
+    for (const LitSample& s : row) {
+      if (!narrow(s)) {
+        wide_.push_back(s);
+        continue;
+      }
+      ++narrow_count;
+      first_begin_ = std::min(first_begin_, static_cast<double>(s.begin));
+      last = std::max(last, static_cast<double>(s.begin));
+      max_span_ = std::max(max_span_, static_cast<double>(s.end - s.begin));
     }
-    first_begin_ = std::min(first_begin_, static_cast<double>(s.begin));
-    last = std::max(last, static_cast<double>(s.begin));
-    max_span_ = std::max(max_span_, static_cast<double>(s.end - s.begin));
-    lit[narrow++] = s;
   }
-  lit.resize(narrow);
-  if (lit.empty()) return;
+  if (narrow_count == 0) return;
   bin_width_ = std::max((last - first_begin_) / (kTiltBins - 1), 1e-12);
   bin_begin_.assign(kTiltBins + 1, 0);
-  for (const LitSample& s : lit) ++bin_begin_[BinOf(s.begin) + 1];
+  for (const auto& row : rows) {
+    for (const LitSample& s : row) {
+      if (narrow(s)) ++bin_begin_[BinOf(s.begin) + 1];
+    }
+  }
   for (std::size_t i = 0; i < kTiltBins; ++i) bin_begin_[i + 1] += bin_begin_[i];
-  binned_.resize(lit.size());
+  binned_.resize(narrow_count);
   std::vector<std::uint32_t> next(bin_begin_.begin(), bin_begin_.end() - 1);
-  for (const LitSample& s : lit) binned_[next[BinOf(s.begin)]++] = s;
+  for (const auto& row : rows) {
+    for (const LitSample& s : row) {
+      if (narrow(s)) binned_[next[BinOf(s.begin)]++] = s;
+    }
+  }
 }
 
 std::size_t LaserSweepRenderer::BinOf(double begin) const {

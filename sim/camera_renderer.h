@@ -231,12 +231,15 @@ class LaserSweepRenderer {
   StripeSample Stripe(const Eigen::Vector3d& point, double weight, double footprint_variance) const;
   // Adds s's tilt range(s) for `pixel` to `lit` (none when never covered).
   void AddLit(const StripeSample& s, std::uint32_t pixel, std::vector<LitSample>* lit) const;
+  // Appends one list of bounce samples per row to `rows`.
   void AddBounces(const CameraRenderer& renderer, const CameraView& view, double gain, int rays_per_pixel,
-                  std::vector<LitSample>* lit) const;
-  // Sorts `lit` into bins by the start of the range (a counting sort: stable,
-  // so frames add in the same order on every run); ranges wider than
-  // kMaxBinnedSpan go to wide_, checked at every frame.
-  void Bin(std::vector<LitSample> lit);
+                  std::vector<std::vector<LitSample>>* rows) const;
+  // Sorts the lit samples, list after list, into bins by the start of the
+  // range (a counting sort: stable, so frames add in the same order on every
+  // run); ranges wider than kMaxBinnedSpan go to wide_, checked at every
+  // frame. Straight from the per-row lists: joining them first would fault
+  // in another copy of them (tens of MB a sweep).
+  void Bin(const std::vector<std::vector<LitSample>>& rows);
   // The bin of a range starting at `begin` (clamped to the first and last).
   std::size_t BinOf(double begin) const;
   // The tilt-0 plane's rotation about the tilt axis k (Rodrigues):

@@ -61,8 +61,8 @@ Calibration TrueCalibration(const drivers::RigDescription& rig) {
     LaserMountCalibration mount;
     mount.id = "mount" + std::to_string(m);
     mount.source_mm = drivers::LaserSource(laser, {m, 0.0});
-    mount.tilt_axis = Eigen::Vector3d::UnitY();  // tangent to the arc at arc angle 0
-    mount.plane_normal_at_zero_tilt = mount.tilt_axis.cross(-mount.source_mm).normalized();
+    mount.tilt_axis = drivers::LaserTiltAxis({m, 0.0});
+    mount.plane_normal_at_zero_tilt = drivers::LaserPlaneNormalAtZeroTilt(laser, {m, 0.0});
     mount.tilt_range_rad = {drivers::LaserTiltForOffset(laser, m, laser.sweep_min_mm),
                             drivers::LaserTiltForOffset(laser, m, laser.sweep_max_mm)};
     c.laser_mounts.push_back(mount);
