@@ -22,8 +22,8 @@
 #include <nlohmann/json.hpp>
 #include <vector>
 
-#include "core/capture_session.h"
-#include "drivers/rig_description.h"
+#include "formats/capture_session.h"
+#include "formats/rig_description.h"
 
 namespace mesocap::acquisition {
 

@@ -10,14 +10,15 @@
 #include <vector>
 
 #include "core/atomic_file.h"
-#include "core/capture_journal.h"
-#include "core/capture_session.h"
-#include "core/frame_sequence.h"
 #include "core/image.h"
 #include "core/image_io.h"
 #include "core/progress.h"
 #include "drivers/device_error.h"
-#include "processing/laser_sweep.h"
+#include "formats/capture_journal.h"
+#include "formats/capture_session.h"
+#include "formats/frame_sequence.h"
+#include "formats/sweep_analysis.h"
+#include "mdf/laser_sweep.h"
 
 namespace mesocap::acquisition {
 namespace {

@@ -21,12 +21,12 @@
 #include <cstdint>
 #include <filesystem>
 
-#include "core/calibration.h"
 #include "core/error.h"
 #include "drivers/rig.h"
 #include "drivers/rig_operator.h"
-#include "processing/session_sweeps.h"
-#include "processing/space_time_analyzer.h"
+#include "formats/calibration.h"
+#include "mdf/session_sweeps.h"
+#include "mdf/space_time_analyzer.h"
 
 namespace mesocap::acquisition {
 

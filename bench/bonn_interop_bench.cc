@@ -17,7 +17,7 @@
 #include <filesystem>
 #include <map>
 
-#include "processing/bonn_interop.h"
+#include "interop/bonn/bonn_interop.h"
 #include "sim/ground_truth.h"
 #include "sim/mesostructure_scene.h"
 

@@ -29,8 +29,8 @@
 #include <map>
 #include <random>
 
-#include "core/material_package.h"
-#include "processing/btf_compression.h"
+#include "btf/btf_compression.h"
+#include "formats/material_package.h"
 #include "sim/ground_truth.h"
 #include "sim/mesostructure_scene.h"
 

@@ -18,8 +18,8 @@
 #include <string>
 #include <vector>
 
-#include "processing/mdf_evaluation.h"
-#include "tests/processing/simulated_scan.h"
+#include "mdf/mdf_evaluation.h"
+#include "tests/mdf/simulated_scan.h"
 
 namespace {
 

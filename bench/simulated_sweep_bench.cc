@@ -12,7 +12,8 @@
 #include <random>
 #include <vector>
 
-#include "drivers/rig_description.h"
+#include "calibration/nominal_geometry.h"
+#include "formats/rig_description.h"
 #include "sim/builtin_scenes.h"
 #include "sim/camera_renderer.h"
 #include "sim/camera_sensor.h"

@@ -18,11 +18,11 @@
 #include <random>
 #include <vector>
 
-#include "core/calibration.h"
+#include "calibration/camera_rays.h"
+#include "calibration/laser_line.h"
 #include "core/image.h"
-#include "processing/camera_rays.h"
-#include "processing/laser_line.h"
-#include "processing/space_time_analyzer.h"
+#include "formats/calibration.h"
+#include "mdf/space_time_analyzer.h"
 #include "sim/camera_sensor.h"
 #include "sim/shipped_rigs.h"
 

@@ -13,8 +13,8 @@
 #include "drivers/camera.h"
 #include "drivers/lamp_bank.h"
 #include "drivers/laser_unit.h"
-#include "drivers/rig_description.h"
 #include "drivers/rotary_stage.h"
+#include "formats/rig_description.h"
 
 namespace mesocap::drivers {
 

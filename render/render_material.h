@@ -9,8 +9,8 @@
 #include <string>
 
 #include "core/btf.h"
-#include "core/material_package.h"
 #include "core/mdf.h"
+#include "formats/material_package.h"
 #include "sim/tile_geometry.h"
 
 namespace mesocap::render {

@@ -9,7 +9,7 @@
 #include <numbers>
 
 #include "core/error.h"
-#include "core/obj_mesh.h"
+#include "formats/obj_mesh.h"
 
 namespace mesocap::render {
 namespace {

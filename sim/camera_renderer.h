@@ -41,9 +41,10 @@
 #include <optional>
 #include <vector>
 
-#include "core/calibration.h"
+#include "calibration/nominal_geometry.h"
 #include "core/image.h"
-#include "drivers/rig_description.h"
+#include "formats/calibration.h"
+#include "formats/rig_description.h"
 #include "sim/mesostructure_scene.h"
 #include "sim/simulated_rig_state.h"
 

@@ -10,7 +10,7 @@
 #include <random>
 
 #include "core/image.h"
-#include "drivers/rig_description.h"
+#include "formats/rig_description.h"
 
 namespace mesocap::sim {
 

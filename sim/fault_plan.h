@@ -47,7 +47,7 @@
 #include <vector>
 
 #include "core/error.h"
-#include "drivers/rig_description.h"
+#include "formats/rig_description.h"
 
 namespace mesocap::sim {
 

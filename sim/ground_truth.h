@@ -15,10 +15,10 @@
 #include "core/btf.h"
 #include "core/error.h"
 #include "core/image.h"
-#include "core/material_package.h"
 #include "core/mdf.h"
 #include "core/progress.h"
 #include "core/sampling_set.h"
+#include "formats/material_package.h"
 #include "sim/mesostructure_scene.h"
 
 namespace mesocap::sim {

@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "core/error.h"
-#include "core/obj_mesh.h"
+#include "formats/obj_mesh.h"
 #include "sim/tile_geometry.h"
 #include "sim/tiled_scene.h"
 

@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "drivers/rig_description.h"
+#include "formats/rig_description.h"
 
 namespace mesocap::sim {
 

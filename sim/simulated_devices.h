@@ -21,8 +21,8 @@
 #include "drivers/camera.h"
 #include "drivers/lamp_bank.h"
 #include "drivers/laser_unit.h"
-#include "drivers/rig_description.h"
 #include "drivers/rotary_stage.h"
+#include "formats/rig_description.h"
 #include "sim/fault_plan.h"
 #include "sim/simulated_rig_state.h"
 

@@ -3,8 +3,8 @@
 // can be run with the truth and its error separated from calibration error.
 #pragma once
 
-#include "core/calibration.h"
-#include "drivers/rig_description.h"
+#include "formats/calibration.h"
+#include "formats/rig_description.h"
 
 namespace mesocap::sim {
 

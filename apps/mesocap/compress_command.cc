@@ -10,7 +10,7 @@
 #include <map>
 
 #include "apps/mesocap/command.h"
-#include "processing/material_compression.h"
+#include "btf/material_compression.h"
 
 namespace mesocap {
 namespace {

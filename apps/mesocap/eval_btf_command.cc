@@ -9,10 +9,10 @@
 #include <optional>
 
 #include "apps/mesocap/command.h"
+#include "btf/btf_compression.h"
+#include "btf/btf_evaluation.h"
 #include "core/error.h"
-#include "core/material_package.h"
-#include "processing/btf_compression.h"
-#include "processing/btf_evaluation.h"
+#include "formats/material_package.h"
 
 namespace mesocap {
 namespace {

@@ -7,8 +7,8 @@
 #include "apps/mesocap/command.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
-#include "core/material_package.h"
-#include "processing/mdf_evaluation.h"
+#include "formats/material_package.h"
+#include "mdf/mdf_evaluation.h"
 
 namespace mesocap {
 namespace {

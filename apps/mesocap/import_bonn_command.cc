@@ -8,7 +8,7 @@
 #include <map>
 
 #include "apps/mesocap/command.h"
-#include "processing/bonn_interop.h"
+#include "interop/bonn/bonn_interop.h"
 
 namespace mesocap {
 namespace {

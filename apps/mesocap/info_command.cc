@@ -13,15 +13,16 @@
 #include <tuple>
 
 #include "apps/mesocap/command.h"
-#include "core/calibration.h"
-#include "core/capture_journal.h"
-#include "core/capture_session.h"
+#include "calibration/nominal_geometry.h"
 #include "core/error.h"
 #include "core/image_io.h"
 #include "core/json_field_reader.h"
-#include "core/material_package.h"
-#include "drivers/rig_description.h"
-#include "processing/displacement_image.h"
+#include "formats/calibration.h"
+#include "formats/capture_journal.h"
+#include "formats/capture_session.h"
+#include "formats/material_package.h"
+#include "formats/rig_description.h"
+#include "mdf/displacement_image.h"
 
 namespace mesocap {
 namespace {

@@ -15,13 +15,14 @@
 #include <optional>
 
 #include "apps/mesocap/command.h"
-#include "core/capture_session.h"
+#include "btf/ambient_term.h"
+#include "btf/btf_assembly.h"
+#include "btf/btf_compression.h"
+#include "calibration/nominal_geometry.h"
 #include "core/error.h"
-#include "core/material_package.h"
-#include "drivers/rig_description.h"
-#include "processing/ambient_term.h"
-#include "processing/btf_assembly.h"
-#include "processing/btf_compression.h"
+#include "formats/capture_session.h"
+#include "formats/material_package.h"
+#include "formats/rig_description.h"
 
 namespace mesocap {
 namespace {

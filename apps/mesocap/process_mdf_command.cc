@@ -8,12 +8,13 @@
 #include <memory>
 
 #include "apps/mesocap/command.h"
-#include "core/calibration.h"
-#include "core/capture_session.h"
+#include "calibration/nominal_geometry.h"
 #include "core/error.h"
-#include "core/material_package.h"
-#include "drivers/rig_description.h"
-#include "processing/mdf_session.h"
+#include "formats/calibration.h"
+#include "formats/capture_session.h"
+#include "formats/material_package.h"
+#include "formats/rig_description.h"
+#include "mdf/mdf_session.h"
 
 namespace mesocap {
 namespace {

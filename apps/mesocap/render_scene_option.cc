@@ -5,9 +5,9 @@
 #include <charconv>
 #include <cstdlib>
 
+#include "btf/material_compression.h"
 #include "core/error.h"
-#include "core/material_package.h"
-#include "processing/material_compression.h"
+#include "formats/material_package.h"
 #include "render/sim_material.h"
 #include "sim/builtin_scenes.h"
 #include "sim/ground_truth.h"

@@ -24,14 +24,14 @@
 #include "acquisition/capture_session_runner.h"
 #include "apps/mesocap/command.h"
 #include "apps/mesocap/scene_option.h"
-#include "core/capture_session.h"
 #include "core/error.h"
 #include "drivers/rig.h"
+#include "formats/capture_session.h"
 #include "sim/camera_renderer.h"
 #include "sim/fault_plan.h"
+#include "sim/shipped_rigs.h"
 #include "sim/simulated_operator.h"
 #include "sim/simulated_rig_backend.h"
-#include "sim/shipped_rigs.h"
 #include "sim/true_calibration.h"
 
 namespace mesocap {

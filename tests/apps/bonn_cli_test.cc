@@ -11,7 +11,7 @@
 #include <fstream>
 #include <string>
 
-#include "core/material_package.h"
+#include "formats/material_package.h"
 #include "tests/common/mesocap_command.h"
 #include "tests/common/temporary_directory.h"
 

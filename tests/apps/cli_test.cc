@@ -13,7 +13,7 @@
 #include <string>
 
 #include "core/json_field_reader.h"
-#include "core/material_package.h"
+#include "formats/material_package.h"
 #include "tests/common/mesocap_command.h"
 #include "tests/common/temporary_directory.h"
 

@@ -11,8 +11,8 @@
 
 #include "core/error.h"
 #include "render/render_scene.h"
-#include "tests/render/lambertian_material.h"
 #include "tests/common/temporary_directory.h"
+#include "tests/render/lambertian_material.h"
 
 namespace mesocap::render {
 namespace {

@@ -12,11 +12,11 @@
 #include <filesystem>
 #include <numbers>
 
-#include "core/capture_journal.h"
-#include "core/capture_session.h"
 #include "core/error.h"
-#include "core/frame_sequence.h"
 #include "core/image_io.h"
+#include "formats/capture_journal.h"
+#include "formats/capture_session.h"
+#include "formats/frame_sequence.h"
 #include "sim/camera_sensor.h"
 #include "sim/shipped_rigs.h"
 #include "tests/common/temporary_directory.h"

@@ -1,0 +1,450 @@
+#include "btf/btf_assembly.h"
+
+#include <spdlog/spdlog.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <mutex>
+#include <numbers>
+#include <utility>
+
+#include "btf/btf_rectification.h"
+#include "btf/btf_resampling.h"
+#include "calibration/camera_rays.h"
+#include "calibration/rig_frames.h"
+#include "core/image_io.h"
+#include "formats/capture_session.h"
+
+namespace mesocap {
+namespace {
+
+constexpr double kDegPerRad = 180.0 / std::numbers::pi;
+
+std::string Degrees(const SphericalAngles& a) {
+  return "(theta " + std::to_string(a.theta * kDegPerRad) + ", phi " + std::to_string(a.phi * kDegPerRad) + ") deg";
+}
+
+// Angle in degrees between direction i of `set` and d (sample frame).
+double OffsetDeg(const SamplingSet& set, int i, const Eigen::Vector3d& d) {
+  return std::acos(std::clamp(set.direction(i).dot(d.normalized()), -1.0, 1.0)) * kDegPerRad;
+}
+
+// Index of `d` (sample frame) in `set`, and how far it is from it.
+int MatchDirection(const SamplingSet& set, const Eigen::Vector3d& d, const std::string& what,
+                   const BtfCaptureImage& image, double tolerance_deg, double* offset_deg, const std::string& hint) {
+  const int i = set.Nearest(d);
+  const double offset = OffsetDeg(set, i, d);
+  if (offset > tolerance_deg) {
+    throw Error(image.file.string() + ": its " + what + " direction " + Degrees(AnglesFromDirection(d)) + " is " +
+                std::to_string(offset) + " deg from the nearest of the set '" + set.name() +
+                "' (at most " + std::to_string(tolerance_deg) + " deg" + hint + ")");
+  }
+  *offset_deg = std::max(*offset_deg, offset);
+  return i;
+}
+
+Image ReadCapture(const BtfCaptureImage& image, const CameraCalibration& camera) {
+  if (!std::filesystem::is_regular_file(image.file)) throw Error(image.file.string() + ": missing BTF image");
+  ImageReadOptions o;
+  o.expected_width = camera.width;
+  o.expected_height = camera.height;
+  o.expected_channels = 3;
+  Image values = ReadImage(image.file, o);
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    const float v = values.data()[i];
+    if (!std::isfinite(v) || v < 0.0f) {
+      const std::size_t p = i / 3;
+      throw Error(image.file.string() + ": pixel (" + std::to_string(p % camera.width) + ", " +
+                  std::to_string(p / camera.width) + ") channel " + std::to_string(i % 3) + " is " +
+                  std::to_string(v) + "; expected a finite value >= 0 (linear signal)");
+    }
+  }
+  return values;
+}
+
+}  // namespace
+
+CheckResult BtfAssemblyOptions::Check() const {
+  if (texture_width < 1 || texture_height < 1) return "texture size must be positive";
+  if (!(sample_size_mm > 0) || !std::isfinite(sample_size_mm)) return "sample size must be > 0 mm";
+  if (views.size() < 1 || lights.size() < 1) return "the view and light sets must not be empty";
+  for (double t : exposure_s) {
+    if (!(t > 0) || !std::isfinite(t)) return "every camera's exposure must be > 0 s";
+  }
+  for (double g : signal_per_radiance_second) {
+    if (!(g > 0) || !std::isfinite(g)) return "every camera's gain (signal per radiance second) must be > 0";
+  }
+  if (max_samples_per_side < 1 || max_samples_per_side > 64) return "max samples per side must be 1..64";
+  if (!(max_direction_error_deg >= 0)) return "max direction error must be >= 0 deg";
+  if (!(ring_tolerance_deg >= 0) || !(ring_tolerance_deg < 10)) return "ring tolerance must be 0..10 deg";
+  return {};
+}
+
+namespace {
+
+// An image's view and light directions from the sample centre, sample frame.
+struct CentreDirections {
+  Eigen::Vector3d view;
+  Eigen::Vector3d light;
+};
+
+// One camera at one turntable angle and the images it took there.
+struct CapturedView {
+  int camera = 0;
+  double turntable_rad = 0.0;
+  std::vector<int> images;
+};
+
+Eigen::Vector3d LampInWorld(const Calibration& calibration, const BtfCaptureImage& image) {
+  return LightArcPointToWorld(calibration.light_arc, image.arc_rad, calibration.lamps[image.lamp].position_mm);
+}
+
+// T = L / E per texel (header: radiometry) of one rectified image.
+Image RadiometricTexture(const Image& rectified, const BtfCaptureImage& image, const Calibration& calibration,
+                         const RigidTransform& world_from_sample, const BtfAssemblyOptions& o) {
+  const int w = o.texture_width, h = o.texture_height;
+  const Eigen::Vector3d normal = world_from_sample.rotation.col(2);
+  const Eigen::Vector3d lamp = LampInWorld(calibration, image);
+  const Eigen::Vector3d intensity = calibration.lamps[image.lamp].intensity;
+  const double radiance_per_value = 1.0 / (o.exposure_s[image.camera] * o.signal_per_radiance_second[image.camera]);
+  Image out(w, h, 3);
+  for (int j = 0; j < h; ++j) {
+    for (int i = 0; i < w; ++i) {
+      const Eigen::Vector3d p = world_from_sample.Apply(ReferencePlaneRectifier::TexelCentre(i, j, w, h, o.sample_size_mm));
+      const Eigen::Vector3d to_lamp = lamp - p;
+      const double r2 = to_lamp.squaredNorm();
+      const double cos_l = normal.dot(to_lamp) / std::sqrt(r2);
+      if (!(cos_l > 1e-6)) throw Error(image.file.string() + ": the lamp is at or below the sample plane");
+      const float* src = rectified.pixel(i, j);
+      float* dst = out.pixel(i, j);
+      for (int c = 0; c < 3; ++c) {
+        // A lamp with zero intensity in a channel measures nothing there.
+        const double irradiance = intensity[c] * cos_l / r2;
+        dst[c] = irradiance > 0 ? static_cast<float>(src[c] * radiance_per_value / irradiance) : 0.0f;
+      }
+    }
+  }
+  return out;
+}
+
+// Per texel (row-major), the direction from the texel's reference-plane
+// point to `target` (world), in the sample frame, minus `nominal`.
+std::vector<Eigen::Vector3d> TexelOffsets(const Eigen::Vector3d& target, const Eigen::Vector3d& nominal,
+                                          const RigidTransform& world_from_sample, const BtfAssemblyOptions& o) {
+  const int w = o.texture_width, h = o.texture_height;
+  const Eigen::Matrix3d to_sample = world_from_sample.rotation.transpose();
+  std::vector<Eigen::Vector3d> out;
+  out.reserve(static_cast<std::size_t>(w) * h);
+  for (int j = 0; j < h; ++j) {
+    for (int i = 0; i < w; ++i) {
+      const Eigen::Vector3d p = world_from_sample.Apply(ReferencePlaneRectifier::TexelCentre(i, j, w, h, o.sample_size_mm));
+      out.push_back((to_sample * (target - p)).normalized() - nominal);
+    }
+  }
+  return out;
+}
+
+// The images placed on the grid: each image's directions matched to the
+// nearest of the sets (within max_direction_error_deg), unmeasured lights of
+// a view interpolated from its measured ones.
+void AssembleOnGrid(const std::vector<BtfCaptureImage>& images, const Calibration& calibration,
+                    const BtfAssemblyOptions& o, const std::vector<CentreDirections>& directions,
+                    const BtfViewSink& sink, BtfAssemblyReport* r) {
+  struct Placed {
+    int image = 0;
+    int light = 0;
+  };
+  std::vector<std::vector<Placed>> by_view(o.views.size());
+  std::vector<int> view_camera(o.views.size(), -1);
+  std::vector<double> view_turntable(o.views.size(), 0.0);
+  const std::string hint = "; off-grid captures need resampling (--resample)";
+  for (int k = 0; k < static_cast<int>(images.size()); ++k) {
+    const BtfCaptureImage& image = images[k];
+    const int v = MatchDirection(o.views, directions[k].view, "view", image, o.max_direction_error_deg,
+                                 &r->max_view_offset_deg, hint);
+    const int l = MatchDirection(o.lights, directions[k].light, "light", image, o.max_direction_error_deg,
+                                 &r->max_light_offset_deg, hint);
+    if (r->measured[v][l]) {
+      throw Error(image.file.string() + ": a second image of view " + std::to_string(v) + ", light " +
+                  std::to_string(l));
+    }
+    if (view_camera[v] >= 0 && (view_camera[v] != image.camera || view_turntable[v] != image.turntable_rad)) {
+      throw Error(image.file.string() + ": view " + std::to_string(v) +
+                  " is also seen by another camera or turntable angle");
+    }
+    view_camera[v] = image.camera;
+    view_turntable[v] = image.turntable_rad;
+    r->measured[v][l] = true;
+    by_view[v].push_back({k, l});
+  }
+  for (int v = 0; v < o.views.size(); ++v) {
+    if (by_view[v].empty()) {
+      throw Error("BTF assembly: no image shows view " + std::to_string(v) + " " +
+                  Degrees(o.views.angles(v)) + " of the set '" + o.views.name() + "'");
+    }
+  }
+
+  std::vector<CameraRays> camera_rays;
+  for (const CameraCalibration& camera : calibration.cameras) camera_rays.emplace_back(camera);
+  const int w = o.texture_width, h = o.texture_height;
+  std::mutex report_mutex;
+  tbb::parallel_for(0, o.views.size(), [&](int v) {
+    const int cam = view_camera[v];
+    const RigidTransform world_from_sample = WorldFromSample(calibration.turntable, view_turntable[v]);
+    const ReferencePlaneRectifier rectifier(calibration.cameras[cam], camera_rays[cam], world_from_sample, w, h,
+                                            o.sample_size_mm, o.max_samples_per_side);
+    Image out(w, h * o.lights.size(), 3);
+    for (const Placed& placed : by_view[v]) {
+      const BtfCaptureImage& image = images[placed.image];
+      const Image texture = RadiometricTexture(rectifier.Rectify(ReadCapture(image, calibration.cameras[cam])),
+                                               image, calibration, world_from_sample, o);
+      for (int j = 0; j < h; ++j) std::copy_n(texture.pixel(0, j), 3 * w, out.pixel(0, placed.light * h + j));
+    }
+    // Lights this view never saw: interpolated from the ones it did.
+    std::vector<SphericalAngles> seen;
+    std::vector<int> seen_index;
+    for (const Placed& placed : by_view[v]) {
+      seen.push_back(o.lights.angles(placed.light));
+      seen_index.push_back(placed.light);
+    }
+    const SamplingSet seen_set = SamplingSet::FromAngles("measured", seen);
+    int filled = 0;
+    for (int l = 0; l < o.lights.size(); ++l) {
+      if (r->measured[v][l]) continue;
+      const SamplingSet::Blend blend = seen_set.Interpolate(o.lights.direction(l));
+      for (int b = 0; b < blend.count; ++b) {
+        const int from = seen_index[blend.index[b]];
+        const float weight = static_cast<float>(blend.weight[b]);
+        for (int j = 0; j < h; ++j) {
+          const float* src = out.pixel(0, from * h + j);
+          float* dst = out.pixel(0, l * h + j);
+          for (int i = 0; i < 3 * w; ++i) dst[i] += weight * src[i];
+        }
+      }
+      ++filled;
+    }
+    std::lock_guard lock(report_mutex);
+    sink(v, std::move(out));
+    r->filled_pairs += filled;
+    r->max_samples_per_side = std::max(r->max_samples_per_side, rectifier.samples_per_side_max());
+    r->min_pixels_per_texel = std::min(r->min_pixels_per_texel, rectifier.min_pixels_per_texel());
+  });
+}
+
+// Resampling (btf_resampling.h): first, per captured view, every target
+// light from that view's captured lights (each texel with its own light
+// directions); then every target view from the captured views (each texel
+// with its own view directions). Holds the captured views' light-resampled
+// images (one BTF view image each) besides the output.
+void AssembleResampled(const std::vector<BtfCaptureImage>& images, const Calibration& calibration,
+                       const BtfAssemblyOptions& o, const std::vector<CentreDirections>& directions,
+                       const BtfViewSink& sink, BtfAssemblyReport* r) {
+  const double tolerance = o.max_direction_error_deg / kDegPerRad;
+  std::vector<CapturedView> captured;
+  for (int k = 0; k < static_cast<int>(images.size()); ++k) {
+    auto it = std::find_if(captured.begin(), captured.end(), [&](const CapturedView& c) {
+      return c.camera == images[k].camera && c.turntable_rad == images[k].turntable_rad;
+    });
+    if (it == captured.end()) it = captured.insert(captured.end(), {images[k].camera, images[k].turntable_rad, {}});
+    it->images.push_back(k);
+  }
+  // Which target pairs an image lies on (within the tolerance): measured.
+  for (int k = 0; k < static_cast<int>(images.size()); ++k) {
+    const int v = o.views.Nearest(directions[k].view), l = o.lights.Nearest(directions[k].light);
+    const double dv = OffsetDeg(o.views, v, directions[k].view), dl = OffsetDeg(o.lights, l, directions[k].light);
+    r->max_view_offset_deg = std::max(r->max_view_offset_deg, dv);
+    r->max_light_offset_deg = std::max(r->max_light_offset_deg, dl);
+    if (dv <= o.max_direction_error_deg && dl <= o.max_direction_error_deg) r->measured[v][l] = true;
+  }
+  std::vector<Eigen::Vector3d> view_centres;
+  for (const CapturedView& c : captured) view_centres.push_back(directions[c.images.front()].view);
+  const CapturedDirections captured_views = MakeCapturedDirections("BTF assembly: captured views", view_centres,
+                                                                   o.ring_tolerance_deg / kDegPerRad);
+  const int w = o.texture_width, h = o.texture_height;
+  const std::size_t texels = static_cast<std::size_t>(w) * h;
+  std::vector<CameraRays> camera_rays;
+  for (const CameraCalibration& camera : calibration.cameras) camera_rays.emplace_back(camera);
+
+  // Stage 1: per captured view, all target lights.
+  std::vector<Image> resampled(captured.size());
+  std::vector<std::vector<Eigen::Vector3d>> view_offsets(captured.size());
+  std::mutex report_mutex;
+  tbb::parallel_for(0, static_cast<int>(captured.size()), [&](int c) {
+    const CapturedView& view = captured[c];
+    const RigidTransform world_from_sample = WorldFromSample(calibration.turntable, view.turntable_rad);
+    const ReferencePlaneRectifier rectifier(calibration.cameras[view.camera], camera_rays[view.camera],
+                                            world_from_sample, w, h, o.sample_size_mm, o.max_samples_per_side);
+    std::vector<Eigen::Vector3d> light_centres;
+    for (int k : view.images) light_centres.push_back(directions[k].light);
+    const CapturedDirections lights = MakeCapturedDirections(
+        "BTF assembly: lights of camera " + calibration.cameras[view.camera].id + " at turntable " +
+            std::to_string(view.turntable_rad * kDegPerRad) + " deg",
+        light_centres, o.ring_tolerance_deg / kDegPerRad);
+    std::vector<Image> textures;
+    std::vector<std::vector<Eigen::Vector3d>> light_offsets;
+    for (int b = 0; b < static_cast<int>(view.images.size()); ++b) {
+      const BtfCaptureImage& image = images[view.images[b]];
+      textures.push_back(RadiometricTexture(rectifier.Rectify(ReadCapture(image, calibration.cameras[view.camera])),
+                                            image, calibration, world_from_sample, o));
+      if (o.per_texel_directions) {
+        light_offsets.push_back(
+            TexelOffsets(LampInWorld(calibration, image), lights.nominal.direction(b), world_from_sample, o));
+      }
+    }
+    view_offsets[c] = TexelOffsets(calibration.cameras[view.camera].pose.transform.translation,
+                                   captured_views.nominal.direction(c), world_from_sample, o);
+    Image& out = resampled[c];
+    out = Image(w, h * o.lights.size(), 3);
+    int extrapolated = 0;
+    for (int l = 0; l < o.lights.size(); ++l) {
+      const double theta = o.lights.angles(l).theta;
+      extrapolated += theta > lights.last_ring_theta + tolerance || theta < lights.first_ring_theta - tolerance;
+      for (std::size_t t = 0; t < texels; ++t) {
+        const SamplingSet::Blend blend = ResampleBlend(lights.nominal, o.lights.direction(l), [&](int b) {
+          return o.per_texel_directions ? light_offsets[b][t] : lights.offset[b];
+        });
+        float* dst = out.pixel(static_cast<int>(t % w), l * h + static_cast<int>(t / w));
+        for (int b = 0; b < blend.count; ++b) {
+          const float* src = textures[blend.index[b]].data() + 3 * t;
+          for (int ch = 0; ch < 3; ++ch) dst[ch] += static_cast<float>(blend.weight[b]) * src[ch];
+        }
+      }
+    }
+    std::lock_guard lock(report_mutex);
+    r->extrapolated_lights = std::max(r->extrapolated_lights, extrapolated);
+    r->max_samples_per_side = std::max(r->max_samples_per_side, rectifier.samples_per_side_max());
+    r->min_pixels_per_texel = std::min(r->min_pixels_per_texel, rectifier.min_pixels_per_texel());
+  });
+
+  // Stage 2: every target view from the captured views.
+  for (int v = 0; v < o.views.size(); ++v) {
+    const double theta = o.views.angles(v).theta;
+    r->extrapolated_views += theta > captured_views.last_ring_theta + tolerance ||
+                             theta < captured_views.first_ring_theta - tolerance;
+  }
+  std::mutex sink_mutex;
+  tbb::parallel_for(0, o.views.size(), [&](int v) {
+    Image out(w, h * o.lights.size(), 3);
+    for (std::size_t t = 0; t < texels; ++t) {
+      const SamplingSet::Blend blend = ResampleBlend(captured_views.nominal, o.views.direction(v), [&](int c) {
+        return o.per_texel_directions ? view_offsets[c][t] : captured_views.offset[c];
+      });
+      const int i = static_cast<int>(t % w), j = static_cast<int>(t / w);
+      for (int l = 0; l < o.lights.size(); ++l) {
+        float* dst = out.pixel(i, l * h + j);
+        for (int b = 0; b < blend.count; ++b) {
+          const float* src = resampled[blend.index[b]].pixel(i, l * h + j);
+          for (int ch = 0; ch < 3; ++ch) dst[ch] += static_cast<float>(blend.weight[b]) * src[ch];
+        }
+      }
+    }
+    std::lock_guard lock(sink_mutex);
+    sink(v, std::move(out));
+  });
+  for (const auto& row : r->measured)
+    for (bool m : row) r->filled_pairs += !m;
+}
+
+}  // namespace
+
+void AssembleBtfViews(const std::vector<BtfCaptureImage>& images, const Calibration& calibration,
+                      const BtfAssemblyOptions& o, const BtfViewSink& sink, BtfAssemblyReport* report) {
+  if (const auto problem = o.Check(); !problem.empty()) throw Error("BTF assembly: " + problem);
+  // One exposure and one gain per calibrated camera.
+  for (const auto& [per_camera, what] : {std::pair{&o.exposure_s, "exposures"},
+                                         std::pair{&o.signal_per_radiance_second, "gains"}}) {
+    if (per_camera->size() != calibration.cameras.size()) {
+      throw Error("BTF assembly: " + std::to_string(per_camera->size()) + " " + what + " for " +
+                  std::to_string(calibration.cameras.size()) + " calibrated cameras");
+    }
+  }
+  BtfAssemblyReport r;
+  r.images = static_cast<int>(images.size());
+  r.resampled = o.resample;
+  r.measured.assign(o.views.size(), std::vector<bool>(o.lights.size(), false));
+  r.min_pixels_per_texel = std::numeric_limits<double>::infinity();
+
+  std::vector<CentreDirections> directions;
+  for (const BtfCaptureImage& image : images) {
+    if (image.camera < 0 || image.camera >= static_cast<int>(calibration.cameras.size()) || image.lamp < 0 ||
+        image.lamp >= static_cast<int>(calibration.lamps.size())) {
+      throw Error(image.file.string() + ": camera or lamp index outside the calibration");
+    }
+    const RigidTransform world_from_sample = WorldFromSample(calibration.turntable, image.turntable_rad);
+    const Eigen::Matrix3d to_sample = world_from_sample.rotation.transpose();
+    const Eigen::Vector3d origin = world_from_sample.translation;
+    const Eigen::Vector3d camera_centre = calibration.cameras[image.camera].pose.transform.translation;
+    directions.push_back({to_sample * (camera_centre - origin), to_sample * (LampInWorld(calibration, image) - origin)});
+  }
+  if (o.resample) {
+    AssembleResampled(images, calibration, o, directions, sink, &r);
+  } else {
+    AssembleOnGrid(images, calibration, o, directions, sink, &r);
+  }
+  for (const auto& row : r.measured)
+    for (bool m : row) r.measured_pairs += m;
+  if (r.filled_pairs > 0) {
+    spdlog::warn("BTF assembly: {} of {} (view, light) pairs were not captured by the rig and are interpolated "
+                 "from the captured ones",
+                 r.filled_pairs, r.filled_pairs + r.measured_pairs);
+  }
+  if (r.extrapolated_views > 0 || r.extrapolated_lights > 0) {
+    spdlog::warn("BTF assembly: {} views and up to {} lights of the sets lie outside the captured polar range and "
+                 "are extrapolated (the nearest captured ring, constant in theta)",
+                 r.extrapolated_views, r.extrapolated_lights);
+  }
+  if (r.min_pixels_per_texel < 1.0) {
+    spdlog::warn("BTF assembly: the texture grid is finer than the cameras resolve ({:.2f} pixels per texel at the "
+                 "most oblique view): detail below a pixel is interpolated, not measured; a coarser --texture-size "
+                 "keeps every texel resolved",
+                 r.min_pixels_per_texel);
+  }
+  if (report) *report = std::move(r);
+}
+
+FullBtf AssembleBtf(const std::vector<BtfCaptureImage>& images, const Calibration& calibration,
+                    const BtfAssemblyOptions& o, BtfAssemblyReport* report) {
+  FullBtf btf = MakeFullBtf(o.texture_width, o.texture_height, o.views, o.lights);
+  AssembleBtfViews(images, calibration, o, [&](int v, Image&& values) { btf.view_images[v] = std::move(values); },
+                   report);
+  return btf;
+}
+
+std::vector<BtfCaptureImage> SessionBtfImages(const std::filesystem::path& session, const SessionManifest& manifest,
+                                           const Calibration& calibration) {
+  std::map<std::string, int> camera_index;
+  for (int c = 0; c < static_cast<int>(calibration.cameras.size()); ++c) camera_index[calibration.cameras[c].id] = c;
+  constexpr double kRadPerDeg = std::numbers::pi / 180.0;
+  std::vector<BtfCaptureImage> images;
+  for (const PlannedStep& step : manifest.plan) {
+    if (step.kind != StepKind::kBtfImage) continue;
+    const auto field = [&](const char* name) {
+      if (!step.params.contains(name) || !step.params[name].is_number()) {
+        throw FormatError(session / kSessionManifestName, "plan step " + step.id + "." + name, "expected a number");
+      }
+      return step.params[name].get<double>();
+    };
+    const double turntable = field("turntable_deg") * kRadPerDeg;
+    const double arc = field("arc_deg") * kRadPerDeg;
+    const int lamp = static_cast<int>(field("lamp"));
+    if (!step.params.contains("files") || !step.params["files"].is_array()) {
+      throw FormatError(session / kSessionManifestName, "plan step " + step.id + ".files", "expected a list");
+    }
+    for (const auto& file : step.params["files"]) {
+      const std::string camera = file.value("camera", "");
+      const std::string path = file.value("path", "");
+      if (!camera_index.count(camera) || !IsSessionPath(path)) {
+        throw FormatError(session / kSessionManifestName, "plan step " + step.id + ".files",
+                          "camera '" + camera + "' not in the calibration or bad path '" + path + "'");
+      }
+      images.push_back({session / path, camera_index[camera], turntable, arc, lamp});
+    }
+  }
+  if (images.empty()) throw Error("BTF assembly: the session " + session.string() + " plans no BTF images");
+  return images;
+}
+
+}  // namespace mesocap

@@ -1,0 +1,522 @@
+#include "btf/btf_compression.h"
+
+#include <spdlog/spdlog.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <Eigen/LU>
+#include <Eigen/QR>
+#include <Eigen/SVD>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <sstream>
+
+namespace mesocap {
+namespace {
+
+using Eigen::MatrixXd;
+using Eigen::VectorXd;
+
+// A block of the BTF matrix A of a layout, all three RGB channels, as
+// BtfMatrix::Read gives it for rows [r0, r0 + rows) x columns [c0, c0 +
+// columns): column-major, the RGB of A(r0 + i, c0 + j) at
+// rgb[3 * (j * rows + i)]. Column j of A is a view image (paper) or one
+// light's slice of one (per_texel); row p is the pixel index inside it
+// (p = y * W + x), so a block of whole texture lines is a run of rows of
+// each view image. The reader of a block knows its r0 and c0.
+struct MatrixBlock {
+  long long rows = 0, columns = 0;
+  std::vector<float> rgb;
+
+  // out = weights . A(r0 + i0 .. + count, the block's columns).
+  void FillRows(long long i0, long long count, const Eigen::Vector3d& w, MatrixXd* out) const {
+    out->resize(count, columns);
+    for (long long j = 0; j < columns; ++j) {
+      const float* base = rgb.data() + 3 * (j * rows + i0);
+      for (long long i = 0; i < count; ++i) (*out)(i, j) = Weighted(w, base + 3 * i);
+    }
+  }
+  // out = (weights . A(the block's rows, c0 + j0 .. + count))^T.
+  void FillTransposedRows(long long j0, long long count, const Eigen::Vector3d& w, MatrixXd* out) const {
+    out->resize(count, rows);
+    for (long long j = 0; j < count; ++j) {
+      const float* base = rgb.data() + 3 * (j0 + j) * rows;
+      for (long long i = 0; i < rows; ++i) (*out)(j, i) = Weighted(w, base + 3 * i);
+    }
+  }
+  static double Weighted(const Eigen::Vector3d& w, const float* rgb) {
+    return w[0] * rgb[0] + w[1] * rgb[1] + w[2] * rgb[2];
+  }
+};
+
+// The BTF as the matrix A of a layout, read from `btf` in blocks.
+class BtfMatrix {
+ public:
+  BtfMatrix(FullBtfReader& btf, BtfFactorLayout layout) : btf_(btf), layout_(layout) {
+    const long long texels = static_cast<long long>(btf.width()) * btf.height();
+    rows_ = layout == BtfFactorLayout::kPaper ? texels * btf.light_count() : texels;
+    columns_ = layout == BtfFactorLayout::kPaper ? btf.view_count()
+                                                 : static_cast<long long>(btf.view_count()) * btf.light_count();
+  }
+
+  long long rows() const { return rows_; }
+  long long columns() const { return columns_; }
+  int width() const { return btf_.width(); }
+
+  // Rows and columns as above; first_row and rows whole texture lines
+  // (multiples of the width), which every band below is.
+  MatrixBlock Read(long long first_row, long long rows, long long first_column, long long columns) const {
+    const int w = btf_.width();
+    MatrixBlock block{rows, columns, {}};
+    block.rgb.resize(static_cast<std::size_t>(3 * rows * columns));
+    // The views in parallel (decoding a view file is the slow part), each
+    // view's columns in order.
+    const long long per_view = layout_ == BtfFactorLayout::kPaper ? 1 : btf_.light_count();
+    const int first_view = static_cast<int>(first_column / per_view);
+    const int last_view = static_cast<int>((first_column + columns - 1) / per_view);
+    tbb::parallel_for(first_view, last_view + 1, [&](int view) {
+      const long long begin = std::max(first_column, view * per_view);
+      const long long end = std::min(first_column + columns, (view + 1) * per_view);
+      for (long long c = begin; c < end; ++c) {
+        const long long first_line = layout_ == BtfFactorLayout::kPaper ? 0 : (c % per_view) * btf_.height();
+        btf_.ReadRows(view, static_cast<int>(first_line + first_row / w), static_cast<int>(rows / w),
+                      block.rgb.data() + 3 * (c - first_column) * rows);
+      }
+    });
+    return block;
+  }
+
+ private:
+  FullBtfReader& btf_;
+  BtfFactorLayout layout_;
+  long long rows_ = 0;
+  long long columns_ = 0;
+};
+
+// Row bands of A: whole texture lines, all columns, about `bytes` of floats.
+long long RowBandRows(const BtfMatrix& a, long long bytes) {
+  const long long line = static_cast<long long>(a.width()) * a.columns() * 3 * sizeof(float);
+  return a.width() * std::max<long long>(1, bytes / line);
+}
+
+// Column bands of A: whole columns, all rows.
+long long ColumnBandColumns(const BtfMatrix& a, long long bytes) {
+  return std::max<long long>(1, bytes / (a.rows() * 3 * static_cast<long long>(sizeof(float))));
+}
+
+// The matrix a pass streams: A, or A^T when A is wider than tall; its rows
+// come in bands, each band one block of A read from the BTF.
+class StreamedMatrix {
+ public:
+  StreamedMatrix(const BtfMatrix& a, bool transposed, long long band_bytes)
+      : a_(a), transposed_(transposed), band_bytes_(band_bytes) {}
+
+  long long rows() const { return transposed_ ? a_.columns() : a_.rows(); }
+  long long columns() const { return transposed_ ? a_.rows() : a_.columns(); }
+
+  // Calls body(band, first, count) for the bands of rows [first, first +
+  // count) in order; one band in memory at a time.
+  void ForEachBand(const std::function<void(const MatrixBlock&, long long, long long)>& body) const {
+    const long long band = transposed_ ? ColumnBandColumns(a_, band_bytes_) : RowBandRows(a_, band_bytes_);
+    for (long long first = 0; first < rows(); first += band) {
+      const long long count = std::min(band, rows() - first);
+      body(transposed_ ? a_.Read(0, a_.rows(), first, count) : a_.Read(first, count, 0, a_.columns()), first, count);
+    }
+  }
+  // Rows [i0, i0 + count) of a band (relative to it), one channel.
+  void Fill(const MatrixBlock& band, long long i0, long long count, const Eigen::Vector3d& w, MatrixXd* out) const {
+    if (transposed_) {
+      band.FillTransposedRows(i0, count, w, out);
+    } else {
+      band.FillRows(i0, count, w, out);
+    }
+  }
+
+ private:
+  const BtfMatrix& a_;
+  bool transposed_;
+  long long band_bytes_;
+};
+
+// Row-block sizes inside a band: about 2 MiB of doubles per block, never
+// fewer rows than columns; a fixed number of blocks per parallel chunk, so
+// the result does not depend on the thread count.
+long long BlockRows(long long n) { return std::max<long long>(n, (1 << 18) / std::max<long long>(n, 1)); }
+constexpr long long kBlocksPerChunk = 8;
+
+// R of the Householder QR of [top; block] (top may be empty): at most n rows,
+// upper trapezoidal.
+MatrixXd StackedR(const MatrixXd& top, const MatrixXd& block) {
+  MatrixXd stacked(top.rows() + block.rows(), block.cols());
+  stacked << top, block;
+  Eigen::HouseholderQR<MatrixXd> qr(stacked);
+  const long long k = std::min<long long>(stacked.rows(), stacked.cols());
+  return qr.matrixQR().topRows(k).triangularView<Eigen::Upper>();
+}
+
+using ChannelWeights = std::array<Eigen::Vector3d, 3>;
+
+// The R factors of the three channels' streamed matrices (TSQR): in each
+// band, every chunk of blocks is reduced to its own R in parallel; the
+// chunks' R are then stacked onto the running R in order.
+std::array<MatrixXd, 3> TallSkinnyR(const StreamedMatrix& s, const ChannelWeights& weights) {
+  const long long n = s.columns();
+  const long long block = BlockRows(n);
+  const long long chunk = block * kBlocksPerChunk;
+  std::array<MatrixXd, 3> r;
+  for (MatrixXd& c : r) c.resize(0, n);
+  s.ForEachBand([&](const MatrixBlock& band, long long, long long count) {
+    const long long chunks = (count + chunk - 1) / chunk;
+    std::vector<MatrixXd> chunk_r(3 * chunks);
+    tbb::parallel_for(tbb::blocked_range<long long>(0, 3 * chunks, 1), [&](const tbb::blocked_range<long long>& range) {
+      MatrixXd a;
+      for (long long t = range.begin(); t < range.end(); ++t) {
+        const int ch = static_cast<int>(t / chunks);
+        const long long c = t % chunks;
+        MatrixXd rc(0, n);
+        const long long end = std::min(count, (c + 1) * chunk);
+        for (long long first = c * chunk; first < end; first += block) {
+          s.Fill(band, first, std::min(block, end - first), weights[ch], &a);
+          rc = StackedR(rc, a);
+        }
+        chunk_r[t] = std::move(rc);
+      }
+    });
+    for (int ch = 0; ch < 3; ++ch)
+      for (long long c = 0; c < chunks; ++c) r[ch] = StackedR(r[ch], chunk_r[ch * chunks + c]);
+  });
+  return r;
+}
+
+struct ChannelSvd {
+  VectorXd sigma;  // min(rows, n), descending
+  MatrixXd right;  // n x min(rows, n): right singular vectors of the streamed matrix
+};
+
+// Singular values and right singular vectors of the three channels'
+// streamed matrices: one pass over the BTF, then the SVD of each small R.
+std::array<ChannelSvd, 3> TallSkinnySvd(const StreamedMatrix& s, const ChannelWeights& weights) {
+  const std::array<MatrixXd, 3> r = TallSkinnyR(s, weights);
+  std::array<ChannelSvd, 3> out;
+  for (int ch = 0; ch < 3; ++ch) {
+    Eigen::BDCSVD<MatrixXd> svd(r[ch], Eigen::ComputeThinV);
+    out[ch].sigma = svd.singularValues();
+    out[ch].right = svd.matrixV();
+  }
+  return out;
+}
+
+// One pass computing S(rows, :) * right[ch] for every row block of the
+// streamed matrix S and channel; sink(ch, first_row, product) runs in
+// parallel, each call for its own rows.
+void ForEachProduct(const StreamedMatrix& s, const ChannelWeights& weights, const std::array<MatrixXd, 3>& right,
+                    const std::function<void(int, long long, const MatrixXd&)>& sink) {
+  const long long block = BlockRows(s.columns());
+  s.ForEachBand([&](const MatrixBlock& band, long long band_first, long long count) {
+    const long long blocks = (count + block - 1) / block;
+    tbb::parallel_for(tbb::blocked_range<long long>(0, 3 * blocks, 1), [&](const tbb::blocked_range<long long>& range) {
+      MatrixXd a;
+      for (long long t = range.begin(); t < range.end(); ++t) {
+        const int ch = static_cast<int>(t / blocks);
+        const long long first = (t % blocks) * block;
+        s.Fill(band, first, std::min(block, count - first), weights[ch], &a);
+        sink(ch, band_first + first, a * right[ch]);
+      }
+    });
+  });
+}
+
+// Relative error at every rank 1..max_rank from the spectra: the tail sums of
+// sigma^2 are summed from the small end, so tiny errors are not lost to
+// cancellation against ||A||^2.
+std::vector<double> SpectrumErrors(const std::array<VectorXd, 3>& sigma, int max_rank) {
+  double total = 0.0;
+  for (const VectorXd& s : sigma) total += s.squaredNorm();
+  std::vector<double> errors(max_rank, 0.0);
+  if (!(total > 0.0)) return errors;
+  for (int k = 1; k <= max_rank; ++k) {
+    double tail = 0.0;
+    for (const VectorXd& s : sigma) {
+      for (long long i = s.size() - 1; i >= k; --i) tail += s[i] * s[i];
+    }
+    errors[k - 1] = std::sqrt(tail / total);
+  }
+  return errors;
+}
+
+std::string Percent(double relative) {
+  std::ostringstream s;
+  s.precision(3);
+  s << relative * 100.0 << "%";
+  return s.str();
+}
+
+}  // namespace
+
+CheckResult BtfCompressionOptions::Check() const {
+  if (rank < 0 || rank > kMaxBtfRank) {
+    return "rank " + std::to_string(rank) + " is outside 0..100 (0 chooses the rank by the error budget)";
+  }
+  if (band_bytes < 1) return "band_bytes " + std::to_string(band_bytes) + " must be positive";
+  if (rank == 0 && !(std::isfinite(max_relative_error) && max_relative_error > 0.0 && max_relative_error <= 1.0)) {
+    return "max_relative_error " + std::to_string(max_relative_error) + " is outside (0, 1]";
+  }
+  return {};
+}
+
+FactoredBtf CompressBtf(FullBtfReader& btf, const BtfCompressionOptions& options, BtfCompressionReport* report) {
+  const auto start = std::chrono::steady_clock::now();
+  if (const auto problem = options.Check(); !problem.empty()) throw Error("compress: " + problem);
+
+  FactoredBtf out;
+  out.width = btf.width();
+  out.height = btf.height();
+  out.views = btf.views();
+  out.lights = btf.lights();
+  out.layout = options.layout;
+  out.color = options.color;
+  out.rgb_to_factored =
+      options.color == BtfFactorColor::kYCbCr ? YCbCrFromLinearRgbBt601() : Eigen::Matrix3d::Identity();
+  ChannelWeights weights;
+  for (int ch = 0; ch < 3; ++ch) weights[ch] = out.rgb_to_factored.row(ch).transpose();
+
+  const BtfMatrix a(btf, options.layout);
+  const long long m = a.rows();
+  const long long n = a.columns();
+  const bool tall = m >= n;
+  const long long small = std::min(m, n);
+  // The SVD of A (tall) or of A^T (wide); `right` then holds the right
+  // singular vectors of A (tall) or its left ones (wide).
+  const StreamedMatrix s(a, !tall, options.band_bytes);
+  const std::array<ChannelSvd, 3> svd = TallSkinnySvd(s, weights);
+
+  BtfCompressionReport local;
+  BtfCompressionReport& r = report ? *report : local;
+  r = BtfCompressionReport{};
+  for (int ch = 0; ch < 3; ++ch) r.singular_values[ch] = svd[ch].sigma;
+  r.max_rank = static_cast<int>(std::min<long long>(kMaxBtfRank, small));
+  r.matrix_rows = m;
+  r.matrix_columns = n;
+  r.relative_rms_error = SpectrumErrors(r.singular_values, r.max_rank);
+
+  const std::string space = options.color == BtfFactorColor::kRgb ? "" : " (in Y, Cb, Cr)";
+  int rank = 0;
+  if (options.rank > 0) {
+    rank = std::min(options.rank, r.max_rank);
+    r.reason = rank == options.rank
+                   ? "rank " + std::to_string(rank) + " as requested"
+                   : "rank " + std::to_string(options.rank) + " requested, but the " + std::to_string(m) + " x " +
+                         std::to_string(n) + " matrix has at most rank " + std::to_string(rank);
+  } else {
+    rank = r.max_rank;
+    for (int k = 1; k <= r.max_rank; ++k) {
+      if (r.relative_rms_error[k - 1] <= options.max_relative_error) {
+        rank = k;
+        break;
+      }
+    }
+    r.reason = r.relative_rms_error[rank - 1] <= options.max_relative_error
+                   ? "smallest rank with relative RMS error" + space + " " + Percent(r.relative_rms_error[rank - 1]) +
+                         " <= budget " + Percent(options.max_relative_error) +
+                         (rank > 1 ? " (rank " + std::to_string(rank - 1) + ": " +
+                                         Percent(r.relative_rms_error[rank - 2]) + ")"
+                                   : "")
+                   : "budget " + Percent(options.max_relative_error) + " not reachable: the largest rank " +
+                         std::to_string(rank) + " leaves " + Percent(r.relative_rms_error[rank - 1]);
+  }
+
+  // Builds the factors of rank k from the channel SVDs: one pass over the
+  // BTF for the factor the SVD of R does not give.
+  const auto build = [&](int k) {
+    out.rows.assign(k, Image(out.width, out.row_image_height(), 3));
+    out.columns = Image(static_cast<int>(n), k, 3);
+    std::array<MatrixXd, 3> right;
+    std::array<int, 3> usable{};
+    for (int ch = 0; ch < 3; ++ch) {
+      const ChannelSvd& c = svd[ch];
+      usable[ch] = static_cast<int>(std::min<long long>(k, c.sigma.size()));
+      right[ch] = c.right.leftCols(usable[ch]);
+    }
+    // Numerically zero components (exactly rank-deficient data, a zero
+    // channel): their share of A is rounding noise.
+    const auto zero = [&](int ch, int j) {
+      const VectorXd& sigma = svd[ch].sigma;
+      return !(sigma[j] > static_cast<double>(small) * std::numeric_limits<double>::epsilon() * sigma[0]);
+    };
+    if (tall) {
+      for (int ch = 0; ch < 3; ++ch)
+        for (int j = 0; j < usable[ch]; ++j)
+          for (long long c = 0; c < n; ++c) out.columns.pixel(static_cast<int>(c), j)[ch] = static_cast<float>(right[ch](c, j));
+      // r_k = A v_k, from the data (see the header).
+      ForEachProduct(s, weights, right, [&](int ch, long long first, const MatrixXd& rv) {
+        for (int j = 0; j < usable[ch]; ++j) {
+          float* dst = out.rows[j].data() + 3 * first + ch;
+          for (long long i = 0; i < rv.rows(); ++i) dst[3 * i] = static_cast<float>(rv(i, j));
+        }
+      });
+    } else {
+      for (int ch = 0; ch < 3; ++ch) {
+        for (int j = 0; j < usable[ch]; ++j) {
+          if (zero(ch, j)) continue;
+          float* dst = out.rows[j].data() + ch;
+          for (long long i = 0; i < m; ++i) dst[3 * i] = static_cast<float>(svd[ch].sigma[j] * right[ch](i, j));
+        }
+      }
+      // c_k = A^T u_k / sigma_k.
+      ForEachProduct(s, weights, right, [&](int ch, long long first, const MatrixXd& au) {
+        for (int j = 0; j < usable[ch]; ++j) {
+          if (zero(ch, j)) continue;
+          for (long long i = 0; i < au.rows(); ++i) {
+            out.columns.pixel(static_cast<int>(first + i), j)[ch] = static_cast<float>(au(i, j) / svd[ch].sigma[j]);
+          }
+        }
+      });
+    }
+  };
+
+  build(rank);
+  r.measured_relative_rms_error = RelativeRmsError(btf, out, options.band_bytes);
+  // The budget is on RGB values; for ycbcr the spectrum measures the error in
+  // the factored space, so the rank grows until the measured RGB error fits.
+  if (options.rank == 0 && options.color == BtfFactorColor::kYCbCr) {
+    while (r.measured_relative_rms_error > options.max_relative_error && rank < r.max_rank) {
+      build(++rank);
+      r.measured_relative_rms_error = RelativeRmsError(btf, out, options.band_bytes);
+      r.reason = "rank " + std::to_string(rank) + ": smallest rank whose measured RGB error " +
+                 Percent(r.measured_relative_rms_error) + " meets the budget " +
+                 Percent(options.max_relative_error);
+    }
+  }
+  r.rank = rank;
+  out.CheckShape();
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  spdlog::debug("compress: {} x {} matrix per channel, rank {} ({}), {:.3g} s", m, n, rank, r.reason, r.seconds);
+  return out;
+}
+
+FactoredBtf CompressBtf(const FullBtf& btf, const BtfCompressionOptions& options, BtfCompressionReport* report) {
+  InMemoryFullBtfReader reader(btf);
+  return CompressBtf(reader, options, report);
+}
+
+nlohmann::json ToJson(const BtfCompressionReport& report, const FactoredBtf& factored) {
+  const char* names[2][3] = {{"r", "g", "b"}, {"y", "cb", "cr"}};
+  nlohmann::json spectrum = nlohmann::json::object();
+  for (int ch = 0; ch < 3; ++ch) {
+    const Eigen::VectorXd& s = report.singular_values[ch];
+    spectrum[names[factored.color == BtfFactorColor::kYCbCr][ch]] = std::vector<double>(s.data(), s.data() + s.size());
+  }
+  return {{"layout", ToString(factored.layout)},
+          {"color", ToString(factored.color)},
+          {"rank", report.rank},
+          {"reason", report.reason},
+          {"measured_relative_rms", report.measured_relative_rms_error},
+          {"relative_rms_by_rank", report.relative_rms_error},
+          {"max_rank", report.max_rank},
+          {"matrix_size", {report.matrix_rows, report.matrix_columns}},
+          {"singular_values", spectrum},
+          {"seconds", report.seconds}};
+}
+
+Image ReconstructBtfView(const FactoredBtf& f, int view) {
+  f.CheckShape();
+  if (view < 0 || view >= f.view_count()) throw Error("factored BTF: view " + std::to_string(view) + " out of range");
+  Eigen::Matrix3d to_rgb = Eigen::Matrix3d::Identity();
+  if (f.color == BtfFactorColor::kYCbCr) to_rgb = f.rgb_to_factored.inverse();
+  const int nl = f.light_count();
+  const long long texels = static_cast<long long>(f.width) * f.height;
+  Image out(f.width, f.height * nl, 3);
+  std::vector<double> acc(3 * texels);
+  for (int l = 0; l < nl; ++l) {
+    std::fill(acc.begin(), acc.end(), 0.0);
+    // paper: rows (x, y, light), column view; per_texel: rows (x, y), column
+    // view * Nlight + light.
+    const bool paper = f.layout == BtfFactorLayout::kPaper;
+    const int column = paper ? view : view * nl + l;
+    const long long offset = paper ? 3 * l * texels : 0;
+    for (int k = 0; k < f.rank(); ++k) {
+      const float* c = f.columns.pixel(column, k);
+      const float* r = f.rows[k].data() + offset;
+      for (long long i = 0; i < texels; ++i)
+        for (int ch = 0; ch < 3; ++ch) acc[3 * i + ch] += static_cast<double>(r[3 * i + ch]) * c[ch];
+    }
+    float* dst = out.pixel(0, l * f.height);
+    for (long long i = 0; i < texels; ++i) {
+      const Eigen::Vector3d rgb = to_rgb * Eigen::Vector3d(acc[3 * i], acc[3 * i + 1], acc[3 * i + 2]);
+      for (int ch = 0; ch < 3; ++ch) dst[3 * i + ch] = static_cast<float>(rgb[ch]);
+    }
+  }
+  return out;
+}
+
+double RelativeRmsError(FullBtfReader& truth, const FactoredBtf& factored, long long band_bytes) {
+  factored.CheckShape();
+  if (truth.width() != factored.width || truth.height() != factored.height ||
+      truth.view_count() != factored.view_count() || truth.light_count() != factored.light_count()) {
+    throw Error("relative error: the BTF and its factors differ in size");
+  }
+  Eigen::Matrix3d to_rgb = Eigen::Matrix3d::Identity();
+  if (factored.color == BtfFactorColor::kYCbCr) to_rgb = factored.rgb_to_factored.inverse();
+  const BtfMatrix a(truth, factored.layout);
+  const long long n = a.columns();
+  const int k = factored.rank();
+  // Column factors per channel, n x K.
+  std::array<MatrixXd, 3> columns;
+  for (int ch = 0; ch < 3; ++ch) {
+    columns[ch].resize(n, k);
+    for (int j = 0; j < k; ++j) {
+      for (long long c = 0; c < n; ++c) columns[ch](c, j) = factored.columns.pixel(static_cast<int>(c), j)[ch];
+    }
+  }
+  // Per row block, summed in block order so the result does not depend on
+  // the thread count.
+  const long long block = BlockRows(n);
+  std::vector<double> error, norm;
+  StreamedMatrix(a, false, band_bytes).ForEachBand([&](const MatrixBlock& band, long long band_first, long long count) {
+    const long long blocks = (count + block - 1) / block;
+    const std::size_t offset = error.size();
+    error.resize(offset + blocks, 0.0);
+    norm.resize(offset + blocks, 0.0);
+    tbb::parallel_for(tbb::blocked_range<long long>(0, blocks, 1), [&](const tbb::blocked_range<long long>& range) {
+      for (long long b = range.begin(); b < range.end(); ++b) {
+        const long long first = b * block;
+        const long long rows_here = std::min(block, count - first);
+        std::array<MatrixXd, 3> recon, value;
+        for (int ch = 0; ch < 3; ++ch) {
+          MatrixXd rows(rows_here, k);
+          for (int j = 0; j < k; ++j) {
+            const float* src = factored.rows[j].data() + 3 * (band_first + first) + ch;
+            for (long long i = 0; i < rows_here; ++i) rows(i, j) = src[3 * i];
+          }
+          recon[ch] = rows * columns[ch].transpose();
+          band.FillRows(first, rows_here, Eigen::Vector3d::Unit(ch), &value[ch]);
+        }
+        double e = 0.0, t = 0.0;
+        for (int ch = 0; ch < 3; ++ch) {
+          const MatrixXd rgb = to_rgb(ch, 0) * recon[0] + to_rgb(ch, 1) * recon[1] + to_rgb(ch, 2) * recon[2];
+          e += (rgb - value[ch]).squaredNorm();
+          t += value[ch].squaredNorm();
+        }
+        error[offset + b] = e;
+        norm[offset + b] = t;
+      }
+    });
+  });
+  double e = 0.0, t = 0.0;
+  for (std::size_t b = 0; b < error.size(); ++b) {
+    e += error[b];
+    t += norm[b];
+  }
+  if (t == 0.0) return e == 0.0 ? 0.0 : std::numeric_limits<double>::infinity();
+  return std::sqrt(e / t);
+}
+
+double RelativeRmsError(const FullBtf& truth, const FactoredBtf& factored) {
+  InMemoryFullBtfReader reader(truth);
+  return RelativeRmsError(reader, factored, BtfCompressionOptions{}.band_bytes);
+}
+
+}  // namespace mesocap

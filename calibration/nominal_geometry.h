@@ -1,0 +1,44 @@
+// The nominal geometry a rig description implies (MDF paper Sec. 3.1, Fig.
+// 3a): device positions in the world frame, the rig's view and light
+// directions in the sample frame, and the laser planes at tilt 0. The
+// simulated rig takes it as the truth; calibration starts from it.
+#pragma once
+
+#include <Eigen/Core>
+
+#include "core/sampling_set.h"
+#include "formats/rig_description.h"
+
+namespace mesocap::drivers {
+
+// The rig's nominal directions in the sample frame, towards the turntable
+// centre: views = turntable angles x cameras, lights = (arc - turntable)
+// angles x lamps (distinct directions only). Named "<rig>-views" / "<rig>-lights".
+SamplingSet ViewDirections(const RigDescription& rig);
+SamplingSet LightDirections(const RigDescription& rig);
+
+// World positions of devices (the nominal geometry above).
+Eigen::Vector3d CameraCentre(const CameraDescription& camera);
+Eigen::Vector3d LampPosition(const LampBankDescription& lamps, int lamp, double arc_angle_rad);
+Eigen::Vector3d LaserSource(const LaserDescription& laser, const LaserLocation& location);
+// The laser's tilt axis at a location: the arc's tangent there (y rotated by
+// the arc angle), along which the stripe runs on the turntable plane.
+Eigen::Vector3d LaserTiltAxis(const LaserLocation& location);
+// The unit normal of the location's laser plane at tilt 0, which holds the
+// tilt axis and passes through the source and the turntable centre.
+Eigen::Vector3d LaserPlaneNormalAtZeroTilt(const LaserDescription& laser, const LaserLocation& location);
+// Tilt 0 aims the laser plane at the origin; a positive tilt moves the stripe
+// on the turntable plane away from the laser by `offset_mm`.
+double LaserTiltForOffset(const LaserDescription& laser, int mount, double offset_mm);
+
+// How well a camera and a laser location triangulate (MDF paper Sec. 3.2):
+// the sine of the angle between the camera's ray to the turntable centre and
+// the location's laser plane at tilt 0 (through the centre, its stripe across
+// the source's azimuth). A timing error becomes a depth error growing as
+// 1 / sine; at 0 the plane contains the ray. For a camera at elevation c and
+// a source at elevation e, arc a from the camera's azimuth, it is
+// |sin c cos e - cos c sin e cos a|: zero where a mount shares a camera's
+// elevation at its azimuth.
+double LaserRaySine(const RigDescription& rig, int camera, int location);
+
+}  // namespace mesocap::drivers

@@ -1,0 +1,144 @@
+#include "formats/rig_description.h"
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <numbers>
+#include <set>
+
+#include "core/json_field_reader.h"
+
+namespace mesocap::drivers {
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+constexpr std::size_t kMaxDevices = 256;
+constexpr std::size_t kMaxAngles = 4096;
+
+std::vector<double> AnglesDeg(const JsonFieldReader& f, std::string_view key, double min_deg,
+                              double max_deg) {
+  const auto& raw = f.Raw(key);
+  if (!raw.is_array() || raw.empty() || raw.size() > kMaxAngles) {
+    f.Fail(key, "expected a list of 1 to " + std::to_string(kMaxAngles) + " angles in degrees");
+  }
+  const auto values = f.Numbers(key, raw.size());
+  std::vector<double> out;
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    if (values[i] < min_deg || values[i] > max_deg) {
+      f.Fail(std::string(key) + "[" + std::to_string(i) + "]",
+             "expected an angle in [" + std::to_string(min_deg) + ", " + std::to_string(max_deg) + "] degrees");
+    }
+    out.push_back(values[i] * kDeg);
+  }
+  return out;
+}
+
+StageDescription ParseStage(const JsonFieldReader& f) {
+  StageDescription s;
+  s.backend = f.String("backend");
+  s.angles_rad = AnglesDeg(f, "angles_deg", 0.0, 360.0);
+  s.speed_rad_per_s = f.NumberOr("speed_deg_per_s", 30.0, 1e-3, 3600.0) * kDeg;
+  return s;
+}
+
+CameraDescription ParseCamera(const JsonFieldReader& f) {
+  CameraDescription c;
+  c.id = f.String("id");
+  if (c.id.empty()) f.Fail("id", "expected a non-empty id");
+  c.backend = f.String("backend");
+  c.azimuth_rad = f.NumberOr("azimuth_deg", 0.0, -360.0, 360.0) * kDeg;
+  c.elevation_rad = f.Number("elevation_deg", 1.0, 90.0) * kDeg;
+  c.distance_mm = f.Number("distance_mm", 1.0, 1e5);
+  const auto size = f.Numbers("image_size", 2);
+  for (int i = 0; i < 2; ++i) {
+    if (size[i] < 8 || size[i] > 16384 || size[i] != std::floor(size[i])) {
+      f.Fail("image_size", "expected two whole numbers of pixels in [8, 16384]");
+    }
+  }
+  c.width = static_cast<int>(size[0]);
+  c.height = static_cast<int>(size[1]);
+  c.focal_px = f.Number("focal_px", 1.0, 1e6);
+  c.principal_point_px = f.Has("principal_point_px") ? f.Vector2("principal_point_px")
+                                                     : Eigen::Vector2d(c.width / 2.0, c.height / 2.0);
+  if (f.Has("distortion")) {
+    const auto d = f.Numbers("distortion", 5);
+    for (int i = 0; i < 5; ++i) {
+      if (std::abs(d[i]) > 10.0) f.Fail("distortion", "expected |k1 k2 p1 p2 k3| <= 10");
+      c.distortion[i] = d[i];
+    }
+  }
+  c.bit_depth = static_cast<int>(f.Has("bit_depth") ? f.Integer("bit_depth", 8, 16) : 12);
+  c.full_well_electrons = f.NumberOr("full_well_electrons", 20000.0, 1.0, 1e7);
+  c.read_noise_electrons = f.NumberOr("read_noise_electrons", 5.0, 0.0, 1e4);
+  c.exposure_us = f.NumberOr("exposure_us", 20000.0, 1.0, 1e8);
+  return c;
+}
+
+}  // namespace
+
+RigDescription ParseRigDescription(const nlohmann::json& json, const std::filesystem::path& file) {
+  const JsonFieldReader root(json, file);
+  root.ExpectFormat("mesocap.rig", 1);
+  RigDescription rig;
+  rig.json = json;
+  rig.name = root.String("name");
+  const auto sample = root.Object("sample");
+  rig.sample_size_mm = sample.Number("size_mm", 1e-3, 1e4);
+  if (sample.Has("backing")) {
+    const auto backing = sample.Object("backing");
+    rig.backing.depth_mm = backing.Number("depth_mm", 1e-3, 1e4);
+    rig.backing.albedo = backing.Number("albedo", 0.0, 1.0);
+  }
+
+  std::set<std::string> ids;
+  for (const auto& c : root.Objects("cameras", kMaxDevices)) {
+    rig.cameras.push_back(ParseCamera(c));
+    if (!ids.insert(rig.cameras.back().id).second) c.Fail("id", "duplicate camera id \"" + rig.cameras.back().id + "\"");
+  }
+  if (rig.cameras.empty()) root.Fail("cameras", "expected at least one camera");
+  rig.turntable = ParseStage(root.Object("turntable"));
+  rig.light_arc = ParseStage(root.Object("light_arc"));
+
+  const auto lamps = root.Object("lamps");
+  rig.lamps.backend = lamps.String("backend");
+  rig.lamps.distance_mm = lamps.Number("distance_mm", 1.0, 1e5);
+  rig.lamps.elevations_rad = AnglesDeg(lamps, "elevations_deg", 1.0, 90.0);
+  rig.lamps.intensity = lamps.Vector3("intensity");
+  if (rig.lamps.intensity.minCoeff() < 0) lamps.Fail("intensity", "expected non-negative values");
+
+  const auto laser = root.Object("laser");
+  auto& l = rig.laser;
+  l.backend = laser.String("backend");
+  l.distance_mm = laser.Number("distance_mm", 1.0, 1e5);
+  l.mount_elevations_rad = AnglesDeg(laser, "mount_elevations_deg", 1.0, 89.0);
+  for (const auto& loc : laser.Objects("locations", kMaxAngles)) {
+    LaserLocation location;
+    location.mount = static_cast<int>(loc.Integer("mount", 0, static_cast<int>(l.mount_elevations_rad.size()) - 1));
+    location.arc_angle_rad = loc.Number("arc_angle_deg", -360.0, 360.0) * kDeg;
+    l.locations.push_back(location);
+  }
+  if (l.locations.empty()) laser.Fail("locations", "expected at least one laser source location");
+  const auto sweep = laser.Numbers("sweep_mm", 2);
+  if (!(sweep[0] < sweep[1]) || std::abs(sweep[0]) > l.distance_mm || std::abs(sweep[1]) > l.distance_mm) {
+    laser.Fail("sweep_mm", "expected [min, max] with min < max, both within the laser distance");
+  }
+  l.sweep_min_mm = sweep[0];
+  l.sweep_max_mm = sweep[1];
+  l.frames_per_sweep = static_cast<int>(laser.Integer("frames_per_sweep", 2, 100000));
+  l.stripe_sigma_mm = laser.Number("stripe_sigma_mm", 1e-4, 100.0);
+  l.power = laser.NumberOr("power", 1.0, 0.0, 1e6);
+  const auto heights = laser.Numbers("calibration_heights_mm", 2);
+  if (!(heights[0] != heights[1]) || std::min(heights[0], heights[1]) < 0) {
+    laser.Fail("calibration_heights_mm", "expected two different non-negative heights");
+  }
+  l.calibration_heights_mm = {heights[0], heights[1]};
+  if (laser.Has("sweep_storage") && laser.Choice("sweep_storage", {"frames", "analysis"}) == "analysis") {
+    l.sweep_storage = LaserDescription::SweepStorage::kAnalysis;
+  }
+  return rig;
+}
+
+RigDescription ReadRigDescription(const std::filesystem::path& file) {
+  return ParseRigDescription(ReadJsonFile(file, 4ull << 20), file);
+}
+
+}  // namespace mesocap::drivers

@@ -1,0 +1,118 @@
+// The rig description file: the nominal geometry of a capture rig as in the
+// MDF paper (Sec. 3.1, Fig. 3a), how it is sampled, and which backend drives
+// each device. Calibration refines the geometry; the simulated rig takes it
+// as the truth.
+//
+// World frame: origin at the turntable centre on the turntable plane, which
+// is the sample's reference plane (z = 0), +z up. The turntable turns the
+// sample frame about +z: x_world = Rz(turntable angle) x_sample. The camera
+// arc is fixed in the half plane at world azimuth `cameras[i].azimuth`; each
+// camera looks at the origin from its elevation and distance. The light arc
+// turns about +z; at arc angle a its lamps and the laser mounts lie in the
+// half plane at world azimuth a.
+#pragma once
+
+#include <array>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/sampling_set.h"
+
+namespace mesocap::drivers {
+
+struct CameraDescription {
+  std::string id;
+  std::string backend;
+  double azimuth_rad = 0.0;
+  double elevation_rad = 0.0;  // above the turntable plane
+  double distance_mm = 0.0;    // from the origin to the centre of projection
+  int width = 0;
+  int height = 0;
+  double focal_px = 0.0;
+  Eigen::Vector2d principal_point_px = Eigen::Vector2d::Zero();
+  std::array<double, 5> distortion{};  // OpenCV k1 k2 p1 p2 k3 (Brown-Conrady)
+  int bit_depth = 12;
+  double full_well_electrons = 20000.0;  // shot noise: Poisson in electrons
+  double read_noise_electrons = 5.0;     // Gaussian, per pixel
+  double exposure_us = 20000.0;
+};
+
+struct StageDescription {
+  std::string backend;
+  std::vector<double> angles_rad;  // where captures are taken
+  double speed_rad_per_s = 0.5;
+};
+
+struct LampBankDescription {
+  std::string backend;
+  double distance_mm = 0.0;            // from the origin
+  std::vector<double> elevations_rad;  // one lamp per elevation
+  Eigen::Vector3d intensity = Eigen::Vector3d::Ones();  // radiant intensity, relative RGB
+};
+
+// One laser source location: a mount on the light arc and an arc angle.
+struct LaserLocation {
+  int mount = 0;
+  double arc_angle_rad = 0.0;
+};
+
+struct LaserDescription {
+  std::string backend;
+  double distance_mm = 0.0;            // from the origin to the emitter
+  std::vector<double> mount_elevations_rad;
+  std::vector<LaserLocation> locations;  // the sweeps taken for every turntable angle
+  // The sweep, as the stripe's offset on the turntable plane from the origin
+  // along the scan direction (towards the laser's azimuth); the tilt that
+  // gives an offset depends on the mount's elevation (LaserTiltForOffset).
+  double sweep_min_mm = 0.0;
+  double sweep_max_mm = 0.0;
+  int frames_per_sweep = 0;
+  double stripe_sigma_mm = 0.0;        // Gaussian profile of the stripe, across it
+  double power = 1.0;                  // peak stripe irradiance, relative to lamps
+  std::array<double, 2> calibration_heights_mm{};  // Sec. 3.2: two planes of different height
+  // What a capture keeps of a sweep: its frames, or only the space-time
+  // analysis made while they arrive ("sweep_storage": "analysis"; a
+  // paper-size session's frames would be 1.5 TB).
+  enum class SweepStorage { kFrames, kAnalysis };
+  SweepStorage sweep_storage = SweepStorage::kFrames;
+};
+
+// The board at the bottom of the sample's pocket, under the sample. A camera
+// ray through a hole in the sample meets it below the mesostructure slab, so
+// the laser stripe on it is the evidence for "no hit" (MDF paper Sec. 3.2);
+// without a board (depth 0) such a ray sees black and stays unknown. It must
+// lie at least kMinBackingClearanceMm below the deepest mesostructure.
+struct SampleBacking {
+  double depth_mm = 0.0;  // below the reference plane; 0: no board
+  double albedo = 0.0;    // diffuse, grey
+
+  bool present() const { return depth_mm > 0.0; }
+};
+inline constexpr double kMinBackingClearanceMm = 1.0;
+
+struct RigDescription {
+  std::string name;
+  double sample_size_mm = 0.0;  // side of the clipped square sample
+  SampleBacking backing;
+  std::vector<CameraDescription> cameras;
+  StageDescription turntable;
+  StageDescription light_arc;
+  LampBankDescription lamps;
+  LaserDescription laser;
+  nlohmann::json json;  // the file as read, kept for the session manifest's rig snapshot
+
+  int view_count() const { return static_cast<int>(turntable.angles_rad.size() * cameras.size()); }
+  int light_count() const {
+    return static_cast<int>(light_arc.angles_rad.size() * lamps.elevations_rad.size());
+  }
+};
+
+// Reads and validates a rig description; errors name the file and field.
+RigDescription ReadRigDescription(const std::filesystem::path& file);
+RigDescription ParseRigDescription(const nlohmann::json& json, const std::filesystem::path& file);
+
+}  // namespace mesocap::drivers

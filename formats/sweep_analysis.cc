@@ -1,0 +1,102 @@
+#include "formats/sweep_analysis.h"
+
+#include <cmath>
+#include <string>
+
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "core/image_io.h"
+#include "core/json_field_reader.h"
+
+namespace mesocap {
+
+namespace {
+
+std::filesystem::path ImageFile(const std::filesystem::path& file) {
+  std::filesystem::path image = file;
+  image += ".exr";
+  return image;
+}
+
+}  // namespace
+
+void WriteSweepAnalysis(const std::filesystem::path& file, const SweepAnalysis& analysis) {
+  const std::size_t n = static_cast<std::size_t>(analysis.width) * analysis.height;
+  if (analysis.peak_time.size() != n || analysis.peak_value.size() != n || analysis.second_time.size() != n ||
+      analysis.second_value.size() != n || analysis.planes.size() != static_cast<std::size_t>(analysis.frame_count)) {
+    throw Error("sweep analysis " + file.string() + ": sizes do not match width, height and frame_count");
+  }
+  Image image(analysis.width, analysis.height, 4);
+  for (std::size_t p = 0; p < n; ++p) {
+    image.data()[4 * p] = analysis.peak_time[p];
+    image.data()[4 * p + 1] = analysis.peak_value[p];
+    image.data()[4 * p + 2] = analysis.second_time[p];
+    image.data()[4 * p + 3] = analysis.second_value[p];
+  }
+  WriteImage(ImageFile(file), image, PixelEncoding::kFloat32);
+  nlohmann::json planes = nlohmann::json::array();
+  for (const Plane& plane : analysis.planes) planes.push_back(ToJson(plane));
+  WriteJsonFileAtomically(file, {{"format", "mesocap.sweep_analysis"},
+                                 {"version", 2},
+                                 {"width", analysis.width},
+                                 {"height", analysis.height},
+                                 {"frame_count", analysis.frame_count},
+                                 {"image", ImageFile(file).filename().string()},
+                                 {"planes", planes}});
+}
+
+SweepAnalysis ReadSweepAnalysis(const std::filesystem::path& file) {
+  const nlohmann::json doc = ReadJsonFile(file, 64ull << 20);
+  auto integer = [&](const char* field, int max) {
+    if (!doc.is_object() || !doc.contains(field) || !doc[field].is_number_integer() || doc[field].get<long long>() < 1 ||
+        doc[field].get<long long>() > max) {
+      throw FormatError(file, field, "an integer in 1.." + std::to_string(max));
+    }
+    return doc[field].get<int>();
+  };
+  if (!doc.is_object() || doc.value("format", std::string()) != "mesocap.sweep_analysis") {
+    throw FormatError(file, "format", "\"mesocap.sweep_analysis\"");
+  }
+  const int version = doc.value("version", 0);
+  if (version != 1 && version != 2) throw FormatError(file, "version", "1 or 2");
+  SweepAnalysis analysis;
+  analysis.width = integer("width", 1 << 15);
+  analysis.height = integer("height", 1 << 15);
+  analysis.frame_count = integer("frame_count", 1 << 20);
+  if (!doc.contains("planes") || !doc["planes"].is_array() ||
+      doc["planes"].size() != static_cast<std::size_t>(analysis.frame_count)) {
+    throw FormatError(file, "planes", "an array of frame_count planes");
+  }
+  for (std::size_t i = 0; i < doc["planes"].size(); ++i) {
+    analysis.planes.push_back(PlaneFromJson(doc["planes"][i], file, "planes[" + std::to_string(i) + "]"));
+  }
+  ImageReadOptions options;
+  options.expected_width = analysis.width;
+  options.expected_height = analysis.height;
+  const int channels = version == 1 ? 2 : 4;  // version 1: no second peaks
+  options.expected_channels = channels;
+  const Image image = ReadImage(ImageFile(file), options);
+  const std::size_t n = static_cast<std::size_t>(analysis.width) * analysis.height;
+  analysis.peak_time.resize(n);
+  analysis.peak_value.resize(n);
+  analysis.second_time.assign(n, std::numeric_limits<float>::quiet_NaN());
+  analysis.second_value.assign(n, 0.0f);
+  auto frame_time = [&](float t, const char* field) {
+    if (!std::isnan(t) && !(t >= 0 && t <= analysis.frame_count - 1)) {
+      throw FormatError(ImageFile(file), field, "NaN or a frame time in [0, frame_count - 1]");
+    }
+    return t;
+  };
+  for (std::size_t p = 0; p < n; ++p) {
+    const float* texel = image.data() + channels * p;
+    analysis.peak_time[p] = frame_time(texel[0], "peak time");
+    analysis.peak_value[p] = texel[1];
+    if (channels == 4) {
+      analysis.second_time[p] = frame_time(texel[2], "second peak time");
+      analysis.second_value[p] = texel[3];
+    }
+  }
+  return analysis;
+}
+
+}  // namespace mesocap

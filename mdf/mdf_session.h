@@ -1,0 +1,51 @@
+// `mesocap process mdf`: the MDF of a recorded capture session (MDF paper
+// Sec. 3.2): the laser-plane calibration frames give each laser location's
+// plane, every laser sweep is streamed frame by frame through line detection
+// and space-time analysis, and the displacement images are merged per view
+// into the 4D MDF on the session rig's view directions.
+#pragma once
+
+#include <filesystem>
+#include <vector>
+
+#include "core/image.h"
+#include "core/mdf.h"
+#include "core/progress.h"
+#include "formats/calibration.h"
+#include "mdf/displacement_image.h"
+#include "mdf/displacement_merge.h"
+#include "mdf/session_sweeps.h"
+#include "mdf/space_time_analyzer.h"
+
+namespace mesocap {
+
+struct MdfProcessingOptions {
+  int texture_size = 64;  // texels per side (the ground truth's default)
+  // The stripe line detection and the reference region (laser planes).
+  SweepGeometryOptions geometry;
+  SpaceTimeOptions space_time;
+  TriangulationOptions triangulation;
+  MergeOptions merge;
+  // Laser locations to use (indices into the rig's list); empty: all.
+  std::vector<int> locations;
+
+  CheckResult Check() const;
+};
+
+struct MdfProcessingResult {
+  Mdf mdf;
+  Image confidence;      // per texel and view, MDF layout (MdfAssembler)
+  double sample_size_mm = 0;
+  double deepest_mm = 0;  // deepest measured point below the reference plane
+  int sweeps = 0;         // camera sequences analysed
+};
+
+// Reads the session's manifest and data. Throws FormatError / Error naming
+// the file and field for a missing calibration entry (a camera or laser
+// mount of the session's rig), a sequence whose frame size or count does not
+// match the calibration and plan, or a missing file; nothing is written.
+MdfProcessingResult ProcessMdfSession(const std::filesystem::path& session, const Calibration& calibration,
+                                      const MdfProcessingOptions& options,
+                                      Progress::Style progress = Progress::Style::kAuto);
+
+}  // namespace mesocap

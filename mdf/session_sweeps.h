@@ -1,0 +1,95 @@
+// The laser geometry of a capture session's sweeps (MDF paper Sec. 3.2):
+// each laser location's plane, per camera, from its two calibration plates,
+// and each sweep's reference region and per-frame tilts. `mesocap process
+// mdf` and the capture runner (which, for a rig that stores sweep analyses,
+// analyses every sweep while its frames arrive) share this, so both derive
+// the planes the same way.
+#pragma once
+
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "calibration/camera_rays.h"
+#include "calibration/laser_line.h"
+#include "core/plane.h"
+#include "formats/calibration.h"
+#include "formats/capture_session.h"
+#include "formats/rig_description.h"
+#include "mdf/laser_sweep.h"
+
+namespace mesocap {
+
+struct SweepGeometryOptions {
+  LaserLineOptions line;
+  // The reference region: the turntable outside the sample square grown by
+  // this margin, within reference_extent x the sample size of the centre.
+  double reference_margin_mm = 1.0;
+  double reference_extent = 1.5;
+
+  CheckResult Check() const;
+};
+
+// One laser_sweep step of a session's plan.
+struct SweepStep {
+  int location = 0;
+  int mount = 0;
+  double turntable_rad = 0.0;
+  double arc_rad = 0.0;
+  std::vector<double> tilts_rad;  // per frame
+  std::map<std::string, std::string> files;  // camera id -> path inside the session
+  // "stored_as": "analysis": each camera's file is a mesocap.sweep_analysis
+  // made during the capture; otherwise a frame sequence.
+  bool stores_analysis = false;
+};
+
+// Throws FormatError naming the manifest and the step's field.
+SweepStep ParseSweepStep(const PlannedStep& step, std::size_t index, const drivers::RigDescription& rig,
+                         const std::filesystem::path& manifest_file);
+
+class SessionSweepGeometry {
+ public:
+  // Matches every camera of the session's rig with the calibration's (by id,
+  // at the size the rig records) and checks the laser mounts; throws Error
+  // naming what is missing. Plate frames are read when a location's plane
+  // is first needed.
+  SessionSweepGeometry(std::filesystem::path session, const SessionManifest& manifest,
+                       drivers::RigDescription rig, const Calibration& calibration,
+                       SweepGeometryOptions options);
+
+  // The rig's camera with this id; throws Error when there is none.
+  int CameraIndex(const std::string& id) const;
+  const CameraRays& rays(int camera) const { return rays_.at(camera); }
+  const drivers::RigDescription& rig() const { return rig_; }
+
+  // A location's plane seen by `camera` at its plates' tilt, fitted from
+  // the two plate frames on first use (throws FormatError when the plan
+  // lacks them, Error when the stripe is not found on a plate).
+  const Plane& CalibratedPlane(int location, int camera);
+
+  // The geometry of `step`'s sweep seen by `camera`, for analysing its
+  // frames: the location's CalibratedPlane, the reference region at the
+  // step's turntable angle, the tilts relative to the plates'.
+  SweepGeometry Geometry(const SweepStep& step, int camera);
+
+ private:
+  struct Plates {
+    double tilt_rad = 0.0;
+    std::vector<std::pair<double, std::map<std::string, std::string>>> heights;  // (height, files)
+  };
+
+  std::filesystem::path session_;
+  std::filesystem::path manifest_file_;
+  drivers::RigDescription rig_;
+  Calibration calibration_;
+  SweepGeometryOptions options_;
+  std::vector<CameraRays> rays_;  // per rig camera
+  std::map<int, Plates> plates_;  // per location
+  std::map<std::pair<int, int>, Plane> planes_;  // (location, camera)
+  std::map<std::pair<long long, int>, PixelMask> regions_;  // (turntable micro-degrees, camera)
+};
+
+}  // namespace mesocap

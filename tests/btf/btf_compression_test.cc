@@ -1,0 +1,362 @@
+// SVD compression (Wang et al. 2005 Sec. 5) against exact answers: a flat
+// Lambertian ground truth, exactly rank-deficient data, a 1000x specular
+// highlight, a constant-zero channel, and the two layouts against each other.
+#include "btf/btf_compression.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/SVD>
+#include <cmath>
+#include <functional>
+#include <initializer_list>
+#include <random>
+
+#include "core/image_io.h"
+#include "formats/material_package.h"
+#include "sim/ground_truth.h"
+#include "sim/mesostructure_scene.h"
+#include "tests/common/temporary_directory.h"
+
+namespace mesocap {
+namespace {
+
+using Fill = std::function<Eigen::Vector3f(int x, int y, int view, int light)>;
+
+FullBtf MakeBtf(int size, const SamplingSet& views, const SamplingSet& lights, const Fill& fill) {
+  FullBtf btf = MakeFullBtf(size, size, views, lights);
+  for (int v = 0; v < btf.view_count(); ++v)
+    for (int l = 0; l < btf.light_count(); ++l)
+      for (int y = 0; y < size; ++y)
+        for (int x = 0; x < size; ++x) {
+          const Eigen::Vector3f c = fill(x, y, v, l);
+          float* p = btf.view_images[v].pixel(x, l * size + y);
+          for (int ch = 0; ch < 3; ++ch) p[ch] = c[ch];
+        }
+  return btf;
+}
+
+// Largest of f(x, y, view, light) over every value of a BTF of `shape`'s size.
+double MaxOverValues(const FactoredBtf& shape, const std::function<double(int, int, int, int)>& f) {
+  double worst = 0.0;
+  for (int v = 0; v < shape.view_count(); ++v)
+    for (int l = 0; l < shape.light_count(); ++l)
+      for (int y = 0; y < shape.height; ++y)
+        for (int x = 0; x < shape.width; ++x) worst = std::max(worst, f(x, y, v, l));
+  return worst;
+}
+
+// Largest |reconstruction - input| over every value.
+double MaxAbsError(const FullBtf& btf, const FactoredBtf& f) {
+  return MaxOverValues(f, [&](int x, int y, int v, int l) {
+    return static_cast<double>((f.Reconstruct(x, y, v, l) - btf.at(x, y, v, l)).cwiseAbs().maxCoeff());
+  });
+}
+
+BtfCompressionOptions Options(BtfFactorLayout layout, BtfFactorColor color, int rank, double budget = 0.01) {
+  BtfCompressionOptions o;
+  o.layout = layout;
+  o.color = color;
+  o.rank = rank;
+  o.max_relative_error = budget;
+  return o;
+}
+
+// Integer-valued data of rank 3 per channel in both layouts, sum_k
+// a_k(x, y) b_k(view) c_k(light): every entry is exact in float, so the
+// matrix is exactly of rank 3, not rank 3 plus float rounding.
+Eigen::Vector3f IntegerRank3(int x, int y, int v, int l) {
+  const int t = x + 3 * y;
+  Eigen::Vector3f c;
+  for (int ch = 0; ch < 3; ++ch) {
+    const int a0 = (t * (ch + 1)) % 5 + 1, a1 = (t * 3 + ch) % 7 - 3, a2 = (t + 2 * ch) % 3;
+    const int b0 = v % 4 + 1, b1 = (v * 5 + ch) % 3 - 1, b2 = (v * 2) % 5 - 2;
+    const int c0 = l % 2 + 1, c1 = (l + ch) % 3, c2 = 2 - l % 4;
+    c[ch] = static_cast<float>(a0 * b0 * c0 + a1 * b1 * c1 + a2 * b2 * c2);
+  }
+  return c;
+}
+
+TEST(BtfCompression, OptionsAreChecked) {
+  EXPECT_TRUE(BtfCompressionOptions{}.Check().empty());
+  BtfCompressionOptions o;
+  o.rank = 101;
+  EXPECT_NE(o.Check().find("rank 101"), std::string::npos);
+  o.rank = 0;
+  o.max_relative_error = 0.0;
+  EXPECT_NE(o.Check().find("max_relative_error"), std::string::npos);
+  o.max_relative_error = std::nan("");
+  EXPECT_FALSE(o.Check().empty());
+}
+
+TEST(BtfCompression, FlatLambertianGroundTruthIsRankOne) {
+  const auto scene = sim::MakeBuiltinScene("flat");
+  sim::GroundTruthOptions gt;
+  gt.texture_width = gt.texture_height = 8;
+  gt.sample_size_mm = 6.0;
+  gt.views = SamplingSet::Named("grid6x3");
+  gt.lights = SamplingSet::Named("grid6x4");
+  const FullBtf btf = sim::RenderTrueBtf(*scene, gt);
+  for (auto layout : {BtfFactorLayout::kPaper, BtfFactorLayout::kPerTexel}) {
+    for (auto color : {BtfFactorColor::kRgb, BtfFactorColor::kYCbCr}) {
+      BtfCompressionReport report;
+      const FactoredBtf f = CompressBtf(btf, Options(layout, color, 0, 1e-4), &report);
+      EXPECT_EQ(f.rank(), 1) << ToString(layout) << " " << ToString(color) << ": " << report.reason;
+      EXPECT_EQ(report.rank, 1);
+      EXPECT_LT(report.relative_rms_error[0], 1e-4);
+      EXPECT_LT(report.measured_relative_rms_error, 1e-4);
+      EXPECT_NEAR(f.Reconstruct(3, 5, 7, 11).x(), 0.5 / M_PI, 1e-5);
+    }
+  }
+}
+
+TEST(BtfCompression, ExactlyRankDeficientDataHasZeroTailAndRankThreeIsExact) {
+  // 12 views, 16 x 16 texels, 10 lights: paper matrix 2560 x 12 of rank 3.
+  const FullBtf btf = MakeBtf(16, SamplingSet::Named("grid6x2"), SamplingSet::Named("grid5x2"), IntegerRank3);
+  for (auto layout : {BtfFactorLayout::kPaper, BtfFactorLayout::kPerTexel}) {
+    BtfCompressionReport report;
+    const FactoredBtf f = CompressBtf(btf, Options(layout, BtfFactorColor::kRgb, 0, 1e-6), &report);
+    for (int ch = 0; ch < 3; ++ch) {
+      const Eigen::VectorXd& s = report.singular_values[ch];
+      ASSERT_GE(s.size(), 4);
+      EXPECT_GT(s[2], 1e-3 * s[0]) << "channel " << ch;
+      // Backward-stable SVD: the zero singular values come out at rounding
+      // level (a Gram-matrix method would stop at ~1e-8 of sigma_max).
+      EXPECT_LT(s[3], 1e-12 * s[0]) << "channel " << ch;
+    }
+    EXPECT_EQ(f.rank(), 3) << report.reason;
+    EXPECT_LT(report.measured_relative_rms_error, 1e-6);
+    EXPECT_LT(MaxAbsError(btf, f), 2e-5);  // values up to ~40, float factors
+    // A requested rank above the numerical rank still reconstructs exactly
+    // (the extra components are rounding noise, not garbage).
+    const FactoredBtf f8 = CompressBtf(btf, Options(layout, BtfFactorColor::kRgb, 8));
+    EXPECT_EQ(f8.rank(), 8);
+    EXPECT_LT(MaxAbsError(btf, f8), 2e-5);
+  }
+}
+
+TEST(BtfCompression, SpecularHighlightThousandTimesDiffuse) {
+  // Diffuse 0.1 with a texture, plus a highlight 1000x brighter where the
+  // view is the mirror of the light -- a few columns with huge values.
+  const SamplingSet views = SamplingSet::Named("grid8x3");
+  const SamplingSet lights = views;
+  const FullBtf btf = MakeBtf(8, views, lights, [&](int x, int y, int v, int l) {
+    const float albedo = 0.1f * (1.0f + 0.5f * std::sin(0.9f * x + 0.4f * y));
+    const Eigen::Vector3d mirror(-lights.direction(l).x(), -lights.direction(l).y(), lights.direction(l).z());
+    const bool highlight = (mirror - views.direction(v)).norm() < 1e-6 && (x + y) % 3 == 0;
+    const float s = highlight ? 100.0f : 0.0f;  // 1000x the diffuse level
+    return Eigen::Vector3f(albedo + s, 0.8f * albedo + s, 0.5f * albedo + s);
+  });
+  for (auto layout : {BtfFactorLayout::kPaper, BtfFactorLayout::kPerTexel}) {
+    BtfCompressionReport report;
+    const FactoredBtf full = CompressBtf(btf, Options(layout, BtfFactorColor::kRgb, 24), &report);
+    ASSERT_EQ(report.rank, std::min(24, report.max_rank));
+    // At the matrix's full rank (paper: 24 views) the factors reproduce the
+    // diffuse level next to the highlight: float rounding of the ~100 values
+    // is ~1e-5, far below the 0.1 diffuse level.
+    if (layout == BtfFactorLayout::kPaper) {
+      EXPECT_LT(MaxAbsError(btf, full), 1e-4);
+      EXPECT_NEAR(full.Reconstruct(1, 1, 5, 5).y(), btf.at(1, 1, 5, 5).y(), 1e-4);
+    }
+    // The spectrum's error at each rank is the measured error of the
+    // truncated factors (Eckart-Young), within float storage of the factors.
+    for (int k : {1, 2, 4, 8}) {
+      const FactoredBtf f = CompressBtf(btf, Options(layout, BtfFactorColor::kRgb, k));
+      const double measured = RelativeRmsError(btf, f);
+      EXPECT_NEAR(measured, report.relative_rms_error[k - 1], 1e-4 * report.relative_rms_error[k - 1] + 1e-6)
+          << ToString(layout) << " rank " << k;
+    }
+    // The budget picks the smallest rank that meets it, and says so.
+    BtfCompressionReport chosen;
+    const FactoredBtf f = CompressBtf(btf, Options(layout, BtfFactorColor::kRgb, 0, 0.01), &chosen);
+    EXPECT_LE(chosen.measured_relative_rms_error, 0.01);
+    if (chosen.rank > 1) {
+      EXPECT_GT(chosen.relative_rms_error[chosen.rank - 2], 0.01);
+    }
+    EXPECT_NE(chosen.reason.find("budget"), std::string::npos) << chosen.reason;
+  }
+}
+
+TEST(BtfCompression, ConstantZeroChannelGivesZeroFactorsAndNoNaN) {
+  const SamplingSet views = SamplingSet::Named("grid5x2");
+  const SamplingSet lights = SamplingSet::Named("grid4x2");
+  const FullBtf btf = MakeBtf(4, views, lights, [](int x, int y, int v, int l) {
+    const float r = IntegerRank3(x, y, v, l).x();
+    return Eigen::Vector3f(r, 0.5f * r, 0.0f);
+  });
+  // paper: 128 x 10 (tall); per_texel: 16 x 80 (wide, factored through A^T).
+  for (auto layout : {BtfFactorLayout::kPaper, BtfFactorLayout::kPerTexel}) {
+    for (auto color : {BtfFactorColor::kRgb, BtfFactorColor::kYCbCr}) {
+      BtfCompressionReport report;
+      const FactoredBtf f = CompressBtf(btf, Options(layout, color, 6), &report);
+      for (const Image& r : f.rows)
+        for (std::size_t i = 0; i < r.size(); ++i) ASSERT_TRUE(std::isfinite(r.data()[i]));
+      for (std::size_t i = 0; i < f.columns.size(); ++i) ASSERT_TRUE(std::isfinite(f.columns.data()[i]));
+      if (color == BtfFactorColor::kRgb) {
+        EXPECT_EQ(report.singular_values[2].norm(), 0.0);
+        for (const Image& r : f.rows)
+          for (int i = 0; i < r.width() * r.height(); ++i) ASSERT_EQ(r.data()[3 * i + 2], 0.0f);
+      }
+      EXPECT_LT(MaxAbsError(btf, f), 2e-5) << ToString(layout) << " " << ToString(color);
+      EXPECT_NEAR(f.Reconstruct(2, 3, 4, 5).z(), 0.0, 1e-5);
+    }
+  }
+  // All zero: every error is 0 and rank 1 is chosen.
+  const FullBtf zero = MakeBtf(4, views, lights, [](int, int, int, int) { return Eigen::Vector3f::Zero(); });
+  BtfCompressionReport report;
+  const FactoredBtf f = CompressBtf(zero, Options(BtfFactorLayout::kPaper, BtfFactorColor::kRgb, 0), &report);
+  EXPECT_EQ(f.rank(), 1);
+  EXPECT_EQ(report.measured_relative_rms_error, 0.0);
+}
+
+TEST(BtfCompression, LayoutsAgreeAtFullRank) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  const SamplingSet views = SamplingSet::Named("grid3x2");
+  const SamplingSet lights = SamplingSet::Named("grid5x1");
+  FullBtf btf = MakeBtf(4, views, lights, [&](int, int, int, int) {
+    return Eigen::Vector3f(u(rng), u(rng), u(rng));
+  });
+  // paper: 80 x 6, full rank 6; per_texel: 16 x 30 (wide), full rank 16.
+  const FactoredBtf paper = CompressBtf(btf, Options(BtfFactorLayout::kPaper, BtfFactorColor::kRgb, 6));
+  const FactoredBtf texel = CompressBtf(btf, Options(BtfFactorLayout::kPerTexel, BtfFactorColor::kYCbCr, 16));
+  for (int v = 0; v < 6; ++v)
+    for (int l = 0; l < 5; ++l)
+      for (int y = 0; y < 4; ++y)
+        for (int x = 0; x < 4; ++x) {
+          ASSERT_LT((paper.Reconstruct(x, y, v, l) - texel.Reconstruct(x, y, v, l)).cwiseAbs().maxCoeff(), 2e-6);
+          ASSERT_LT((paper.Reconstruct(x, y, v, l) - btf.at(x, y, v, l)).cwiseAbs().maxCoeff(), 2e-6);
+        }
+}
+
+TEST(BtfCompression, StreamedQrMatchesADirectSvdAcrossManyBlocks) {
+  // 64 views x (32 x 32 texels x 36 lights): 36864 rows, more than one
+  // parallel chunk of row blocks, so the chunk reduction is exercised.
+  std::mt19937 rng(11);
+  std::normal_distribution<float> g(0.0f, 1.0f);
+  const SamplingSet views = SamplingSet::Named("grid16x4");
+  const SamplingSet lights = SamplingSet::Named("grid9x4");
+  const FullBtf btf = MakeBtf(32, views, lights, [&](int x, int, int v, int) {
+    // A decaying spectrum: smooth part plus small noise.
+    const float s = std::cos(0.1f * x * (v % 5 + 1));
+    return Eigen::Vector3f(s + 0.01f * g(rng), 0.5f * s, 1e-3f * g(rng));
+  });
+  BtfCompressionReport report;
+  CompressBtf(btf, Options(BtfFactorLayout::kPaper, BtfFactorColor::kRgb, 10), &report);
+  for (int ch = 0; ch < 3; ++ch) {
+    Eigen::MatrixXd a(32 * 32 * 36, 64);
+    for (int v = 0; v < 64; ++v)
+      for (int p = 0; p < a.rows(); ++p) a(p, v) = btf.view_images[v].data()[3 * p + ch];
+    // One-sided Jacobi (after a QR) as the reference: another algorithm than
+    // the divide and conquer inside CompressBtf, and a quarter of its compile time.
+    const Eigen::VectorXd direct = Eigen::JacobiSVD<Eigen::MatrixXd>(a).singularValues();
+    const Eigen::VectorXd& streamed = report.singular_values[ch];
+    ASSERT_EQ(streamed.size(), 64);
+    for (int k = 0; k < 64; ++k) EXPECT_NEAR(streamed[k], direct[k], 1e-11 * direct[0]) << "ch " << ch << " k " << k;
+  }
+}
+
+TEST(BtfCompression, RejectsNonFiniteValuesNamingTheView) {
+  FullBtf btf = MakeBtf(4, SamplingSet::Named("grid3x1"), SamplingSet::Named("grid2x1"),
+                        [](int, int, int, int) { return Eigen::Vector3f(1, 1, 1); });
+  btf.view_images[2].pixel(1, 4 + 3)[1] = std::nanf("");
+  try {
+    CompressBtf(btf, BtfCompressionOptions{});
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("view 2"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("texel (1, 3), light 1"), std::string::npos) << e.what();
+  }
+}
+
+
+// Largest |a - b| of the two factorizations' reconstructions over every value.
+double MaxAbsDifference(const FactoredBtf& a, const FactoredBtf& b) {
+  return MaxOverValues(a, [&](int x, int y, int v, int l) {
+    return static_cast<double>((a.Reconstruct(x, y, v, l) - b.Reconstruct(x, y, v, l)).cwiseAbs().maxCoeff());
+  });
+}
+
+FullBtf RandomSmoothBtf(int size, const SamplingSet& views, const SamplingSet& lights, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<float> g(0.0f, 1.0f);
+  return MakeBtf(size, views, lights, [&](int x, int y, int v, int l) {
+    const float s = std::cos(0.3f * x * (v % 3 + 1) + 0.2f * y * (l % 2 + 1));
+    return Eigen::Vector3f(1.0f + s + 0.05f * g(rng), 0.5f + 0.3f * s, 0.2f + 0.01f * g(rng));
+  });
+}
+
+TEST(BtfCompression, BandsOfAnySizeGiveTheSameFactors) {
+  // Every case of the streamed matrix -- paper 384 x 6 and 96 x 6, per_texel
+  // 64 x 36 (all tall) and 16 x 36 (wide, streamed as A^T) -- in one band,
+  // and in bands of one texture line or one column: the same spectrum and
+  // reconstruction up to rounding.
+  for (const int size : {8, 4}) {
+    const FullBtf btf = RandomSmoothBtf(size, SamplingSet::Named("grid3x2"), SamplingSet::Named("grid3x2"), 5);
+    for (const BtfFactorLayout layout : {BtfFactorLayout::kPaper, BtfFactorLayout::kPerTexel}) {
+      BtfCompressionOptions whole = Options(layout, BtfFactorColor::kYCbCr, 5);
+      BtfCompressionOptions banded = whole;
+      banded.band_bytes = 1;
+      BtfCompressionReport rw, rb;
+      const FactoredBtf fw = CompressBtf(btf, whole, &rw);
+      const FactoredBtf fb = CompressBtf(btf, banded, &rb);
+      for (int ch = 0; ch < 3; ++ch) {
+        ASSERT_EQ(rw.singular_values[ch].size(), rb.singular_values[ch].size());
+        for (long long k = 0; k < rw.singular_values[ch].size(); ++k) {
+          EXPECT_NEAR(rb.singular_values[ch][k], rw.singular_values[ch][k], 1e-12 * rw.singular_values[ch][0])
+              << "size " << size << " layout " << ToString(layout) << " ch " << ch << " k " << k;
+        }
+      }
+      EXPECT_LT(MaxAbsDifference(fw, fb), 1e-5) << "size " << size << " layout " << ToString(layout);
+      EXPECT_NEAR(rb.measured_relative_rms_error, rw.measured_relative_rms_error, 1e-9);
+    }
+  }
+}
+
+TEST(BtfCompression, StreamsAPackagesViewFilesWithoutReadingThemWhole) {
+  testing::TemporaryDirectory dir;
+  const SamplingSet views = SamplingSet::Named("grid3x2");
+  const SamplingSet lights = SamplingSet::Named("grid3x1");
+  const FullBtf btf = RandomSmoothBtf(8, views, lights, 9);
+  MaterialDescription d;
+  d.name = "streamed";
+  d.width = d.height = 8;
+  d.physical_size_mm = {4.0, 4.0};
+  d.d_max_mm = 1.0;
+  d.view_directions = views;
+  d.light_directions = lights;
+  {
+    MaterialPackageWriter writer(dir / "pkg", d, false);
+    for (int v = 0; v < btf.view_count(); ++v) writer.WriteFullBtfView(v, btf.view_images[v]);
+    writer.Commit();
+  }
+  BtfCompressionOptions o = Options(BtfFactorLayout::kPaper, BtfFactorColor::kRgb, 4);
+  const FactoredBtf in_memory = CompressBtf(btf, o);
+  o.band_bytes = 1;  // one texture line of every view file at a time
+  PackageFullBtfReader reader(dir / "pkg", ReadMaterialManifest(dir / "pkg"));
+  BtfCompressionReport report;
+  const FactoredBtf streamed = CompressBtf(reader, o, &report);
+  EXPECT_LT(MaxAbsDifference(in_memory, streamed), 1e-5);
+  EXPECT_NEAR(report.measured_relative_rms_error, RelativeRmsError(btf, in_memory), 1e-9);
+
+  // Compressing the package as it now is fails with an error naming every part.
+  auto expect_error_naming = [&](std::initializer_list<std::string> parts) {
+    PackageFullBtfReader reader(dir / "pkg", ReadMaterialManifest(dir / "pkg"));
+    try {
+      CompressBtf(reader, o);
+      FAIL() << "expected an error";
+    } catch (const Error& e) {
+      for (const std::string& part : parts) EXPECT_NE(std::string(e.what()).find(part), std::string::npos) << e.what();
+    }
+  };
+  // A non-finite value in a view file: the error names the file, texel and light.
+  Image bad = btf.view_images[4];
+  bad.pixel(2, 8 * 1 + 5)[2] = std::numeric_limits<float>::infinity();
+  WriteImage(dir / "pkg" / FullBtfViewFile(4), bad);
+  expect_error_naming({"view_0004.exr", "texel (2, 5), light 1, channel 2"});
+  // A view file of another size: named before any value is used.
+  WriteImage(dir / "pkg" / FullBtfViewFile(2), Image(8, 8, 3));
+  expect_error_naming({"view_0002.exr", "height"});
+}
+
+}  // namespace
+}  // namespace mesocap

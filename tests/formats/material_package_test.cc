@@ -1,0 +1,990 @@
+#include "formats/material_package.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/SVD>
+#include <atomic>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <functional>
+#include <limits>
+#include <new>
+#include <random>
+
+#include "core/error.h"
+#include "core/image_io.h"
+#include "core/json_field_reader.h"
+#include "core/version.h"
+#include "tests/common/temporary_directory.h"
+
+// The hostile-input tests must show that no reader allocates what a manifest
+// or an image header claims before checking it. This binary replaces the
+// global (unaligned) allocation functions, all of them so that every pair
+// stays matched under AddressSanitizer, to record the largest request.
+namespace {
+std::atomic<std::size_t> g_largest_allocation{0};
+
+void* Allocate(std::size_t size) noexcept {
+  std::size_t seen = g_largest_allocation.load(std::memory_order_relaxed);
+  while (size > seen && !g_largest_allocation.compare_exchange_weak(seen, size, std::memory_order_relaxed)) {
+  }
+  return std::malloc(size == 0 ? 1 : size);
+}
+}  // namespace
+
+void* operator new(std::size_t size) {
+  if (void* p = Allocate(size)) return p;
+  throw std::bad_alloc();
+}
+void* operator new[](std::size_t size) { return ::operator new(size); }
+void* operator new(std::size_t size, const std::nothrow_t&) noexcept { return Allocate(size); }
+void* operator new[](std::size_t size, const std::nothrow_t&) noexcept { return Allocate(size); }
+// GCC sees free() on memory from operator new and warns; here both are the
+// replacements above, which allocate with malloc.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete[](void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+void operator delete(void* p, const std::nothrow_t&) noexcept { std::free(p); }
+void operator delete[](void* p, const std::nothrow_t&) noexcept { std::free(p); }
+#pragma GCC diagnostic pop
+
+namespace mesocap {
+namespace {
+namespace fs = std::filesystem;
+
+// Far above anything the small test packages need (OpenImageIO's scanline
+// reader stages through a fixed 64 MiB buffer), far below what the hostile
+// manifests claim (gigabytes).
+constexpr std::size_t kAllocationCeiling = 256u << 20;
+
+constexpr int kW = 5;
+constexpr int kH = 4;
+
+SamplingSet TestViews() {
+  return SamplingSet::FromAngles("test-views", {{0.0, 0.0}, {0.5, 0.0}, {0.5, 2.0}});
+}
+SamplingSet TestLights() {
+  return SamplingSet::FromAngles("test-lights", {{0.2, 1.0}, {0.7, 0.0}, {0.7, 2.0}, {0.7, 4.0}});
+}
+
+MaterialDescription TestDescription() {
+  MaterialDescription d;
+  d.name = "weave";
+  d.width = kW;
+  d.height = kH;
+  d.physical_size_mm = {10.0, 8.0};
+  d.d_max_mm = 1.5;
+  d.view_directions = TestViews();
+  d.light_directions = TestLights();
+  d.provenance.source = "groundtruth scene=weave rig=small";
+  return d;
+}
+
+Mdf TestMdf() {
+  Mdf mdf = MakeMdf(kW, kH, TestViews());
+  for (int v = 0; v < mdf.view_count(); ++v)
+    for (int y = 0; y < kH; ++y)
+      for (int x = 0; x < kW; ++x) mdf.at(x, y, v) = 0.0137f * (x + 2 * y + 3 * v) + 0.001f * x * y;
+  mdf.at(0, 0, 1) = MdfNoHit();
+  mdf.at(4, 3, 2) = MdfNoHit();
+  mdf.at(2, 1, 0) = MdfUnknown();
+  mdf.at(3, 3, 2) = 0.0f;
+  return mdf;
+}
+
+// Dyadic values: exact in float, in EXR and in sums of a few products.
+float Dyadic(int a, int b, int c, int d) {
+  return static_cast<float>((a + 3 * b + 5 * c + 7 * d) % 64) / 64.0f;
+}
+
+FullBtf TestFullBtf() {
+  FullBtf btf = MakeFullBtf(kW, kH, TestViews(), TestLights());
+  for (int v = 0; v < btf.view_count(); ++v)
+    for (int l = 0; l < btf.light_count(); ++l)
+      for (int y = 0; y < kH; ++y)
+        for (int x = 0; x < kW; ++x)
+          for (int c = 0; c < 3; ++c) btf.view_images[v].at(x, l * kH + y, c) = Dyadic(x + c, y, v, l);
+  return btf;
+}
+
+// A factored BTF with arbitrary (dyadic) factors.
+FactoredBtf TestFactoredBtf(BtfFactorLayout layout, BtfFactorColor color, int rank) {
+  FactoredBtf btf;
+  btf.width = kW;
+  btf.height = kH;
+  btf.views = TestViews();
+  btf.lights = TestLights();
+  btf.layout = layout;
+  btf.color = color;
+  if (color == BtfFactorColor::kYCbCr) btf.rgb_to_factored = YCbCrFromLinearRgbBt601();
+  for (int k = 0; k < rank; ++k) {
+    Image rows(kW, btf.row_image_height(), 3);
+    for (int y = 0; y < rows.height(); ++y)
+      for (int x = 0; x < kW; ++x)
+        for (int c = 0; c < 3; ++c) rows.at(x, y, c) = Dyadic(x, y, c, k) - 0.25f;
+    btf.rows.push_back(rows);
+  }
+  btf.columns = Image(btf.column_count(), rank, 3);
+  for (int k = 0; k < rank; ++k)
+    for (int i = 0; i < btf.column_count(); ++i)
+      for (int c = 0; c < 3; ++c) btf.columns.at(i, k, c) = Dyadic(i, k, c, 1) + 0.5f;
+  return btf;
+}
+
+AmbientTerm TestAmbient() {
+  AmbientTerm a;
+  a.width = kW;
+  a.height = kH;
+  a.views = TestViews();
+  a.values = Image(kW, kH * 3, 3);
+  for (int y = 0; y < kH * 3; ++y)
+    for (int x = 0; x < kW; ++x)
+      for (int c = 0; c < 3; ++c) a.values.at(x, y, c) = 0.1f * x + 0.01f * y + 0.3f * c;
+  return a;
+}
+
+MaterialPackage FullTestPackage() {
+  MaterialPackage p;
+  p.description = TestDescription();
+  p.mdf = TestMdf();
+  p.full_btf = TestFullBtf();
+  p.factored_btf = TestFactoredBtf(BtfFactorLayout::kPaper, BtfFactorColor::kYCbCr, 2);
+  p.ambient = TestAmbient();
+  p.error_report = nlohmann::json{{"mdf_rms_error_mm", 0.012}, {"btf_psnr_db", 41.5}};
+  return p;
+}
+
+// Same distance, or the same special value.
+bool SameMdfValue(float a, float b) {
+  if (IsUnknown(a) || IsUnknown(b)) return IsUnknown(a) && IsUnknown(b);
+  return a == b;
+}
+
+void ExpectSameImage(const Image& a, const Image& b) {
+  ASSERT_EQ(a.width(), b.width());
+  ASSERT_EQ(a.height(), b.height());
+  ASSERT_EQ(a.channels(), b.channels());
+  for (std::size_t i = 0; i < a.size(); ++i) ASSERT_EQ(a.data()[i], b.data()[i]) << "value " << i;
+}
+
+void ExpectSameDirections(const SamplingSet& a, const SamplingSet& b) {
+  ASSERT_EQ(a.size(), b.size());
+  for (int i = 0; i < a.size(); ++i) EXPECT_LT((a.direction(i) - b.direction(i)).norm(), 1e-12);
+}
+
+int CountEntries(const fs::path& dir) {
+  int n = 0;
+  for ([[maybe_unused]] const auto& e : fs::directory_iterator(dir)) ++n;
+  return n;
+}
+
+std::string Slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), {}};
+}
+
+void WriteBytes(const fs::path& p, const std::string& bytes) {
+  std::ofstream out(p, std::ios::binary | std::ios::trunc);
+  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+}
+
+// Reads every part a package holds, as `mesocap info` then a renderer would.
+void ReadEverything(const fs::path& dir) {
+  const MaterialManifest m = ReadMaterialManifest(dir);
+  if (m.mdf) ReadMdf(dir, m);
+  if (m.mdf && m.mdf->forms.uint8) ReadQuantizedMdf(dir, m);
+  if (m.full_btf) ReadFullBtf(dir, m);
+  if (m.factored_btf) ReadFactoredBtf(dir, m);
+  if (m.ambient) ReadAmbientTerm(dir, m);
+  if (m.error_report) ReadErrorReport(dir, m);
+}
+
+// ---------------------------------------------------------------------------
+// The MDF and its 8-bit form
+
+TEST(Mdf, SpecialValuesAreDistinctAndNeverDistances) {
+  EXPECT_TRUE(IsNoHit(MdfNoHit()));
+  EXPECT_FALSE(IsUnknown(MdfNoHit()));
+  EXPECT_TRUE(IsUnknown(MdfUnknown()));
+  EXPECT_FALSE(IsNoHit(MdfUnknown()));
+  for (float d : {0.0f, 1.0f, 1e30f}) {
+    EXPECT_FALSE(IsNoHit(d));
+    EXPECT_FALSE(IsUnknown(d));
+    EXPECT_TRUE(IsValidMdfValue(d));
+  }
+  EXPECT_FALSE(IsValidMdfValue(-0.5f));
+  EXPECT_FALSE(IsValidMdfValue(-std::numeric_limits<float>::infinity()));
+  EXPECT_TRUE(IsUnknown(MakeMdf(2, 2, TestViews()).at(1, 1, 2)));
+}
+
+TEST(Mdf, QuantizationErrorIsAtMostHalfAStep) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> distance(0.0f, 2.5f);
+  Mdf mdf = MakeMdf(32, 16, TestViews());
+  for (std::size_t i = 0; i < mdf.distance_mm.size(); ++i) mdf.distance_mm.data()[i] = distance(rng);
+  mdf.at(3, 4, 0) = MdfNoHit();
+  mdf.at(5, 6, 1) = MdfUnknown();
+  const QuantizedMdf q = QuantizeMdf(mdf, 1.5);
+  float largest = 0;
+  for (std::size_t i = 0; i < mdf.distance_mm.size(); ++i) {
+    if (std::isfinite(mdf.distance_mm.data()[i])) largest = std::max(largest, mdf.distance_mm.data()[i]);
+  }
+  EXPECT_DOUBLE_EQ(q.scale_mm, largest / 253.0);
+  EXPECT_EQ(q.at(3, 4, 0), QuantizedMdf::kNoHitCode);
+  EXPECT_EQ(q.at(5, 6, 1), QuantizedMdf::kUnknownCode);
+  const Mdf back = DequantizeMdf(q);
+  for (std::size_t i = 0; i < mdf.distance_mm.size(); ++i) {
+    const float d = mdf.distance_mm.data()[i];
+    const float e = back.distance_mm.data()[i];
+    if (!std::isfinite(d)) {
+      EXPECT_TRUE(SameMdfValue(d, e)) << i;
+      continue;
+    }
+    // scale/2 from rounding, plus the float rounding of the decoded value.
+    EXPECT_LE(std::abs(e - d), q.scale_mm / 2 + 2 * std::numeric_limits<float>::epsilon() * d) << i;
+  }
+}
+
+TEST(Mdf, ScaleFallsBackToDmaxWithoutDistances) {
+  Mdf mdf = MakeMdf(2, 2, TestViews());
+  mdf.at(0, 0, 0) = MdfNoHit();
+  EXPECT_DOUBLE_EQ(MdfQuantizationScale(mdf, 1.5), 1.5 / 253);
+  mdf.at(1, 0, 0) = 0.0f;
+  EXPECT_DOUBLE_EQ(MdfQuantizationScale(mdf, 1.5), 1.5 / 253);
+  EXPECT_THROW(MdfQuantizationScale(mdf, 0.0), Error);
+}
+
+TEST(Mdf, QuantizeRejectsInvalidValues) {
+  Mdf mdf = MakeMdf(2, 2, TestViews());
+  mdf.at(1, 1, 1) = -0.25f;
+  EXPECT_THROW(QuantizeMdf(mdf, 1.0), Error);
+  mdf.at(1, 1, 1) = -std::numeric_limits<float>::infinity();
+  EXPECT_THROW(QuantizeMdf(mdf, 1.0), Error);
+}
+
+TEST(Mdf, EveryCodeSurvivesTheEightBitFile) {
+  testing::TemporaryDirectory dir;
+  MaterialDescription d = TestDescription();
+  d.width = 16;
+  d.height = 16;
+  d.view_directions = SamplingSet::FromAngles("one", {{0.0, 0.0}});
+  Mdf mdf = MakeMdf(16, 16, d.view_directions);
+  const double scale = 0.01;
+  for (int i = 0; i < 256; ++i) {
+    float& v = mdf.at(i % 16, i / 16, 0);
+    v = i <= 253 ? static_cast<float>(i * scale) : (i == 254 ? MdfNoHit() : MdfUnknown());
+  }
+  MaterialPackageWriter writer(dir / "pkg", d, false);
+  writer.WriteMdf(mdf, MdfForms{.float32 = false, .uint8 = true});
+  const MaterialManifest m = writer.Commit();
+  EXPECT_NEAR(m.mdf->scale_mm, scale, 1e-9);
+  EXPECT_FALSE(fs::exists(dir / "pkg" / "mdf.exr"));
+  const QuantizedMdf q = ReadQuantizedMdf(dir / "pkg", m);
+  for (int i = 0; i < 256; ++i) EXPECT_EQ(q.at(i % 16, i / 16, 0), i);
+  // Without the float form, ReadMdf decodes the 8-bit one.
+  const Mdf back = ReadMdf(dir / "pkg", m);
+  EXPECT_TRUE(IsNoHit(back.at(14, 15, 0)));
+  EXPECT_TRUE(IsUnknown(back.at(15, 15, 0)));
+  EXPECT_NEAR(back.at(13, 15, 0), 253 * scale, 1e-6);
+}
+
+// ---------------------------------------------------------------------------
+// Factored BTF
+
+// T = r_0 c_0^T + r_1 c_1^T built by hand in each layout; the package must
+// reconstruct it exactly (dyadic values make every product exact).
+TEST(FactoredBtf, ReconstructsAKnownRankTwoBtfExactly) {
+  for (BtfFactorLayout layout : {BtfFactorLayout::kPaper, BtfFactorLayout::kPerTexel}) {
+    SCOPED_TRACE(ToString(layout));
+    const FactoredBtf btf = TestFactoredBtf(layout, BtfFactorColor::kRgb, 2);
+    testing::TemporaryDirectory dir;
+    MaterialPackage p;
+    p.description = TestDescription();
+    p.factored_btf = btf;
+    WriteMaterialPackage(dir / "pkg", p, false);
+    const FactoredBtf back = ReadFactoredBtf(dir / "pkg", ReadMaterialManifest(dir / "pkg"));
+    ASSERT_EQ(back.rank(), 2);
+    for (int v = 0; v < 3; ++v)
+      for (int l = 0; l < 4; ++l)
+        for (int y = 0; y < kH; ++y)
+          for (int x = 0; x < kW; ++x) {
+            const int row = layout == BtfFactorLayout::kPaper ? l * kH + y : y;
+            const int column = layout == BtfFactorLayout::kPaper ? v : v * 4 + l;
+            const Eigen::Vector3f got = back.Reconstruct(x, y, v, l);
+            for (int c = 0; c < 3; ++c) {
+              const float expected = btf.rows[0].at(x, row, c) * btf.columns.at(column, 0, c) +
+                                     btf.rows[1].at(x, row, c) * btf.columns.at(column, 1, c);
+              ASSERT_EQ(got[c], expected) << "x=" << x << " y=" << y << " v=" << v << " l=" << l;
+            }
+          }
+  }
+}
+
+// The layouts as the format documents them: factor the BTF matrix with an
+// SVD, store the full-rank factors, and get the BTF back.
+FactoredBtf FactorBySvd(const FullBtf& full, BtfFactorLayout layout, BtfFactorColor color) {
+  FactoredBtf btf;
+  btf.width = full.width;
+  btf.height = full.height;
+  btf.views = full.views;
+  btf.lights = full.lights;
+  btf.layout = layout;
+  btf.color = color;
+  if (color == BtfFactorColor::kYCbCr) btf.rgb_to_factored = YCbCrFromLinearRgbBt601();
+  const int W = full.width, H = full.height, V = full.view_count(), L = full.light_count();
+  const bool paper = layout == BtfFactorLayout::kPaper;
+  const int rows = paper ? W * H * L : W * H;
+  const int columns = paper ? V : V * L;
+  const int rank = std::min(rows, columns);
+  auto row_of = [&](int x, int y, int l) { return paper ? (l * H + y) * W + x : y * W + x; };
+  auto column_of = [&](int v, int l) { return paper ? v : v * L + l; };
+  for (int k = 0; k < rank; ++k) btf.rows.emplace_back(W, btf.row_image_height(), 3);
+  btf.columns = Image(columns, rank, 3);
+  for (int c = 0; c < 3; ++c) {
+    Eigen::MatrixXd a(rows, columns);
+    for (int v = 0; v < V; ++v)
+      for (int l = 0; l < L; ++l)
+        for (int y = 0; y < H; ++y)
+          for (int x = 0; x < W; ++x) {
+            const Eigen::Vector3d rgb = full.at(x, y, v, l).cast<double>();
+            a(row_of(x, y, l), column_of(v, l)) = (btf.rgb_to_factored * rgb)[c];
+          }
+    Eigen::JacobiSVD<Eigen::MatrixXd> svd(a, Eigen::ComputeThinU | Eigen::ComputeThinV);
+    for (int k = 0; k < rank; ++k) {
+      for (int r = 0; r < rows; ++r) {
+        // Singular values folded into the rows (the format's convention).
+        const float value = static_cast<float>(svd.singularValues()[k] * svd.matrixU()(r, k));
+        btf.rows[k].at(r % W, r / W, c) = value;
+      }
+      for (int j = 0; j < columns; ++j) btf.columns.at(j, k, c) = static_cast<float>(svd.matrixV()(j, k));
+    }
+  }
+  return btf;
+}
+
+TEST(FactoredBtf, SvdFactorsInEachLayoutAndColourReconstructTheBtf) {
+  const FullBtf full = TestFullBtf();
+  for (BtfFactorLayout layout : {BtfFactorLayout::kPaper, BtfFactorLayout::kPerTexel}) {
+    for (BtfFactorColor color : {BtfFactorColor::kRgb, BtfFactorColor::kYCbCr}) {
+      SCOPED_TRACE(std::string(ToString(layout)) + " " + ToString(color));
+      testing::TemporaryDirectory dir;
+      MaterialPackage p;
+      p.description = TestDescription();
+      p.factored_btf = FactorBySvd(full, layout, color);
+      WriteMaterialPackage(dir / "pkg", p, false);
+      const MaterialManifest m = ReadMaterialManifest(dir / "pkg");
+      ASSERT_TRUE(m.factored_btf);
+      EXPECT_EQ(m.factored_btf->layout, layout);
+      EXPECT_EQ(m.factored_btf->color, color);
+      EXPECT_TRUE(m.factored_btf->rgb_to_factored.isApprox(p.factored_btf->rgb_to_factored, 1e-15));
+      const FactoredBtf back = ReadFactoredBtf(dir / "pkg", m);
+      float worst = 0;
+      for (int v = 0; v < 3; ++v)
+        for (int l = 0; l < 4; ++l)
+          for (int y = 0; y < kH; ++y)
+            for (int x = 0; x < kW; ++x) {
+              worst =
+                  std::max(worst, (back.Reconstruct(x, y, v, l) - full.at(x, y, v, l)).cwiseAbs().maxCoeff());
+            }
+      EXPECT_LT(worst, 1e-5f);
+    }
+  }
+}
+
+TEST(FactoredBtf, CheckShapeRejectsInconsistentFactors) {
+  FactoredBtf btf = TestFactoredBtf(BtfFactorLayout::kPaper, BtfFactorColor::kRgb, 2);
+  EXPECT_NO_THROW(btf.CheckShape());
+  FactoredBtf wrong = btf;
+  wrong.columns = Image(4, 2, 3);  // paper: one column per view (3)
+  EXPECT_THROW(wrong.CheckShape(), Error);
+  wrong = btf;
+  wrong.rows[1] = Image(kW, kH, 3);  // paper rows are H * Nlight tall
+  EXPECT_THROW(wrong.CheckShape(), Error);
+  wrong = btf;
+  wrong.color = BtfFactorColor::kYCbCr;
+  wrong.rgb_to_factored = Eigen::Matrix3d::Ones();
+  EXPECT_THROW(wrong.CheckShape(), Error);
+  wrong = TestFactoredBtf(BtfFactorLayout::kPaper, BtfFactorColor::kRgb, 4);  // rank 4 > 3 columns
+  EXPECT_THROW(wrong.CheckShape(), Error);
+}
+
+// ---------------------------------------------------------------------------
+// Round trips
+
+TEST(MaterialPackage, EveryPartRoundTrips) {
+  testing::TemporaryDirectory dir;
+  const MaterialPackage p = FullTestPackage();
+  WriteMaterialPackage(dir / "pkg", p, false);
+  EXPECT_EQ(CountEntries(dir.path()), 1) << "temporary folder left behind";
+
+  const MaterialManifest m = ReadMaterialManifest(dir / "pkg");
+  const MaterialDescription& d = m.description;
+  EXPECT_EQ(d.name, "weave");
+  EXPECT_EQ(d.width, kW);
+  EXPECT_EQ(d.height, kH);
+  EXPECT_EQ(d.physical_size_mm, Eigen::Vector2d(10.0, 8.0));
+  EXPECT_EQ(d.d_max_mm, 1.5);
+  ExpectSameDirections(d.view_directions, TestViews());
+  ExpectSameDirections(d.light_directions, TestLights());
+  EXPECT_EQ(d.provenance.software_version, Version());
+  EXPECT_EQ(d.provenance.created_utc.size(), 20u) << d.provenance.created_utc;  // 2025-01-31T18:04:05Z
+  EXPECT_EQ(d.provenance.source, "groundtruth scene=weave rig=small");
+  ASSERT_TRUE(m.mdf);
+  EXPECT_TRUE(m.mdf->forms.float32 && m.mdf->forms.uint8);
+  EXPECT_TRUE(m.full_btf);
+  EXPECT_TRUE(m.factored_btf && m.ambient && m.error_report);
+
+  const MaterialPackage back = ReadMaterialPackage(dir / "pkg");
+  // MDF, float form: exact, specials kept.
+  ASSERT_TRUE(back.mdf);
+  for (int v = 0; v < 3; ++v)
+    for (int y = 0; y < kH; ++y)
+      for (int x = 0; x < kW; ++x) EXPECT_TRUE(SameMdfValue(back.mdf->at(x, y, v), p.mdf->at(x, y, v)));
+  EXPECT_TRUE(IsNoHit(back.mdf->at(0, 0, 1)));
+  EXPECT_TRUE(IsUnknown(back.mdf->at(2, 1, 0)));
+  // MDF, 8-bit form: within scale/2, specials kept.
+  const QuantizedMdf q = ReadQuantizedMdf(dir / "pkg", m);
+  EXPECT_DOUBLE_EQ(q.scale_mm, MdfQuantizationScale(*p.mdf, 1.5));
+  const Mdf decoded = DequantizeMdf(q);
+  for (int v = 0; v < 3; ++v)
+    for (int y = 0; y < kH; ++y)
+      for (int x = 0; x < kW; ++x) {
+        const float a = p.mdf->at(x, y, v), b = decoded.at(x, y, v);
+        if (std::isfinite(a)) {
+          EXPECT_LE(std::abs(a - b), q.scale_mm / 2 + 1e-6);
+        } else {
+          EXPECT_TRUE(SameMdfValue(a, b));
+        }
+      }
+  EXPECT_EQ(q.at(4, 3, 2), QuantizedMdf::kNoHitCode);
+  EXPECT_EQ(q.at(2, 1, 0), QuantizedMdf::kUnknownCode);
+  // BTF, both forms; ambient; error report.
+  ASSERT_TRUE(back.full_btf);
+  for (int v = 0; v < 3; ++v) ExpectSameImage(back.full_btf->view_images[v], p.full_btf->view_images[v]);
+  ASSERT_TRUE(back.factored_btf);
+  EXPECT_EQ(back.factored_btf->layout, BtfFactorLayout::kPaper);
+  EXPECT_EQ(back.factored_btf->color, BtfFactorColor::kYCbCr);
+  ExpectSameImage(back.factored_btf->columns, p.factored_btf->columns);
+  for (int k = 0; k < 2; ++k) ExpectSameImage(back.factored_btf->rows[k], p.factored_btf->rows[k]);
+  ASSERT_TRUE(back.ambient);
+  ExpectSameImage(back.ambient->values, p.ambient->values);
+  EXPECT_EQ(back.ambient->at(1, 2, 2), p.ambient->at(1, 2, 2));
+  ASSERT_TRUE(back.error_report);
+  EXPECT_EQ(*back.error_report, *p.error_report);
+}
+
+TEST(MaterialPackage, AnySubsetOfPartsIsAPackage) {
+  testing::TemporaryDirectory dir;
+  MaterialPackage p;
+  p.description = TestDescription();
+  WriteMaterialPackage(dir / "empty", p, false);
+  const MaterialManifest empty = ReadMaterialManifest(dir / "empty");
+  EXPECT_FALSE(empty.mdf || empty.full_btf || empty.factored_btf || empty.ambient || empty.error_report);
+  EXPECT_THROW(ReadMdf(dir / "empty", empty), FormatError);
+  EXPECT_THROW(ReadFullBtfView(dir / "empty", empty, 0), FormatError);
+  EXPECT_THROW(ReadAmbientTerm(dir / "empty", empty), FormatError);
+
+  p.mdf = TestMdf();  // the ground-truth MDF-only package
+  p.mdf_forms.uint8 = false;
+  WriteMaterialPackage(dir / "mdf-only", p, false);
+  const MaterialManifest m = ReadMaterialManifest(dir / "mdf-only");
+  ASSERT_TRUE(m.mdf);
+  EXPECT_FALSE(m.mdf->forms.uint8);
+  EXPECT_FALSE(fs::exists(dir / "mdf-only" / "mdf8.tif"));
+  EXPECT_THROW(ReadQuantizedMdf(dir / "mdf-only", m), FormatError);
+  EXPECT_TRUE(SameMdfValue(ReadMdf(dir / "mdf-only", m).at(2, 1, 0), MdfUnknown()));
+}
+
+// A measured MDF's per-texel confidence: stored exactly beside the MDF, only
+// after it, only in [0, 1] and in the MDF's layout; a bad file is an error
+// naming the file and the texel.
+TEST(MaterialPackage, MdfConfidenceRoundTripsAndIsChecked) {
+  testing::TemporaryDirectory dir;
+  const MaterialDescription d = TestDescription();
+  const Mdf mdf = TestMdf();
+  Image confidence(mdf.distance_mm.width(), mdf.distance_mm.height(), 1, 0.0f);
+  for (std::size_t i = 0; i < confidence.size(); ++i) confidence.data()[i] = static_cast<float>(i % 7) / 6.0f;
+  {
+    MaterialPackageWriter writer(dir / "pkg", d, false);
+    EXPECT_THROW(writer.WriteMdfConfidence(confidence), Error) << "before the MDF";
+    writer.WriteMdf(mdf);
+    Image bad = confidence;
+    bad.data()[5] = 1.5f;
+    EXPECT_THROW(writer.WriteMdfConfidence(bad), Error);
+    bad.data()[5] = std::nanf("");
+    EXPECT_THROW(writer.WriteMdfConfidence(bad), Error);
+    EXPECT_THROW(writer.WriteMdfConfidence(Image(kW, kH, 1)), Error) << "one view's size";
+    writer.WriteMdfConfidence(confidence);
+    writer.Commit();
+  }
+  const MaterialManifest m = ReadMaterialManifest(dir / "pkg");
+  ASSERT_TRUE(m.mdf);
+  EXPECT_TRUE(m.mdf->confidence);
+  ExpectSameImage(ReadMdfConfidence(dir / "pkg", m), confidence);
+
+  Image mutated = confidence;
+  mutated.at(1, kH + 2) = 2.0f;  // view 1, texel (1, 2)
+  WriteImage(dir / "pkg" / "mdf_confidence.exr", mutated, PixelEncoding::kFloat32);
+  try {
+    ReadMdfConfidence(dir / "pkg", m);
+    ADD_FAILURE() << "expected a FormatError";
+  } catch (const FormatError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("mdf_confidence.exr"), std::string::npos) << what;
+    EXPECT_NE(what.find("view 1, texel (1, 2)"), std::string::npos) << what;
+  }
+  fs::remove(dir / "pkg" / "mdf_confidence.exr");
+  EXPECT_THROW(ReadMaterialManifest(dir / "pkg"), FormatError) << "the manifest names a missing file";
+}
+
+TEST(MaterialPackage, FullBtfIsWrittenAndReadViewByView) {
+  testing::TemporaryDirectory dir;
+  const FullBtf full = TestFullBtf();
+  MaterialPackageWriter writer(dir / "pkg", TestDescription(), false);
+  for (int v = 2; v >= 0; --v) writer.WriteFullBtfView(v, full.view_images[v]);
+  EXPECT_THROW(writer.WriteFullBtfView(1, full.view_images[1]), Error);  // twice
+  EXPECT_THROW(writer.WriteFullBtfView(3, full.view_images[0]), Error);  // no such view
+  EXPECT_FALSE(fs::exists(dir / "pkg")) << "visible before Commit";
+  const MaterialManifest m = writer.Commit();
+  EXPECT_THROW(writer.WriteAmbientTerm(TestAmbient()), Error);  // after Commit
+  ASSERT_TRUE(m.full_btf);
+  for (int v = 0; v < 3; ++v) {
+    const Image view = ReadFullBtfView(dir / "pkg", m, v);
+    EXPECT_EQ(view.width(), kW);
+    EXPECT_EQ(view.height(), kH * 4);
+    ExpectSameImage(view, full.view_images[v]);
+  }
+  EXPECT_THROW(ReadFullBtfView(dir / "pkg", m, 3), Error);
+  EXPECT_EQ(fs::path(FullBtfViewFile(7)).generic_string(), "btf/view_0007.exr");
+  EXPECT_EQ(fs::path(BtfRowFactorFile(3)).generic_string(), "btf/rows_03.exr");
+}
+
+TEST(MaterialPackage, CommitRefusesAnIncompleteFullBtf) {
+  testing::TemporaryDirectory dir;
+  {
+    MaterialPackageWriter writer(dir / "pkg", TestDescription(), false);
+    writer.WriteFullBtfView(0, TestFullBtf().view_images[0]);
+    EXPECT_THROW(writer.Commit(), Error);
+  }
+  EXPECT_EQ(CountEntries(dir.path()), 0);
+}
+
+TEST(MaterialPackage, WriterRejectsPartsThatDoNotMatchTheDescription) {
+  testing::TemporaryDirectory dir;
+  MaterialPackageWriter writer(dir / "pkg", TestDescription(), false);
+  Mdf mdf = MakeMdf(kW + 1, kH, TestViews());
+  EXPECT_THROW(writer.WriteMdf(mdf), Error);
+  mdf = MakeMdf(kW, kH, TestLights());
+  EXPECT_THROW(writer.WriteMdf(mdf), Error);
+  mdf = TestMdf();
+  mdf.at(1, 1, 1) = -1.0f;
+  EXPECT_THROW(writer.WriteMdf(mdf), Error);
+  EXPECT_THROW(writer.WriteMdf(TestMdf(), MdfForms{.float32 = false, .uint8 = false}), Error);
+  Image view = TestFullBtf().view_images[0];
+  view.at(0, 0, 1) = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_THROW(writer.WriteFullBtfView(0, view), Error);
+  EXPECT_THROW(writer.WriteFullBtfView(0, Image(kW, kH, 3)), Error);
+  FactoredBtf factored = TestFactoredBtf(BtfFactorLayout::kPerTexel, BtfFactorColor::kRgb, 2);
+  factored.lights = TestViews();
+  EXPECT_THROW(writer.WriteFactoredBtf(factored), Error);
+  AmbientTerm ambient = TestAmbient();
+  ambient.values = Image(kW, kH * 3, 1);
+  EXPECT_THROW(writer.WriteAmbientTerm(ambient), Error);
+  EXPECT_THROW(writer.WriteErrorReport(nlohmann::json::array()), Error);
+  // The good parts still go in.
+  writer.WriteMdf(TestMdf());
+  EXPECT_THROW(writer.WriteMdf(TestMdf()), Error);
+  writer.Commit();
+  EXPECT_TRUE(ReadMaterialManifest(dir / "pkg").mdf);
+
+  MaterialDescription bad = TestDescription();
+  bad.d_max_mm = 0;
+  EXPECT_THROW(MaterialPackageWriter(dir / "bad", bad, false), Error);
+  bad = TestDescription();
+  bad.width = kMaxTextureSize + 1;
+  EXPECT_THROW(MaterialPackageWriter(dir / "bad", bad, false), Error);
+  EXPECT_FALSE(fs::exists(dir / "bad"));
+}
+
+// ---------------------------------------------------------------------------
+// Replacing and failing
+
+TEST(MaterialPackage, ReplacesAnExistingPackageOnlyWhenAsked) {
+  testing::TemporaryDirectory dir;
+  MaterialPackage a = FullTestPackage();
+  WriteMaterialPackage(dir / "pkg", a, false);
+  MaterialPackage b;
+  b.description = TestDescription();
+  b.description.name = "replacement";
+  b.mdf = TestMdf();
+  EXPECT_THROW(WriteMaterialPackage(dir / "pkg", b, false), Error);
+  EXPECT_EQ(ReadMaterialManifest(dir / "pkg").description.name, "weave");
+  WriteMaterialPackage(dir / "pkg", b, true);
+  const MaterialManifest m = ReadMaterialManifest(dir / "pkg");
+  EXPECT_EQ(m.description.name, "replacement");
+  EXPECT_FALSE(m.full_btf || m.ambient);
+  EXPECT_FALSE(fs::exists(dir / "pkg" / "btf")) << "files of the old package survived";
+  EXPECT_EQ(CountEntries(dir.path()), 1);
+}
+
+TEST(MaterialPackage, FailedWriteKeepsTheOldPackage) {
+  testing::TemporaryDirectory dir;
+  WriteMaterialPackage(dir / "pkg", FullTestPackage(), false);
+  const std::string manifest_before = Slurp(dir / "pkg" / "manifest.json");
+  MaterialPackage bad = FullTestPackage();
+  bad.description.name = "broken";
+  bad.ambient->values.at(2, 2, 2) = std::numeric_limits<float>::infinity();  // fails after MDF and BTF
+  EXPECT_THROW(WriteMaterialPackage(dir / "pkg", bad, true), Error);
+  EXPECT_EQ(Slurp(dir / "pkg" / "manifest.json"), manifest_before);
+  EXPECT_NO_THROW(ReadEverything(dir / "pkg"));
+  EXPECT_EQ(CountEntries(dir.path()), 1) << "partial output left behind";
+}
+
+// ---------------------------------------------------------------------------
+// Hostile input: every failure is a mesocap::Error naming the file, no crash,
+// no allocation of what the input claims.
+
+class HostilePackage : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    pkg_ = dir_ / "pkg";
+    WriteMaterialPackage(pkg_, FullTestPackage(), false);
+    manifest_text_ = Slurp(pkg_ / "manifest.json");
+    manifest_ = nlohmann::json::parse(manifest_text_);
+  }
+
+  // Runs the readers; the outcome must be success or an Error whose message
+  // names a file of the package. Returns the error (empty on success).
+  std::string ReadAndJudge(bool bound_allocation = true) {
+    g_largest_allocation = 0;
+    std::string message;
+    try {
+      ReadEverything(pkg_);
+    } catch (const Error& e) {
+      message = e.what();
+      EXPECT_NE(message.find(pkg_.string()), std::string::npos) << "no file named: " << message;
+    }
+    if (bound_allocation) {
+      EXPECT_LT(g_largest_allocation.load(), kAllocationCeiling) << message;
+    }
+    return message;
+  }
+
+  // Writes `manifest` and expects a FormatError about `file` and `field`.
+  void ExpectManifestRejected(const nlohmann::json& manifest, const std::string& field,
+                              const std::string& file = "manifest.json") {
+    WriteBytes(pkg_ / "manifest.json", manifest.dump(2));
+    ExpectRejected(field, file);
+  }
+
+  void ExpectRejected(const std::string& field, const std::string& file) {
+    g_largest_allocation = 0;
+    try {
+      ReadEverything(pkg_);
+      ADD_FAILURE() << "accepted; expected an error on " << file << " field " << field;
+    } catch (const FormatError& e) {
+      EXPECT_EQ(e.file(), pkg_ / file) << e.what();
+      EXPECT_EQ(e.field(), field) << e.what();
+    } catch (const std::exception& e) {
+      ADD_FAILURE() << "not a FormatError: " << e.what();
+    }
+    EXPECT_LT(g_largest_allocation.load(), kAllocationCeiling);
+  }
+
+  void RestoreManifest() { WriteBytes(pkg_ / "manifest.json", manifest_text_); }
+
+  testing::TemporaryDirectory dir_;
+  fs::path pkg_;
+  std::string manifest_text_;
+  nlohmann::json manifest_;
+};
+
+TEST_F(HostilePackage, TheUntouchedPackageReads) { EXPECT_EQ(ReadAndJudge(), ""); }
+
+TEST_F(HostilePackage, TruncatedManifestAtManyOffsets) {
+  const std::size_t last_brace = manifest_text_.rfind('}');
+  // Every 3rd offset (a few hundred) and every one of the last 8 bytes.
+  for (std::size_t keep = 0; keep < manifest_text_.size(); keep += keep + 8 < manifest_text_.size() ? 3 : 1) {
+    WriteBytes(pkg_ / "manifest.json", manifest_text_.substr(0, keep));
+    const std::string error = ReadAndJudge();
+    if (keep <= last_brace) {
+      EXPECT_NE(error.find("manifest.json"), std::string::npos) << "kept " << keep;
+    }
+  }
+}
+
+TEST_F(HostilePackage, SingleByteMutationsOfTheManifest) {
+  std::mt19937 rng(20050101);
+  std::uniform_int_distribution<std::size_t> offset(0, manifest_text_.size() - 1);
+  std::uniform_int_distribution<int> byte(0, 255);
+  std::string interesting = "0123456789-+.eE\"[]{}:,nNaI \xff";
+  interesting.push_back('\0');
+  int rejected = 0;
+  for (int i = 0; i < 600; ++i) {
+    std::string text = manifest_text_;
+    const std::size_t at = offset(rng);
+    // Half the time a byte that changes the JSON's meaning rather than its syntax.
+    text[at] = i % 2 ? static_cast<char>(byte(rng)) : interesting[byte(rng) % interesting.size()];
+    WriteBytes(pkg_ / "manifest.json", text);
+    if (!ReadAndJudge().empty()) ++rejected;
+  }
+  EXPECT_GT(rejected, 300);
+}
+
+// No allocation bound here: a mutated EXR header (a huge data window) makes
+// OpenEXR allocate up to ~2 GiB inside OpenImageIO's open(), before any
+// mesocap code sees the header. The manifest-driven checks above bound what
+// mesocap itself allocates.
+TEST_F(HostilePackage, SingleByteMutationsOfTheImages) {
+  std::mt19937 rng(42);
+  for (const char* name : {"mdf.exr", "mdf8.tif", "btf/view_0001.exr", "btf/columns.exr", "ambient.exr"}) {
+    SCOPED_TRACE(name);
+    const std::string original = Slurp(pkg_ / name);
+    std::uniform_int_distribution<std::size_t> offset(0, original.size() - 1);
+    std::uniform_int_distribution<int> byte(0, 255);
+    for (int i = 0; i < 100; ++i) {
+      std::string bytes = original;
+      bytes[offset(rng)] = static_cast<char>(byte(rng));
+      WriteBytes(pkg_ / name, bytes);
+      ReadAndJudge(/*bound_allocation=*/false);
+    }
+    WriteBytes(pkg_ / name, original);
+  }
+}
+
+TEST_F(HostilePackage, WrongFormatOrVersionOrUnits) {
+  auto m = manifest_;
+  m["format"] = "mesocap.session";
+  ExpectManifestRejected(m, "format");
+  m = manifest_;
+  m["version"] = 2;
+  ExpectManifestRejected(m, "version");
+  m["version"] = "1";
+  ExpectManifestRejected(m, "version");
+  m = manifest_;
+  m["units"]["length"] = "cm";
+  ExpectManifestRejected(m, "units.length");
+  m = manifest_;
+  m.erase("units");
+  ExpectManifestRejected(m, "units");
+  ExpectManifestRejected(nlohmann::json::array(), "");
+}
+
+TEST_F(HostilePackage, BadSizes) {
+  const std::vector<std::pair<nlohmann::json, std::string>> texture_sizes = {
+      {{0, 4}, "texture_size[0]"},    {{-5, 4}, "texture_size[0]"},
+      {{5, 4.5}, "texture_size[1]"},  {{5, 16385}, "texture_size[1]"},
+      {{5, 1e12}, "texture_size[1]"}, {{"NaN", 4}, "texture_size[0]"},
+      {{5}, "texture_size"},          {"5x4", "texture_size"},
+      {{5, 4, 1}, "texture_size"},    {{5, 18446744073709551615ull}, "texture_size[1]"}};
+  for (const auto& [value, field] : texture_sizes) {
+    SCOPED_TRACE(value.dump());
+    auto m = manifest_;
+    m["texture_size"] = value;
+    ExpectManifestRejected(m, field);
+  }
+  for (const auto& value : {nlohmann::json{0, 8}, nlohmann::json{-1, 8}, nlohmann::json{"Infinity", 8}}) {
+    auto m = manifest_;
+    m["physical_size_mm"] = value;
+    ExpectManifestRejected(m, "physical_size_mm[0]");
+  }
+  for (const auto& value :
+       {nlohmann::json(0), nlohmann::json(-1.5), nlohmann::json("nan"), nlohmann::json(nullptr)}) {
+    auto m = manifest_;
+    m["d_max_mm"] = value;
+    ExpectManifestRejected(m, "d_max_mm");
+  }
+  // Overflowing literals parse to infinity; still refused.
+  std::string text = manifest_text_;
+  const std::string from = "\"d_max_mm\": 1.5";
+  ASSERT_NE(text.find(from), std::string::npos);
+  text.replace(text.find(from), from.size(), "\"d_max_mm\": 1e999");
+  WriteBytes(pkg_ / "manifest.json", text);
+  const std::string error = ReadAndJudge();
+  EXPECT_NE(error.find("manifest.json"), std::string::npos) << error;
+}
+
+TEST_F(HostilePackage, AbsurdImpliedSizesAreRefusedBeforeReading) {
+  // 16384^2 texels x 96 views x 96 lights x RGB: 29 TiB.
+  auto m = manifest_;
+  m["texture_size"] = {16384, 16384};
+  m["view_directions"] = ToJson(SamplingSet::RegularGrid(12, 8));
+  m["light_directions"] = ToJson(SamplingSet::RegularGrid(12, 8));
+  m.erase("mdf");
+  m.erase("ambient");
+  ExpectManifestRejected(m, "btf");
+  // 16384^2 texels x 3600 views: 3.5 TiB of MDF.
+  m = manifest_;
+  m["texture_size"] = {16384, 16384};
+  m.erase("btf");
+  m.erase("ambient");
+  m["view_directions"] = ToJson(SamplingSet::RegularGrid(60, 60));
+  ExpectManifestRejected(m, "mdf");
+  // Plausible sizes that the files do not have: refused on the first image
+  // header, before any pixel is allocated.
+  m = manifest_;
+  m["texture_size"] = {16384, 16384};
+  m.erase("btf");
+  m.erase("error_report");
+  ExpectManifestRejected(m, "width", "mdf.exr");
+}
+
+TEST_F(HostilePackage, BadDirectionSets) {
+  auto m = manifest_;
+  m.erase("view_directions");
+  ExpectManifestRejected(m, "view_directions");
+  m = manifest_;
+  m["light_directions"]["directions_deg"] = nlohmann::json::array();
+  ExpectManifestRejected(m, "light_directions.directions_deg");
+  m = manifest_;
+  m["view_directions"]["directions_deg"][1] = {95.0, 0.0};
+  ExpectManifestRejected(m, "view_directions.directions_deg[1]");
+  // Fewer views than the images hold: the manifest is fine, the images not.
+  m = manifest_;
+  m["view_directions"]["directions_deg"].erase(2);
+  m.erase("btf");
+  m.erase("ambient");
+  ExpectManifestRejected(m, "height", "mdf.exr");
+}
+
+TEST_F(HostilePackage, BadPartEntries) {
+  auto m = manifest_;
+  m["mdf"] = nlohmann::json::object();
+  ExpectManifestRejected(m, "mdf");
+  m = manifest_;
+  m["mdf"]["uint8"]["scale_mm"] = 0;
+  ExpectManifestRejected(m, "mdf.uint8.scale_mm");
+  m["mdf"]["uint8"]["scale_mm"] = "NaN";
+  ExpectManifestRejected(m, "mdf.uint8.scale_mm");
+  m = manifest_;
+  m["mdf"]["uint8"]["no_hit_code"] = 200;
+  ExpectManifestRejected(m, "mdf.uint8.no_hit_code");
+  m = manifest_;
+  m["mdf"]["float32"]["file"] = "../../../etc/passwd";
+  ExpectManifestRejected(m, "mdf.float32.file");
+  m = manifest_;
+  m["btf"]["factored"]["rank"] = 0;
+  ExpectManifestRejected(m, "btf.factored.rank");
+  m["btf"]["factored"]["rank"] = 4;  // paper layout: at most 3 views
+  ExpectManifestRejected(m, "btf.factored.rank");
+  m = manifest_;
+  m["btf"]["factored"]["layout"] = "diagonal";
+  ExpectManifestRejected(m, "btf.factored.layout");
+  m = manifest_;
+  m["btf"]["factored"]["rgb_to_factored"] = {{1, 0, 0}, {0, 1, 0}, {1, 1, 0}};
+  ExpectManifestRejected(m, "btf.factored.rgb_to_factored");
+  m["btf"]["factored"]["rgb_to_factored"] = {{1, 0, 0}, {0, 1, 0}, {0, "x", 1}};
+  ExpectManifestRejected(m, "btf.factored.rgb_to_factored[2][1]");
+  m = manifest_;
+  m["btf"]["factored"]["singular_values"] = "separate";
+  ExpectManifestRejected(m, "btf.factored.singular_values");
+  m = manifest_;
+  m["btf"] = {{"values", "linear_rgb_reflectance"}};
+  ExpectManifestRejected(m, "btf");
+  m = manifest_;
+  m["btf"]["values"] = "srgb";
+  ExpectManifestRejected(m, "btf.values");
+  m = manifest_;
+  m["ambient"] = "ambient.exr";
+  ExpectManifestRejected(m, "ambient");
+  // Rank 1 of the stored 2 is a valid (truncated) package.
+  m = manifest_;
+  m["btf"]["factored"]["rank"] = 1;
+  WriteBytes(pkg_ / "manifest.json", m.dump());
+  ExpectRejected("height", "btf/columns.exr");
+}
+
+TEST_F(HostilePackage, MissingFiles) {
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"mdf.exr", "mdf.float32.file"},
+      {"mdf8.tif", "mdf.uint8.file"},
+      {"btf/view_0002.exr", "btf.full.files"},
+      {"btf/rows_01.exr", "btf.factored.row_files"},
+      {"btf/columns.exr", "btf.factored.column_file"},
+      {"ambient.exr", "ambient.file"},
+      {"error_report.json", "error_report.file"}};
+  for (const auto& [file, field] : cases) {
+    SCOPED_TRACE(file);
+    const std::string bytes = Slurp(pkg_ / file);
+    fs::remove(pkg_ / file);
+    try {
+      ReadMaterialManifest(pkg_);
+      ADD_FAILURE() << "missing file accepted";
+    } catch (const FormatError& e) {
+      EXPECT_EQ(e.field(), field);
+      EXPECT_NE(std::string(e.what()).find(file), std::string::npos) << e.what();
+    }
+    WriteBytes(pkg_ / file, bytes);
+  }
+  fs::remove(pkg_ / "manifest.json");
+  ExpectRejected("", "manifest.json");
+}
+
+TEST_F(HostilePackage, ImagesThatDisagreeWithTheManifest) {
+  WriteImage(pkg_ / "mdf.exr", Image(kW, kH, 1));  // one view's worth
+  ExpectRejected("height", "mdf.exr");
+  WriteImage(pkg_ / "mdf.exr", Image(kW, kH * 3, 1), PixelEncoding::kHalf);
+  ExpectRejected("pixel type", "mdf.exr");
+  WriteImage(pkg_ / "mdf.exr", TestMdf().distance_mm);
+  WriteImage(pkg_ / "mdf8.tif", Image(kW, kH * 3, 1), PixelEncoding::kFloat32);
+  ExpectRejected("pixel type", "mdf8.tif");
+  WriteImage(pkg_ / "mdf8.tif", Image(kW, kH * 3, 1), PixelEncoding::kUInt8);
+  WriteImage(pkg_ / "ambient.exr", Image(kW, kH * 3, 1));
+  ExpectRejected("channels", "ambient.exr");
+  WriteImage(pkg_ / "ambient.exr", Image(kW, kH * 3, 3));
+  WriteImage(pkg_ / "btf/view_0001.exr", Image(kW + 1, kH * 4, 3));
+  ExpectRejected("width", "btf/view_0001.exr");
+  WriteImage(pkg_ / "btf/view_0001.exr", Image(kW, kH * 4, 3));
+  WriteImage(pkg_ / "btf/rows_00.exr", Image(kW, kH, 3));  // per_texel-sized rows in a paper package
+  ExpectRejected("height", "btf/rows_00.exr");
+  EXPECT_NO_THROW(ReadMaterialManifest(pkg_)) << "the manifest reader must not look at pixels";
+}
+
+TEST_F(HostilePackage, InvalidValuesInImages) {
+  Mdf mdf = TestMdf();
+  mdf.at(1, 2, 2) = -0.5f;
+  WriteImage(pkg_ / "mdf.exr", mdf.distance_mm);
+  ExpectRejected("pixels", "mdf.exr");
+  mdf.at(1, 2, 2) = -std::numeric_limits<float>::infinity();
+  WriteImage(pkg_ / "mdf.exr", mdf.distance_mm);
+  ExpectRejected("pixels", "mdf.exr");
+  WriteImage(pkg_ / "mdf.exr", TestMdf().distance_mm);
+  AmbientTerm ambient = TestAmbient();
+  ambient.values.at(0, 5, 1) = std::numeric_limits<float>::quiet_NaN();
+  WriteImage(pkg_ / "ambient.exr", ambient.values);
+  ExpectRejected("pixels", "ambient.exr");
+  WriteImage(pkg_ / "ambient.exr", TestAmbient().values);
+  Image columns(3, 2, 3);
+  columns.at(2, 1, 0) = std::numeric_limits<float>::infinity();
+  WriteImage(pkg_ / "btf/columns.exr", columns);
+  ExpectRejected("pixels", "btf/columns.exr");
+  WriteImage(pkg_ / "btf/columns.exr", Image(3, 2, 3));
+  WriteBytes(pkg_ / "error_report.json", "[1, 2]");
+  ExpectRejected("", "error_report.json");
+  WriteBytes(pkg_ / "error_report.json", "{\"rms\": ");
+  ExpectRejected("", "error_report.json");
+}
+
+TEST_F(HostilePackage, TruncatedImages) {
+  for (const char* name : {"mdf.exr", "mdf8.tif", "btf/view_0000.exr", "btf/rows_01.exr", "ambient.exr"}) {
+    SCOPED_TRACE(name);
+    const std::string original = Slurp(pkg_ / name);
+    for (double keep : {0.0, 0.05, 0.3, 0.6, 0.95}) {
+      WriteBytes(pkg_ / name, original.substr(0, static_cast<std::size_t>(original.size() * keep)));
+      try {
+        ReadEverything(pkg_);
+        ADD_FAILURE() << "truncated to " << keep << " accepted";
+      } catch (const FormatError& e) {
+        EXPECT_EQ(e.file(), pkg_ / name) << e.what();
+      }
+    }
+    WriteBytes(pkg_ / name, original);
+  }
+}
+
+}  // namespace
+}  // namespace mesocap

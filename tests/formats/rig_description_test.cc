@@ -1,0 +1,159 @@
+#include "formats/rig_description.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "calibration/nominal_geometry.h"
+#include "core/error.h"
+#include "core/json_field_reader.h"
+#include "drivers/device_error.h"
+#include "drivers/rig.h"
+
+namespace mesocap::drivers {
+namespace {
+
+std::filesystem::path RigFile(const std::string& name) {
+  return std::filesystem::path(MESOCAP_SOURCE_DIR) / "sim" / "rigs" / (name + ".json");
+}
+
+TEST(RigDescription, ShippedRigsHaveThePapersSampling) {
+  const RigDescription paper = ReadRigDescription(RigFile("paper"));
+  EXPECT_EQ(paper.cameras.size(), 8u);
+  EXPECT_EQ(paper.cameras[0].width, 1024);
+  EXPECT_EQ(paper.cameras[0].height, 768);
+  EXPECT_EQ(paper.lamps.elevations_rad.size(), 8u);
+  EXPECT_EQ(paper.view_count(), 12 * 8);
+  EXPECT_EQ(paper.light_count(), 12 * 8);
+  EXPECT_EQ(paper.laser.locations.size(), 26u);
+  const RigDescription tiny = ReadRigDescription(RigFile("tiny"));
+  EXPECT_EQ(tiny.cameras[0].width, 128);
+  EXPECT_EQ(tiny.cameras[0].height, 96);
+  const RigDescription small = ReadRigDescription(RigFile("small"));
+  EXPECT_GT(small.view_count(), tiny.view_count());
+  EXPECT_LT(small.view_count(), paper.view_count());
+}
+
+TEST(RigDescription, DevicePositionsLieAtTheirDistances) {
+  const RigDescription rig = ReadRigDescription(RigFile("small"));
+  for (const auto& c : rig.cameras) {
+    EXPECT_NEAR(CameraCentre(c).norm(), c.distance_mm, 1e-9);
+    EXPECT_NEAR(std::asin(CameraCentre(c).z() / c.distance_mm), c.elevation_rad, 1e-12);
+  }
+  EXPECT_NEAR(LampPosition(rig.lamps, 1, 0.7).norm(), rig.lamps.distance_mm, 1e-9);
+  const Eigen::Vector3d lamp = LampPosition(rig.lamps, 0, 0.7);
+  EXPECT_NEAR(std::atan2(lamp.y(), lamp.x()), 0.7, 1e-12);
+}
+
+TEST(RigDescription, LaserRaySineIsTheAngleBetweenTheCameraRayAndTheLaserPlane) {
+  RigDescription rig = ReadRigDescription(RigFile("small"));
+  // The closed form of the header, camera azimuth subtracted from the arc.
+  for (int c = 0; c < static_cast<int>(rig.cameras.size()); ++c) {
+    for (int l = 0; l < static_cast<int>(rig.laser.locations.size()); ++l) {
+      const double ce = rig.cameras[c].elevation_rad;
+      const double e = rig.laser.mount_elevations_rad[rig.laser.locations[l].mount];
+      const double a = rig.laser.locations[l].arc_angle_rad - rig.cameras[c].azimuth_rad;
+      const double expected = std::abs(std::sin(ce) * std::cos(e) - std::cos(ce) * std::sin(e) * std::cos(a));
+      EXPECT_NEAR(LaserRaySine(rig, c, l), expected, 1e-12) << "camera " << c << " location " << l;
+      // Cameras up to 60 degrees from the normal: nothing near-coplanar.
+      if (ce >= std::numbers::pi / 6) {
+        EXPECT_GT(LaserRaySine(rig, c, l), 0.09) << "camera " << c << " location " << l;
+      }
+    }
+  }
+  // A mount at a camera's elevation, at its azimuth: the plane holds the ray.
+  rig.laser.mount_elevations_rad.push_back(rig.cameras[1].elevation_rad);
+  rig.laser.locations.push_back({static_cast<int>(rig.laser.mount_elevations_rad.size()) - 1,
+                                 rig.cameras[1].azimuth_rad});
+  EXPECT_LT(LaserRaySine(rig, 1, static_cast<int>(rig.laser.locations.size()) - 1), 1e-12);
+}
+
+TEST(RigDescription, LaserTiltMovesTheStripeByTheOffset) {
+  const RigDescription rig = ReadRigDescription(RigFile("paper"));
+  for (int mount = 0; mount < static_cast<int>(rig.laser.mount_elevations_rad.size()); ++mount) {
+    const LaserLocation loc{mount, 0.3};
+    const Eigen::Vector3d s = LaserSource(rig.laser, loc);
+    for (double offset : {-20.0, -1.0, 0.0, 5.0, 26.0}) {
+      const double tilt = LaserTiltForOffset(rig.laser, mount, offset);
+      // The ray from the source, in the vertical plane, tilted from the
+      // direction to the origin, meets z = 0 at the offset beyond the origin.
+      const double r = std::hypot(s.x(), s.y());
+      const double angle = std::atan2(r, s.z()) + tilt;
+      const double reach = s.z() * std::tan(angle);
+      EXPECT_NEAR(reach - r, offset, 1e-9) << "mount " << mount;
+    }
+  }
+}
+
+nlohmann::json TinyJson() { return ReadJsonFile(RigFile("tiny")); }
+
+std::string ErrorOf(const nlohmann::json& j) {
+  try {
+    ParseRigDescription(j, "rig.json");
+  } catch (const FormatError& e) {
+    return e.field() + " | " + e.what();
+  }
+  return "no error";
+}
+
+TEST(RigDescription, HostileDescriptionsNameTheField) {
+  auto j = TinyJson();
+  j["cameras"][1]["id"] = "cam0";
+  EXPECT_NE(ErrorOf(j).find("cameras[1].id"), std::string::npos) << ErrorOf(j);
+  j = TinyJson();
+  j["cameras"][0]["image_size"] = {-128, 96};
+  EXPECT_NE(ErrorOf(j).find("cameras[0].image_size"), std::string::npos);
+  j = TinyJson();
+  j["laser"]["locations"][0]["mount"] = 7;
+  EXPECT_NE(ErrorOf(j).find("laser.locations[0].mount"), std::string::npos);
+  j = TinyJson();
+  j["laser"]["sweep_mm"] = {5, -5};
+  EXPECT_NE(ErrorOf(j).find("laser.sweep_mm"), std::string::npos);
+  j = TinyJson();
+  j["turntable"]["angles_deg"] = nlohmann::json::array();
+  EXPECT_NE(ErrorOf(j).find("turntable.angles_deg"), std::string::npos);
+  j = TinyJson();
+  j["version"] = 2;
+  EXPECT_NE(ErrorOf(j).find("version"), std::string::npos);
+  j = TinyJson();
+  j["cameras"] = nlohmann::json::array();
+  EXPECT_NE(ErrorOf(j).find("cameras"), std::string::npos);
+  j = TinyJson();
+  j["sample"]["backing"]["albedo"] = 1.5;
+  EXPECT_NE(ErrorOf(j).find("sample.backing.albedo"), std::string::npos) << ErrorOf(j);
+  j = TinyJson();
+  j["sample"]["backing"]["depth_mm"] = -2;
+  EXPECT_NE(ErrorOf(j).find("sample.backing.depth_mm"), std::string::npos) << ErrorOf(j);
+}
+
+TEST(RigDescription, BackingIsOptional) {
+  // The shipped rigs hold their samples over a grey board 8 mm down.
+  for (const char* name : {"tiny", "small", "paper"}) {
+    const RigDescription rig = ReadRigDescription(RigFile(name));
+    EXPECT_TRUE(rig.backing.present()) << name;
+    EXPECT_DOUBLE_EQ(rig.backing.depth_mm, 8.0) << name;
+  }
+  auto j = TinyJson();
+  j["sample"].erase("backing");
+  EXPECT_FALSE(ParseRigDescription(j, "rig.json").backing.present());
+}
+
+TEST(Rig, MissingBackendIsNamed) {
+  const RigDescription rig = ReadRigDescription(RigFile("tiny"));
+  try {
+    BuildRig(rig, {});
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("camera cam0: backend \"sim\" is not available"), std::string::npos)
+        << e.what();
+  }
+  // A backend that makes nothing says what it cannot drive.
+  struct Empty : RigBackend {
+    std::string name() const override { return "empty"; }
+  } empty;
+  EXPECT_THROW(BuildRig(rig, {{"sim", &empty}}), DeviceError);
+}
+
+}  // namespace
+}  // namespace mesocap::drivers
