@@ -31,7 +31,7 @@ namespace mesocap::acquisition {
 // settings that shaped the data beyond the rig (for the simulated rig: the
 // scene, seed and sensor model), so that resuming a session can check that
 // it continues the same capture.
-std::vector<PlannedStep> MakeCapturePlan(const drivers::RigDescription& rig,
+std::vector<formats::PlannedStep> MakeCapturePlan(const formats::RigDescription& rig,
                                          const nlohmann::json& recording = nullptr);
 
 // Angles as the plan writes them, in degrees rounded to 1e-9 so that a plan

@@ -33,43 +33,43 @@ class SessionRun {
   SessionRun(const fs::path& dir, drivers::Rig& rig, drivers::RigOperator& rig_operator,
              const CaptureRunnerOptions& options)
       : dir_(dir),
-        manifest_(ReadSessionManifest(dir)),
+        manifest_(formats::ReadSessionManifest(dir)),
         rig_(rig),
         operator_(rig_operator),
         options_(options),
-        journal_(dir / kSessionJournalName, &manifest_) {
+        journal_(dir / formats::kSessionJournalName, &manifest_) {
     if (!rig_.turntable || !rig_.light_arc || !rig_.lamps || !rig_.laser) {
-      throw Error(dir_.string() + ": the rig lacks a turntable, light arc, lamp bank or laser unit");
+      throw core::Error(dir_.string() + ": the rig lacks a turntable, light arc, lamp bank or laser unit");
     }
     for (std::size_t i = 0; i < rig_.cameras.size(); ++i) camera_index_[rig_.cameras[i]->info().id] = i;
-    for (const PlannedStep& step : manifest_.plan) {
-      if (step.kind == StepKind::kOther) {
-        throw Error(dir_.string() + ": step \"" + step.id + "\" is of kind \"other\", which a capture cannot run");
+    for (const formats::PlannedStep& step : manifest_.plan) {
+      if (step.kind == formats::StepKind::kOther) {
+        throw core::Error(dir_.string() + ": step \"" + step.id + "\" is of kind \"other\", which a capture cannot run");
       }
       for (const json& f : step.params.at("files")) CameraFor(step, f);
-      if (step.kind == StepKind::kLaserSweep && step.params.value("stored_as", "frames") == "analysis" &&
+      if (step.kind == formats::StepKind::kLaserSweep && step.params.value("stored_as", "frames") == "analysis" &&
           !options_.calibration) {
-        throw Error(dir_.string() + ": step \"" + step.id +
+        throw core::Error(dir_.string() + ": step \"" + step.id +
                     "\" stores a sweep analysis, which needs the rig's calibration (none was given)");
       }
     }
     report_.steps_done_before = journal_.records().size();
     // The journal's lock keeps other writers out, so what looks like a
     // temporary file was left by a writer that died.
-    report_.stale_temporaries_removed = RemoveStaleTemporaries(dir_);
+    report_.stale_temporaries_removed = core::RemoveStaleTemporaries(dir_);
   }
 
   CaptureRunReport Run() {
-    Progress progress("capture " + manifest_.rig.value("name", std::string()), manifest_.plan.size(),
-                      options_.show_progress ? Progress::Style::kAuto : Progress::Style::kSilent);
+    core::Progress progress("capture " + manifest_.rig.value("name", std::string()), manifest_.plan.size(),
+                      options_.show_progress ? core::Progress::Style::kAuto : core::Progress::Style::kSilent);
     progress.Advance(report_.steps_done_before);
     for (auto& camera : rig_.cameras) camera->SetTrigger(drivers::TriggerMode::kSoftware);
-    for (const PlannedStep& step : manifest_.plan) {
+    for (const formats::PlannedStep& step : manifest_.plan) {
       if (journal_.IsDone(step.id)) continue;
       try {
         RunStep(step);
       } catch (const drivers::DeviceError& e) {
-        throw Error(dir_.string() + ": step \"" + step.id + "\": " + e.what() +
+        throw core::Error(dir_.string() + ": step \"" + step.id + "\": " + e.what() +
                     " (finished steps are journaled; run again to resume)");
       }
       Journal(step);
@@ -82,11 +82,11 @@ class SessionRun {
   }
 
  private:
-  drivers::Camera& CameraFor(const PlannedStep& step, const json& file) {
+  drivers::Camera& CameraFor(const formats::PlannedStep& step, const json& file) {
     const std::string id = file.at("camera").get<std::string>();
     const auto it = camera_index_.find(id);
     if (it == camera_index_.end()) {
-      throw Error(dir_.string() + ": step \"" + step.id + "\" names camera \"" + id + "\", which the rig lacks");
+      throw core::Error(dir_.string() + ": step \"" + step.id + "\" names camera \"" + id + "\", which the rig lacks");
     }
     return *rig_.cameras[it->second];
   }
@@ -140,7 +140,7 @@ class SessionRun {
   // frames are read mono: processing needs the stripe's intensity, not its
   // hue (a camera that still gives colour is averaged to grey where the
   // frames are used).
-  std::vector<Image> GrabAll(const PlannedStep& step, drivers::PixelFormat format) {
+  std::vector<core::Image> GrabAll(const formats::PlannedStep& step, drivers::PixelFormat format) {
     const json& files = step.params.at("files");
     std::vector<drivers::Camera*> cameras;
     for (const json& f : files) cameras.push_back(&CameraFor(step, f));
@@ -148,7 +148,7 @@ class SessionRun {
       if (c->settings().pixel_format != format) c->SetPixelFormat(format);
     }
     for (drivers::Camera* c : cameras) c->Trigger();
-    std::vector<Image> images;
+    std::vector<core::Image> images;
     for (drivers::Camera* c : cameras) {
       for (int attempt = 0;; ++attempt) {
         try {
@@ -185,39 +185,39 @@ class SessionRun {
     rig_.laser->SetMount(mount);
   }
 
-  void RunStep(const PlannedStep& step) {
+  void RunStep(const formats::PlannedStep& step) {
     const json& p = step.params;
     const json& files = p.at("files");
     AllOff();
     switch (step.kind) {
-      case StepKind::kLaserCalibration: {
+      case formats::StepKind::kLaserCalibration: {
         // Sec. 3.2: the stripe at tilt 0 on a flat plate at a known height.
         Move(*rig_.light_arc, p.at("arc_deg").get<double>());
         MountLaser(p.at("mount").get<int>());
         operator_.PlaceCalibrationPlate(p.at("height_mm").get<double>());
         rig_.laser->SetEnabled(true);
         Tilt(p.at("tilt_deg").get<double>());
-        std::vector<Image> images = GrabAll(step, drivers::PixelFormat::kMono);
+        std::vector<core::Image> images = GrabAll(step, drivers::PixelFormat::kMono);
         rig_.laser->SetEnabled(false);
         operator_.RemoveCalibrationPlate();
         for (std::size_t i = 0; i < images.size(); ++i) {
-          WriteImage(FilePath(files[i]), ChannelMean(std::move(images[i])), PixelEncoding::kUInt16);
+          core::WriteImage(FilePath(files[i]), core::ChannelMean(std::move(images[i])), core::PixelEncoding::kUInt16);
         }
         break;
       }
-      case StepKind::kBtfImage: {
+      case formats::StepKind::kBtfImage: {
         Move(*rig_.turntable, p.at("turntable_deg").get<double>());
         Move(*rig_.light_arc, p.at("arc_deg").get<double>());
         rig_.lamps->SetLamp(p.at("lamp").get<int>(), true);
-        const std::vector<Image> images = GrabAll(step, drivers::PixelFormat::kNative);
+        const std::vector<core::Image> images = GrabAll(step, drivers::PixelFormat::kNative);
         // One encoder per camera at once: PNG encoding is single-threaded.
         std::vector<fs::path> paths;
         for (std::size_t i = 0; i < images.size(); ++i) paths.push_back(FilePath(files[i]));
         tbb::parallel_for(std::size_t{0}, images.size(),
-                          [&](std::size_t i) { WriteImage(paths[i], images[i], PixelEncoding::kUInt16); });
+                          [&](std::size_t i) { core::WriteImage(paths[i], images[i], core::PixelEncoding::kUInt16); });
         break;
       }
-      case StepKind::kLaserSweep: {
+      case formats::StepKind::kLaserSweep: {
         Move(*rig_.turntable, p.at("turntable_deg").get<double>());
         Move(*rig_.light_arc, p.at("arc_deg").get<double>());
         MountLaser(p.at("mount").get<int>());
@@ -225,35 +225,35 @@ class SessionRun {
         Tilt(tilts.at(0).get<double>());
         // Frames go to disk, or into the analysis, as they arrive: a sweep
         // is never in memory.
-        std::vector<std::unique_ptr<FrameSequenceWriter>> writers;
-        std::vector<std::unique_ptr<LaserSweepProcessor>> analyses;
+        std::vector<std::unique_ptr<formats::FrameSequenceWriter>> writers;
+        std::vector<std::unique_ptr<mdf::LaserSweepProcessor>> analyses;
         if (p.value("stored_as", "frames") == "analysis") analyses = SweepProcessors(step);
         rig_.laser->SetEnabled(true);
         for (std::size_t f = 0; f < tilts.size(); ++f) {
           Tilt(tilts[f].get<double>());
-          std::vector<Image> images = GrabAll(step, drivers::PixelFormat::kMono);
+          std::vector<core::Image> images = GrabAll(step, drivers::PixelFormat::kMono);
           if (!analyses.empty()) {
             // The cameras' analyses are independent (line detection and the
             // space-time state are single-threaded each).
             tbb::parallel_for(std::size_t{0}, images.size(), [&](std::size_t i) {
-              analyses[i]->AddFrame(static_cast<int>(f), ChannelMean(std::move(images[i])));
+              analyses[i]->AddFrame(static_cast<int>(f), core::ChannelMean(std::move(images[i])));
             });
             continue;
           }
           if (writers.empty()) {
             for (std::size_t i = 0; i < images.size(); ++i) {
-              writers.push_back(std::make_unique<FrameSequenceWriter>(FilePath(files[i]), images[i].width(),
-                                                                      images[i].height(), 1, PixelEncoding::kUInt16));
+              writers.push_back(std::make_unique<formats::FrameSequenceWriter>(FilePath(files[i]), images[i].width(),
+                                                                      images[i].height(), 1, core::PixelEncoding::kUInt16));
             }
           }
-          for (std::size_t i = 0; i < images.size(); ++i) writers[i]->Append(ChannelMean(std::move(images[i])));
+          for (std::size_t i = 0; i < images.size(); ++i) writers[i]->Append(core::ChannelMean(std::move(images[i])));
         }
         rig_.laser->SetEnabled(false);
         for (auto& w : writers) w->Commit();
-        for (std::size_t i = 0; i < analyses.size(); ++i) WriteSweepAnalysis(FilePath(files[i]), analyses[i]->Finish());
+        for (std::size_t i = 0; i < analyses.size(); ++i) formats::WriteSweepAnalysis(FilePath(files[i]), analyses[i]->Finish());
         break;
       }
-      case StepKind::kOther:
+      case formats::StepKind::kOther:
         break;  // refused in the constructor
     }
   }
@@ -261,30 +261,30 @@ class SessionRun {
   // One streaming analysis per file of the sweep step, in its files' order.
   // The laser planes come from this session's calibration plates, which
   // the plan captures before any sweep.
-  std::vector<std::unique_ptr<LaserSweepProcessor>> SweepProcessors(const PlannedStep& step) {
-    const fs::path manifest_file = dir_ / kSessionManifestName;
+  std::vector<std::unique_ptr<mdf::LaserSweepProcessor>> SweepProcessors(const formats::PlannedStep& step) {
+    const fs::path manifest_file = dir_ / formats::kSessionManifestName;
     if (!sweep_geometry_) {
-      sweep_geometry_ = std::make_unique<SessionSweepGeometry>(
-          dir_, manifest_, drivers::ParseRigDescription(manifest_.rig, manifest_file), *options_.calibration,
+      sweep_geometry_ = std::make_unique<mdf::SessionSweepGeometry>(
+          dir_, manifest_, formats::ParseRigDescription(manifest_.rig, manifest_file), *options_.calibration,
           options_.sweep_geometry);
     }
     const std::size_t index = static_cast<std::size_t>(&step - manifest_.plan.data());  // step is in the plan
-    const SweepStep sweep = ParseSweepStep(step, index, sweep_geometry_->rig(), manifest_file);
-    std::vector<std::unique_ptr<LaserSweepProcessor>> processors;
+    const mdf::SweepStep sweep = mdf::ParseSweepStep(step, index, sweep_geometry_->rig(), manifest_file);
+    std::vector<std::unique_ptr<mdf::LaserSweepProcessor>> processors;
     for (const json& f : step.params.at("files")) {
       const int camera = sweep_geometry_->CameraIndex(f.at("camera").get<std::string>());
-      processors.push_back(std::make_unique<LaserSweepProcessor>(sweep_geometry_->rays(camera),
+      processors.push_back(std::make_unique<mdf::LaserSweepProcessor>(sweep_geometry_->rays(camera),
                                                                  sweep_geometry_->Geometry(sweep, camera),
                                                                  options_.sweep_geometry.line, options_.space_time));
     }
     return processors;
   }
 
-  void Journal(const PlannedStep& step) {
-    JournalRecord record;
+  void Journal(const formats::PlannedStep& step) {
+    formats::JournalRecord record;
     record.seq = journal_.next_seq();
     record.step = step.id;
-    record.time_utc = UtcTimestamp(std::chrono::system_clock::now());
+    record.time_utc = formats::UtcTimestamp(std::chrono::system_clock::now());
     for (const json& f : step.params.at("files")) {
       const std::string path = f.at("path").get<std::string>();
       record.files.push_back({path, fs::file_size(dir_ / path)});
@@ -293,21 +293,21 @@ class SessionRun {
   }
 
   fs::path dir_;
-  SessionManifest manifest_;
+  formats::SessionManifest manifest_;
   drivers::Rig& rig_;
   drivers::RigOperator& operator_;
   CaptureRunnerOptions options_;
-  CaptureJournal journal_;
+  formats::CaptureJournal journal_;
   std::map<std::string, std::size_t> camera_index_;
   std::map<std::string, std::uint64_t> next_sequence_;
   CaptureRunReport report_;
   // Made at the first sweep that stores its analysis.
-  std::unique_ptr<SessionSweepGeometry> sweep_geometry_;
+  std::unique_ptr<mdf::SessionSweepGeometry> sweep_geometry_;
 };
 
 }  // namespace
 
-CheckResult CaptureRunnerOptions::Check() const {
+core::CheckResult CaptureRunnerOptions::Check() const {
   if (frame_timeout.count() <= 0) return "frame_timeout must be positive";
   if (move_timeout.count() <= 0) return "move_timeout must be positive";
   if (retries < 0 || retries > 100) return "retries must be 0..100";
@@ -318,7 +318,7 @@ CheckResult CaptureRunnerOptions::Check() const {
 
 CaptureRunReport RunCaptureSession(const fs::path& dir, drivers::Rig& rig, drivers::RigOperator& rig_operator,
                                    const CaptureRunnerOptions& options) {
-  if (const CheckResult problem = options.Check(); !problem.empty()) throw Error("capture options: " + problem);
+  if (const core::CheckResult problem = options.Check(); !problem.empty()) throw core::Error("capture options: " + problem);
   return SessionRun(dir, rig, rig_operator, options).Run();
 }
 

@@ -40,11 +40,11 @@ struct CaptureRunnerOptions {
   // detection and space-time analysis (processing/laser_sweep.h) as its
   // frames arrive, with the laser planes from the session's own
   // calibration plates, and only the analysis is written. Not owned.
-  const Calibration* calibration = nullptr;
-  SweepGeometryOptions sweep_geometry;
-  SpaceTimeOptions space_time;
+  const formats::Calibration* calibration = nullptr;
+  mdf::SweepGeometryOptions sweep_geometry;
+  mdf::SpaceTimeOptions space_time;
 
-  CheckResult Check() const;
+  core::CheckResult Check() const;
 };
 
 // What a run did, for the log and for tests.

@@ -35,22 +35,22 @@ fs::path WorkDir() {
   return dir;
 }
 
-const FullBtf& Truth() {
-  static const FullBtf btf = [] {
+const core::FullBtf& Truth() {
+  static const core::FullBtf btf = [] {
     sim::GroundTruthOptions gt;
     gt.texture_width = gt.texture_height = 32;
     gt.sample_size_mm = 12.0;
-    gt.views = SamplingSet::Named("grid12x4");
-    gt.lights = SamplingSet::Named("grid12x4");
+    gt.views = core::SamplingSet::Named("grid12x4");
+    gt.lights = core::SamplingSet::Named("grid12x4");
     const auto scene = sim::MakeBuiltinScene("weave");
-    sim::WriteGroundTruthPackage(*scene, gt, nullptr, "bench", WorkDir() / "weave", true, Progress::Style::kSilent);
+    sim::WriteGroundTruthPackage(*scene, gt, nullptr, "bench", WorkDir() / "weave", true, core::Progress::Style::kSilent);
     return sim::RenderTrueBtf(*scene, gt);
   }();
   return btf;
 }
 
 struct Form {
-  BonnExportOptions options;
+  bonn::BonnExportOptions options;
   std::string out;
 };
 
@@ -58,7 +58,7 @@ struct Form {
 // highlights above 1) to 1 so that the error is quantization, not clipping.
 double ImageScale() {
   float brightest = 0.0f;
-  for (const Image& view : Truth().view_images)
+  for (const core::Image& view : Truth().view_images)
     for (std::size_t i = 0; i < view.size(); ++i) brightest = std::max(brightest, view.data()[i]);
   return 1.0 / brightest;
 }
@@ -67,14 +67,14 @@ std::map<std::string, Form> Forms() {
   std::map<std::string, Form> forms;
   Form f;
   f.options.replace = true;
-  f.options.form = BonnForm::kUbo2003;
+  f.options.form = bonn::BonnForm::kUbo2003;
   f.options.scale = ImageScale();
   forms["ubo2003"] = f;
-  f.options.encoding = Ubo2003Encoding::kHalfExr;
+  f.options.encoding = bonn::Ubo2003Encoding::kHalfExr;
   forms["ubo2003_exr"] = f;
-  f.options.form = BonnForm::kDfmf;
+  f.options.form = bonn::BonnForm::kDfmf;
   forms["dfmf"] = f;
-  f.options.form = BonnForm::kFmf;
+  f.options.form = bonn::BonnForm::kFmf;
   forms["fmf"] = f;
   for (auto& [name, form] : forms) form.out = (WorkDir() / (name + ".out")).string();
   return forms;
@@ -86,7 +86,7 @@ void Export(benchmark::State& state, const std::string& name) {
   Truth();
   const Form form = Forms().at(name);
   for (auto _ : state) {
-    const BonnExportReport r = ExportBonn(WorkDir() / "weave", form.out, form.options);
+    const bonn::BonnExportReport r = bonn::ExportBonn(WorkDir() / "weave", form.out, form.options);
     if (r.compression) {
       truncation[name] = r.compression->measured_relative_rms_error;
       state.counters["rank"] = r.rank;
@@ -95,20 +95,20 @@ void Export(benchmark::State& state, const std::string& name) {
 }
 
 void Import(benchmark::State& state, const std::string& name) {
-  const FullBtf& truth = Truth();
+  const core::FullBtf& truth = Truth();
   const Form form = Forms().at(name);
-  if (!fs::exists(form.out)) ExportBonn(WorkDir() / "weave", form.out, form.options);
-  BonnImportOptions o;
+  if (!fs::exists(form.out)) bonn::ExportBonn(WorkDir() / "weave", form.out, form.options);
+  bonn::BonnImportOptions o;
   o.d_max_mm = 3.0;
   o.width_mm = 12.0;
   o.replace = true;
-  o.parts = BonnImportParts::kFull;
+  o.parts = bonn::BonnImportParts::kFull;
   o.scale = form.options.scale;
   const fs::path out = WorkDir() / (name + ".imported");
-  for (auto _ : state) ImportBonn(form.out, out, o);
-  const FullBtf got = ReadFullBtf(out, ReadMaterialManifest(out));
+  for (auto _ : state) bonn::ImportBonn(form.out, out, o);
+  const core::FullBtf got = formats::ReadFullBtf(out, formats::ReadMaterialManifest(out));
   // ||a - b|| / ||truth||, and the largest |a - b|.
-  auto compare = [&](const FullBtf& a, const FullBtf& b, double* worst) {
+  auto compare = [&](const core::FullBtf& a, const core::FullBtf& b, double* worst) {
     double err = 0, norm = 0;
     for (int v = 0; v < truth.view_count(); ++v)
       for (std::size_t i = 0; i < truth.view_images[v].size(); ++i) {
@@ -124,16 +124,16 @@ void Import(benchmark::State& state, const std::string& name) {
   state.counters["rel_rms"] = compare(got, truth, &worst);
   state.counters["max_abs"] = worst;
   if (truncation.count(name)) state.counters["truncation_rel_rms"] = truncation[name];
-  if (form.options.form != BonnForm::kUbo2003) {
+  if (form.options.form != bonn::BonnForm::kUbo2003) {
     // The same factors written as float: the difference is the half quantization.
-    BonnExportOptions f = form.options;
-    f.scalar = BonnScalar::kFloat;
+    bonn::BonnExportOptions f = form.options;
+    f.scalar = bonn::BonnScalar::kFloat;
     const fs::path float_file = WorkDir() / (name + ".float");
-    ExportBonn(WorkDir() / "weave", float_file, f);
-    ImportBonn(float_file, WorkDir() / (name + ".float.imported"), o);
+    bonn::ExportBonn(WorkDir() / "weave", float_file, f);
+    bonn::ImportBonn(float_file, WorkDir() / (name + ".float.imported"), o);
     const fs::path float_out = WorkDir() / (name + ".float.imported");
     double q_worst = 0.0;
-    state.counters["half_vs_float_rel_rms"] = compare(got, ReadFullBtf(float_out, ReadMaterialManifest(float_out)), &q_worst);
+    state.counters["half_vs_float_rel_rms"] = compare(got, formats::ReadFullBtf(float_out, formats::ReadMaterialManifest(float_out)), &q_worst);
     state.counters["half_vs_float_max_abs"] = q_worst;
   }
 }

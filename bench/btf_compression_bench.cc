@@ -37,26 +37,26 @@
 namespace mesocap {
 namespace {
 
-FullBtf SceneBtf(const std::string& name) {
+core::FullBtf SceneBtf(const std::string& name) {
   const auto scene = sim::MakeBuiltinScene(name);
   sim::GroundTruthOptions gt;
   gt.texture_width = gt.texture_height = 32;
   gt.sample_size_mm = 12.0;
-  gt.views = SamplingSet::Named("paper12x8");
-  gt.lights = SamplingSet::Named("paper12x8");
+  gt.views = core::SamplingSet::Named("paper12x8");
+  gt.lights = core::SamplingSet::Named("paper12x8");
   return sim::RenderTrueBtf(*scene, gt);
 }
 
-const FullBtf& CachedSceneBtf(const std::string& name) {
-  static std::map<std::string, FullBtf> cache;
+const core::FullBtf& CachedSceneBtf(const std::string& name) {
+  static std::map<std::string, core::FullBtf> cache;
   auto it = cache.find(name);
   if (it == cache.end()) {
     it = cache.emplace(name, SceneBtf(name)).first;
     // The spectrum and the error per rank, once per scene.
-    BtfCompressionOptions o;
+    btf::BtfCompressionOptions o;
     o.rank = 1;
-    BtfCompressionReport r;
-    CompressBtf(it->second, o, &r);
+    btf::BtfCompressionReport r;
+    btf::CompressBtf(it->second, o, &r);
     std::printf("# %s: %lld x %lld per channel; rank: sigma_k/sigma_1 (R), relative RMS error\n", name.c_str(),
                 r.matrix_rows, r.matrix_columns);
     for (int k = 1; k <= r.max_rank; k *= 2) {
@@ -68,11 +68,11 @@ const FullBtf& CachedSceneBtf(const std::string& name) {
 }
 
 void Material(benchmark::State& state, const std::string& name) {
-  const FullBtf& btf = CachedSceneBtf(name);
-  BtfCompressionOptions o;
+  const core::FullBtf& btf = CachedSceneBtf(name);
+  btf::BtfCompressionOptions o;
   o.rank = static_cast<int>(state.range(0));
-  BtfCompressionReport r;
-  for (auto _ : state) benchmark::DoNotOptimize(CompressBtf(btf, o, &r));
+  btf::BtfCompressionReport r;
+  for (auto _ : state) benchmark::DoNotOptimize(btf::CompressBtf(btf, o, &r));
   state.counters["relative_rms"] = r.measured_relative_rms_error;
   state.counters["sigma_ratio"] = r.singular_values[0][o.rank - 1] / r.singular_values[0][0];
 }
@@ -93,9 +93,9 @@ double GemmGflops() {
 
 // View v of the synthetic paper-size BTF (128 x 128 texels, paper12x8
 // lights): smooth shading and texture plus noise drawn from `rng` in order.
-Image PaperSizeView(const SamplingSet& set, int v, std::mt19937& rng) {
+core::Image PaperSizeView(const core::SamplingSet& set, int v, std::mt19937& rng) {
   std::normal_distribution<float> noise(0.0f, 0.002f);
-  Image image(128, 128 * set.size(), 3);
+  core::Image image(128, 128 * set.size(), 3);
   const Eigen::Vector3d vd = set.direction(v);
   for (int row = 0; row < image.height(); ++row) {
     const Eigen::Vector3d ld = set.direction(row / 128);
@@ -120,7 +120,7 @@ double PeakMemoryMiB() {
   return -1.0;
 }
 
-void ReportPaperSize(benchmark::State& state, const BtfCompressionReport& r, int rank) {
+void ReportPaperSize(benchmark::State& state, const btf::BtfCompressionReport& r, int rank) {
   const double m = static_cast<double>(r.matrix_rows), n = static_cast<double>(r.matrix_columns);
   const double flops = 3.0 * (2.0 * m * n * n + 2.0 * m * n * rank);
   const double gflops = flops / r.seconds * 1e-9;
@@ -133,15 +133,15 @@ void ReportPaperSize(benchmark::State& state, const BtfCompressionReport& r, int
 }
 
 void PaperSize(benchmark::State& state) {
-  const SamplingSet set = SamplingSet::Named("paper12x8");
-  FullBtf btf = MakeFullBtf(128, 128, set, set);
+  const core::SamplingSet set = core::SamplingSet::Named("paper12x8");
+  core::FullBtf btf = core::MakeFullBtf(128, 128, set, set);
   std::mt19937 rng(1);
   for (int v = 0; v < btf.view_count(); ++v) btf.view_images[v] = PaperSizeView(set, v, rng);
-  BtfCompressionOptions o;
+  btf::BtfCompressionOptions o;
   o.rank = 4;
-  BtfCompressionReport r;
+  btf::BtfCompressionReport r;
   ResetPeakMemory();
-  for (auto _ : state) benchmark::DoNotOptimize(CompressBtf(btf, o, &r));
+  for (auto _ : state) benchmark::DoNotOptimize(btf::CompressBtf(btf, o, &r));
   state.counters["peak_mib"] = PeakMemoryMiB();
   ReportPaperSize(state, r, o.rank);
 }
@@ -151,10 +151,10 @@ void PaperSize(benchmark::State& state) {
 // peak memory of the compression is the band, the factors and the workers'
 // blocks, not the 1.5 GB BTF.
 void PaperSizeFromPackage(benchmark::State& state) {
-  const SamplingSet set = SamplingSet::Named("paper12x8");
+  const core::SamplingSet set = core::SamplingSet::Named("paper12x8");
   const std::filesystem::path dir =
       std::filesystem::temp_directory_path() / ("mesocap-bench-paper-" + std::to_string(::getpid()));
-  MaterialDescription d;
+  formats::MaterialDescription d;
   d.name = "paper-size synthetic";
   d.width = d.height = 128;
   d.physical_size_mm = {12.0, 12.0};
@@ -162,18 +162,18 @@ void PaperSizeFromPackage(benchmark::State& state) {
   d.view_directions = set;
   d.light_directions = set;
   {
-    MaterialPackageWriter writer(dir, d, true);
+    formats::MaterialPackageWriter writer(dir, d, true);
     std::mt19937 rng(1);
     for (int v = 0; v < set.size(); ++v) writer.WriteFullBtfView(v, PaperSizeView(set, v, rng));
     writer.Commit();
   }
-  BtfCompressionOptions o;
+  btf::BtfCompressionOptions o;
   o.rank = 4;
-  BtfCompressionReport r;
+  btf::BtfCompressionReport r;
   ResetPeakMemory();
   for (auto _ : state) {
-    PackageFullBtfReader reader(dir, ReadMaterialManifest(dir));
-    benchmark::DoNotOptimize(CompressBtf(reader, o, &r));
+    formats::PackageFullBtfReader reader(dir, formats::ReadMaterialManifest(dir));
+    benchmark::DoNotOptimize(btf::CompressBtf(reader, o, &r));
   }
   state.counters["peak_mib"] = PeakMemoryMiB();
   std::filesystem::remove_all(dir);

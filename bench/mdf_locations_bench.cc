@@ -25,14 +25,14 @@ namespace {
 
 // Runs the scan (its processing time is the iteration's time) and reports
 // its error up to theta_max_deg as counters.
-mesocap::MdfErrorRow ScanAndReport(benchmark::State& state, const mesocap::test::ScanSetup& setup,
+mesocap::mdf::MdfErrorRow ScanAndReport(benchmark::State& state, const mesocap::mdf::ScanSetup& setup,
                                    double theta_max_deg) {
-  mesocap::test::ScanResult r;
+  mesocap::mdf::ScanResult r;
   for (auto _ : state) {
-    r = mesocap::test::RunSimulatedScan(setup);
+    r = mesocap::mdf::RunSimulatedScan(setup);
     state.SetIterationTime(r.processing_seconds);
   }
-  const auto row = mesocap::EvaluateMdfViews(r.truth, r.estimate, r.texel_mm, {0, theta_max_deg, true});
+  const auto row = mesocap::mdf::EvaluateMdfViews(r.truth, r.estimate, r.texel_mm, {0, theta_max_deg, true});
   state.counters["median_texels"] = row.median_texels;
   state.counters["p95_texels"] = row.p95_texels;
   state.counters["coverage"] = row.coverage;
@@ -42,7 +42,7 @@ mesocap::MdfErrorRow ScanAndReport(benchmark::State& state, const mesocap::test:
 
 void ErrorAgainstLocations(benchmark::State& state) {
   const std::vector<int> order = {4, 7, 1, 2, 5, 0, 6, 3};
-  mesocap::test::ScanSetup setup;
+  mesocap::mdf::ScanSetup setup;
   setup.scene = "blocks";
   setup.rig = "small";
   setup.turntable_indices = {0};
@@ -71,7 +71,7 @@ void ErrorAgainstNoiseAndResolution(benchmark::State& state) {
   const auto file = std::filesystem::temp_directory_path() /
                     ("mesocap-bench-rig-" + std::to_string(::getpid()) + "-" + std::to_string(state.range(1)) + ".json");
   std::ofstream(file) << rig.dump();
-  mesocap::test::ScanSetup setup;
+  mesocap::mdf::ScanSetup setup;
   setup.scene = "blocks";
   setup.rig = file.string();
   setup.turntable_indices = {0};
@@ -97,7 +97,7 @@ BENCHMARK(ErrorAgainstNoiseAndResolution)
 // locations; Arg 0 is blocks, 1 weave. ~2 minutes a scene (18,432 frames
 // rendered); the acceptance tests use turntable angle 0 only.
 void WholeSessionAcceptance(benchmark::State& state) {
-  mesocap::test::ScanSetup setup;
+  mesocap::mdf::ScanSetup setup;
   setup.scene = state.range(0) == 0 ? "blocks" : "weave";
   setup.rig = "small";
   setup.cameras = {0, 1, 2};

@@ -28,7 +28,7 @@ struct Ray {
   Eigen::Vector3d dir;
 };
 
-std::vector<Ray> PrimaryRays(const MesostructureScene& scene, double theta_deg, int count) {
+std::vector<Ray> PrimaryRays(const mesocap::sim::MesostructureScene& scene, double theta_deg, int count) {
   std::mt19937_64 rng(42);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   const double theta = theta_deg * std::numbers::pi / 180.0;
@@ -44,7 +44,7 @@ std::vector<Ray> PrimaryRays(const MesostructureScene& scene, double theta_deg, 
   return rays;
 }
 
-double MeanCells(const MesostructureScene& scene, const std::vector<Ray>& rays) {
+double MeanCells(const mesocap::sim::MesostructureScene& scene, const std::vector<Ray>& rays) {
   long cells = 0;
   for (const Ray& ray : rays) {
     mesocap::sim::CellWalk walk(ray.origin, ray.dir, 0.0, std::numeric_limits<double>::infinity(),
@@ -55,7 +55,7 @@ double MeanCells(const MesostructureScene& scene, const std::vector<Ray>& rays) 
   return static_cast<double>(cells) / rays.size();
 }
 
-void PrimaryRaysPerSecond(benchmark::State& state, std::shared_ptr<const MesostructureScene> scene,
+void PrimaryRaysPerSecond(benchmark::State& state, std::shared_ptr<const mesocap::sim::MesostructureScene> scene,
                           double theta_deg) {
   const std::vector<Ray> rays = PrimaryRays(*scene, theta_deg, 4096);
   long hits = 0;
@@ -84,7 +84,7 @@ int main(int argc, char** argv) {
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
   for (const std::string& name : mesocap::sim::BuiltinSceneNames()) {
-    std::shared_ptr<const MesostructureScene> scene = mesocap::sim::MakeBuiltinScene(name);
+    std::shared_ptr<const mesocap::sim::MesostructureScene> scene = mesocap::sim::MakeBuiltinScene(name);
     for (const double theta : {0.0, 45.0, 75.0}) {
       benchmark::RegisterBenchmark(
           ("primary_rays/" + name + "/theta:" + std::to_string(static_cast<int>(theta))).c_str(),

@@ -27,23 +27,23 @@ constexpr int kCamera = 3;
 constexpr int kLocation = 0;
 
 struct SweepSetup {
-  mesocap::drivers::RigDescription rig = mesocap::sim::LoadRig("paper");
+  mesocap::formats::RigDescription rig = mesocap::sim::LoadRig("paper");
   std::unique_ptr<mesocap::sim::MesostructureScene> scene = mesocap::sim::MakeBuiltinScene("weave");
-  std::unique_ptr<CameraRenderer> renderer;
+  std::unique_ptr<mesocap::sim::CameraRenderer> renderer;
   std::unique_ptr<mesocap::sim::LaserSweepRenderer> sweep;
   std::vector<double> tilts;
 
   explicit SweepSetup(int samples_per_pixel_side) {
     mesocap::sim::CameraRendererOptions options;
     options.samples_per_pixel_side = samples_per_pixel_side;
-    renderer = std::make_unique<CameraRenderer>(*scene, rig, options);
+    renderer = std::make_unique<mesocap::sim::CameraRenderer>(*scene, rig, options);
     const auto& loc = rig.laser.locations[kLocation];
     const auto view = renderer->TraceSample(kCamera, 0.0);
     sweep = std::make_unique<mesocap::sim::LaserSweepRenderer>(*renderer, view, loc.mount, loc.arc_angle_rad);
     for (int f = 0; f < rig.laser.frames_per_sweep; ++f) {
       const double offset = rig.laser.sweep_min_mm +
                             (rig.laser.sweep_max_mm - rig.laser.sweep_min_mm) * f / (rig.laser.frames_per_sweep - 1);
-      tilts.push_back(mesocap::drivers::LaserTiltForOffset(rig.laser, loc.mount, offset));
+      tilts.push_back(mesocap::calibration::LaserTiltForOffset(rig.laser, loc.mount, offset));
     }
   }
 };
@@ -58,7 +58,7 @@ void StripeFrame(benchmark::State& state) {
   const SweepSetup& s = Setup(static_cast<int>(state.range(0)));
   std::size_t f = 0;
   for (auto _ : state) {
-    mesocap::Image frame = s.sweep->Frame(s.tilts[f]);
+    mesocap::core::Image frame = s.sweep->Frame(s.tilts[f]);
     benchmark::DoNotOptimize(frame.data());
     f = (f + 1) % s.tilts.size();
   }
@@ -71,8 +71,8 @@ BENCHMARK(StripeFrame)->Arg(1)->Arg(3)->Unit(benchmark::kMillisecond)->UseRealTi
 // zero signal, as in a sweep frame.
 void SensorOnSweepFrame(benchmark::State& state) {
   const SweepSetup& s = Setup(1);
-  const mesocap::Image stripe = s.sweep->Frame(s.tilts[s.tilts.size() / 2]);
-  mesocap::Image rgb(stripe.width(), stripe.height(), 3);
+  const mesocap::core::Image stripe = s.sweep->Frame(s.tilts[s.tilts.size() / 2]);
+  mesocap::core::Image rgb(stripe.width(), stripe.height(), 3);
   for (int y = 0; y < stripe.height(); ++y) {
     for (int x = 0; x < stripe.width(); ++x) {
       for (int c = 0; c < 3; ++c) rgb.at(x, y, c) = stripe.at(x, y);
@@ -83,7 +83,7 @@ void SensorOnSweepFrame(benchmark::State& state) {
   state.counters["lit_share"] = static_cast<double>(lit) / static_cast<double>(rgb.size());
   std::mt19937_64 rng(5);
   for (auto _ : state) {
-    mesocap::Image out = mesocap::sim::ApplySensor(rgb, s.rig.cameras[kCamera], rng, true);
+    mesocap::core::Image out = mesocap::sim::ApplySensor(rgb, s.rig.cameras[kCamera], rng, true);
     benchmark::DoNotOptimize(out.data());
   }
   state.SetItemsProcessed(state.iterations());
@@ -99,7 +99,7 @@ void RenderedSweepFrame(benchmark::State& state) {
   const SweepSetup& s = Setup(side);
   mesocap::sim::CameraRendererOptions options;
   options.samples_per_pixel_side = side;
-  CameraRenderer renderer(*s.scene, s.rig, options);
+  mesocap::sim::CameraRenderer renderer(*s.scene, s.rig, options);
   mesocap::sim::SimulatedRigState rig_state;
   rig_state.lamps_on.assign(s.rig.lamps.elevations_rad.size(), false);
   rig_state.laser_on = true;
@@ -111,7 +111,7 @@ void RenderedSweepFrame(benchmark::State& state) {
   std::size_t f = 0;
   for (auto _ : state) {
     rig_state.laser_tilt_rad = s.tilts[f];
-    mesocap::Image out =
+    mesocap::core::Image out =
         mesocap::sim::ApplySensor(renderer.Render(rig_state, kCamera, channels), s.rig.cameras[kCamera], rng, true);
     benchmark::DoNotOptimize(out.data());
     f = (f + 1) % s.tilts.size();

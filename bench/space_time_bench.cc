@@ -32,13 +32,13 @@ constexpr int kWidth = 1024, kHeight = 768, kFrames = 64;
 
 enum Sensor { kPaperCamera = 0, kHeavyNoise = 1 };
 
-std::vector<mesocap::Image> StripeFrames(Sensor sensor) {
+std::vector<mesocap::core::Image> StripeFrames(Sensor sensor) {
   const auto camera = mesocap::sim::LoadRig("paper").cameras[0];
   std::mt19937_64 rng(3);
   std::normal_distribution<float> noise(0.0f, 0.005f);
-  std::vector<mesocap::Image> frames;
+  std::vector<mesocap::core::Image> frames;
   for (int f = 0; f < kFrames; ++f) {
-    mesocap::Image frame(kWidth, kHeight, 1);
+    mesocap::core::Image frame(kWidth, kHeight, 1);
     const double centre = (f + 0.5) * kWidth / kFrames;
     for (int y = 0; y < kHeight; ++y) {
       for (int x = 0; x < kWidth; ++x) {
@@ -57,18 +57,18 @@ std::vector<mesocap::Image> StripeFrames(Sensor sensor) {
 }
 
 // Each sensor's frames are made on first use only.
-const std::vector<mesocap::Image>& Frames(Sensor sensor = kPaperCamera) {
+const std::vector<mesocap::core::Image>& Frames(Sensor sensor = kPaperCamera) {
   if (sensor == kPaperCamera) {
-    static const std::vector<mesocap::Image> paper = StripeFrames(kPaperCamera);
+    static const std::vector<mesocap::core::Image> paper = StripeFrames(kPaperCamera);
     return paper;
   }
-  static const std::vector<mesocap::Image> heavy = StripeFrames(kHeavyNoise);
+  static const std::vector<mesocap::core::Image> heavy = StripeFrames(kHeavyNoise);
   return heavy;
 }
 
 void PlainCopy(benchmark::State& state) {
   const auto& frames = Frames();
-  mesocap::Image out(kWidth, kHeight, 1);
+  mesocap::core::Image out(kWidth, kHeight, 1);
   int f = 0;
   for (auto _ : state) {
     std::memcpy(out.data(), frames[f].data(), frames[f].size() * sizeof(float));
@@ -82,12 +82,12 @@ BENCHMARK(PlainCopy)->Unit(benchmark::kMillisecond);
 
 void SpaceTimeAddFrame(benchmark::State& state) {
   const auto& frames = Frames(static_cast<Sensor>(state.range(0)));
-  std::unique_ptr<mesocap::SpaceTimeAnalyzer> analyzer;
+  std::unique_ptr<mesocap::mdf::SpaceTimeAnalyzer> analyzer;
   int index = kFrames;
   for (auto _ : state) {
     if (index == kFrames) {  // a new sweep: its setup is not timed
       state.PauseTiming();
-      analyzer = std::make_unique<mesocap::SpaceTimeAnalyzer>(kWidth, kHeight, kFrames);
+      analyzer = std::make_unique<mesocap::mdf::SpaceTimeAnalyzer>(kWidth, kHeight, kFrames);
       index = 0;
       state.ResumeTiming();
     }
@@ -101,7 +101,7 @@ BENCHMARK(SpaceTimeAddFrame)->Arg(kPaperCamera)->Arg(kHeavyNoise)->Unit(benchmar
 
 void SpaceTimeResult(benchmark::State& state) {
   const auto& frames = Frames();
-  mesocap::SpaceTimeAnalyzer analyzer(kWidth, kHeight, kFrames);
+  mesocap::mdf::SpaceTimeAnalyzer analyzer(kWidth, kHeight, kFrames);
   for (int f = 0; f < kFrames; ++f) analyzer.AddFrame(f, frames[f]);
   for (auto _ : state) benchmark::DoNotOptimize(analyzer.Result());
   state.SetItemsProcessed(state.iterations() * kWidth * kHeight);
@@ -109,23 +109,23 @@ void SpaceTimeResult(benchmark::State& state) {
 BENCHMARK(SpaceTimeResult)->Unit(benchmark::kMillisecond);
 
 void LaserLineDetection(benchmark::State& state) {
-  mesocap::CameraCalibration camera;
+  mesocap::formats::CameraCalibration camera;
   camera.id = "bench";
   camera.width = kWidth;
   camera.height = kHeight;
   camera.intrinsics = {2000, 2000, kWidth / 2.0, kHeight / 2.0, {}};
   camera.pose.transform.rotation << 1, 0, 0, 0, -1, 0, 0, 0, -1;  // looking straight down
   camera.pose.transform.translation = {0, 0, 400};
-  const mesocap::CameraRays rays(camera);
+  const mesocap::calibration::CameraRays rays(camera);
   // The reference region: the outer quarter on each side.
-  mesocap::PixelMask mask(static_cast<std::size_t>(kWidth) * kHeight, 0);
+  mesocap::calibration::PixelMask mask(static_cast<std::size_t>(kWidth) * kHeight, 0);
   for (int y = 0; y < kHeight; ++y) {
     for (int x = 0; x < kWidth; ++x) mask[y * kWidth + x] = (y < kHeight / 4 || y >= 3 * kHeight / 4) ? 1 : 0;
   }
   const auto& frames = Frames();
   int f = 0, found = 0;
   for (auto _ : state) {
-    found += mesocap::DetectLaserLine(frames[f], mask, rays, 0.0, {1, 0}, {}).valid;
+    found += mesocap::calibration::DetectLaserLine(frames[f], mask, rays, 0.0, {1, 0}, {}).valid;
     f = (f + 1) % kFrames;
   }
   state.SetItemsProcessed(state.iterations() * kWidth * kHeight);

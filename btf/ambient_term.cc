@@ -4,25 +4,25 @@
 
 #include "core/error.h"
 
-namespace mesocap {
+namespace mesocap::btf {
 
-AmbientTerm MakeAmbientTerm(int width, int height, const SamplingSet& views) {
-  AmbientTerm ambient;
+formats::AmbientTerm MakeAmbientTerm(int width, int height, const core::SamplingSet& views) {
+  formats::AmbientTerm ambient;
   ambient.width = width;
   ambient.height = height;
   ambient.views = views;
-  ambient.values = Image(width, height * views.size(), 3);
+  ambient.values = core::Image(width, height * views.size(), 3);
   return ambient;
 }
 
-void AddAmbientView(const Image& btf_view, const SamplingSet& lights, int view, AmbientTerm* ambient) {
+void AddAmbientView(const core::Image& btf_view, const core::SamplingSet& lights, int view, formats::AmbientTerm* ambient) {
   const int w = ambient->width;
   const int h = ambient->height;
   if (view < 0 || view >= ambient->view_count()) {
-    throw Error("ambient term: view " + std::to_string(view) + " outside 0.." + std::to_string(ambient->view_count() - 1));
+    throw core::Error("ambient term: view " + std::to_string(view) + " outside 0.." + std::to_string(ambient->view_count() - 1));
   }
   if (btf_view.width() != w || btf_view.height() != h * lights.size() || btf_view.channels() != 3) {
-    throw Error("ambient term: BTF view " + std::to_string(view) + " image is " + std::to_string(btf_view.width()) +
+    throw core::Error("ambient term: BTF view " + std::to_string(view) + " image is " + std::to_string(btf_view.width()) +
                 "x" + std::to_string(btf_view.height()) + ", expected " + std::to_string(w) + "x" +
                 std::to_string(h * lights.size()) + " with 3 channels");
   }
@@ -35,10 +35,10 @@ void AddAmbientView(const Image& btf_view, const SamplingSet& lights, int view, 
   }
 }
 
-AmbientTerm ComputeAmbientTerm(const FullBtf& btf) {
-  AmbientTerm ambient = MakeAmbientTerm(btf.width, btf.height, btf.views);
+formats::AmbientTerm ComputeAmbientTerm(const core::FullBtf& btf) {
+  formats::AmbientTerm ambient = MakeAmbientTerm(btf.width, btf.height, btf.views);
   for (int v = 0; v < btf.view_count(); ++v) AddAmbientView(btf.view_images[v], btf.lights, v, &ambient);
   return ambient;
 }
 
-}  // namespace mesocap
+}  // namespace mesocap::btf

@@ -14,17 +14,17 @@
 #include "core/image.h"
 #include "formats/material_package.h"
 
-namespace mesocap {
+namespace mesocap::btf {
 
 // An all-zero ambient term of the BTF's size and view set.
-AmbientTerm MakeAmbientTerm(int width, int height, const SamplingSet& views);
+formats::AmbientTerm MakeAmbientTerm(int width, int height, const core::SamplingSet& views);
 
 // Adds view `view`'s contribution from its full-BTF view image (3 channels,
 // W x H * Nlight), so a large BTF can be integrated view by view as it is
 // read or assembled. Throws Error on a size mismatch or a view out of range.
-void AddAmbientView(const Image& btf_view, const SamplingSet& lights, int view, AmbientTerm* ambient);
+void AddAmbientView(const core::Image& btf_view, const core::SamplingSet& lights, int view, formats::AmbientTerm* ambient);
 
 // La of a whole BTF in memory.
-AmbientTerm ComputeAmbientTerm(const FullBtf& btf);
+formats::AmbientTerm ComputeAmbientTerm(const core::FullBtf& btf);
 
-}  // namespace mesocap
+}  // namespace mesocap::btf

@@ -18,27 +18,27 @@
 #include "core/image_io.h"
 #include "formats/capture_session.h"
 
-namespace mesocap {
+namespace mesocap::btf {
 namespace {
 
 constexpr double kDegPerRad = 180.0 / std::numbers::pi;
 
-std::string Degrees(const SphericalAngles& a) {
+std::string Degrees(const core::SphericalAngles& a) {
   return "(theta " + std::to_string(a.theta * kDegPerRad) + ", phi " + std::to_string(a.phi * kDegPerRad) + ") deg";
 }
 
 // Angle in degrees between direction i of `set` and d (sample frame).
-double OffsetDeg(const SamplingSet& set, int i, const Eigen::Vector3d& d) {
+double OffsetDeg(const core::SamplingSet& set, int i, const Eigen::Vector3d& d) {
   return std::acos(std::clamp(set.direction(i).dot(d.normalized()), -1.0, 1.0)) * kDegPerRad;
 }
 
 // Index of `d` (sample frame) in `set`, and how far it is from it.
-int MatchDirection(const SamplingSet& set, const Eigen::Vector3d& d, const std::string& what,
+int MatchDirection(const core::SamplingSet& set, const Eigen::Vector3d& d, const std::string& what,
                    const BtfCaptureImage& image, double tolerance_deg, double* offset_deg, const std::string& hint) {
   const int i = set.Nearest(d);
   const double offset = OffsetDeg(set, i, d);
   if (offset > tolerance_deg) {
-    throw Error(image.file.string() + ": its " + what + " direction " + Degrees(AnglesFromDirection(d)) + " is " +
+    throw core::Error(image.file.string() + ": its " + what + " direction " + Degrees(core::AnglesFromDirection(d)) + " is " +
                 std::to_string(offset) + " deg from the nearest of the set '" + set.name() +
                 "' (at most " + std::to_string(tolerance_deg) + " deg" + hint + ")");
   }
@@ -46,18 +46,18 @@ int MatchDirection(const SamplingSet& set, const Eigen::Vector3d& d, const std::
   return i;
 }
 
-Image ReadCapture(const BtfCaptureImage& image, const CameraCalibration& camera) {
-  if (!std::filesystem::is_regular_file(image.file)) throw Error(image.file.string() + ": missing BTF image");
-  ImageReadOptions o;
+core::Image ReadCapture(const BtfCaptureImage& image, const formats::CameraCalibration& camera) {
+  if (!std::filesystem::is_regular_file(image.file)) throw core::Error(image.file.string() + ": missing BTF image");
+  core::ImageReadOptions o;
   o.expected_width = camera.width;
   o.expected_height = camera.height;
   o.expected_channels = 3;
-  Image values = ReadImage(image.file, o);
+  core::Image values = core::ReadImage(image.file, o);
   for (std::size_t i = 0; i < values.size(); ++i) {
     const float v = values.data()[i];
     if (!std::isfinite(v) || v < 0.0f) {
       const std::size_t p = i / 3;
-      throw Error(image.file.string() + ": pixel (" + std::to_string(p % camera.width) + ", " +
+      throw core::Error(image.file.string() + ": pixel (" + std::to_string(p % camera.width) + ", " +
                   std::to_string(p / camera.width) + ") channel " + std::to_string(i % 3) + " is " +
                   std::to_string(v) + "; expected a finite value >= 0 (linear signal)");
     }
@@ -67,7 +67,7 @@ Image ReadCapture(const BtfCaptureImage& image, const CameraCalibration& camera)
 
 }  // namespace
 
-CheckResult BtfAssemblyOptions::Check() const {
+core::CheckResult BtfAssemblyOptions::Check() const {
   if (texture_width < 1 || texture_height < 1) return "texture size must be positive";
   if (!(sample_size_mm > 0) || !std::isfinite(sample_size_mm)) return "sample size must be > 0 mm";
   if (views.size() < 1 || lights.size() < 1) return "the view and light sets must not be empty";
@@ -98,26 +98,26 @@ struct CapturedView {
   std::vector<int> images;
 };
 
-Eigen::Vector3d LampInWorld(const Calibration& calibration, const BtfCaptureImage& image) {
-  return LightArcPointToWorld(calibration.light_arc, image.arc_rad, calibration.lamps[image.lamp].position_mm);
+Eigen::Vector3d LampInWorld(const formats::Calibration& calibration, const BtfCaptureImage& image) {
+  return calibration::LightArcPointToWorld(calibration.light_arc, image.arc_rad, calibration.lamps[image.lamp].position_mm);
 }
 
 // T = L / E per texel (header: radiometry) of one rectified image.
-Image RadiometricTexture(const Image& rectified, const BtfCaptureImage& image, const Calibration& calibration,
-                         const RigidTransform& world_from_sample, const BtfAssemblyOptions& o) {
+core::Image RadiometricTexture(const core::Image& rectified, const BtfCaptureImage& image, const formats::Calibration& calibration,
+                         const core::RigidTransform& world_from_sample, const BtfAssemblyOptions& o) {
   const int w = o.texture_width, h = o.texture_height;
   const Eigen::Vector3d normal = world_from_sample.rotation.col(2);
   const Eigen::Vector3d lamp = LampInWorld(calibration, image);
   const Eigen::Vector3d intensity = calibration.lamps[image.lamp].intensity;
   const double radiance_per_value = 1.0 / (o.exposure_s[image.camera] * o.signal_per_radiance_second[image.camera]);
-  Image out(w, h, 3);
+  core::Image out(w, h, 3);
   for (int j = 0; j < h; ++j) {
     for (int i = 0; i < w; ++i) {
       const Eigen::Vector3d p = world_from_sample.Apply(ReferencePlaneRectifier::TexelCentre(i, j, w, h, o.sample_size_mm));
       const Eigen::Vector3d to_lamp = lamp - p;
       const double r2 = to_lamp.squaredNorm();
       const double cos_l = normal.dot(to_lamp) / std::sqrt(r2);
-      if (!(cos_l > 1e-6)) throw Error(image.file.string() + ": the lamp is at or below the sample plane");
+      if (!(cos_l > 1e-6)) throw core::Error(image.file.string() + ": the lamp is at or below the sample plane");
       const float* src = rectified.pixel(i, j);
       float* dst = out.pixel(i, j);
       for (int c = 0; c < 3; ++c) {
@@ -133,7 +133,7 @@ Image RadiometricTexture(const Image& rectified, const BtfCaptureImage& image, c
 // Per texel (row-major), the direction from the texel's reference-plane
 // point to `target` (world), in the sample frame, minus `nominal`.
 std::vector<Eigen::Vector3d> TexelOffsets(const Eigen::Vector3d& target, const Eigen::Vector3d& nominal,
-                                          const RigidTransform& world_from_sample, const BtfAssemblyOptions& o) {
+                                          const core::RigidTransform& world_from_sample, const BtfAssemblyOptions& o) {
   const int w = o.texture_width, h = o.texture_height;
   const Eigen::Matrix3d to_sample = world_from_sample.rotation.transpose();
   std::vector<Eigen::Vector3d> out;
@@ -150,7 +150,7 @@ std::vector<Eigen::Vector3d> TexelOffsets(const Eigen::Vector3d& target, const E
 // The images placed on the grid: each image's directions matched to the
 // nearest of the sets (within max_direction_error_deg), unmeasured lights of
 // a view interpolated from its measured ones.
-void AssembleOnGrid(const std::vector<BtfCaptureImage>& images, const Calibration& calibration,
+void AssembleOnGrid(const std::vector<BtfCaptureImage>& images, const formats::Calibration& calibration,
                     const BtfAssemblyOptions& o, const std::vector<CentreDirections>& directions,
                     const BtfViewSink& sink, BtfAssemblyReport* r) {
   struct Placed {
@@ -168,11 +168,11 @@ void AssembleOnGrid(const std::vector<BtfCaptureImage>& images, const Calibratio
     const int l = MatchDirection(o.lights, directions[k].light, "light", image, o.max_direction_error_deg,
                                  &r->max_light_offset_deg, hint);
     if (r->measured[v][l]) {
-      throw Error(image.file.string() + ": a second image of view " + std::to_string(v) + ", light " +
+      throw core::Error(image.file.string() + ": a second image of view " + std::to_string(v) + ", light " +
                   std::to_string(l));
     }
     if (view_camera[v] >= 0 && (view_camera[v] != image.camera || view_turntable[v] != image.turntable_rad)) {
-      throw Error(image.file.string() + ": view " + std::to_string(v) +
+      throw core::Error(image.file.string() + ": view " + std::to_string(v) +
                   " is also seen by another camera or turntable angle");
     }
     view_camera[v] = image.camera;
@@ -182,39 +182,39 @@ void AssembleOnGrid(const std::vector<BtfCaptureImage>& images, const Calibratio
   }
   for (int v = 0; v < o.views.size(); ++v) {
     if (by_view[v].empty()) {
-      throw Error("BTF assembly: no image shows view " + std::to_string(v) + " " +
+      throw core::Error("BTF assembly: no image shows view " + std::to_string(v) + " " +
                   Degrees(o.views.angles(v)) + " of the set '" + o.views.name() + "'");
     }
   }
 
-  std::vector<CameraRays> camera_rays;
-  for (const CameraCalibration& camera : calibration.cameras) camera_rays.emplace_back(camera);
+  std::vector<calibration::CameraRays> camera_rays;
+  for (const formats::CameraCalibration& camera : calibration.cameras) camera_rays.emplace_back(camera);
   const int w = o.texture_width, h = o.texture_height;
   std::mutex report_mutex;
   tbb::parallel_for(0, o.views.size(), [&](int v) {
     const int cam = view_camera[v];
-    const RigidTransform world_from_sample = WorldFromSample(calibration.turntable, view_turntable[v]);
+    const core::RigidTransform world_from_sample = calibration::WorldFromSample(calibration.turntable, view_turntable[v]);
     const ReferencePlaneRectifier rectifier(calibration.cameras[cam], camera_rays[cam], world_from_sample, w, h,
                                             o.sample_size_mm, o.max_samples_per_side);
-    Image out(w, h * o.lights.size(), 3);
+    core::Image out(w, h * o.lights.size(), 3);
     for (const Placed& placed : by_view[v]) {
       const BtfCaptureImage& image = images[placed.image];
-      const Image texture = RadiometricTexture(rectifier.Rectify(ReadCapture(image, calibration.cameras[cam])),
+      const core::Image texture = RadiometricTexture(rectifier.Rectify(ReadCapture(image, calibration.cameras[cam])),
                                                image, calibration, world_from_sample, o);
       for (int j = 0; j < h; ++j) std::copy_n(texture.pixel(0, j), 3 * w, out.pixel(0, placed.light * h + j));
     }
     // Lights this view never saw: interpolated from the ones it did.
-    std::vector<SphericalAngles> seen;
+    std::vector<core::SphericalAngles> seen;
     std::vector<int> seen_index;
     for (const Placed& placed : by_view[v]) {
       seen.push_back(o.lights.angles(placed.light));
       seen_index.push_back(placed.light);
     }
-    const SamplingSet seen_set = SamplingSet::FromAngles("measured", seen);
+    const core::SamplingSet seen_set = core::SamplingSet::FromAngles("measured", seen);
     int filled = 0;
     for (int l = 0; l < o.lights.size(); ++l) {
       if (r->measured[v][l]) continue;
-      const SamplingSet::Blend blend = seen_set.Interpolate(o.lights.direction(l));
+      const core::SamplingSet::Blend blend = seen_set.Interpolate(o.lights.direction(l));
       for (int b = 0; b < blend.count; ++b) {
         const int from = seen_index[blend.index[b]];
         const float weight = static_cast<float>(blend.weight[b]);
@@ -239,7 +239,7 @@ void AssembleOnGrid(const std::vector<BtfCaptureImage>& images, const Calibratio
 // directions); then every target view from the captured views (each texel
 // with its own view directions). Holds the captured views' light-resampled
 // images (one BTF view image each) besides the output.
-void AssembleResampled(const std::vector<BtfCaptureImage>& images, const Calibration& calibration,
+void AssembleResampled(const std::vector<BtfCaptureImage>& images, const formats::Calibration& calibration,
                        const BtfAssemblyOptions& o, const std::vector<CentreDirections>& directions,
                        const BtfViewSink& sink, BtfAssemblyReport* r) {
   const double tolerance = o.max_direction_error_deg / kDegPerRad;
@@ -265,16 +265,16 @@ void AssembleResampled(const std::vector<BtfCaptureImage>& images, const Calibra
                                                                    o.ring_tolerance_deg / kDegPerRad);
   const int w = o.texture_width, h = o.texture_height;
   const std::size_t texels = static_cast<std::size_t>(w) * h;
-  std::vector<CameraRays> camera_rays;
-  for (const CameraCalibration& camera : calibration.cameras) camera_rays.emplace_back(camera);
+  std::vector<calibration::CameraRays> camera_rays;
+  for (const formats::CameraCalibration& camera : calibration.cameras) camera_rays.emplace_back(camera);
 
   // Stage 1: per captured view, all target lights.
-  std::vector<Image> resampled(captured.size());
+  std::vector<core::Image> resampled(captured.size());
   std::vector<std::vector<Eigen::Vector3d>> view_offsets(captured.size());
   std::mutex report_mutex;
   tbb::parallel_for(0, static_cast<int>(captured.size()), [&](int c) {
     const CapturedView& view = captured[c];
-    const RigidTransform world_from_sample = WorldFromSample(calibration.turntable, view.turntable_rad);
+    const core::RigidTransform world_from_sample = calibration::WorldFromSample(calibration.turntable, view.turntable_rad);
     const ReferencePlaneRectifier rectifier(calibration.cameras[view.camera], camera_rays[view.camera],
                                             world_from_sample, w, h, o.sample_size_mm, o.max_samples_per_side);
     std::vector<Eigen::Vector3d> light_centres;
@@ -283,7 +283,7 @@ void AssembleResampled(const std::vector<BtfCaptureImage>& images, const Calibra
         "BTF assembly: lights of camera " + calibration.cameras[view.camera].id + " at turntable " +
             std::to_string(view.turntable_rad * kDegPerRad) + " deg",
         light_centres, o.ring_tolerance_deg / kDegPerRad);
-    std::vector<Image> textures;
+    std::vector<core::Image> textures;
     std::vector<std::vector<Eigen::Vector3d>> light_offsets;
     for (int b = 0; b < static_cast<int>(view.images.size()); ++b) {
       const BtfCaptureImage& image = images[view.images[b]];
@@ -296,14 +296,14 @@ void AssembleResampled(const std::vector<BtfCaptureImage>& images, const Calibra
     }
     view_offsets[c] = TexelOffsets(calibration.cameras[view.camera].pose.transform.translation,
                                    captured_views.nominal.direction(c), world_from_sample, o);
-    Image& out = resampled[c];
-    out = Image(w, h * o.lights.size(), 3);
+    core::Image& out = resampled[c];
+    out = core::Image(w, h * o.lights.size(), 3);
     int extrapolated = 0;
     for (int l = 0; l < o.lights.size(); ++l) {
       const double theta = o.lights.angles(l).theta;
       extrapolated += theta > lights.last_ring_theta + tolerance || theta < lights.first_ring_theta - tolerance;
       for (std::size_t t = 0; t < texels; ++t) {
-        const SamplingSet::Blend blend = ResampleBlend(lights.nominal, o.lights.direction(l), [&](int b) {
+        const core::SamplingSet::Blend blend = ResampleBlend(lights.nominal, o.lights.direction(l), [&](int b) {
           return o.per_texel_directions ? light_offsets[b][t] : lights.offset[b];
         });
         float* dst = out.pixel(static_cast<int>(t % w), l * h + static_cast<int>(t / w));
@@ -327,9 +327,9 @@ void AssembleResampled(const std::vector<BtfCaptureImage>& images, const Calibra
   }
   std::mutex sink_mutex;
   tbb::parallel_for(0, o.views.size(), [&](int v) {
-    Image out(w, h * o.lights.size(), 3);
+    core::Image out(w, h * o.lights.size(), 3);
     for (std::size_t t = 0; t < texels; ++t) {
-      const SamplingSet::Blend blend = ResampleBlend(captured_views.nominal, o.views.direction(v), [&](int c) {
+      const core::SamplingSet::Blend blend = ResampleBlend(captured_views.nominal, o.views.direction(v), [&](int c) {
         return o.per_texel_directions ? view_offsets[c][t] : captured_views.offset[c];
       });
       const int i = static_cast<int>(t % w), j = static_cast<int>(t / w);
@@ -350,14 +350,14 @@ void AssembleResampled(const std::vector<BtfCaptureImage>& images, const Calibra
 
 }  // namespace
 
-void AssembleBtfViews(const std::vector<BtfCaptureImage>& images, const Calibration& calibration,
+void AssembleBtfViews(const std::vector<BtfCaptureImage>& images, const formats::Calibration& calibration,
                       const BtfAssemblyOptions& o, const BtfViewSink& sink, BtfAssemblyReport* report) {
-  if (const auto problem = o.Check(); !problem.empty()) throw Error("BTF assembly: " + problem);
+  if (const auto problem = o.Check(); !problem.empty()) throw core::Error("BTF assembly: " + problem);
   // One exposure and one gain per calibrated camera.
   for (const auto& [per_camera, what] : {std::pair{&o.exposure_s, "exposures"},
                                          std::pair{&o.signal_per_radiance_second, "gains"}}) {
     if (per_camera->size() != calibration.cameras.size()) {
-      throw Error("BTF assembly: " + std::to_string(per_camera->size()) + " " + what + " for " +
+      throw core::Error("BTF assembly: " + std::to_string(per_camera->size()) + " " + what + " for " +
                   std::to_string(calibration.cameras.size()) + " calibrated cameras");
     }
   }
@@ -371,9 +371,9 @@ void AssembleBtfViews(const std::vector<BtfCaptureImage>& images, const Calibrat
   for (const BtfCaptureImage& image : images) {
     if (image.camera < 0 || image.camera >= static_cast<int>(calibration.cameras.size()) || image.lamp < 0 ||
         image.lamp >= static_cast<int>(calibration.lamps.size())) {
-      throw Error(image.file.string() + ": camera or lamp index outside the calibration");
+      throw core::Error(image.file.string() + ": camera or lamp index outside the calibration");
     }
-    const RigidTransform world_from_sample = WorldFromSample(calibration.turntable, image.turntable_rad);
+    const core::RigidTransform world_from_sample = calibration::WorldFromSample(calibration.turntable, image.turntable_rad);
     const Eigen::Matrix3d to_sample = world_from_sample.rotation.transpose();
     const Eigen::Vector3d origin = world_from_sample.translation;
     const Eigen::Vector3d camera_centre = calibration.cameras[image.camera].pose.transform.translation;
@@ -405,25 +405,25 @@ void AssembleBtfViews(const std::vector<BtfCaptureImage>& images, const Calibrat
   if (report) *report = std::move(r);
 }
 
-FullBtf AssembleBtf(const std::vector<BtfCaptureImage>& images, const Calibration& calibration,
+core::FullBtf AssembleBtf(const std::vector<BtfCaptureImage>& images, const formats::Calibration& calibration,
                     const BtfAssemblyOptions& o, BtfAssemblyReport* report) {
-  FullBtf btf = MakeFullBtf(o.texture_width, o.texture_height, o.views, o.lights);
-  AssembleBtfViews(images, calibration, o, [&](int v, Image&& values) { btf.view_images[v] = std::move(values); },
+  core::FullBtf btf = core::MakeFullBtf(o.texture_width, o.texture_height, o.views, o.lights);
+  AssembleBtfViews(images, calibration, o, [&](int v, core::Image&& values) { btf.view_images[v] = std::move(values); },
                    report);
   return btf;
 }
 
-std::vector<BtfCaptureImage> SessionBtfImages(const std::filesystem::path& session, const SessionManifest& manifest,
-                                           const Calibration& calibration) {
+std::vector<BtfCaptureImage> SessionBtfImages(const std::filesystem::path& session, const formats::SessionManifest& manifest,
+                                           const formats::Calibration& calibration) {
   std::map<std::string, int> camera_index;
   for (int c = 0; c < static_cast<int>(calibration.cameras.size()); ++c) camera_index[calibration.cameras[c].id] = c;
   constexpr double kRadPerDeg = std::numbers::pi / 180.0;
   std::vector<BtfCaptureImage> images;
-  for (const PlannedStep& step : manifest.plan) {
-    if (step.kind != StepKind::kBtfImage) continue;
+  for (const formats::PlannedStep& step : manifest.plan) {
+    if (step.kind != formats::StepKind::kBtfImage) continue;
     const auto field = [&](const char* name) {
       if (!step.params.contains(name) || !step.params[name].is_number()) {
-        throw FormatError(session / kSessionManifestName, "plan step " + step.id + "." + name, "expected a number");
+        throw core::FormatError(session / formats::kSessionManifestName, "plan step " + step.id + "." + name, "expected a number");
       }
       return step.params[name].get<double>();
     };
@@ -431,20 +431,20 @@ std::vector<BtfCaptureImage> SessionBtfImages(const std::filesystem::path& sessi
     const double arc = field("arc_deg") * kRadPerDeg;
     const int lamp = static_cast<int>(field("lamp"));
     if (!step.params.contains("files") || !step.params["files"].is_array()) {
-      throw FormatError(session / kSessionManifestName, "plan step " + step.id + ".files", "expected a list");
+      throw core::FormatError(session / formats::kSessionManifestName, "plan step " + step.id + ".files", "expected a list");
     }
     for (const auto& file : step.params["files"]) {
       const std::string camera = file.value("camera", "");
       const std::string path = file.value("path", "");
-      if (!camera_index.count(camera) || !IsSessionPath(path)) {
-        throw FormatError(session / kSessionManifestName, "plan step " + step.id + ".files",
+      if (!camera_index.count(camera) || !formats::IsSessionPath(path)) {
+        throw core::FormatError(session / formats::kSessionManifestName, "plan step " + step.id + ".files",
                           "camera '" + camera + "' not in the calibration or bad path '" + path + "'");
       }
       images.push_back({session / path, camera_index[camera], turntable, arc, lamp});
     }
   }
-  if (images.empty()) throw Error("BTF assembly: the session " + session.string() + " plans no BTF images");
+  if (images.empty()) throw core::Error("BTF assembly: the session " + session.string() + " plans no BTF images");
   return images;
 }
 
-}  // namespace mesocap
+}  // namespace mesocap::btf

@@ -42,7 +42,7 @@
 #include "formats/calibration.h"
 #include "formats/capture_session.h"
 
-namespace mesocap {
+namespace mesocap::btf {
 
 struct BtfCaptureImage {
   std::filesystem::path file;
@@ -56,8 +56,8 @@ struct BtfAssemblyOptions {
   int texture_width = 64;
   int texture_height = 64;
   double sample_size_mm = 0.0;  // side of the clipped square sample
-  SamplingSet views;            // the session's direction sets
-  SamplingSet lights;
+  core::SamplingSet views;            // the session's direction sets
+  core::SamplingSet lights;
   std::vector<double> exposure_s;                  // per calibration camera, > 0
   std::vector<double> signal_per_radiance_second;  // per calibration camera: its gain G, > 0
   int max_samples_per_side = 8;             // rectification's prefilter limit
@@ -74,7 +74,7 @@ struct BtfAssemblyOptions {
   // Captured polar angles within this share a ring when resampling.
   double ring_tolerance_deg = 0.5;
 
-  CheckResult Check() const;
+  core::CheckResult Check() const;
 };
 
 struct BtfAssemblyReport {
@@ -101,13 +101,13 @@ struct BtfAssemblyReport {
 // angle and lamp (turntable_deg, arc_deg, lamp), one file per camera
 // ({camera: id, path}). Cameras are matched to the calibration by id; throws
 // FormatError naming the manifest and the step for a bad step.
-std::vector<BtfCaptureImage> SessionBtfImages(const std::filesystem::path& session, const SessionManifest& manifest,
-                                              const Calibration& calibration);
+std::vector<BtfCaptureImage> SessionBtfImages(const std::filesystem::path& session, const formats::SessionManifest& manifest,
+                                              const formats::Calibration& calibration);
 
 // Receives each assembled view image of the BTF (3 channels, W x H * Nlight,
 // light l in rows [l*H, (l+1)*H)), once per view, in any order, never two
 // calls at once.
-using BtfViewSink = std::function<void(int view, Image&& values)>;
+using BtfViewSink = std::function<void(int view, core::Image&& values)>;
 
 // Reads, rectifies and calibrates every image; throws Error naming the file
 // for a missing or unreadable image, a value that is NaN, infinite or
@@ -117,10 +117,10 @@ using BtfViewSink = std::function<void(int view, Image&& values)>;
 // to disk without ever being whole in memory: on the grid, views are built
 // from their own images, at most one per worker at a time; resampling first
 // holds every captured view's light-resampled image (about one BTF).
-void AssembleBtfViews(const std::vector<BtfCaptureImage>& images, const Calibration& calibration,
+void AssembleBtfViews(const std::vector<BtfCaptureImage>& images, const formats::Calibration& calibration,
                       const BtfAssemblyOptions& options, const BtfViewSink& sink, BtfAssemblyReport* report = nullptr);
 // The same, into memory.
-FullBtf AssembleBtf(const std::vector<BtfCaptureImage>& images, const Calibration& calibration,
+core::FullBtf AssembleBtf(const std::vector<BtfCaptureImage>& images, const formats::Calibration& calibration,
                     const BtfAssemblyOptions& options, BtfAssemblyReport* report = nullptr);
 
-}  // namespace mesocap
+}  // namespace mesocap::btf

@@ -14,7 +14,7 @@
 #include <limits>
 #include <sstream>
 
-namespace mesocap {
+namespace mesocap::btf {
 namespace {
 
 using Eigen::MatrixXd;
@@ -55,10 +55,10 @@ struct MatrixBlock {
 // The BTF as the matrix A of a layout, read from `btf` in blocks.
 class BtfMatrix {
  public:
-  BtfMatrix(FullBtfReader& btf, BtfFactorLayout layout) : btf_(btf), layout_(layout) {
+  BtfMatrix(core::FullBtfReader& btf, core::BtfFactorLayout layout) : btf_(btf), layout_(layout) {
     const long long texels = static_cast<long long>(btf.width()) * btf.height();
-    rows_ = layout == BtfFactorLayout::kPaper ? texels * btf.light_count() : texels;
-    columns_ = layout == BtfFactorLayout::kPaper ? btf.view_count()
+    rows_ = layout == core::BtfFactorLayout::kPaper ? texels * btf.light_count() : texels;
+    columns_ = layout == core::BtfFactorLayout::kPaper ? btf.view_count()
                                                  : static_cast<long long>(btf.view_count()) * btf.light_count();
   }
 
@@ -74,14 +74,14 @@ class BtfMatrix {
     block.rgb.resize(static_cast<std::size_t>(3 * rows * columns));
     // The views in parallel (decoding a view file is the slow part), each
     // view's columns in order.
-    const long long per_view = layout_ == BtfFactorLayout::kPaper ? 1 : btf_.light_count();
+    const long long per_view = layout_ == core::BtfFactorLayout::kPaper ? 1 : btf_.light_count();
     const int first_view = static_cast<int>(first_column / per_view);
     const int last_view = static_cast<int>((first_column + columns - 1) / per_view);
     tbb::parallel_for(first_view, last_view + 1, [&](int view) {
       const long long begin = std::max(first_column, view * per_view);
       const long long end = std::min(first_column + columns, (view + 1) * per_view);
       for (long long c = begin; c < end; ++c) {
-        const long long first_line = layout_ == BtfFactorLayout::kPaper ? 0 : (c % per_view) * btf_.height();
+        const long long first_line = layout_ == core::BtfFactorLayout::kPaper ? 0 : (c % per_view) * btf_.height();
         btf_.ReadRows(view, static_cast<int>(first_line + first_row / w), static_cast<int>(rows / w),
                       block.rgb.data() + 3 * (c - first_column) * rows);
       }
@@ -90,8 +90,8 @@ class BtfMatrix {
   }
 
  private:
-  FullBtfReader& btf_;
-  BtfFactorLayout layout_;
+  core::FullBtfReader& btf_;
+  core::BtfFactorLayout layout_;
   long long rows_ = 0;
   long long columns_ = 0;
 };
@@ -256,8 +256,8 @@ std::string Percent(double relative) {
 
 }  // namespace
 
-CheckResult BtfCompressionOptions::Check() const {
-  if (rank < 0 || rank > kMaxBtfRank) {
+core::CheckResult BtfCompressionOptions::Check() const {
+  if (rank < 0 || rank > core::kMaxBtfRank) {
     return "rank " + std::to_string(rank) + " is outside 0..100 (0 chooses the rank by the error budget)";
   }
   if (band_bytes < 1) return "band_bytes " + std::to_string(band_bytes) + " must be positive";
@@ -267,11 +267,11 @@ CheckResult BtfCompressionOptions::Check() const {
   return {};
 }
 
-FactoredBtf CompressBtf(FullBtfReader& btf, const BtfCompressionOptions& options, BtfCompressionReport* report) {
+core::FactoredBtf CompressBtf(core::FullBtfReader& btf, const BtfCompressionOptions& options, BtfCompressionReport* report) {
   const auto start = std::chrono::steady_clock::now();
-  if (const auto problem = options.Check(); !problem.empty()) throw Error("compress: " + problem);
+  if (const auto problem = options.Check(); !problem.empty()) throw core::Error("compress: " + problem);
 
-  FactoredBtf out;
+  core::FactoredBtf out;
   out.width = btf.width();
   out.height = btf.height();
   out.views = btf.views();
@@ -279,7 +279,7 @@ FactoredBtf CompressBtf(FullBtfReader& btf, const BtfCompressionOptions& options
   out.layout = options.layout;
   out.color = options.color;
   out.rgb_to_factored =
-      options.color == BtfFactorColor::kYCbCr ? YCbCrFromLinearRgbBt601() : Eigen::Matrix3d::Identity();
+      options.color == core::BtfFactorColor::kYCbCr ? core::YCbCrFromLinearRgbBt601() : Eigen::Matrix3d::Identity();
   ChannelWeights weights;
   for (int ch = 0; ch < 3; ++ch) weights[ch] = out.rgb_to_factored.row(ch).transpose();
 
@@ -297,12 +297,12 @@ FactoredBtf CompressBtf(FullBtfReader& btf, const BtfCompressionOptions& options
   BtfCompressionReport& r = report ? *report : local;
   r = BtfCompressionReport{};
   for (int ch = 0; ch < 3; ++ch) r.singular_values[ch] = svd[ch].sigma;
-  r.max_rank = static_cast<int>(std::min<long long>(kMaxBtfRank, small));
+  r.max_rank = static_cast<int>(std::min<long long>(core::kMaxBtfRank, small));
   r.matrix_rows = m;
   r.matrix_columns = n;
   r.relative_rms_error = SpectrumErrors(r.singular_values, r.max_rank);
 
-  const std::string space = options.color == BtfFactorColor::kRgb ? "" : " (in Y, Cb, Cr)";
+  const std::string space = options.color == core::BtfFactorColor::kRgb ? "" : " (in Y, Cb, Cr)";
   int rank = 0;
   if (options.rank > 0) {
     rank = std::min(options.rank, r.max_rank);
@@ -331,8 +331,8 @@ FactoredBtf CompressBtf(FullBtfReader& btf, const BtfCompressionOptions& options
   // Builds the factors of rank k from the channel SVDs: one pass over the
   // BTF for the factor the SVD of R does not give.
   const auto build = [&](int k) {
-    out.rows.assign(k, Image(out.width, out.row_image_height(), 3));
-    out.columns = Image(static_cast<int>(n), k, 3);
+    out.rows.assign(k, core::Image(out.width, out.row_image_height(), 3));
+    out.columns = core::Image(static_cast<int>(n), k, 3);
     std::array<MatrixXd, 3> right;
     std::array<int, 3> usable{};
     for (int ch = 0; ch < 3; ++ch) {
@@ -381,7 +381,7 @@ FactoredBtf CompressBtf(FullBtfReader& btf, const BtfCompressionOptions& options
   r.measured_relative_rms_error = RelativeRmsError(btf, out, options.band_bytes);
   // The budget is on RGB values; for ycbcr the spectrum measures the error in
   // the factored space, so the rank grows until the measured RGB error fits.
-  if (options.rank == 0 && options.color == BtfFactorColor::kYCbCr) {
+  if (options.rank == 0 && options.color == core::BtfFactorColor::kYCbCr) {
     while (r.measured_relative_rms_error > options.max_relative_error && rank < r.max_rank) {
       build(++rank);
       r.measured_relative_rms_error = RelativeRmsError(btf, out, options.band_bytes);
@@ -397,17 +397,17 @@ FactoredBtf CompressBtf(FullBtfReader& btf, const BtfCompressionOptions& options
   return out;
 }
 
-FactoredBtf CompressBtf(const FullBtf& btf, const BtfCompressionOptions& options, BtfCompressionReport* report) {
-  InMemoryFullBtfReader reader(btf);
+core::FactoredBtf CompressBtf(const core::FullBtf& btf, const BtfCompressionOptions& options, BtfCompressionReport* report) {
+  core::InMemoryFullBtfReader reader(btf);
   return CompressBtf(reader, options, report);
 }
 
-nlohmann::json ToJson(const BtfCompressionReport& report, const FactoredBtf& factored) {
+nlohmann::json ToJson(const BtfCompressionReport& report, const core::FactoredBtf& factored) {
   const char* names[2][3] = {{"r", "g", "b"}, {"y", "cb", "cr"}};
   nlohmann::json spectrum = nlohmann::json::object();
   for (int ch = 0; ch < 3; ++ch) {
     const Eigen::VectorXd& s = report.singular_values[ch];
-    spectrum[names[factored.color == BtfFactorColor::kYCbCr][ch]] = std::vector<double>(s.data(), s.data() + s.size());
+    spectrum[names[factored.color == core::BtfFactorColor::kYCbCr][ch]] = std::vector<double>(s.data(), s.data() + s.size());
   }
   return {{"layout", ToString(factored.layout)},
           {"color", ToString(factored.color)},
@@ -421,20 +421,20 @@ nlohmann::json ToJson(const BtfCompressionReport& report, const FactoredBtf& fac
           {"seconds", report.seconds}};
 }
 
-Image ReconstructBtfView(const FactoredBtf& f, int view) {
+core::Image ReconstructBtfView(const core::FactoredBtf& f, int view) {
   f.CheckShape();
-  if (view < 0 || view >= f.view_count()) throw Error("factored BTF: view " + std::to_string(view) + " out of range");
+  if (view < 0 || view >= f.view_count()) throw core::Error("factored BTF: view " + std::to_string(view) + " out of range");
   Eigen::Matrix3d to_rgb = Eigen::Matrix3d::Identity();
-  if (f.color == BtfFactorColor::kYCbCr) to_rgb = f.rgb_to_factored.inverse();
+  if (f.color == core::BtfFactorColor::kYCbCr) to_rgb = f.rgb_to_factored.inverse();
   const int nl = f.light_count();
   const long long texels = static_cast<long long>(f.width) * f.height;
-  Image out(f.width, f.height * nl, 3);
+  core::Image out(f.width, f.height * nl, 3);
   std::vector<double> acc(3 * texels);
   for (int l = 0; l < nl; ++l) {
     std::fill(acc.begin(), acc.end(), 0.0);
     // paper: rows (x, y, light), column view; per_texel: rows (x, y), column
     // view * Nlight + light.
-    const bool paper = f.layout == BtfFactorLayout::kPaper;
+    const bool paper = f.layout == core::BtfFactorLayout::kPaper;
     const int column = paper ? view : view * nl + l;
     const long long offset = paper ? 3 * l * texels : 0;
     for (int k = 0; k < f.rank(); ++k) {
@@ -452,14 +452,14 @@ Image ReconstructBtfView(const FactoredBtf& f, int view) {
   return out;
 }
 
-double RelativeRmsError(FullBtfReader& truth, const FactoredBtf& factored, long long band_bytes) {
+double RelativeRmsError(core::FullBtfReader& truth, const core::FactoredBtf& factored, long long band_bytes) {
   factored.CheckShape();
   if (truth.width() != factored.width || truth.height() != factored.height ||
       truth.view_count() != factored.view_count() || truth.light_count() != factored.light_count()) {
-    throw Error("relative error: the BTF and its factors differ in size");
+    throw core::Error("relative error: the BTF and its factors differ in size");
   }
   Eigen::Matrix3d to_rgb = Eigen::Matrix3d::Identity();
-  if (factored.color == BtfFactorColor::kYCbCr) to_rgb = factored.rgb_to_factored.inverse();
+  if (factored.color == core::BtfFactorColor::kYCbCr) to_rgb = factored.rgb_to_factored.inverse();
   const BtfMatrix a(truth, factored.layout);
   const long long n = a.columns();
   const int k = factored.rank();
@@ -514,9 +514,9 @@ double RelativeRmsError(FullBtfReader& truth, const FactoredBtf& factored, long 
   return std::sqrt(e / t);
 }
 
-double RelativeRmsError(const FullBtf& truth, const FactoredBtf& factored) {
-  InMemoryFullBtfReader reader(truth);
+double RelativeRmsError(const core::FullBtf& truth, const core::FactoredBtf& factored) {
+  core::InMemoryFullBtfReader reader(truth);
   return RelativeRmsError(reader, factored, BtfCompressionOptions{}.band_bytes);
 }
 
-}  // namespace mesocap
+}  // namespace mesocap::btf

@@ -37,11 +37,11 @@
 #include "core/btf.h"
 #include "core/error.h"
 
-namespace mesocap {
+namespace mesocap::btf {
 
 struct BtfCompressionOptions {
-  BtfFactorLayout layout = BtfFactorLayout::kPaper;
-  BtfFactorColor color = BtfFactorColor::kRgb;
+  core::BtfFactorLayout layout = core::BtfFactorLayout::kPaper;
+  core::BtfFactorColor color = core::BtfFactorColor::kRgb;
   // A fixed rank 1..kMaxBtfRank, or 0 to choose the smallest rank whose
   // relative RMS error (over all RGB values) is at most max_relative_error.
   int rank = 0;
@@ -51,7 +51,7 @@ struct BtfCompressionOptions {
   // column). The result does not depend on it beyond rounding.
   long long band_bytes = 64LL << 20;
 
-  CheckResult Check() const;
+  core::CheckResult Check() const;
 };
 
 struct BtfCompressionReport {
@@ -76,25 +76,25 @@ struct BtfCompressionReport {
 
 // Factors `btf`. Throws Error on invalid options, an empty or inconsistent
 // BTF, or a non-finite value (naming the view, texel and light).
-FactoredBtf CompressBtf(FullBtfReader& btf, const BtfCompressionOptions& options,
+core::FactoredBtf CompressBtf(core::FullBtfReader& btf, const BtfCompressionOptions& options,
                         BtfCompressionReport* report = nullptr);
-FactoredBtf CompressBtf(const FullBtf& btf, const BtfCompressionOptions& options,
+core::FactoredBtf CompressBtf(const core::FullBtf& btf, const BtfCompressionOptions& options,
                         BtfCompressionReport* report = nullptr);
 
 // The report as JSON (error_report.json's "btf_compression" member):
 // layout, color, rank, reason, measured_relative_rms, relative_rms_by_rank
 // (index K-1), singular_values per factored channel, matrix size, seconds.
-nlohmann::json ToJson(const BtfCompressionReport& report, const FactoredBtf& factored);
+nlohmann::json ToJson(const BtfCompressionReport& report, const core::FactoredBtf& factored);
 
 // View `view` of the factored BTF as a full-BTF view image (3 channels,
 // W x H * Nlight, linear RGB): sum_k r_k c_k per factored channel, then back
 // to RGB. What an evaluation or a renderer's reference path reads.
-Image ReconstructBtfView(const FactoredBtf& factored, int view);
+core::Image ReconstructBtfView(const core::FactoredBtf& factored, int view);
 
 // ||T - F||_F / ||T||_F over all texels, directions and RGB channels (0 when
 // both are zero). Sizes must agree (throws Error otherwise).
 // Streamed in bands of about band_bytes.
-double RelativeRmsError(FullBtfReader& truth, const FactoredBtf& factored, long long band_bytes);
-double RelativeRmsError(const FullBtf& truth, const FactoredBtf& factored);
+double RelativeRmsError(core::FullBtfReader& truth, const core::FactoredBtf& factored, long long band_bytes);
+double RelativeRmsError(const core::FullBtf& truth, const core::FactoredBtf& factored);
 
-}  // namespace mesocap
+}  // namespace mesocap::btf

@@ -8,30 +8,30 @@
 
 #include "core/error.h"
 
-namespace mesocap {
+namespace mesocap::btf {
 namespace {
 
 nlohmann::json Number(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
 
-double ThetaDeg(const SamplingSet& set, int i) { return set.angles(i).theta * 180.0 / std::numbers::pi; }
+double ThetaDeg(const core::SamplingSet& set, int i) { return set.angles(i).theta * 180.0 / std::numbers::pi; }
 
 }  // namespace
 
-BtfErrorAccumulator::BtfErrorAccumulator(SamplingSet views, double band_deg)
+BtfErrorAccumulator::BtfErrorAccumulator(core::SamplingSet views, double band_deg)
     : views_(std::move(views)), band_deg_(band_deg), per_view_(views_.size()) {
-  if (!(band_deg > 0.0 && band_deg <= 90.0)) throw Error("BTF evaluation: band width must be in (0, 90] degrees");
+  if (!(band_deg > 0.0 && band_deg <= 90.0)) throw core::Error("BTF evaluation: band width must be in (0, 90] degrees");
 }
 
-void BtfErrorAccumulator::Add(int view, const Image& truth, const Image& estimate) {
-  if (view < 0 || view >= views_.size()) throw Error("BTF evaluation: view " + std::to_string(view) + " out of range");
+void BtfErrorAccumulator::Add(int view, const core::Image& truth, const core::Image& estimate) {
+  if (view < 0 || view >= views_.size()) throw core::Error("BTF evaluation: view " + std::to_string(view) + " out of range");
   if (truth.width() != estimate.width() || truth.height() != estimate.height() ||
       truth.channels() != estimate.channels()) {
-    throw Error("BTF evaluation: view " + std::to_string(view) + " images differ in size");
+    throw core::Error("BTF evaluation: view " + std::to_string(view) + " images differ in size");
   }
   Sums& s = per_view_[view];
   for (std::size_t i = 0; i < truth.size(); ++i) {
     const double t = truth.data()[i], e = estimate.data()[i];
-    if (!std::isfinite(e)) throw Error("BTF evaluation: the estimate's view " + std::to_string(view) + " is not finite");
+    if (!std::isfinite(e)) throw core::Error("BTF evaluation: the estimate's view " + std::to_string(view) + " is not finite");
     s.error += (t - e) * (t - e);
     s.truth += t * t;
     peak_ = std::max(peak_, std::abs(t));
@@ -92,4 +92,4 @@ nlohmann::json ToJson(const BtfErrorAccumulator& errors, std::optional<int> rank
           {"peak", errors.peak()}};
 }
 
-}  // namespace mesocap
+}  // namespace mesocap::btf

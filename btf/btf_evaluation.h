@@ -15,7 +15,7 @@
 #include "core/image.h"
 #include "core/sampling_set.h"
 
-namespace mesocap {
+namespace mesocap::btf {
 
 struct BtfErrorFigures {
   double psnr_db = 0.0;       // +infinity when the estimate is exact
@@ -26,11 +26,11 @@ struct BtfErrorFigures {
 class BtfErrorAccumulator {
  public:
   // Bands [k * band_deg, (k + 1) * band_deg) of the view polar angle.
-  explicit BtfErrorAccumulator(SamplingSet views, double band_deg = 15.0);
+  explicit BtfErrorAccumulator(core::SamplingSet views, double band_deg = 15.0);
 
   // One view: truth and estimate are full-BTF view images of equal size.
   // Throws Error on a size mismatch or a non-finite estimate value.
-  void Add(int view, const Image& truth, const Image& estimate);
+  void Add(int view, const core::Image& truth, const core::Image& estimate);
 
   // Over every view added with theta <= theta_max_deg (all by default).
   BtfErrorFigures Overall(double theta_max_deg = 90.0) const;
@@ -51,7 +51,7 @@ class BtfErrorAccumulator {
   };
   BtfErrorFigures Figures(const Sums& s) const;
 
-  SamplingSet views_;
+  core::SamplingSet views_;
   double band_deg_;
   std::vector<Sums> per_view_;
   double peak_ = 0.0;
@@ -63,4 +63,4 @@ class BtfErrorAccumulator {
 // infinite PSNR (exact estimate) is written as null.
 nlohmann::json ToJson(const BtfErrorAccumulator& errors, std::optional<int> rank);
 
-}  // namespace mesocap
+}  // namespace mesocap::btf

@@ -8,7 +8,7 @@
 
 #include "core/error.h"
 
-namespace mesocap {
+namespace mesocap::btf {
 namespace {
 
 // Catmull-Rom (Keys, a = -1/2) weights of the 4 pixels x0 - 1 .. x0 + 2 for
@@ -24,17 +24,17 @@ Eigen::Vector3d ReferencePlaneRectifier::TexelCentre(int i, int j, int width, in
   return {-s / 2 + (i + 0.5) * s / width, -s / 2 + (j + 0.5) * s / height, 0.0};
 }
 
-ReferencePlaneRectifier::ReferencePlaneRectifier(const CameraCalibration& camera, const CameraRays& rays,
-                                                 const RigidTransform& world_from_sample, int width, int height,
+ReferencePlaneRectifier::ReferencePlaneRectifier(const formats::CameraCalibration& camera, const calibration::CameraRays& rays,
+                                                 const core::RigidTransform& world_from_sample, int width, int height,
                                                  double sample_size_mm, int max_samples_per_side)
     : width_(width), height_(height), image_width_(camera.width), image_height_(camera.height) {
   if (width < 1 || height < 1 || !(sample_size_mm > 0) || max_samples_per_side < 1) {
-    throw Error("rectification: invalid texture grid");
+    throw core::Error("rectification: invalid texture grid");
   }
   const double dx = sample_size_mm / width, dy = sample_size_mm / height;
   const auto project = [&](const Eigen::Vector3d& sample_point) {
     const Eigen::Vector2d pixel = rays.Project(world_from_sample.Apply(sample_point));
-    if (!pixel.allFinite()) throw Error("rectification: the sample is behind camera " + camera.id);
+    if (!pixel.allFinite()) throw core::Error("rectification: the sample is behind camera " + camera.id);
     return pixel;
   };
   first_tap_.reserve(static_cast<std::size_t>(width) * height + 1);
@@ -61,7 +61,7 @@ ReferencePlaneRectifier::ReferencePlaneRectifier(const CameraCalibration& camera
           const double fx = std::floor(uv.x()), fy = std::floor(uv.y());
           const int x0 = static_cast<int>(fx), y0 = static_cast<int>(fy);
           if (!(uv.allFinite()) || x0 < 0 || y0 < 0 || x0 + 1 >= image_width_ || y0 + 1 >= image_height_) {
-            throw Error("rectification: texel (" + std::to_string(i) + ", " + std::to_string(j) +
+            throw core::Error("rectification: texel (" + std::to_string(i) + ", " + std::to_string(j) +
                         ") of the sample is outside the image of camera " + camera.id);
           }
           // The outer taps clamp to the image's edge (the sample is well
@@ -91,13 +91,13 @@ ReferencePlaneRectifier::ReferencePlaneRectifier(const CameraCalibration& camera
   first_tap_.push_back(static_cast<int>(taps_.size()));
 }
 
-Image ReferencePlaneRectifier::Rectify(const Image& image) const {
+core::Image ReferencePlaneRectifier::Rectify(const core::Image& image) const {
   if (image.width() != image_width_ || image.height() != image_height_) {
-    throw Error("rectification: image is " + std::to_string(image.width()) + "x" + std::to_string(image.height()) +
+    throw core::Error("rectification: image is " + std::to_string(image.width()) + "x" + std::to_string(image.height()) +
                 ", the calibrated camera " + std::to_string(image_width_) + "x" + std::to_string(image_height_));
   }
   const int channels = image.channels();
-  Image out(width_, height_, channels);
+  core::Image out(width_, height_, channels);
   for (int t = 0; t < width_ * height_; ++t) {
     float* dst = out.data() + static_cast<std::size_t>(t) * channels;
     for (int k = first_tap_[t]; k < first_tap_[t + 1]; ++k) {
@@ -108,4 +108,4 @@ Image ReferencePlaneRectifier::Rectify(const Image& image) const {
   return out;
 }
 
-}  // namespace mesocap
+}  // namespace mesocap::btf

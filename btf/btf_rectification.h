@@ -36,19 +36,19 @@
 #include "core/image.h"
 #include "formats/calibration.h"
 
-namespace mesocap {
+namespace mesocap::btf {
 
 class ReferencePlaneRectifier {
  public:
   // Throws Error, naming the camera, when a texel's footprint leaves the
   // image or lies behind the camera.
   // Projects with the camera's CameraRays (cv::projectPoints).
-  ReferencePlaneRectifier(const CameraCalibration& camera, const CameraRays& rays,
-                          const RigidTransform& world_from_sample, int width, int height, double sample_size_mm,
+  ReferencePlaneRectifier(const formats::CameraCalibration& camera, const calibration::CameraRays& rays,
+                          const core::RigidTransform& world_from_sample, int width, int height, double sample_size_mm,
                           int max_samples_per_side = 8);
 
   // The camera image (any channel count) in texture space, W x H.
-  Image Rectify(const Image& camera_image) const;
+  core::Image Rectify(const core::Image& camera_image) const;
 
   // Reference-plane point of texel (i, j) in the sample frame.
   static Eigen::Vector3d TexelCentre(int i, int j, int width, int height, double sample_size_mm);
@@ -73,4 +73,4 @@ class ReferencePlaneRectifier {
   std::vector<Tap> taps_;
 };
 
-}  // namespace mesocap
+}  // namespace mesocap::btf

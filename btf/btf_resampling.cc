@@ -5,13 +5,13 @@
 
 #include "core/error.h"
 
-namespace mesocap {
+namespace mesocap::btf {
 
 CapturedDirections MakeCapturedDirections(const std::string& what, const std::vector<Eigen::Vector3d>& centre,
                                           double ring_tolerance_rad) {
-  if (centre.empty()) throw Error(what + ": no captured directions");
-  std::vector<SphericalAngles> angles;
-  for (const Eigen::Vector3d& d : centre) angles.push_back(AnglesFromDirection(d));
+  if (centre.empty()) throw core::Error(what + ": no captured directions");
+  std::vector<core::SphericalAngles> angles;
+  for (const Eigen::Vector3d& d : centre) angles.push_back(core::AnglesFromDirection(d));
   // Rings: sorted thetas split where consecutive ones differ by more than
   // the tolerance; each ring takes its members' mean theta.
   std::vector<int> order(angles.size());
@@ -28,9 +28,9 @@ CapturedDirections MakeCapturedDirections(const std::string& what, const std::ve
   }
   CapturedDirections out;
   try {
-    out.nominal = SamplingSet::FromAngles(what, angles);
-  } catch (const Error& e) {
-    throw Error(what + ": captured directions do not form a set (" + e.what() + ")");
+    out.nominal = core::SamplingSet::FromAngles(what, angles);
+  } catch (const core::Error& e) {
+    throw core::Error(what + ": captured directions do not form a set (" + e.what() + ")");
   }
   for (int i = 0; i < out.nominal.size(); ++i) out.offset.push_back(centre[i].normalized() - out.nominal.direction(i));
   out.first_ring_theta = angles[order.front()].theta;
@@ -38,4 +38,4 @@ CapturedDirections MakeCapturedDirections(const std::string& what, const std::ve
   return out;
 }
 
-}  // namespace mesocap
+}  // namespace mesocap::btf

@@ -32,10 +32,10 @@
 
 #include "core/sampling_set.h"
 
-namespace mesocap {
+namespace mesocap::btf {
 
 struct CapturedDirections {
-  SamplingSet nominal;                  // capture i at index i
+  core::SamplingSet nominal;                  // capture i at index i
   std::vector<Eigen::Vector3d> offset;  // d_i(0) - n_i, sample frame
   double first_ring_theta = 0.0;        // radians, the captured range
   double last_ring_theta = 0.0;
@@ -49,12 +49,12 @@ CapturedDirections MakeCapturedDirections(const std::string& what, const std::ve
 // The blend of captures for target t; offset(i) is capture i's actual
 // direction minus its nominal one (at the texel being resampled).
 template <typename Offset>
-SamplingSet::Blend ResampleBlend(const SamplingSet& nominal, const Eigen::Vector3d& target, const Offset& offset) {
-  const SamplingSet::Blend first = nominal.Interpolate(target);
+core::SamplingSet::Blend ResampleBlend(const core::SamplingSet& nominal, const Eigen::Vector3d& target, const Offset& offset) {
+  const core::SamplingSet::Blend first = nominal.Interpolate(target);
   Eigen::Vector3d shift = Eigen::Vector3d::Zero();
   for (int b = 0; b < first.count; ++b) shift += first.weight[b] * offset(first.index[b]);
   if (shift.squaredNorm() == 0.0) return first;
   return nominal.Interpolate((target - shift).normalized());
 }
 
-}  // namespace mesocap
+}  // namespace mesocap::btf

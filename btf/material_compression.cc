@@ -5,38 +5,38 @@
 #include "core/error.h"
 #include "formats/material_package.h"
 
-namespace mesocap {
+namespace mesocap::btf {
 
 BtfCompressionReport CompressMaterialPackage(const std::filesystem::path& in, const std::filesystem::path& out,
                                              const BtfCompressionOptions& options, bool replace) {
-  if (const auto problem = options.Check(); !problem.empty()) throw Error("compress: " + problem);
-  const MaterialManifest manifest = ReadMaterialManifest(in);
+  if (const auto problem = options.Check(); !problem.empty()) throw core::Error("compress: " + problem);
+  const formats::MaterialManifest manifest = formats::ReadMaterialManifest(in);
   if (!manifest.full_btf) {
-    throw Error("compress: " + in.string() + " holds no full BTF to factor (manifest.json has no btf.full)");
+    throw core::Error("compress: " + in.string() + " holds no full BTF to factor (manifest.json has no btf.full)");
   }
   // Streamed from the view files: the BTF is never whole in memory.
-  PackageFullBtfReader btf(in, manifest);
+  formats::PackageFullBtfReader btf(in, manifest);
   spdlog::info("compressing the {}x{} BTF of {} ({} views x {} lights), {} layout, {}", btf.width(), btf.height(),
                in.string(), btf.view_count(), btf.light_count(), ToString(options.layout), ToString(options.color));
   BtfCompressionReport report;
-  const FactoredBtf factored = CompressBtf(btf, options, &report);
+  const core::FactoredBtf factored = CompressBtf(btf, options, &report);
   spdlog::info("rank {}: {}; measured relative RMS error {:.3g} ({:.2f} s)", report.rank, report.reason,
                report.measured_relative_rms_error, report.seconds);
 
-  MaterialDescription description = manifest.description;
+  formats::MaterialDescription description = manifest.description;
   description.provenance.software_version.clear();
   description.provenance.created_utc.clear();
   description.provenance.source = "compress of " + in.string() + " (" + manifest.description.provenance.source + ")";
-  MaterialPackageWriter writer(out, description, replace);
-  if (manifest.mdf) writer.WriteMdf(ReadMdf(in, manifest), manifest.mdf->forms);
+  formats::MaterialPackageWriter writer(out, description, replace);
+  if (manifest.mdf) writer.WriteMdf(formats::ReadMdf(in, manifest), manifest.mdf->forms);
   writer.WriteFactoredBtf(factored);
-  if (manifest.ambient) writer.WriteAmbientTerm(ReadAmbientTerm(in, manifest));
-  if (manifest.calibration) writer.WriteCalibration(ReadPackageCalibration(in, manifest));
-  nlohmann::json errors = manifest.error_report ? ReadErrorReport(in, manifest) : nlohmann::json::object();
+  if (manifest.ambient) writer.WriteAmbientTerm(formats::ReadAmbientTerm(in, manifest));
+  if (manifest.calibration) writer.WriteCalibration(formats::ReadPackageCalibration(in, manifest));
+  nlohmann::json errors = manifest.error_report ? formats::ReadErrorReport(in, manifest) : nlohmann::json::object();
   errors["btf_compression"] = ToJson(report, factored);
   writer.WriteErrorReport(errors);
   writer.Commit();
   return report;
 }
 
-}  // namespace mesocap
+}  // namespace mesocap::btf

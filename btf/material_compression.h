@@ -7,7 +7,7 @@
 
 #include "btf/btf_compression.h"
 
-namespace mesocap {
+namespace mesocap::btf {
 
 // Writes a new package at `out` holding the full BTF of the package at `in`
 // factored by CompressBtf, with its MDF, ambient term and calibration copied
@@ -18,4 +18,4 @@ namespace mesocap {
 BtfCompressionReport CompressMaterialPackage(const std::filesystem::path& in, const std::filesystem::path& out,
                                              const BtfCompressionOptions& options, bool replace);
 
-}  // namespace mesocap
+}  // namespace mesocap::btf

@@ -8,26 +8,26 @@
 
 #include "core/error.h"
 
-namespace mesocap {
+namespace mesocap::calibration {
 namespace {
 
-cv::Matx33d CameraMatrix(const CameraCalibration& c) {
+cv::Matx33d CameraMatrix(const formats::CameraCalibration& c) {
   return {c.intrinsics.fx, 0, c.intrinsics.cx, 0, c.intrinsics.fy, c.intrinsics.cy, 0, 0, 1};
 }
 
-std::vector<double> DistortionCoefficients(const CameraCalibration& c) {
+std::vector<double> DistortionCoefficients(const formats::CameraCalibration& c) {
   return {c.distortion.k1, c.distortion.k2, c.distortion.p1, c.distortion.p2, c.distortion.k3};
 }
 
 }  // namespace
 
-CameraRays::CameraRays(const CameraCalibration& camera)
+CameraRays::CameraRays(const formats::CameraCalibration& camera)
     : width_(camera.width),
       height_(camera.height),
       centre_(camera.pose.transform.translation),
       world_from_camera_(camera.pose.transform.rotation),
       camera_(camera) {
-  if (width_ <= 0 || height_ <= 0) throw Error("camera " + camera.id + ": image size must be positive");
+  if (width_ <= 0 || height_ <= 0) throw core::Error("camera " + camera.id + ": image size must be positive");
   std::vector<cv::Point2d> pixels;
   pixels.reserve(static_cast<std::size_t>(width_) * height_);
   for (int y = 0; y < height_; ++y) {
@@ -76,4 +76,4 @@ bool IntersectHorizontalPlane(const Eigen::Vector3d& centre, const Eigen::Vector
   return true;
 }
 
-}  // namespace mesocap
+}  // namespace mesocap::calibration

@@ -9,13 +9,13 @@
 
 #include "formats/calibration.h"
 
-namespace mesocap {
+namespace mesocap::calibration {
 
 class CameraRays {
  public:
   // Undistorts every pixel centre (pixel (i, j) at u = i, v = j) with
   // cv::undistortPoints. Throws Error on a non-positive image size.
-  explicit CameraRays(const CameraCalibration& camera);
+  explicit CameraRays(const formats::CameraCalibration& camera);
 
   int width() const { return width_; }
   int height() const { return height_; }
@@ -34,7 +34,7 @@ class CameraRays {
   int height_ = 0;
   Eigen::Vector3d centre_;
   Eigen::Matrix3d world_from_camera_;
-  CameraCalibration camera_;
+  formats::CameraCalibration camera_;
   std::vector<Eigen::Vector3d> rays_;
 };
 
@@ -43,4 +43,4 @@ class CameraRays {
 bool IntersectHorizontalPlane(const Eigen::Vector3d& centre, const Eigen::Vector3d& dir, double height,
                               Eigen::Vector3d* point);
 
-}  // namespace mesocap
+}  // namespace mesocap::calibration

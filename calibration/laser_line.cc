@@ -5,9 +5,9 @@
 #include <opencv2/imgproc.hpp>
 #include <string>
 
-namespace mesocap {
+namespace mesocap::calibration {
 
-CheckResult LaserLineOptions::Check() const {
+core::CheckResult LaserLineOptions::Check() const {
   if (!(gaussian_sigma_px >= 0 && gaussian_sigma_px <= 20)) return "gaussian_sigma_px must be in [0, 20]";
   if (!(min_peak > 0 && min_peak < 1)) return "min_peak must be in (0, 1)";
   if (min_candidates < 2) return "min_candidates must be at least 2";
@@ -42,12 +42,12 @@ void FitLine(const std::vector<cv::Point2f>& points, int distance, Eigen::Vector
 
 }  // namespace
 
-ReferenceLine DetectLaserLine(const Image& frame, const PixelMask& mask, const CameraRays& rays, double height,
+ReferenceLine DetectLaserLine(const core::Image& frame, const PixelMask& mask, const CameraRays& rays, double height,
                               const Eigen::Vector2d& scan_direction, const LaserLineOptions& options) {
   const int w = frame.width(), h = frame.height();
   if (frame.channels() != 1 || w != rays.width() || h != rays.height() ||
       mask.size() != static_cast<std::size_t>(w) * h) {
-    throw Error("laser line: frame is " + std::to_string(w) + "x" + std::to_string(h) + "x" +
+    throw core::Error("laser line: frame is " + std::to_string(w) + "x" + std::to_string(h) + "x" +
                 std::to_string(frame.channels()) + ", expected 1 channel of the camera's " +
                 std::to_string(rays.width()) + "x" + std::to_string(rays.height()) + " with a mask of that size");
   }
@@ -123,4 +123,4 @@ ReferenceLine DetectLaserLine(const Image& frame, const PixelMask& mask, const C
   return result;
 }
 
-}  // namespace mesocap
+}  // namespace mesocap::calibration

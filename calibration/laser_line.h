@@ -15,7 +15,7 @@
 #include "core/error.h"
 #include "core/image.h"
 
-namespace mesocap {
+namespace mesocap::calibration {
 
 struct LaserLineOptions {
   double gaussian_sigma_px = 1.0;  // pre-filter (noise reduction)
@@ -23,7 +23,7 @@ struct LaserLineOptions {
   int min_candidates = 8;          // fewer: no line in this frame
   double min_inlier_tolerance_mm = 0.02;  // floor of the outlier distance
 
-  CheckResult Check() const;
+  core::CheckResult Check() const;
 };
 
 // A line on the horizontal plane z = height (world frame).
@@ -45,7 +45,7 @@ using PixelMask = std::vector<std::uint8_t>;
 // scan direction); scanlines are image rows or columns, whichever is closer
 // to its image. Throws Error when the frame, the mask and the rays disagree
 // in size.
-ReferenceLine DetectLaserLine(const Image& frame, const PixelMask& mask, const CameraRays& rays, double height,
+ReferenceLine DetectLaserLine(const core::Image& frame, const PixelMask& mask, const CameraRays& rays, double height,
                               const Eigen::Vector2d& scan_direction, const LaserLineOptions& options);
 
 // Position of the peak of three samples (t0, y0), (t1, y1), (t2, y2) around
@@ -56,4 +56,4 @@ ReferenceLine DetectLaserLine(const Image& frame, const PixelMask& mask, const C
 // t1 itself when the samples are flat (a plateau has no vertex).
 double InterpolatePeak(double t0, double y0, double t1, double y1, double t2, double y2);
 
-}  // namespace mesocap
+}  // namespace mesocap::calibration

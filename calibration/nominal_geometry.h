@@ -9,27 +9,27 @@
 #include "core/sampling_set.h"
 #include "formats/rig_description.h"
 
-namespace mesocap::drivers {
+namespace mesocap::calibration {
 
 // The rig's nominal directions in the sample frame, towards the turntable
 // centre: views = turntable angles x cameras, lights = (arc - turntable)
 // angles x lamps (distinct directions only). Named "<rig>-views" / "<rig>-lights".
-SamplingSet ViewDirections(const RigDescription& rig);
-SamplingSet LightDirections(const RigDescription& rig);
+core::SamplingSet ViewDirections(const formats::RigDescription& rig);
+core::SamplingSet LightDirections(const formats::RigDescription& rig);
 
 // World positions of devices (the nominal geometry above).
-Eigen::Vector3d CameraCentre(const CameraDescription& camera);
-Eigen::Vector3d LampPosition(const LampBankDescription& lamps, int lamp, double arc_angle_rad);
-Eigen::Vector3d LaserSource(const LaserDescription& laser, const LaserLocation& location);
+Eigen::Vector3d CameraCentre(const formats::CameraDescription& camera);
+Eigen::Vector3d LampPosition(const formats::LampBankDescription& lamps, int lamp, double arc_angle_rad);
+Eigen::Vector3d LaserSource(const formats::LaserDescription& laser, const formats::LaserLocation& location);
 // The laser's tilt axis at a location: the arc's tangent there (y rotated by
 // the arc angle), along which the stripe runs on the turntable plane.
-Eigen::Vector3d LaserTiltAxis(const LaserLocation& location);
+Eigen::Vector3d LaserTiltAxis(const formats::LaserLocation& location);
 // The unit normal of the location's laser plane at tilt 0, which holds the
 // tilt axis and passes through the source and the turntable centre.
-Eigen::Vector3d LaserPlaneNormalAtZeroTilt(const LaserDescription& laser, const LaserLocation& location);
+Eigen::Vector3d LaserPlaneNormalAtZeroTilt(const formats::LaserDescription& laser, const formats::LaserLocation& location);
 // Tilt 0 aims the laser plane at the origin; a positive tilt moves the stripe
 // on the turntable plane away from the laser by `offset_mm`.
-double LaserTiltForOffset(const LaserDescription& laser, int mount, double offset_mm);
+double LaserTiltForOffset(const formats::LaserDescription& laser, int mount, double offset_mm);
 
 // How well a camera and a laser location triangulate (MDF paper Sec. 3.2):
 // the sine of the angle between the camera's ray to the turntable centre and
@@ -39,6 +39,6 @@ double LaserTiltForOffset(const LaserDescription& laser, int mount, double offse
 // a source at elevation e, arc a from the camera's azimuth, it is
 // |sin c cos e - cos c sin e cos a|: zero where a mount shares a camera's
 // elevation at its azimuth.
-double LaserRaySine(const RigDescription& rig, int camera, int location);
+double LaserRaySine(const formats::RigDescription& rig, int camera, int location);
 
-}  // namespace mesocap::drivers
+}  // namespace mesocap::calibration

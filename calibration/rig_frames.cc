@@ -6,34 +6,34 @@
 
 #include "core/error.h"
 
-namespace mesocap {
+namespace mesocap::calibration {
 
-RigidTransform WorldFromSample(const TurntableCalibration& turntable, double angle_rad) {
-  RigidTransform turn;
+core::RigidTransform WorldFromSample(const formats::TurntableCalibration& turntable, double angle_rad) {
+  core::RigidTransform turn;
   turn.parent_frame = "world";
   turn.child_frame = "turntable";
   turn.rotation = Eigen::AngleAxisd(angle_rad, turntable.axis_direction.normalized()).toRotationMatrix();
   turn.translation = turntable.axis_point_mm - turn.rotation * turntable.axis_point_mm;
-  RigidTransform pose = turntable.sample_pose.transform;
+  core::RigidTransform pose = turntable.sample_pose.transform;
   pose.parent_frame = "turntable";
   return turn.Compose(pose);
 }
 
-Eigen::Vector3d LightArcPointToWorld(const LightArcCalibration& arc, double angle_rad, const Eigen::Vector3d& p) {
+Eigen::Vector3d LightArcPointToWorld(const formats::LightArcCalibration& arc, double angle_rad, const Eigen::Vector3d& p) {
   const Eigen::AngleAxisd turn(angle_rad, arc.axis_direction.normalized());
   return arc.axis_point_mm + turn * (p - arc.axis_point_mm);
 }
 
-Eigen::Vector3d LightArcDirectionToWorld(const LightArcCalibration& arc, double angle_rad, const Eigen::Vector3d& d) {
+Eigen::Vector3d LightArcDirectionToWorld(const formats::LightArcCalibration& arc, double angle_rad, const Eigen::Vector3d& d) {
   return Eigen::AngleAxisd(angle_rad, arc.axis_direction.normalized()) * d;
 }
 
-LaserMountPose MountInWorld(const Calibration& calibration, int mount, double arc_rad, double tilt_rad) {
+LaserMountPose MountInWorld(const formats::Calibration& calibration, int mount, double arc_rad, double tilt_rad) {
   if (mount < 0 || mount >= static_cast<int>(calibration.laser_mounts.size())) {
-    throw Error("calibration has no laser mount " + std::to_string(mount) + " (it has " +
+    throw core::Error("calibration has no laser mount " + std::to_string(mount) + " (it has " +
                 std::to_string(calibration.laser_mounts.size()) + ")");
   }
-  const LaserMountCalibration& m = calibration.laser_mounts[mount];
+  const formats::LaserMountCalibration& m = calibration.laser_mounts[mount];
   LaserMountPose pose;
   pose.source = LightArcPointToWorld(calibration.light_arc, arc_rad, m.source_mm);
   pose.tilt_axis = LightArcDirectionToWorld(calibration.light_arc, arc_rad, m.tilt_axis.normalized());
@@ -43,4 +43,4 @@ LaserMountPose MountInWorld(const Calibration& calibration, int mount, double ar
   return pose;
 }
 
-}  // namespace mesocap
+}  // namespace mesocap::calibration

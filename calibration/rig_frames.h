@@ -8,14 +8,14 @@
 #include "core/rigid_transform.h"
 #include "formats/calibration.h"
 
-namespace mesocap {
+namespace mesocap::calibration {
 
 // world <- sample with the turntable at `angle_rad`: the sample pose, then
 // the rotation about the calibrated turntable axis.
-RigidTransform WorldFromSample(const TurntableCalibration& turntable, double angle_rad);
+core::RigidTransform WorldFromSample(const formats::TurntableCalibration& turntable, double angle_rad);
 // A light-arc-frame point or direction in the world with the arc at angle_rad.
-Eigen::Vector3d LightArcPointToWorld(const LightArcCalibration& arc, double angle_rad, const Eigen::Vector3d& p);
-Eigen::Vector3d LightArcDirectionToWorld(const LightArcCalibration& arc, double angle_rad, const Eigen::Vector3d& d);
+Eigen::Vector3d LightArcPointToWorld(const formats::LightArcCalibration& arc, double angle_rad, const Eigen::Vector3d& p);
+Eigen::Vector3d LightArcDirectionToWorld(const formats::LightArcCalibration& arc, double angle_rad, const Eigen::Vector3d& d);
 
 // A laser mount at a light-arc angle and emitter tilt, in the world frame
 // (core/calibration.h: the tilt turns the plane's normal about tilt_axis).
@@ -25,6 +25,6 @@ struct LaserMountPose {
   Eigen::Vector3d normal = Eigen::Vector3d::UnitX();  // of the nominal plane
 };
 // Throws Error when the calibration has no such mount.
-LaserMountPose MountInWorld(const Calibration& calibration, int mount, double arc_rad, double tilt_rad);
+LaserMountPose MountInWorld(const formats::Calibration& calibration, int mount, double arc_rad, double tilt_rad);
 
-}  // namespace mesocap
+}  // namespace mesocap::calibration

@@ -13,7 +13,7 @@
 
 #include "core/error.h"
 
-namespace mesocap {
+namespace mesocap::core {
 namespace fs = std::filesystem;
 namespace {
 
@@ -147,4 +147,4 @@ void WriteJsonFileAtomically(const fs::path& target, const nlohmann::json& value
   WriteTextFileAtomically(target, value.dump(2) + "\n");
 }
 
-}  // namespace mesocap
+}  // namespace mesocap::core

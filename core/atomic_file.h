@@ -8,7 +8,7 @@
 
 #include <nlohmann/json_fwd.hpp>
 
-namespace mesocap {
+namespace mesocap::core {
 
 // A file being written. Write to temp_path(); Commit() syncs it and renames it
 // over the target. Destroyed without Commit(), it removes the temporary file.
@@ -68,4 +68,4 @@ std::size_t RemoveStaleTemporaries(const std::filesystem::path& dir);
 // fsync of a file or folder by path; throws Error on failure.
 void SyncPath(const std::filesystem::path& path);
 
-}  // namespace mesocap
+}  // namespace mesocap::core

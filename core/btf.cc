@@ -9,7 +9,7 @@
 
 #include "core/error.h"
 
-namespace mesocap {
+namespace mesocap::core {
 namespace {
 
 // The images of a BTF pack one direction set along their height; it must fit
@@ -155,4 +155,4 @@ void FactoredBtf::CheckShape() const {
   }
 }
 
-}  // namespace mesocap
+}  // namespace mesocap::core

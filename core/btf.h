@@ -27,7 +27,7 @@
 #include "core/image.h"
 #include "core/sampling_set.h"
 
-namespace mesocap {
+namespace mesocap::core {
 
 struct FullBtf {
   int width = 0;
@@ -151,4 +151,4 @@ struct FactoredBtf {
 // The largest rank a package can name (files rows_00 .. rows_99).
 inline constexpr int kMaxBtfRank = 100;
 
-}  // namespace mesocap
+}  // namespace mesocap::core

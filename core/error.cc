@@ -1,6 +1,6 @@
 #include "core/error.h"
 
-namespace mesocap {
+namespace mesocap::core {
 
 FormatError::FormatError(std::filesystem::path file, std::string field, const std::string& problem)
     : Error(file.string() + ": " + (field.empty() ? std::string() : "field '" + field + "': ") +
@@ -8,4 +8,4 @@ FormatError::FormatError(std::filesystem::path file, std::string field, const st
       file_(std::move(file)),
       field_(std::move(field)) {}
 
-}  // namespace mesocap
+}  // namespace mesocap::core

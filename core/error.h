@@ -6,7 +6,7 @@
 #include <stdexcept>
 #include <string>
 
-namespace mesocap {
+namespace mesocap::core {
 
 class Error : public std::runtime_error {
  public:
@@ -32,4 +32,4 @@ class FormatError : public Error {
 // Kept as a string (not an exception) so callers can collect several.
 using CheckResult = std::string;
 
-}  // namespace mesocap
+}  // namespace mesocap::core

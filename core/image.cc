@@ -4,7 +4,7 @@
 
 #include "core/error.h"
 
-namespace mesocap {
+namespace mesocap::core {
 
 Image::Image(int width, int height, int channels, float fill)
     : width_(width), height_(height), channels_(channels) {
@@ -31,4 +31,4 @@ Image ChannelMean(Image image) {
   return mean;
 }
 
-}  // namespace mesocap
+}  // namespace mesocap::core

@@ -5,7 +5,7 @@
 #include <cstddef>
 #include <vector>
 
-namespace mesocap {
+namespace mesocap::core {
 
 class Image {
  public:
@@ -42,4 +42,4 @@ class Image {
 // when it has one).
 Image ChannelMean(Image image);
 
-}  // namespace mesocap
+}  // namespace mesocap::core

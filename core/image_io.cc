@@ -10,7 +10,7 @@
 #include "core/atomic_file.h"
 #include "core/error.h"
 
-namespace mesocap {
+namespace mesocap::core {
 namespace fs = std::filesystem;
 namespace {
 
@@ -196,4 +196,4 @@ void WriteImage(const fs::path& file, const Image& image, PixelEncoding encoding
   atomic.Commit();
 }
 
-}  // namespace mesocap
+}  // namespace mesocap::core

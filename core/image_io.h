@@ -9,7 +9,7 @@
 
 #include "core/image.h"
 
-namespace mesocap {
+namespace mesocap::core {
 
 // How pixel values are stored in the file. Integer encodings map [0, 1] to
 // the full code range (values outside are clamped); the container is chosen
@@ -66,4 +66,4 @@ class ImageRowReader {
   std::unique_ptr<Input> input_;
 };
 
-}  // namespace mesocap
+}  // namespace mesocap::core

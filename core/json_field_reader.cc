@@ -6,7 +6,7 @@
 
 #include "core/error.h"
 
-namespace mesocap {
+namespace mesocap::core {
 namespace fs = std::filesystem;
 
 namespace {
@@ -239,4 +239,4 @@ int JsonFieldReader::ExpectFormat(std::string_view format, int oldest, int newes
   return static_cast<int>(v);
 }
 
-}  // namespace mesocap
+}  // namespace mesocap::core

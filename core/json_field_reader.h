@@ -12,7 +12,7 @@
 #include <string_view>
 #include <vector>
 
-namespace mesocap {
+namespace mesocap::core {
 
 // Parses a JSON file. Rejects missing files, files over `max_bytes` (checked
 // before reading), nesting deeper than `max_depth` (checked while parsing, so
@@ -81,4 +81,4 @@ class JsonFieldReader {
   std::string where_;
 };
 
-}  // namespace mesocap
+}  // namespace mesocap::core

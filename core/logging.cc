@@ -3,7 +3,7 @@
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
-namespace mesocap {
+namespace mesocap::core {
 
 void ConfigureLogging(int verbosity) {
   auto logger = spdlog::stderr_color_mt("mesocap");
@@ -20,4 +20,4 @@ void ConfigureLogging(int verbosity) {
   }
 }
 
-}  // namespace mesocap
+}  // namespace mesocap::core

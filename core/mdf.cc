@@ -6,7 +6,7 @@
 
 #include "core/error.h"
 
-namespace mesocap {
+namespace mesocap::core {
 
 Mdf MakeMdf(int width, int height, SamplingSet views) {
   if (views.size() < 1) throw Error("an MDF needs at least one view direction");
@@ -83,4 +83,4 @@ Mdf DequantizeMdf(const QuantizedMdf& q) {
   return mdf;
 }
 
-}  // namespace mesocap
+}  // namespace mesocap::core

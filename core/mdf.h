@@ -21,7 +21,7 @@
 #include "core/image.h"
 #include "core/sampling_set.h"
 
-namespace mesocap {
+namespace mesocap::core {
 
 inline float MdfNoHit() { return std::numeric_limits<float>::infinity(); }
 inline float MdfUnknown() { return std::numeric_limits<float>::quiet_NaN(); }
@@ -78,4 +78,4 @@ QuantizedMdf QuantizeMdf(const Mdf& mdf, double d_max_mm);
 // Throws Error on a non-positive scale or a code count that does not match.
 Mdf DequantizeMdf(const QuantizedMdf& quantized);
 
-}  // namespace mesocap
+}  // namespace mesocap::core

@@ -4,7 +4,7 @@
 
 #include "core/error.h"
 
-namespace mesocap {
+namespace mesocap::core {
 
 nlohmann::json ToJson(const Plane& plane) {
   if (!plane.valid()) return nullptr;
@@ -28,4 +28,4 @@ Plane PlaneFromJson(const nlohmann::json& value, const std::filesystem::path& fi
   return plane;
 }
 
-}  // namespace mesocap
+}  // namespace mesocap::core

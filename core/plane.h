@@ -10,7 +10,7 @@
 #include <string>
 #include <nlohmann/json.hpp>
 
-namespace mesocap {
+namespace mesocap::core {
 
 // The points x with normal . x = offset (world frame, mm); normal is unit.
 // An invalid plane (no stripe found in that frame) has a NaN normal.
@@ -26,4 +26,4 @@ nlohmann::json ToJson(const Plane& plane);
 // null (invalid) or a plane; throws FormatError naming the file and field.
 Plane PlaneFromJson(const nlohmann::json& value, const std::filesystem::path& file, const std::string& field);
 
-}  // namespace mesocap
+}  // namespace mesocap::core

@@ -6,7 +6,7 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
-namespace mesocap {
+namespace mesocap::core {
 namespace {
 
 constexpr int kBarWidth = 30;
@@ -73,4 +73,4 @@ void Progress::Print(bool final) {
   std::fflush(out_);
 }
 
-}  // namespace mesocap
+}  // namespace mesocap::core

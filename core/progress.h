@@ -9,7 +9,7 @@
 #include <mutex>
 #include <string>
 
-namespace mesocap {
+namespace mesocap::core {
 
 class Progress {
  public:
@@ -47,4 +47,4 @@ class Progress {
   mutable std::mutex mutex_;
 };
 
-}  // namespace mesocap
+}  // namespace mesocap::core

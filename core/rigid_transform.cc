@@ -5,7 +5,7 @@
 
 #include "core/error.h"
 
-namespace mesocap {
+namespace mesocap::core {
 
 RigidTransform RigidTransform::Inverse() const {
   RigidTransform inv;
@@ -74,4 +74,4 @@ RigidTransform ReadRigidTransform(const JsonFieldReader& fields) {
   return t;
 }
 
-}  // namespace mesocap
+}  // namespace mesocap::core

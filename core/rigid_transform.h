@@ -10,7 +10,7 @@
 
 #include "core/json_field_reader.h"
 
-namespace mesocap {
+namespace mesocap::core {
 
 struct RigidTransform {
   std::string parent_frame = "world";
@@ -37,4 +37,4 @@ RigidTransform ReadRigidTransform(const JsonFieldReader& fields);
 // or "camera:<id>" / "lamp:<id>" / "laser:<id>" with a non-empty id.
 bool IsValidFrameName(const std::string& name);
 
-}  // namespace mesocap
+}  // namespace mesocap::core

@@ -12,7 +12,7 @@
 
 #include "core/error.h"
 
-namespace mesocap {
+namespace mesocap::core {
 namespace {
 
 constexpr double kPi = std::numbers::pi;
@@ -366,4 +366,4 @@ SamplingSet ReadSamplingSet(const JsonFieldReader& fields) {
   }
 }
 
-}  // namespace mesocap
+}  // namespace mesocap::core

@@ -12,7 +12,7 @@
 
 #include "core/json_field_reader.h"
 
-namespace mesocap {
+namespace mesocap::core {
 
 struct SphericalAngles {
   double theta = 0.0;  // radians, [0, pi]
@@ -118,4 +118,4 @@ class SamplingSet {
 nlohmann::json ToJson(const SamplingSet& set);
 SamplingSet ReadSamplingSet(const JsonFieldReader& fields);
 
-}  // namespace mesocap
+}  // namespace mesocap::core

@@ -1,7 +1,7 @@
 #include "core/version.h"
 
-namespace mesocap {
+namespace mesocap::core {
 
 const char* Version() { return MESOCAP_VERSION; }
 
-}  // namespace mesocap
+}  // namespace mesocap::core

@@ -1,9 +1,9 @@
 #pragma once
 
-namespace mesocap {
+namespace mesocap::core {
 
 // The project version from CMakeLists.txt ("0.1.0"); recorded in every
 // capture session and material package as provenance.
 const char* Version();
 
-}  // namespace mesocap
+}  // namespace mesocap::core

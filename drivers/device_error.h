@@ -9,9 +9,9 @@
 namespace mesocap::drivers {
 
 // Base of every device failure; the message names the device ("camera cam3").
-class DeviceError : public Error {
+class DeviceError : public core::Error {
  public:
-  using Error::Error;
+  using core::Error::Error;
 };
 
 // The device did not answer in time; retrying may succeed.

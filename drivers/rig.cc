@@ -15,7 +15,7 @@ RigBackend& Find(const std::map<std::string, RigBackend*>& backends, const std::
   if (it == backends.end() || it->second == nullptr) {
     std::string known;
     for (const auto& [n, b] : backends) known += (known.empty() ? "" : ", ") + n;
-    throw Error(device + ": backend \"" + name + "\" is not available in this program (available: " +
+    throw core::Error(device + ": backend \"" + name + "\" is not available in this program (available: " +
                 (known.empty() ? "none" : known) + ")");
   }
   return *it->second;
@@ -23,13 +23,13 @@ RigBackend& Find(const std::map<std::string, RigBackend*>& backends, const std::
 
 }  // namespace
 
-std::unique_ptr<Camera> RigBackend::MakeCamera(const RigDescription&, int) { CannotMake(*this, "cameras"); }
-std::unique_ptr<RotaryStage> RigBackend::MakeTurntable(const RigDescription&) { CannotMake(*this, "turntable"); }
-std::unique_ptr<RotaryStage> RigBackend::MakeLightArc(const RigDescription&) { CannotMake(*this, "light arc"); }
-std::unique_ptr<LampBank> RigBackend::MakeLampBank(const RigDescription&) { CannotMake(*this, "lamps"); }
-std::unique_ptr<LaserUnit> RigBackend::MakeLaserUnit(const RigDescription&) { CannotMake(*this, "laser unit"); }
+std::unique_ptr<Camera> RigBackend::MakeCamera(const formats::RigDescription&, int) { CannotMake(*this, "cameras"); }
+std::unique_ptr<RotaryStage> RigBackend::MakeTurntable(const formats::RigDescription&) { CannotMake(*this, "turntable"); }
+std::unique_ptr<RotaryStage> RigBackend::MakeLightArc(const formats::RigDescription&) { CannotMake(*this, "light arc"); }
+std::unique_ptr<LampBank> RigBackend::MakeLampBank(const formats::RigDescription&) { CannotMake(*this, "lamps"); }
+std::unique_ptr<LaserUnit> RigBackend::MakeLaserUnit(const formats::RigDescription&) { CannotMake(*this, "laser unit"); }
 
-Rig BuildRig(const RigDescription& d, const std::map<std::string, RigBackend*>& backends) {
+Rig BuildRig(const formats::RigDescription& d, const std::map<std::string, RigBackend*>& backends) {
   Rig rig;
   rig.description = d;
   for (int i = 0; i < static_cast<int>(d.cameras.size()); ++i) {

@@ -19,7 +19,7 @@
 namespace mesocap::drivers {
 
 struct Rig {
-  RigDescription description;
+  formats::RigDescription description;
   std::vector<std::unique_ptr<Camera>> cameras;  // in description order
   std::unique_ptr<RotaryStage> turntable;
   std::unique_ptr<RotaryStage> light_arc;
@@ -33,15 +33,15 @@ class RigBackend {
  public:
   virtual ~RigBackend() = default;
   virtual std::string name() const = 0;
-  virtual std::unique_ptr<Camera> MakeCamera(const RigDescription& rig, int camera_index);
-  virtual std::unique_ptr<RotaryStage> MakeTurntable(const RigDescription& rig);
-  virtual std::unique_ptr<RotaryStage> MakeLightArc(const RigDescription& rig);
-  virtual std::unique_ptr<LampBank> MakeLampBank(const RigDescription& rig);
-  virtual std::unique_ptr<LaserUnit> MakeLaserUnit(const RigDescription& rig);
+  virtual std::unique_ptr<Camera> MakeCamera(const formats::RigDescription& rig, int camera_index);
+  virtual std::unique_ptr<RotaryStage> MakeTurntable(const formats::RigDescription& rig);
+  virtual std::unique_ptr<RotaryStage> MakeLightArc(const formats::RigDescription& rig);
+  virtual std::unique_ptr<LampBank> MakeLampBank(const formats::RigDescription& rig);
+  virtual std::unique_ptr<LaserUnit> MakeLaserUnit(const formats::RigDescription& rig);
 };
 
 // Builds every device with the backend its description names. Throws Error
 // naming the device when its backend is not among `backends`.
-Rig BuildRig(const RigDescription& description, const std::map<std::string, RigBackend*>& backends);
+Rig BuildRig(const formats::RigDescription& description, const std::map<std::string, RigBackend*>& backends);
 
 }  // namespace mesocap::drivers

@@ -12,7 +12,7 @@
 #include "core/error.h"
 #include "core/json_field_reader.h"
 
-namespace mesocap {
+namespace mesocap::formats {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
@@ -44,7 +44,7 @@ constexpr double kDegPerRad = 180.0 / std::numbers::pi;
 // ---- reading --------------------------------------------------------------
 
 // `count` numbers, each in [min, max].
-std::vector<double> BoundedNumbers(const JsonFieldReader& fields, std::string_view key,
+std::vector<double> BoundedNumbers(const core::JsonFieldReader& fields, std::string_view key,
                                    std::size_t count, double min, double max) {
   const auto values = fields.Numbers(key, count);
   for (std::size_t i = 0; i < count; ++i) {
@@ -57,14 +57,14 @@ std::vector<double> BoundedNumbers(const JsonFieldReader& fields, std::string_vi
   return values;
 }
 
-Eigen::Vector3d Position(const JsonFieldReader& fields, std::string_view key) {
+Eigen::Vector3d Position(const core::JsonFieldReader& fields, std::string_view key) {
   const auto v = BoundedNumbers(fields, key, 3, -kMaxLengthMm, kMaxLengthMm);
   return {v[0], v[1], v[2]};
 }
 
 // A direction of any non-zero length, returned as a unit vector. One that is
 // unit already is kept bit for bit, so reading and writing again is stable.
-Eigen::Vector3d Direction(const JsonFieldReader& fields, std::string_view key) {
+Eigen::Vector3d Direction(const core::JsonFieldReader& fields, std::string_view key) {
   const auto v = BoundedNumbers(fields, key, 3, -kMaxDirectionComponent, kMaxDirectionComponent);
   const Eigen::Vector3d d(v[0], v[1], v[2]);
   const double length = d.norm();
@@ -72,13 +72,13 @@ Eigen::Vector3d Direction(const JsonFieldReader& fields, std::string_view key) {
   return std::abs(length - 1) <= kUnitTolerance ? d : Eigen::Vector3d(d / length);
 }
 
-double PositiveNumber(const JsonFieldReader& fields, std::string_view key, double max) {
+double PositiveNumber(const core::JsonFieldReader& fields, std::string_view key, double max) {
   const double x = fields.Number(key, 0, max);
   if (x <= 0) fields.Fail(key, "expected a number > 0, got 0");
   return x;
 }
 
-std::string Id(const JsonFieldReader& fields) {
+std::string Id(const core::JsonFieldReader& fields) {
   const std::string id = fields.String("id");
   if (!IsValidId(id)) {
     fields.Fail("id", "expected 1 to 128 characters from A-Z a-z 0-9 . _ -");
@@ -97,11 +97,11 @@ struct Parameter {
 // The standard deviations given in the object's optional "std" member.
 using Deviations = std::map<std::string, std::vector<double>, std::less<>>;
 
-Deviations ReadDeviations(const JsonFieldReader& object,
+Deviations ReadDeviations(const core::JsonFieldReader& object,
                           std::initializer_list<Parameter> parameters) {
   Deviations out;
   if (!object.Has("std")) return out;
-  const JsonFieldReader std_fields = object.Object("std");
+  const core::JsonFieldReader std_fields = object.Object("std");
   for (const auto& [key, value] : std_fields.json().items()) {
     const Parameter* match = nullptr;
     for (const auto& p : parameters) {
@@ -139,11 +139,11 @@ std::optional<Eigen::Vector2d> Deviation2(const Deviations& d, std::string_view 
   return Eigen::Vector2d(it->second[0], it->second[1]) * scale;
 }
 
-CalibratedPose ReadPose(const JsonFieldReader& fields, const std::string& parent,
+CalibratedPose ReadPose(const core::JsonFieldReader& fields, const std::string& parent,
                         const std::string& child) {
   fields.RejectUnknownMembers({"parent", "child", "rotation", "translation_mm", "std"});
   CalibratedPose pose;
-  pose.transform = ReadRigidTransform(fields);
+  pose.transform = core::ReadRigidTransform(fields);
   if (pose.transform.parent_frame != parent) {
     fields.Fail("parent", "expected \"" + parent + "\", got \"" + pose.transform.parent_frame + "\"");
   }
@@ -158,7 +158,7 @@ CalibratedPose ReadPose(const JsonFieldReader& fields, const std::string& parent
   return pose;
 }
 
-Intrinsics ReadIntrinsics(const JsonFieldReader& fields) {
+Intrinsics ReadIntrinsics(const core::JsonFieldReader& fields) {
   fields.RejectUnknownMembers({"fx", "fy", "cx", "cy", "std"});
   Intrinsics k;
   k.fx = PositiveNumber(fields, "fx", kMaxPixels);
@@ -174,7 +174,7 @@ Intrinsics ReadIntrinsics(const JsonFieldReader& fields) {
   return k;
 }
 
-Distortion ReadDistortion(const JsonFieldReader& fields) {
+Distortion ReadDistortion(const core::JsonFieldReader& fields) {
   fields.RejectUnknownMembers({"k1", "k2", "p1", "p2", "k3", "std"});
   Distortion k;
   k.k1 = fields.Number("k1", -kMaxDistortion, kMaxDistortion);
@@ -192,7 +192,7 @@ Distortion ReadDistortion(const JsonFieldReader& fields) {
   return k;
 }
 
-CameraRadiometry ReadRadiometry(const JsonFieldReader& fields) {
+CameraRadiometry ReadRadiometry(const core::JsonFieldReader& fields) {
   fields.RejectUnknownMembers({"signal_per_radiance_second", "std"});
   CameraRadiometry r;
   r.signal_per_radiance_second = fields.Number("signal_per_radiance_second", kMinCameraGain, kMaxCameraGain);
@@ -201,7 +201,7 @@ CameraRadiometry ReadRadiometry(const JsonFieldReader& fields) {
   return r;
 }
 
-CameraCalibration ReadCamera(const JsonFieldReader& fields, int version) {
+CameraCalibration ReadCamera(const core::JsonFieldReader& fields, int version) {
   if (version >= 2) {
     fields.RejectUnknownMembers({"id", "image_size", "intrinsics", "distortion", "pose", "radiometry"});
   } else {
@@ -225,7 +225,7 @@ CameraCalibration ReadCamera(const JsonFieldReader& fields, int version) {
   return c;
 }
 
-TurntableCalibration ReadTurntable(const JsonFieldReader& fields) {
+TurntableCalibration ReadTurntable(const core::JsonFieldReader& fields) {
   fields.RejectUnknownMembers({"axis_point_mm", "axis_direction", "sample_pose", "std"});
   TurntableCalibration t;
   t.axis_point_mm = Position(fields, "axis_point_mm");
@@ -237,7 +237,7 @@ TurntableCalibration ReadTurntable(const JsonFieldReader& fields) {
   return t;
 }
 
-LightArcCalibration ReadLightArc(const JsonFieldReader& fields) {
+LightArcCalibration ReadLightArc(const core::JsonFieldReader& fields) {
   fields.RejectUnknownMembers({"axis_point_mm", "axis_direction", "std"});
   LightArcCalibration a;
   a.axis_point_mm = Position(fields, "axis_point_mm");
@@ -248,7 +248,7 @@ LightArcCalibration ReadLightArc(const JsonFieldReader& fields) {
   return a;
 }
 
-LampCalibration ReadLamp(const JsonFieldReader& fields) {
+LampCalibration ReadLamp(const core::JsonFieldReader& fields) {
   fields.RejectUnknownMembers({"id", "position_mm", "intensity", "std"});
   LampCalibration l;
   l.id = Id(fields);
@@ -261,7 +261,7 @@ LampCalibration ReadLamp(const JsonFieldReader& fields) {
   return l;
 }
 
-LaserMountCalibration ReadLaserMount(const JsonFieldReader& fields) {
+LaserMountCalibration ReadLaserMount(const core::JsonFieldReader& fields) {
   fields.RejectUnknownMembers({"id", "source_mm", "plane_normal_at_zero_tilt", "tilt_axis",
                                 "tilt_range_deg", "std"});
   LaserMountCalibration m;
@@ -287,7 +287,7 @@ LaserMountCalibration ReadLaserMount(const JsonFieldReader& fields) {
 
 // Reads each element of the list `key` with `read`; ids must be unique.
 template <typename Part, typename ReadPart>
-std::vector<Part> ReadParts(const JsonFieldReader& root, std::string_view key, ReadPart read) {
+std::vector<Part> ReadParts(const core::JsonFieldReader& root, std::string_view key, ReadPart read) {
   std::vector<Part> parts;
   std::set<std::string> ids;
   for (const auto& fields : root.Objects(key, kMaxRigParts)) {
@@ -300,18 +300,18 @@ std::vector<Part> ReadParts(const JsonFieldReader& root, std::string_view key, R
 }
 
 Calibration ParseCalibration(const json& document, const fs::path& file) {
-  const JsonFieldReader root(document, file);
+  const core::JsonFieldReader root(document, file);
   const int version = root.ExpectFormat(kFormat, kOldestVersion, kVersion);
   root.RejectUnknownMembers({"format", "version", "units", "cameras", "turntable", "light_arc",
                               "lamps", "laser_mounts"});
-  const JsonFieldReader units = root.Object("units");
+  const core::JsonFieldReader units = root.Object("units");
   units.RejectUnknownMembers({"length", "angle"});
   units.Choice("length", {"mm"});
   units.Choice("angle", {"deg"});
 
   Calibration c;
   c.cameras = ReadParts<CameraCalibration>(
-      root, "cameras", [version](const JsonFieldReader& fields) { return ReadCamera(fields, version); });
+      root, "cameras", [version](const core::JsonFieldReader& fields) { return ReadCamera(fields, version); });
   if (c.cameras.empty()) root.Fail("cameras", "expected at least one camera");
   c.turntable = ReadTurntable(root.Object("turntable"));
   c.light_arc = ReadLightArc(root.Object("light_arc"));
@@ -463,13 +463,13 @@ json ToJson(const Calibration& c) {
 }
 
 Calibration ReadCalibration(const fs::path& file) {
-  return ParseCalibration(ReadJsonFile(file, kMaxCalibrationBytes, kMaxDepth), file);
+  return ParseCalibration(core::ReadJsonFile(file, kMaxCalibrationBytes, kMaxDepth), file);
 }
 
 void WriteCalibration(const fs::path& file, const Calibration& calibration) {
   const json document = ToJson(calibration);
   ParseCalibration(document, file);
-  WriteJsonFileAtomically(file, document);
+  core::WriteJsonFileAtomically(file, document);
 }
 
-}  // namespace mesocap
+}  // namespace mesocap::formats

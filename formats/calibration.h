@@ -23,7 +23,7 @@
 
 #include "core/rigid_transform.h"
 
-namespace mesocap {
+namespace mesocap::formats {
 
 // Each parameter group carries an `uncertainty` with one standard deviation
 // per parameter; empty where the calibration did not estimate it.
@@ -43,7 +43,7 @@ struct Distortion {  // OpenCV Brown-Conrady coefficients
 };
 
 struct CalibratedPose {
-  RigidTransform transform;
+  core::RigidTransform transform;
   // rotation_rad: the small rotation vector (axis * angle) about the parent's
   // axes by which the true rotation differs, per axis.
   struct Uncertainty {
@@ -141,4 +141,4 @@ nlohmann::json ToJson(const Calibration& calibration);
 // and file names.
 bool IsValidId(std::string_view id);
 
-}  // namespace mesocap
+}  // namespace mesocap::formats

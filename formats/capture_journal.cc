@@ -14,7 +14,7 @@
 #include "core/json_field_reader.h"
 #include "formats/calibration.h"
 
-namespace mesocap {
+namespace mesocap::formats {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
@@ -37,8 +37,8 @@ json RecordJson(const JournalRecord& r) {
 
 // One record's own content; `where` names its line.
 JournalRecord ParseRecord(const json& document, const fs::path& file, const std::string& where) {
-  RejectDeepNesting(document, file, kMaxDepth, where);
-  const JsonFieldReader fields(document, file, where);
+  core::RejectDeepNesting(document, file, kMaxDepth, where);
+  const core::JsonFieldReader fields(document, file, where);
   fields.RejectUnknownMembers({"seq", "step", "time_utc", "files"});
   JournalRecord r;
   r.seq = static_cast<std::uint64_t>(fields.Integer("seq", 0, kMaxSeq));
@@ -77,15 +77,15 @@ struct JournalState {
 void CheckOrder(const JournalRecord& r, const JournalState& state, const fs::path& file,
                 const std::string& where) {
   if (r.seq != state.next_seq) {
-    throw FormatError(file, where + ".seq",
+    throw core::FormatError(file, where + ".seq",
                       "expected " + std::to_string(state.next_seq) + " (records are numbered "
                       "0, 1, 2, ... in order), got " + std::to_string(r.seq));
   }
   if (state.done->count(r.step)) {
-    throw FormatError(file, where + ".step", "step \"" + r.step + "\" is already recorded");
+    throw core::FormatError(file, where + ".step", "step \"" + r.step + "\" is already recorded");
   }
   if (state.plan && !state.plan->count(r.step)) {
-    throw FormatError(file, where + ".step", "step \"" + r.step + "\" is not in the plan");
+    throw core::FormatError(file, where + ".step", "step \"" + r.step + "\" is not in the plan");
   }
 }
 
@@ -102,7 +102,7 @@ std::set<std::string> PlanIds(const SessionManifest& manifest) {
 template <typename OnLine>
 void ForEachLine(const fs::path& file, std::uint64_t size, OnLine on_line) {
   std::ifstream in(file, std::ios::binary);
-  if (!in) throw FormatError(file, "", "cannot open for reading");
+  if (!in) throw core::FormatError(file, "", "cannot open for reading");
   std::vector<char> chunk(1 << 16);
   std::string line;
   bool overlong = false;
@@ -110,7 +110,7 @@ void ForEachLine(const fs::path& file, std::uint64_t size, OnLine on_line) {
   while (offset < size) {
     const auto n = static_cast<std::size_t>(std::min<std::uint64_t>(chunk.size(), size - offset));
     in.read(chunk.data(), static_cast<std::streamsize>(n));
-    if (static_cast<std::size_t>(in.gcount()) != n) throw FormatError(file, "", "short read");
+    if (static_cast<std::size_t>(in.gcount()) != n) throw core::FormatError(file, "", "short read");
     std::size_t start = 0;
     while (start < n) {
       const char* newline = static_cast<const char*>(std::memchr(chunk.data() + start, '\n', n - start));
@@ -135,12 +135,12 @@ void ForEachLine(const fs::path& file, std::uint64_t size, OnLine on_line) {
 
 JournalContents ReadCaptureJournal(const fs::path& file, const SessionManifest* manifest) {
   std::error_code ec;
-  if (!fs::is_regular_file(file, ec)) throw FormatError(file, "", "not found or not a regular file");
+  if (!fs::is_regular_file(file, ec)) throw core::FormatError(file, "", "not found or not a regular file");
   // Read only what is there now: a writer may be appending while we read.
   const std::uint64_t size = fs::file_size(file, ec);
-  if (ec) throw FormatError(file, "", "cannot read size: " + ec.message());
+  if (ec) throw core::FormatError(file, "", "cannot read size: " + ec.message());
   if (size > kMaxJournalBytes) {
-    throw FormatError(file, "", "file is " + std::to_string(size) + " bytes; at most " +
+    throw core::FormatError(file, "", "file is " + std::to_string(size) + " bytes; at most " +
                                     std::to_string(kMaxJournalBytes) + " expected");
   }
   const std::set<std::string> plan = manifest ? PlanIds(*manifest) : std::set<std::string>();
@@ -156,12 +156,12 @@ JournalContents ReadCaptureJournal(const fs::path& file, const SessionManifest* 
     const bool last = end == size;
     if (overlong) {
       if (last) return;
-      throw FormatError(file, where, "longer than " + std::to_string(kMaxJournalLineBytes) + " bytes");
+      throw core::FormatError(file, where, "longer than " + std::to_string(kMaxJournalLineBytes) + " bytes");
     }
     const json document = json::parse(text, nullptr, /*allow_exceptions=*/false);
     if (document.is_discarded()) {
       if (last) return;
-      throw FormatError(file, where, "not valid JSON");
+      throw core::FormatError(file, where, "not valid JSON");
     }
     JournalRecord r = ParseRecord(document, file, where);
     CheckOrder(r, {contents.records.size(), &done, manifest ? &plan : nullptr}, file, where);
@@ -183,21 +183,21 @@ CaptureJournal::CaptureJournal(fs::path file, const SessionManifest* manifest)
     created = false;
     fd_ = ::open(file_.c_str(), O_RDWR | O_APPEND | O_CLOEXEC);
   }
-  if (fd_ < 0) throw Error(file_.string() + ": cannot open journal: " + SystemError());
+  if (fd_ < 0) throw core::Error(file_.string() + ": cannot open journal: " + SystemError());
   try {
     if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
-      throw Error(file_.string() + ": journal is open in another process (" + SystemError() + ")");
+      throw core::Error(file_.string() + ": journal is open in another process (" + SystemError() + ")");
     }
     if (created) {
       // The new file's entry in the session folder must survive a crash too.
-      if (::fsync(fd_) != 0) throw Error(file_.string() + ": fsync failed: " + SystemError());
-      SyncPath(file_.has_parent_path() ? file_.parent_path() : fs::path("."));
+      if (::fsync(fd_) != 0) throw core::Error(file_.string() + ": fsync failed: " + SystemError());
+      core::SyncPath(file_.has_parent_path() ? file_.parent_path() : fs::path("."));
     }
     JournalContents contents = ReadCaptureJournal(file_, manifest);
     if (contents.dropped_bytes > 0) {
       // Cut the torn tail so the next record starts on a line of its own.
       if (::ftruncate(fd_, static_cast<off_t>(contents.intact_bytes)) != 0 || ::fsync(fd_) != 0) {
-        throw Error(file_.string() + ": cannot truncate the torn last line: " + SystemError());
+        throw core::Error(file_.string() + ": cannot truncate the torn last line: " + SystemError());
       }
     }
     records_ = std::move(contents.records);
@@ -224,7 +224,7 @@ void CaptureJournal::Check(const JournalRecord& record) const {
 
 void CaptureJournal::Append(const JournalRecord& record) {
   if (broken_) {
-    throw Error(file_.string() + ": an earlier append failed; reopen the journal to go on");
+    throw core::Error(file_.string() + ": an earlier append failed; reopen the journal to go on");
   }
   Check(record);
 
@@ -237,29 +237,29 @@ void CaptureJournal::Append(const JournalRecord& record) {
     const bool regular = fs::is_regular_file(path, ec);
     const auto bytes = regular ? fs::file_size(path, ec) : 0;
     if (!regular || ec || bytes != f.bytes) {
-      throw Error(file_.string() + ": step \"" + record.step + "\": file " + f.path +
+      throw core::Error(file_.string() + ": step \"" + record.step + "\": file " + f.path +
                   (regular ? " has " + std::to_string(bytes) + " bytes, the record says " +
                                  std::to_string(f.bytes)
                            : " is missing or not a regular file"));
     }
-    SyncPath(path);
+    core::SyncPath(path);
     folders.insert(path.parent_path());
   }
-  for (const auto& folder : folders) SyncPath(folder);
+  for (const auto& folder : folders) core::SyncPath(folder);
 
   std::string line;
   try {
     line = RecordJson(record).dump() + "\n";
   } catch (const json::exception& e) {  // a path that is not UTF-8
-    throw Error(file_.string() + ": step \"" + record.step + "\": cannot write record: " + e.what());
+    throw core::Error(file_.string() + ": step \"" + record.step + "\": cannot write record: " + e.what());
   }
   // Never write what the reader would refuse.
   if (line.size() > kMaxJournalLineBytes) {
-    throw Error(file_.string() + ": step \"" + record.step + "\": record is longer than " +
+    throw core::Error(file_.string() + ": step \"" + record.step + "\": record is longer than " +
                 std::to_string(kMaxJournalLineBytes) + " bytes");
   }
   if (size_ + line.size() > kMaxJournalBytes) {
-    throw Error(file_.string() + ": journal would exceed " + std::to_string(kMaxJournalBytes) +
+    throw core::Error(file_.string() + ": journal would exceed " + std::to_string(kMaxJournalBytes) +
                 " bytes");
   }
 
@@ -272,13 +272,13 @@ void CaptureJournal::Append(const JournalRecord& record) {
       // Take back a partial line; if even that fails, the tail is torn and
       // only reopening (which truncates it) can go on.
       if (::ftruncate(fd_, static_cast<off_t>(size_)) != 0) broken_ = true;
-      throw Error(file_.string() + ": cannot append record: " + why);
+      throw core::Error(file_.string() + ": cannot append record: " + why);
     }
     written += static_cast<std::size_t>(n);
   }
   if (::fsync(fd_) != 0) {
     broken_ = true;
-    throw Error(file_.string() + ": fsync failed; step \"" + record.step +
+    throw core::Error(file_.string() + ": fsync failed; step \"" + record.step +
                 "\" is not recorded as done: " + SystemError());
   }
   size_ += line.size();
@@ -286,4 +286,4 @@ void CaptureJournal::Append(const JournalRecord& record) {
   done_.insert(record.step);
 }
 
-}  // namespace mesocap
+}  // namespace mesocap::formats

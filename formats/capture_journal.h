@@ -15,7 +15,7 @@
 
 #include "formats/capture_session.h"
 
-namespace mesocap {
+namespace mesocap::formats {
 
 struct JournalFile {
   std::string path;  // inside the session folder; IsSessionPath
@@ -85,4 +85,4 @@ class CaptureJournal {
   bool broken_ = false;
 };
 
-}  // namespace mesocap
+}  // namespace mesocap::formats

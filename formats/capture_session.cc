@@ -11,7 +11,7 @@
 #include "core/version.h"
 #include "formats/calibration.h"
 
-namespace mesocap {
+namespace mesocap::formats {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
@@ -46,7 +46,7 @@ bool HasControlCharacter(std::string_view text) {
 }
 
 // A non-empty single-line string of at most kMaxShortText bytes.
-std::string ShortText(const JsonFieldReader& fields, std::string_view key) {
+std::string ShortText(const core::JsonFieldReader& fields, std::string_view key) {
   const std::string s = fields.String(key);
   if (s.empty() || s.size() > kMaxShortText || HasControlCharacter(s)) {
     fields.Fail(key, "expected 1 to " + std::to_string(kMaxShortText) +
@@ -55,7 +55,7 @@ std::string ShortText(const JsonFieldReader& fields, std::string_view key) {
   return s;
 }
 
-PlannedStep ReadStep(const JsonFieldReader& fields) {
+PlannedStep ReadStep(const core::JsonFieldReader& fields) {
   PlannedStep step;
   step.id = fields.String("id");
   if (!IsValidId(step.id)) {
@@ -69,8 +69,8 @@ PlannedStep ReadStep(const JsonFieldReader& fields) {
 }
 
 SessionManifest ParseSessionManifest(const json& document, const fs::path& file) {
-  RejectDeepNesting(document, file, kMaxDepth);  // again, for manifests about to be written
-  const JsonFieldReader root(document, file);
+  core::RejectDeepNesting(document, file, kMaxDepth);  // again, for manifests about to be written
+  const core::JsonFieldReader root(document, file);
   root.ExpectFormat(kFormat, kVersion);
   root.RejectUnknownMembers({"format", "version", "software_version", "created_utc", "rig",
                               "calibration", "plan"});
@@ -80,7 +80,7 @@ SessionManifest ParseSessionManifest(const json& document, const fs::path& file)
   if (!IsUtcTimestamp(m.created_utc)) {
     root.Fail("created_utc", "expected an ISO 8601 UTC time such as 2025-06-01T12:34:56Z");
   }
-  const JsonFieldReader rig = root.Object("rig");
+  const core::JsonFieldReader rig = root.Object("rig");
   ShortText(rig, "name");
   m.rig = rig.json();
   if (root.Has("calibration")) {
@@ -89,7 +89,7 @@ SessionManifest ParseSessionManifest(const json& document, const fs::path& file)
       root.Fail("calibration", "expected a relative path inside the session folder");
     }
   }
-  const JsonFieldReader plan = root.Object("plan");
+  const core::JsonFieldReader plan = root.Object("plan");
   plan.RejectUnknownMembers({"steps"});
   std::set<std::string> ids;
   for (const auto& fields : plan.Objects("steps", kMaxPlanSteps)) {
@@ -170,7 +170,7 @@ json ToJson(const SessionManifest& m) {
   json steps = json::array();
   for (const auto& step : m.plan) {
     if (!step.params.is_object() || step.params.contains("id") || step.params.contains("kind")) {
-      throw Error("plan step \"" + step.id +
+      throw core::Error("plan step \"" + step.id +
                   "\": params must be a JSON object without \"id\" or \"kind\"");
     }
     json s = step.params;
@@ -189,7 +189,7 @@ json ToJson(const SessionManifest& m) {
 }
 
 void CreateCaptureSession(const fs::path& dir, SessionManifest manifest) {
-  if (manifest.software_version.empty()) manifest.software_version = Version();
+  if (manifest.software_version.empty()) manifest.software_version = core::Version();
   if (manifest.created_utc.empty()) {
     manifest.created_utc = UtcTimestamp(std::chrono::system_clock::now());
   }
@@ -201,30 +201,30 @@ void CreateCaptureSession(const fs::path& dir, SessionManifest manifest) {
   } catch (const json::exception& e) {
     // nlohmann refuses to write strings that are not UTF-8 (say in the rig);
     // find out before touching the disk.
-    throw Error(manifest_file.string() + ": cannot write the manifest: " + e.what());
+    throw core::Error(manifest_file.string() + ": cannot write the manifest: " + e.what());
   }
 
   std::error_code ec;
   if (fs::exists(dir, ec)) {
-    if (!fs::is_directory(dir, ec)) throw Error(dir.string() + ": exists and is not a folder");
+    if (!fs::is_directory(dir, ec)) throw core::Error(dir.string() + ": exists and is not a folder");
     if (!fs::is_empty(dir, ec) || ec) {
-      throw Error(dir.string() + ": already holds files; a new session needs an empty folder");
+      throw core::Error(dir.string() + ": already holds files; a new session needs an empty folder");
     }
   } else {
     fs::create_directories(dir, ec);
-    if (ec) throw Error(dir.string() + ": cannot create folder: " + ec.message());
+    if (ec) throw core::Error(dir.string() + ": cannot create folder: " + ec.message());
     // Make the new folder's own entry durable, not just what goes inside it.
     fs::path full = fs::absolute(dir).lexically_normal();
     if (!full.has_filename()) full = full.parent_path();  // "a/b/" -> "a/b"
-    SyncPath(full.parent_path());
+    core::SyncPath(full.parent_path());
   }
-  WriteJsonFileAtomically(manifest_file, document);
+  core::WriteJsonFileAtomically(manifest_file, document);
 }
 
 SessionManifest ReadSessionManifest(const fs::path& dir) {
   const fs::path file = dir / kSessionManifestName;
-  return ParseSessionManifest(ReadJsonFile(file, kMaxSessionManifestBytes, kMaxDepth),
+  return ParseSessionManifest(core::ReadJsonFile(file, kMaxSessionManifestBytes, kMaxDepth),
                               file);
 }
 
-}  // namespace mesocap
+}  // namespace mesocap::formats

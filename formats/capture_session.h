@@ -15,7 +15,7 @@
 #include <string_view>
 #include <vector>
 
-namespace mesocap {
+namespace mesocap::formats {
 
 inline constexpr const char* kSessionManifestName = "manifest.json";
 inline constexpr const char* kSessionJournalName = "journal.jsonl";
@@ -66,4 +66,4 @@ bool IsUtcTimestamp(std::string_view text);
 // at most 1024 bytes. Keeps every reference inside the session.
 bool IsSessionPath(std::string_view path);
 
-}  // namespace mesocap
+}  // namespace mesocap::formats

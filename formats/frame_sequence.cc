@@ -9,16 +9,16 @@
 
 #include "core/error.h"
 
-namespace mesocap {
+namespace mesocap::formats {
 namespace fs = std::filesystem;
 namespace {
 
-OIIO::TypeDesc TypeOf(PixelEncoding e) {
+OIIO::TypeDesc TypeOf(core::PixelEncoding e) {
   switch (e) {
-    case PixelEncoding::kUInt8: return OIIO::TypeDesc::UINT8;
-    case PixelEncoding::kUInt16: return OIIO::TypeDesc::UINT16;
-    case PixelEncoding::kFloat32: return OIIO::TypeDesc::FLOAT;
-    case PixelEncoding::kHalf: break;
+    case core::PixelEncoding::kUInt8: return OIIO::TypeDesc::UINT8;
+    case core::PixelEncoding::kUInt16: return OIIO::TypeDesc::UINT16;
+    case core::PixelEncoding::kFloat32: return OIIO::TypeDesc::FLOAT;
+    case core::PixelEncoding::kHalf: break;
   }
   return OIIO::TypeDesc::UNKNOWN;
 }
@@ -48,20 +48,20 @@ struct FrameSequenceWriter::Output {
 };
 
 FrameSequenceWriter::FrameSequenceWriter(fs::path file, int width, int height, int channels,
-                                         PixelEncoding encoding)
+                                         core::PixelEncoding encoding)
     : file_(std::move(file)), atomic_(file_) {
-  if (!IsTiff(file_)) throw Error(file_.string() + ": a frame sequence is a .tif or .tiff file");
-  if (encoding == PixelEncoding::kHalf) throw Error(file_.string() + ": TIFF frame sequences cannot store half");
+  if (!IsTiff(file_)) throw core::Error(file_.string() + ": a frame sequence is a .tif or .tiff file");
+  if (encoding == core::PixelEncoding::kHalf) throw core::Error(file_.string() + ": TIFF frame sequences cannot store half");
   if (width <= 0 || height <= 0 || channels < 1 || channels > 4) {
-    throw Error(file_.string() + ": bad frame size " + std::to_string(width) + "x" + std::to_string(height) + "x" +
+    throw core::Error(file_.string() + ": bad frame size " + std::to_string(width) + "x" + std::to_string(height) + "x" +
                 std::to_string(channels));
   }
   header_ = {width, height, channels, encoding, 0};
   output_ = std::make_unique<Output>();
   output_->out = OIIO::ImageOutput::create(file_.string());
-  if (!output_->out) throw Error(file_.string() + ": no TIFF writer: " + OIIO::geterror());
+  if (!output_->out) throw core::Error(file_.string() + ": no TIFF writer: " + OIIO::geterror());
   if (!output_->out->supports("appendsubimage")) {
-    throw Error(file_.string() + ": the TIFF writer cannot append subimages");
+    throw core::Error(file_.string() + ": the TIFF writer cannot append subimages");
   }
   output_->spec = OIIO::ImageSpec(width, height, channels, TypeOf(encoding));
   output_->spec.attribute("compression", "zip");  // TIFF deflate
@@ -74,10 +74,10 @@ FrameSequenceWriter::~FrameSequenceWriter() {
   if (output_ && output_->out && !committed_ && frame_count_ > 0) output_->out->close();
 }
 
-void FrameSequenceWriter::Append(const Image& frame) {
-  if (committed_) throw Error(file_.string() + ": frame sequence already committed");
+void FrameSequenceWriter::Append(const core::Image& frame) {
+  if (committed_) throw core::Error(file_.string() + ": frame sequence already committed");
   if (frame.width() != header_.width || frame.height() != header_.height || frame.channels() != header_.channels) {
-    throw Error(file_.string() + ": frame " + std::to_string(frame_count_) + " is " + std::to_string(frame.width()) +
+    throw core::Error(file_.string() + ": frame " + std::to_string(frame_count_) + " is " + std::to_string(frame.width()) +
                 "x" + std::to_string(frame.height()) + "x" + std::to_string(frame.channels()) +
                 ", the sequence is " + std::to_string(header_.width) + "x" + std::to_string(header_.height) + "x" +
                 std::to_string(header_.channels));
@@ -86,7 +86,7 @@ void FrameSequenceWriter::Append(const Image& frame) {
   const auto mode = frame_count_ == 0 ? OIIO::ImageOutput::Create : OIIO::ImageOutput::AppendSubimage;
   if (!out.open(atomic_.temp_path().string(), output_->spec, mode) ||
       !out.write_image(OIIO::TypeDesc::FLOAT, frame.data())) {
-    throw Error(file_.string() + ": writing frame " + std::to_string(frame_count_) + " failed: " + out.geterror());
+    throw core::Error(file_.string() + ": writing frame " + std::to_string(frame_count_) + " failed: " + out.geterror());
   }
   ++frame_count_;
   header_.frame_count = frame_count_;
@@ -94,8 +94,8 @@ void FrameSequenceWriter::Append(const Image& frame) {
 
 void FrameSequenceWriter::Commit() {
   if (committed_) return;
-  if (frame_count_ == 0) throw Error(file_.string() + ": refusing to write a frame sequence without frames");
-  if (!output_->out->close()) throw Error(file_.string() + ": closing failed: " + output_->out->geterror());
+  if (frame_count_ == 0) throw core::Error(file_.string() + ": refusing to write a frame sequence without frames");
+  if (!output_->out->close()) throw core::Error(file_.string() + ": closing failed: " + output_->out->geterror());
   atomic_.Commit();
   committed_ = true;
 }
@@ -108,33 +108,33 @@ FrameSequenceReader::FrameSequenceReader(fs::path file, int max_frames, std::siz
     : file_(std::move(file)), input_(std::make_unique<Input>()) {
   LimitDeclaredImageSize();
   std::error_code ec;
-  if (!fs::is_regular_file(file_, ec)) throw FormatError(file_, "", "not found or not a regular file");
-  if (!IsTiff(file_)) throw FormatError(file_, "", "a frame sequence is a .tif or .tiff file");
+  if (!fs::is_regular_file(file_, ec)) throw core::FormatError(file_, "", "not found or not a regular file");
+  if (!IsTiff(file_)) throw core::FormatError(file_, "", "a frame sequence is a .tif or .tiff file");
   input_->in = OIIO::ImageInput::open(file_.string());
-  if (!input_->in) throw FormatError(file_, "", "not a readable TIFF: " + OIIO::geterror());
+  if (!input_->in) throw core::FormatError(file_, "", "not a readable TIFF: " + OIIO::geterror());
   auto& in = *input_->in;
   // Every frame's header up front (headers only, no pixels): the sequence is
   // uniform or it is rejected before anyone reads it.
   for (int f = 0; in.seek_subimage(f, 0); ++f) {
     if (f >= max_frames) {
-      throw FormatError(file_, "frames", "more than the limit of " + std::to_string(max_frames));
+      throw core::FormatError(file_, "frames", "more than the limit of " + std::to_string(max_frames));
     }
     const OIIO::ImageSpec& spec = in.spec();
     if (f == 0) {
       if (spec.width <= 0 || spec.height <= 0 || spec.depth != 1) {
-        throw FormatError(file_, FrameField(f, "size"), "expected a positive 2D size");
+        throw core::FormatError(file_, FrameField(f, "size"), "expected a positive 2D size");
       }
       if (spec.nchannels < 1 || spec.nchannels > 4) {
-        throw FormatError(file_, FrameField(f, "channels"), "expected 1 to 4");
+        throw core::FormatError(file_, FrameField(f, "channels"), "expected 1 to 4");
       }
       if (spec.format == OIIO::TypeDesc::UINT8) {
-        header_.encoding = PixelEncoding::kUInt8;
+        header_.encoding = core::PixelEncoding::kUInt8;
       } else if (spec.format == OIIO::TypeDesc::UINT16) {
-        header_.encoding = PixelEncoding::kUInt16;
+        header_.encoding = core::PixelEncoding::kUInt16;
       } else if (spec.format == OIIO::TypeDesc::FLOAT) {
-        header_.encoding = PixelEncoding::kFloat32;
+        header_.encoding = core::PixelEncoding::kFloat32;
       } else {
-        throw FormatError(file_, FrameField(f, "pixel type"), std::string("expected uint8, uint16 or float, got ") +
+        throw core::FormatError(file_, FrameField(f, "pixel type"), std::string("expected uint8, uint16 or float, got ") +
                                                                    spec.format.c_str());
       }
       header_.width = spec.width;
@@ -142,41 +142,41 @@ FrameSequenceReader::FrameSequenceReader(fs::path file, int max_frames, std::siz
       header_.channels = spec.nchannels;
       const std::size_t values = static_cast<std::size_t>(spec.width) * spec.height * spec.nchannels;
       if (values > max_values) {
-        throw FormatError(file_, FrameField(f, "size"), "exceeds the limit of " + std::to_string(max_values) +
+        throw core::FormatError(file_, FrameField(f, "size"), "exceeds the limit of " + std::to_string(max_values) +
                                                             " values per frame");
       }
     } else {
-      if (spec.width != header_.width) throw FormatError(file_, FrameField(f, "width"), "differs from frame 0");
-      if (spec.height != header_.height) throw FormatError(file_, FrameField(f, "height"), "differs from frame 0");
+      if (spec.width != header_.width) throw core::FormatError(file_, FrameField(f, "width"), "differs from frame 0");
+      if (spec.height != header_.height) throw core::FormatError(file_, FrameField(f, "height"), "differs from frame 0");
       if (spec.nchannels != header_.channels) {
-        throw FormatError(file_, FrameField(f, "channels"), "differs from frame 0");
+        throw core::FormatError(file_, FrameField(f, "channels"), "differs from frame 0");
       }
       if (spec.format != TypeOf(header_.encoding)) {
-        throw FormatError(file_, FrameField(f, "pixel type"), "differs from frame 0");
+        throw core::FormatError(file_, FrameField(f, "pixel type"), "differs from frame 0");
       }
     }
     header_.frame_count = f + 1;
   }
-  if (header_.frame_count == 0) throw FormatError(file_, "frames", "no frames");
+  if (header_.frame_count == 0) throw core::FormatError(file_, "frames", "no frames");
   // The failed seek past the last frame leaves the reader without a current
   // frame and with a pending error message (geterror() clears it); go back
   // to the first frame.
   (void)in.geterror();
-  if (!in.seek_subimage(0, 0)) throw FormatError(file_, FrameField(0, "header"), "cannot seek: " + in.geterror());
+  if (!in.seek_subimage(0, 0)) throw core::FormatError(file_, FrameField(0, "header"), "cannot seek: " + in.geterror());
 }
 
 FrameSequenceReader::~FrameSequenceReader() {
   if (input_ && input_->in) input_->in->close();
 }
 
-bool FrameSequenceReader::Next(Image* frame) {
+bool FrameSequenceReader::Next(core::Image* frame) {
   if (next_ >= header_.frame_count) return false;
   auto& in = *input_->in;
-  Image image(header_.width, header_.height, header_.channels);
+  core::Image image(header_.width, header_.height, header_.channels);
   if (!in.seek_subimage(next_, 0) || !in.read_image(next_, 0, 0, header_.channels, OIIO::TypeDesc::FLOAT, image.data()) || in.has_error()) {
     std::string why = in.geterror();
     if (why.empty()) why = "read failed";
-    throw FormatError(file_, FrameField(next_, "pixels"), "cannot read (truncated or corrupt?): " + why);
+    throw core::FormatError(file_, FrameField(next_, "pixels"), "cannot read (truncated or corrupt?): " + why);
   }
   *frame = std::move(image);
   ++next_;
@@ -185,4 +185,4 @@ bool FrameSequenceReader::Next(Image* frame) {
 
 FrameSequenceHeader ReadFrameSequenceHeader(const fs::path& file) { return FrameSequenceReader(file).header(); }
 
-}  // namespace mesocap
+}  // namespace mesocap::formats

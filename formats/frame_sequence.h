@@ -15,13 +15,13 @@
 #include "core/image.h"
 #include "core/image_io.h"
 
-namespace mesocap {
+namespace mesocap::formats {
 
 struct FrameSequenceHeader {
   int width = 0;
   int height = 0;
   int channels = 0;
-  PixelEncoding encoding = PixelEncoding::kUInt16;
+  core::PixelEncoding encoding = core::PixelEncoding::kUInt16;
   int frame_count = 0;
 };
 
@@ -33,14 +33,14 @@ class FrameSequenceWriter {
   // .tif / .tiff only; encoding kUInt8, kUInt16 or kFloat32 (integer
   // encodings map [0, 1] to the full code range, as WriteImage does).
   FrameSequenceWriter(std::filesystem::path file, int width, int height, int channels,
-                      PixelEncoding encoding = PixelEncoding::kUInt16);
+                      core::PixelEncoding encoding = core::PixelEncoding::kUInt16);
   ~FrameSequenceWriter();
   FrameSequenceWriter(const FrameSequenceWriter&) = delete;
   FrameSequenceWriter& operator=(const FrameSequenceWriter&) = delete;
 
   // Throws Error when the frame's size or channel count differs from the
   // sequence's, or the write fails.
-  void Append(const Image& frame);
+  void Append(const core::Image& frame);
   int frame_count() const { return frame_count_; }
   // Closes and renames into place. Throws Error on a sequence without frames.
   void Commit();
@@ -48,7 +48,7 @@ class FrameSequenceWriter {
  private:
   struct Output;
   std::filesystem::path file_;
-  AtomicFile atomic_;
+  core::AtomicFile atomic_;
   FrameSequenceHeader header_;
   std::unique_ptr<Output> output_;
   int frame_count_ = 0;
@@ -72,7 +72,7 @@ class FrameSequenceReader {
   const FrameSequenceHeader& header() const { return header_; }
   // The next frame as float in [0, 1] (integer encodings), or false after
   // the last one.
-  bool Next(Image* frame);
+  bool Next(core::Image* frame);
   int next_index() const { return next_; }
 
  private:
@@ -86,4 +86,4 @@ class FrameSequenceReader {
 // Reads the header (with the frame count) only.
 FrameSequenceHeader ReadFrameSequenceHeader(const std::filesystem::path& file);
 
-}  // namespace mesocap
+}  // namespace mesocap::formats

@@ -13,7 +13,7 @@
 #include "core/json_field_reader.h"
 #include "core/version.h"
 
-namespace mesocap {
+namespace mesocap::formats {
 namespace fs = std::filesystem;
 namespace {
 
@@ -70,7 +70,7 @@ std::string CurrentUtcTime() {
 }
 
 // Images pack a direction set along their height (Sec. 5's 3D textures).
-int PackedHeight(const MaterialDescription& d, const SamplingSet& set) { return d.height * set.size(); }
+int PackedHeight(const MaterialDescription& d, const core::SamplingSet& set) { return d.height * set.size(); }
 
 // Empty when the float data a part implies is plausible, else why not.
 // Counted in double: no overflow, and exact near the limit.
@@ -85,7 +85,7 @@ std::string OversizeProblem(const MaterialDescription& d, const char* part, bool
          " of float data; at most " + BytesText(kMaxPartBytes) + " accepted";
 }
 
-bool SameDirections(const SamplingSet& a, const SamplingSet& b) {
+bool SameDirections(const core::SamplingSet& a, const core::SamplingSet& b) {
   if (a.size() != b.size()) return false;
   for (int i = 0; i < a.size(); ++i) {
     if ((a.direction(i) - b.direction(i)).norm() > 1e-9) return false;
@@ -98,19 +98,19 @@ bool SameDirections(const SamplingSet& a, const SamplingSet& b) {
 
 void CheckDescription(const fs::path& dir, const MaterialDescription& d) {
   if (d.width < 1 || d.width > kMaxTextureSize || d.height < 1 || d.height > kMaxTextureSize) {
-    throw Error(dir.string() + ": texture size " + std::to_string(d.width) + "x" + std::to_string(d.height) +
+    throw core::Error(dir.string() + ": texture size " + std::to_string(d.width) + "x" + std::to_string(d.height) +
                 " outside 1.." + std::to_string(kMaxTextureSize));
   }
   if (!(d.physical_size_mm.allFinite() && d.physical_size_mm.minCoeff() > 0)) {
-    throw Error(dir.string() + ": physical size must be positive, got " + Text(d.physical_size_mm.x()) +
+    throw core::Error(dir.string() + ": physical size must be positive, got " + Text(d.physical_size_mm.x()) +
                 " x " + Text(d.physical_size_mm.y()) + " mm");
   }
   if (!(std::isfinite(d.d_max_mm) && d.d_max_mm > 0)) {
-    throw Error(dir.string() + ": d_max must be a positive distance, got " + Text(d.d_max_mm) + " mm");
+    throw core::Error(dir.string() + ": d_max must be a positive distance, got " + Text(d.d_max_mm) + " mm");
   }
-  for (const SamplingSet* set : {&d.view_directions, &d.light_directions}) {
+  for (const core::SamplingSet* set : {&d.view_directions, &d.light_directions}) {
     if (set->size() < 1 || set->size() > kMaxDirections) {
-      throw Error(dir.string() + ": " + (set == &d.view_directions ? "view" : "light") +
+      throw core::Error(dir.string() + ": " + (set == &d.view_directions ? "view" : "light") +
                   " direction set has " + std::to_string(set->size()) + " directions; expected 1.." +
                   std::to_string(kMaxDirections));
     }
@@ -118,27 +118,27 @@ void CheckDescription(const fs::path& dir, const MaterialDescription& d) {
 }
 
 void ExpectGrid(const fs::path& dir, const MaterialDescription& d, const char* part, int width, int height,
-                const SamplingSet& views) {
+                const core::SamplingSet& views) {
   if (width != d.width || height != d.height) {
-    throw Error(dir.string() + ": " + part + " is " + std::to_string(width) + "x" + std::to_string(height) +
+    throw core::Error(dir.string() + ": " + part + " is " + std::to_string(width) + "x" + std::to_string(height) +
                 " texels, the package " + std::to_string(d.width) + "x" + std::to_string(d.height));
   }
   if (!SameDirections(views, d.view_directions)) {
-    throw Error(dir.string() + ": " + part + " is sampled on other view directions than the package");
+    throw core::Error(dir.string() + ": " + part + " is sampled on other view directions than the package");
   }
 }
 
 void ExpectLights(const fs::path& dir, const MaterialDescription& d, const char* part,
-                  const SamplingSet& lights) {
+                  const core::SamplingSet& lights) {
   if (!SameDirections(lights, d.light_directions)) {
-    throw Error(dir.string() + ": " + part + " is sampled on other light directions than the package");
+    throw core::Error(dir.string() + ": " + part + " is sampled on other light directions than the package");
   }
 }
 
-void ExpectImageSize(const fs::path& dir, const std::string& what, const Image& image, int width, int height,
+void ExpectImageSize(const fs::path& dir, const std::string& what, const core::Image& image, int width, int height,
                      int channels) {
   if (image.width() != width || image.height() != height || image.channels() != channels) {
-    throw Error(dir.string() + ": " + what + " is " +
+    throw core::Error(dir.string() + ": " + what + " is " +
                 SizeText(image.width(), image.height(), image.channels()) + ", expected " +
                 SizeText(width, height, channels));
   }
@@ -146,19 +146,19 @@ void ExpectImageSize(const fs::path& dir, const std::string& what, const Image& 
 
 // BTF, factor and ambient values must be finite: a NaN would silently poison
 // every reconstruction and render that touches it.
-void ExpectFiniteToWrite(const fs::path& dir, const std::string& what, const Image& image) {
+void ExpectFiniteToWrite(const fs::path& dir, const std::string& what, const core::Image& image) {
   const float* v = image.data();
   for (std::size_t i = 0; i < image.size(); ++i) {
     if (!std::isfinite(v[i])) {
       const std::size_t pixel = i / image.channels();
-      throw Error(dir.string() + ": " + what + " has the non-finite value " + Text(v[i]) + " at x=" +
+      throw core::Error(dir.string() + ": " + what + " has the non-finite value " + Text(v[i]) + " at x=" +
                   std::to_string(pixel % image.width()) + ", y=" + std::to_string(pixel / image.width()));
     }
   }
 }
 
 void ThrowIfOversize(const fs::path& dir, const std::string& problem) {
-  if (!problem.empty()) throw Error(dir.string() + ": " + problem);
+  if (!problem.empty()) throw core::Error(dir.string() + ": " + problem);
 }
 
 nlohmann::ordered_json MatrixJson(const Eigen::Matrix3d& m) {
@@ -189,9 +189,9 @@ nlohmann::ordered_json ManifestJson(const MaterialManifest& m) {
     if (m.mdf->forms.uint8) {
       mdf["uint8"] = {{"file", kMdfUint8File},
                       {"scale_mm", m.mdf->scale_mm},
-                      {"max_distance_code", QuantizedMdf::kMaxDistanceCode},
-                      {"no_hit_code", QuantizedMdf::kNoHitCode},
-                      {"unknown_code", QuantizedMdf::kUnknownCode}};
+                      {"max_distance_code", core::QuantizedMdf::kMaxDistanceCode},
+                      {"no_hit_code", core::QuantizedMdf::kNoHitCode},
+                      {"unknown_code", core::QuantizedMdf::kUnknownCode}};
     }
     if (m.mdf->confidence) mdf["confidence"] = {{"file", kMdfConfidenceFile}};
     j["mdf"] = mdf;
@@ -207,7 +207,7 @@ nlohmann::ordered_json ManifestJson(const MaterialManifest& m) {
                                          {"singular_values", kSingularValues},
                                          {"row_files", kRowFactorFiles},
                                          {"column_file", kColumnFactorFile}};
-      if (f.color == BtfFactorColor::kYCbCr) factored["rgb_to_factored"] = MatrixJson(f.rgb_to_factored);
+      if (f.color == core::BtfFactorColor::kYCbCr) factored["rgb_to_factored"] = MatrixJson(f.rgb_to_factored);
       btf["factored"] = factored;
     }
     j["btf"] = btf;
@@ -221,7 +221,7 @@ nlohmann::ordered_json ManifestJson(const MaterialManifest& m) {
 // ---------------------------------------------------------------------------
 // Reading the manifest
 
-int ReadTexelCount(const JsonFieldReader& r, const std::string& key, const nlohmann::json& value) {
+int ReadTexelCount(const core::JsonFieldReader& r, const std::string& key, const nlohmann::json& value) {
   const std::string expected = "expected an integer in [1, " + std::to_string(kMaxTextureSize) + "]";
   if (!value.is_number_integer()) r.Fail(key, expected + ", got " + value.dump());
   const double x = value.get<double>();  // exact for every integer in range; out-of-range ones stay out
@@ -229,7 +229,7 @@ int ReadTexelCount(const JsonFieldReader& r, const std::string& key, const nlohm
   return static_cast<int>(x);
 }
 
-Eigen::Vector2i ReadTextureSize(const JsonFieldReader& r) {
+Eigen::Vector2i ReadTextureSize(const core::JsonFieldReader& r) {
   const auto& v = r.Raw("texture_size");
   if (!v.is_array() || v.size() != 2) {
     r.Fail("texture_size", "expected [width, height] in texels, got " + v.dump().substr(0, 40));
@@ -237,13 +237,13 @@ Eigen::Vector2i ReadTextureSize(const JsonFieldReader& r) {
   return {ReadTexelCount(r, "texture_size[0]", v[0]), ReadTexelCount(r, "texture_size[1]", v[1])};
 }
 
-double ReadPositive(const JsonFieldReader& r, const std::string& key, double value) {
+double ReadPositive(const core::JsonFieldReader& r, const std::string& key, double value) {
   if (!(value > 0)) r.Fail(key, "expected a positive number, got " + Text(value));
   return value;
 }
 
-SamplingSet ReadDirections(const JsonFieldReader& r, const char* key) {
-  SamplingSet set = ReadSamplingSet(r.Object(key));
+core::SamplingSet ReadDirections(const core::JsonFieldReader& r, const char* key) {
+  core::SamplingSet set = core::ReadSamplingSet(r.Object(key));
   if (set.size() < 1 || set.size() > kMaxDirections) {
     r.Fail(key, "expected 1 to " + std::to_string(kMaxDirections) + " directions, got " +
                     std::to_string(set.size()));
@@ -251,7 +251,7 @@ SamplingSet ReadDirections(const JsonFieldReader& r, const char* key) {
   return set;
 }
 
-Eigen::Matrix3d ReadMatrix3(const JsonFieldReader& r, const char* key) {
+Eigen::Matrix3d ReadMatrix3(const core::JsonFieldReader& r, const char* key) {
   const auto& v = r.Raw(key);
   if (!v.is_array() || v.size() != 3) r.Fail(key, "expected 3 rows of 3 numbers");
   Eigen::Matrix3d m;
@@ -269,7 +269,7 @@ Eigen::Matrix3d ReadMatrix3(const JsonFieldReader& r, const char* key) {
   return m;
 }
 
-MaterialManifest::MdfPart ReadMdfPart(const JsonFieldReader& mdf) {
+MaterialManifest::MdfPart ReadMdfPart(const core::JsonFieldReader& mdf) {
   MaterialManifest::MdfPart part;
   part.forms.float32 = mdf.Has("float32");
   part.forms.uint8 = mdf.Has("uint8");
@@ -277,32 +277,32 @@ MaterialManifest::MdfPart ReadMdfPart(const JsonFieldReader& mdf) {
     mdf.Fail("", "expected a \"float32\" and/or a \"uint8\" form");
   if (part.forms.float32) mdf.Object("float32").Choice("file", {kMdfFloatFile});
   if (part.forms.uint8) {
-    const JsonFieldReader u = mdf.Object("uint8");
+    const core::JsonFieldReader u = mdf.Object("uint8");
     u.Choice("file", {kMdfUint8File});
     part.scale_mm = ReadPositive(u, "scale_mm", u.Number("scale_mm"));
-    u.Integer("max_distance_code", QuantizedMdf::kMaxDistanceCode, QuantizedMdf::kMaxDistanceCode);
-    u.Integer("no_hit_code", QuantizedMdf::kNoHitCode, QuantizedMdf::kNoHitCode);
-    u.Integer("unknown_code", QuantizedMdf::kUnknownCode, QuantizedMdf::kUnknownCode);
+    u.Integer("max_distance_code", core::QuantizedMdf::kMaxDistanceCode, core::QuantizedMdf::kMaxDistanceCode);
+    u.Integer("no_hit_code", core::QuantizedMdf::kNoHitCode, core::QuantizedMdf::kNoHitCode);
+    u.Integer("unknown_code", core::QuantizedMdf::kUnknownCode, core::QuantizedMdf::kUnknownCode);
   }
   part.confidence = mdf.Has("confidence");
   if (part.confidence) mdf.Object("confidence").Choice("file", {kMdfConfidenceFile});
   return part;
 }
 
-MaterialManifest::FactoredBtfPart ReadFactoredPart(const JsonFieldReader& f, const MaterialDescription& d) {
+MaterialManifest::FactoredBtfPart ReadFactoredPart(const core::JsonFieldReader& f, const MaterialDescription& d) {
   MaterialManifest::FactoredBtfPart part;
-  part.layout = f.Choice("layout", {"paper", "per_texel"}) == "paper" ? BtfFactorLayout::kPaper
-                                                                      : BtfFactorLayout::kPerTexel;
-  part.color = f.Choice("color", {"rgb", "ycbcr"}) == "rgb" ? BtfFactorColor::kRgb : BtfFactorColor::kYCbCr;
+  part.layout = f.Choice("layout", {"paper", "per_texel"}) == "paper" ? core::BtfFactorLayout::kPaper
+                                                                      : core::BtfFactorLayout::kPerTexel;
+  part.color = f.Choice("color", {"rgb", "ycbcr"}) == "rgb" ? core::BtfFactorColor::kRgb : core::BtfFactorColor::kYCbCr;
   const long long columns =
-      part.layout == BtfFactorLayout::kPaper
+      part.layout == core::BtfFactorLayout::kPaper
           ? d.view_directions.size()
           : static_cast<long long>(d.view_directions.size()) * d.light_directions.size();
-  part.rank = static_cast<int>(f.Integer("rank", 1, std::min<long long>(kMaxBtfRank, columns)));
+  part.rank = static_cast<int>(f.Integer("rank", 1, std::min<long long>(core::kMaxBtfRank, columns)));
   f.Choice("singular_values", {kSingularValues});
   f.Choice("row_files", {kRowFactorFiles});
   f.Choice("column_file", {kColumnFactorFile});
-  if (part.color == BtfFactorColor::kYCbCr) {
+  if (part.color == core::BtfFactorColor::kYCbCr) {
     part.rgb_to_factored = ReadMatrix3(f, "rgb_to_factored");
     const double scale = part.rgb_to_factored.norm();
     if (!(scale > 0) || std::abs(part.rgb_to_factored.determinant()) < 1e-9 * scale * scale * scale) {
@@ -313,7 +313,7 @@ MaterialManifest::FactoredBtfPart ReadFactoredPart(const JsonFieldReader& f, con
 }
 
 // Index of the first value outside [0, 1] (NaN included), or size() if none.
-std::size_t FirstOutsideUnitInterval(const Image& image) {
+std::size_t FirstOutsideUnitInterval(const core::Image& image) {
   const float* values = image.data();
   for (std::size_t i = 0; i < image.size(); ++i) {
     if (!(values[i] >= 0.0f && values[i] <= 1.0f)) return i;
@@ -321,14 +321,14 @@ std::size_t FirstOutsideUnitInterval(const Image& image) {
   return image.size();
 }
 
-void ExpectFile(const JsonFieldReader& r, const std::string& key, const fs::path& dir, const fs::path& name) {
+void ExpectFile(const core::JsonFieldReader& r, const std::string& key, const fs::path& dir, const fs::path& name) {
   std::error_code ec;
   if (!fs::is_regular_file(dir / name, ec)) {
     r.Fail(key, "the package has no file " + name.string() + " (" + (dir / name).string() + ")");
   }
 }
 
-void ExpectFiles(const JsonFieldReader& root, const MaterialManifest& m, const fs::path& dir) {
+void ExpectFiles(const core::JsonFieldReader& root, const MaterialManifest& m, const fs::path& dir) {
   if (m.mdf) {
     if (m.mdf->forms.float32) ExpectFile(root, "mdf.float32.file", dir, kMdfFloatFile);
     if (m.mdf->forms.uint8) ExpectFile(root, "mdf.uint8.file", dir, kMdfUint8File);
@@ -359,31 +359,31 @@ fs::path ManifestPath(const fs::path& dir) { return dir / kManifestFile; }
 // valid-syntax problems (a number literal beyond double, "1e999") with other
 // exception types, which must not escape as anything but a FormatError.
 [[noreturn]] void ThrowMissingPart(const fs::path& dir, const char* field, const char* what) {
-  throw FormatError(ManifestPath(dir), field, std::string("this package has no ") + what);
+  throw core::FormatError(ManifestPath(dir), field, std::string("this package has no ") + what);
 }
 
 // Reads an image of a part, rejecting another pixel type, size or channel
 // count before any pixel is allocated.
-Image ReadPartImage(const fs::path& file, PixelEncoding encoding, int width, int height, int channels) {
-  const ImageHeader header = ReadImageHeader(file);
+core::Image ReadPartImage(const fs::path& file, core::PixelEncoding encoding, int width, int height, int channels) {
+  const core::ImageHeader header = core::ReadImageHeader(file);
   if (header.encoding != encoding) {
-    throw FormatError(file, "pixel type",
+    throw core::FormatError(file, "pixel type",
                       std::string("expected ") + ToString(encoding) + ", got " + ToString(header.encoding));
   }
-  ImageReadOptions options;
+  core::ImageReadOptions options;
   options.expected_width = width;
   options.expected_height = height;
   options.expected_channels = channels;
   options.max_values = static_cast<std::size_t>(width) * height * channels;
-  return ReadImage(file, options);
+  return core::ReadImage(file, options);
 }
 
-void ExpectFiniteInFile(const fs::path& file, const Image& image) {
+void ExpectFiniteInFile(const fs::path& file, const core::Image& image) {
   const float* v = image.data();
   for (std::size_t i = 0; i < image.size(); ++i) {
     if (!std::isfinite(v[i])) {
       const std::size_t pixel = i / image.channels();
-      throw FormatError(file, "pixels",
+      throw core::FormatError(file, "pixels",
                         "value " + Text(v[i]) + " at x=" + std::to_string(pixel % image.width()) +
                             ", y=" + std::to_string(pixel / image.width()) + "; expected a finite number");
     }
@@ -411,65 +411,65 @@ MaterialPackageWriter::MaterialPackageWriter(const fs::path& dir, MaterialDescri
                                              bool replace)
     : dir_(dir), folder_(dir, replace) {
   CheckDescription(dir_, description);
-  if (description.provenance.software_version.empty()) description.provenance.software_version = Version();
+  if (description.provenance.software_version.empty()) description.provenance.software_version = core::Version();
   if (description.provenance.created_utc.empty()) description.provenance.created_utc = CurrentUtcTime();
   manifest_.description = std::move(description);
 }
 
 void MaterialPackageWriter::ExpectOpen() const {
-  if (committed_) throw Error(dir_.string() + ": the package was already committed");
+  if (committed_) throw core::Error(dir_.string() + ": the package was already committed");
 }
 
-void MaterialPackageWriter::WriteMdf(const Mdf& mdf, MdfForms forms) {
+void MaterialPackageWriter::WriteMdf(const core::Mdf& mdf, MdfForms forms) {
   ExpectOpen();
   const MaterialDescription& d = manifest_.description;
-  if (manifest_.mdf) throw Error(dir_.string() + ": the MDF was already written");
-  if (!forms.float32 && !forms.uint8) throw Error(dir_.string() + ": no MDF form chosen (float32, uint8)");
+  if (manifest_.mdf) throw core::Error(dir_.string() + ": the MDF was already written");
+  if (!forms.float32 && !forms.uint8) throw core::Error(dir_.string() + ": no MDF form chosen (float32, uint8)");
   ExpectGrid(dir_, d, "MDF", mdf.width, mdf.height, mdf.views);
   ThrowIfOversize(dir_, OversizeProblem(d, "MDF", false, 1));
   ExpectImageSize(dir_, "MDF", mdf.distance_mm, d.width, PackedHeight(d, d.view_directions), 1);
   const float* values = mdf.distance_mm.data();
   for (std::size_t i = 0; i < mdf.distance_mm.size(); ++i) {
-    if (!IsValidMdfValue(values[i])) {
-      throw Error(dir_.string() + ": MDF value " + Text(values[i]) + " at index " + std::to_string(i) +
+    if (!core::IsValidMdfValue(values[i])) {
+      throw core::Error(dir_.string() + ": MDF value " + Text(values[i]) + " at index " + std::to_string(i) +
                   " is neither a distance >= 0, no hit (+inf) nor unknown (NaN)");
     }
   }
   MaterialManifest::MdfPart part;
   part.forms = forms;
   if (forms.float32)
-    WriteImage(folder_.temp_path() / kMdfFloatFile, mdf.distance_mm, PixelEncoding::kFloat32);
+    core::WriteImage(folder_.temp_path() / kMdfFloatFile, mdf.distance_mm, core::PixelEncoding::kFloat32);
   if (forms.uint8) {
-    const QuantizedMdf q = QuantizeMdf(mdf, d.d_max_mm);
+    const core::QuantizedMdf q = core::QuantizeMdf(mdf, d.d_max_mm);
     // The uint8 encoding maps [0, 1] to codes 0..255, so code c is c / 255.
-    Image codes(mdf.distance_mm.width(), mdf.distance_mm.height(), 1);
+    core::Image codes(mdf.distance_mm.width(), mdf.distance_mm.height(), 1);
     for (std::size_t i = 0; i < q.codes.size(); ++i) codes.data()[i] = q.codes[i] / 255.0f;
-    WriteImage(folder_.temp_path() / kMdfUint8File, codes, PixelEncoding::kUInt8);
+    core::WriteImage(folder_.temp_path() / kMdfUint8File, codes, core::PixelEncoding::kUInt8);
     part.scale_mm = q.scale_mm;
   }
   manifest_.mdf = part;
 }
 
-void MaterialPackageWriter::WriteMdfConfidence(const Image& confidence) {
+void MaterialPackageWriter::WriteMdfConfidence(const core::Image& confidence) {
   ExpectOpen();
   const MaterialDescription& d = manifest_.description;
-  if (!manifest_.mdf) throw Error(dir_.string() + ": the MDF confidence needs the MDF written first");
-  if (manifest_.mdf->confidence) throw Error(dir_.string() + ": the MDF confidence was already written");
+  if (!manifest_.mdf) throw core::Error(dir_.string() + ": the MDF confidence needs the MDF written first");
+  if (manifest_.mdf->confidence) throw core::Error(dir_.string() + ": the MDF confidence was already written");
   ExpectImageSize(dir_, "MDF confidence", confidence, d.width, PackedHeight(d, d.view_directions), 1);
   if (const std::size_t i = FirstOutsideUnitInterval(confidence); i < confidence.size()) {
-    throw Error(dir_.string() + ": MDF confidence " + Text(confidence.data()[i]) + " at index " + std::to_string(i) +
+    throw core::Error(dir_.string() + ": MDF confidence " + Text(confidence.data()[i]) + " at index " + std::to_string(i) +
                 " is outside [0, 1]");
   }
-  WriteImage(folder_.temp_path() / kMdfConfidenceFile, confidence, PixelEncoding::kFloat32);
+  core::WriteImage(folder_.temp_path() / kMdfConfidenceFile, confidence, core::PixelEncoding::kFloat32);
   manifest_.mdf->confidence = true;
 }
 
-void MaterialPackageWriter::WriteFullBtfView(int view, const Image& values) {
+void MaterialPackageWriter::WriteFullBtfView(int view, const core::Image& values) {
   ExpectOpen();
   const MaterialDescription& d = manifest_.description;
   const int views = d.view_directions.size();
   if (view < 0 || view >= views) {
-    throw Error(dir_.string() + ": full BTF view " + std::to_string(view) + " outside 0.." +
+    throw core::Error(dir_.string() + ": full BTF view " + std::to_string(view) + " outside 0.." +
                 std::to_string(views - 1));
   }
   ThrowIfOversize(dir_, OversizeProblem(d, "full BTF", true, 3));
@@ -477,48 +477,48 @@ void MaterialPackageWriter::WriteFullBtfView(int view, const Image& values) {
   ExpectImageSize(dir_, what, values, d.width, PackedHeight(d, d.light_directions), 3);
   ExpectFiniteToWrite(dir_, what, values);
   if (full_btf_views_written_.empty()) full_btf_views_written_.assign(views, false);
-  if (full_btf_views_written_[view]) throw Error(dir_.string() + ": " + what + " was already written");
+  if (full_btf_views_written_[view]) throw core::Error(dir_.string() + ": " + what + " was already written");
   fs::create_directories(folder_.temp_path() / "btf");
-  WriteImage(folder_.temp_path() / FullBtfViewFile(view), values, PixelEncoding::kFloat32);
+  core::WriteImage(folder_.temp_path() / FullBtfViewFile(view), values, core::PixelEncoding::kFloat32);
   full_btf_views_written_[view] = true;
 }
 
-std::unique_ptr<FullBtfReader> MaterialPackageWriter::ReadBackFullBtf() const {
+std::unique_ptr<core::FullBtfReader> MaterialPackageWriter::ReadBackFullBtf() const {
   ExpectOpen();
   const int views = manifest_.description.view_directions.size();
   const auto missing = std::find(full_btf_views_written_.begin(), full_btf_views_written_.end(), false);
   if (full_btf_views_written_.empty() || missing != full_btf_views_written_.end()) {
     const int first = full_btf_views_written_.empty() ? 0 : static_cast<int>(missing - full_btf_views_written_.begin());
-    throw Error(dir_.string() + ": full BTF view " + std::to_string(first) + " of " + std::to_string(views) +
+    throw core::Error(dir_.string() + ": full BTF view " + std::to_string(first) + " of " + std::to_string(views) +
                 " is not written yet; the BTF cannot be read back");
   }
   return std::make_unique<PackageFullBtfReader>(folder_.temp_path(), manifest_.description);
 }
 
-void MaterialPackageWriter::WriteFactoredBtf(const FactoredBtf& btf) {
+void MaterialPackageWriter::WriteFactoredBtf(const core::FactoredBtf& btf) {
   ExpectOpen();
   const MaterialDescription& d = manifest_.description;
-  if (manifest_.factored_btf) throw Error(dir_.string() + ": the factored BTF was already written");
+  if (manifest_.factored_btf) throw core::Error(dir_.string() + ": the factored BTF was already written");
   ExpectGrid(dir_, d, "factored BTF", btf.width, btf.height, btf.views);
   ExpectLights(dir_, d, "factored BTF", btf.lights);
   ThrowIfOversize(dir_, OversizeProblem(d, "factored BTF", true, 3));
   try {
     btf.CheckShape();
-  } catch (const Error& e) {
-    throw Error(dir_.string() + ": " + e.what());
+  } catch (const core::Error& e) {
+    throw core::Error(dir_.string() + ": " + e.what());
   }
   fs::create_directories(folder_.temp_path() / "btf");
   for (int k = 0; k < btf.rank(); ++k) {
     ExpectFiniteToWrite(dir_, "row factor " + std::to_string(k), btf.rows[k]);
-    WriteImage(folder_.temp_path() / BtfRowFactorFile(k), btf.rows[k], PixelEncoding::kFloat32);
+    core::WriteImage(folder_.temp_path() / BtfRowFactorFile(k), btf.rows[k], core::PixelEncoding::kFloat32);
   }
   ExpectFiniteToWrite(dir_, "column factors", btf.columns);
-  WriteImage(folder_.temp_path() / kColumnFactorFile, btf.columns, PixelEncoding::kFloat32);
+  core::WriteImage(folder_.temp_path() / kColumnFactorFile, btf.columns, core::PixelEncoding::kFloat32);
   MaterialManifest::FactoredBtfPart part;
   part.layout = btf.layout;
   part.color = btf.color;
   part.rgb_to_factored =
-      btf.color == BtfFactorColor::kYCbCr ? btf.rgb_to_factored : Eigen::Matrix3d::Identity();
+      btf.color == core::BtfFactorColor::kYCbCr ? btf.rgb_to_factored : Eigen::Matrix3d::Identity();
   part.rank = btf.rank();
   manifest_.factored_btf = part;
 }
@@ -526,27 +526,27 @@ void MaterialPackageWriter::WriteFactoredBtf(const FactoredBtf& btf) {
 void MaterialPackageWriter::WriteAmbientTerm(const AmbientTerm& ambient) {
   ExpectOpen();
   const MaterialDescription& d = manifest_.description;
-  if (manifest_.ambient) throw Error(dir_.string() + ": the ambient term was already written");
+  if (manifest_.ambient) throw core::Error(dir_.string() + ": the ambient term was already written");
   ExpectGrid(dir_, d, "ambient term", ambient.width, ambient.height, ambient.views);
   ThrowIfOversize(dir_, OversizeProblem(d, "ambient term", false, 3));
   ExpectImageSize(dir_, "ambient term", ambient.values, d.width, PackedHeight(d, d.view_directions), 3);
   ExpectFiniteToWrite(dir_, "ambient term", ambient.values);
-  WriteImage(folder_.temp_path() / kAmbientFile, ambient.values, PixelEncoding::kFloat32);
+  core::WriteImage(folder_.temp_path() / kAmbientFile, ambient.values, core::PixelEncoding::kFloat32);
   manifest_.ambient = true;
 }
 
 void MaterialPackageWriter::WriteErrorReport(const nlohmann::json& report) {
   ExpectOpen();
-  if (manifest_.error_report) throw Error(dir_.string() + ": the error report was already written");
-  if (!report.is_object()) throw Error(dir_.string() + ": the error report must be a JSON object");
-  WriteJsonFileAtomically(folder_.temp_path() / kErrorReportFile, report);
+  if (manifest_.error_report) throw core::Error(dir_.string() + ": the error report was already written");
+  if (!report.is_object()) throw core::Error(dir_.string() + ": the error report must be a JSON object");
+  core::WriteJsonFileAtomically(folder_.temp_path() / kErrorReportFile, report);
   manifest_.error_report = true;
 }
 
 void MaterialPackageWriter::WriteCalibration(const Calibration& calibration) {
   ExpectOpen();
-  if (manifest_.calibration) throw Error(dir_.string() + ": the calibration was already written");
-  mesocap::WriteCalibration(folder_.temp_path() / kCalibrationFile, calibration);
+  if (manifest_.calibration) throw core::Error(dir_.string() + ": the calibration was already written");
+  mesocap::formats::WriteCalibration(folder_.temp_path() / kCalibrationFile, calibration);
   manifest_.calibration = true;
 }
 
@@ -554,12 +554,12 @@ MaterialManifest MaterialPackageWriter::Commit() {
   ExpectOpen();
   for (std::size_t v = 0; v < full_btf_views_written_.size(); ++v) {
     if (!full_btf_views_written_[v]) {
-      throw Error(dir_.string() + ": full BTF view " + std::to_string(v) + " of " +
+      throw core::Error(dir_.string() + ": full BTF view " + std::to_string(v) + " of " +
                   std::to_string(full_btf_views_written_.size()) + " was never written");
     }
   }
   manifest_.full_btf = !full_btf_views_written_.empty();
-  WriteTextFileAtomically(folder_.temp_path() / kManifestFile, ManifestJson(manifest_).dump(2) + "\n");
+  core::WriteTextFileAtomically(folder_.temp_path() / kManifestFile, ManifestJson(manifest_).dump(2) + "\n");
   // Never publish a package this build cannot read back.
   MaterialManifest written = ReadMaterialManifest(folder_.temp_path());
   folder_.Commit();
@@ -572,11 +572,11 @@ void WriteMaterialPackage(const fs::path& dir, const MaterialPackage& package, b
   const MaterialDescription& d = writer.description();
   if (package.mdf) writer.WriteMdf(*package.mdf, package.mdf_forms);
   if (package.full_btf) {
-    const FullBtf& btf = *package.full_btf;
+    const core::FullBtf& btf = *package.full_btf;
     ExpectGrid(dir, d, "full BTF", btf.width, btf.height, btf.views);
     ExpectLights(dir, d, "full BTF", btf.lights);
     if (static_cast<int>(btf.view_images.size()) != d.view_directions.size()) {
-      throw Error(dir.string() + ": full BTF has " + std::to_string(btf.view_images.size()) +
+      throw core::Error(dir.string() + ": full BTF has " + std::to_string(btf.view_images.size()) +
                   " view images for " + std::to_string(d.view_directions.size()) + " view directions");
     }
     for (int v = 0; v < d.view_directions.size(); ++v) writer.WriteFullBtfView(v, btf.view_images[v]);
@@ -592,10 +592,10 @@ void WriteMaterialPackage(const fs::path& dir, const MaterialPackage& package, b
 
 MaterialManifest ReadMaterialManifest(const fs::path& dir) {
   const fs::path file = ManifestPath(dir);
-  const nlohmann::json doc = ReadJsonFile(file, kMaxJsonBytes);
-  const JsonFieldReader root(doc, file);
+  const nlohmann::json doc = core::ReadJsonFile(file, kMaxJsonBytes);
+  const core::JsonFieldReader root(doc, file);
   root.ExpectFormat(kFormat, kVersion);
-  const JsonFieldReader units = root.Object("units");
+  const core::JsonFieldReader units = root.Object("units");
   units.Choice("length", {"mm"});
   units.Choice("angle", {"deg"});
 
@@ -611,7 +611,7 @@ MaterialManifest ReadMaterialManifest(const fs::path& dir) {
   d.d_max_mm = ReadPositive(root, "d_max_mm", root.Number("d_max_mm"));
   d.view_directions = ReadDirections(root, "view_directions");
   d.light_directions = ReadDirections(root, "light_directions");
-  const JsonFieldReader provenance = root.Object("provenance");
+  const core::JsonFieldReader provenance = root.Object("provenance");
   d.provenance.software_version = provenance.String("software_version");
   d.provenance.created_utc = provenance.String("created_utc");
   d.provenance.source = provenance.String("source");
@@ -621,7 +621,7 @@ MaterialManifest ReadMaterialManifest(const fs::path& dir) {
     if (auto problem = OversizeProblem(d, "MDF", false, 1); !problem.empty()) root.Fail("mdf", problem);
   }
   if (root.Has("btf")) {
-    const JsonFieldReader btf = root.Object("btf");
+    const core::JsonFieldReader btf = root.Object("btf");
     btf.Choice("values", {kBtfValues});
     m.full_btf = btf.Has("full");
     if (m.full_btf) btf.Object("full").Choice("files", {kFullBtfFiles});
@@ -647,22 +647,22 @@ MaterialManifest ReadMaterialManifest(const fs::path& dir) {
   return m;
 }
 
-Mdf ReadMdf(const fs::path& dir, const MaterialManifest& manifest) {
+core::Mdf ReadMdf(const fs::path& dir, const MaterialManifest& manifest) {
   if (!manifest.mdf) ThrowMissingPart(dir, "mdf", "MDF");
-  if (!manifest.mdf->forms.float32) return DequantizeMdf(ReadQuantizedMdf(dir, manifest));
+  if (!manifest.mdf->forms.float32) return core::DequantizeMdf(ReadQuantizedMdf(dir, manifest));
   const MaterialDescription& d = manifest.description;
   const fs::path file = dir / kMdfFloatFile;
-  Mdf mdf;
+  core::Mdf mdf;
   mdf.width = d.width;
   mdf.height = d.height;
   mdf.views = d.view_directions;
   mdf.distance_mm =
-      ReadPartImage(file, PixelEncoding::kFloat32, d.width, PackedHeight(d, d.view_directions), 1);
+      ReadPartImage(file, core::PixelEncoding::kFloat32, d.width, PackedHeight(d, d.view_directions), 1);
   const float* values = mdf.distance_mm.data();
   for (std::size_t i = 0; i < mdf.distance_mm.size(); ++i) {
-    if (!IsValidMdfValue(values[i])) {
+    if (!core::IsValidMdfValue(values[i])) {
       const std::size_t row = i / d.width;
-      throw FormatError(file, "pixels",
+      throw core::FormatError(file, "pixels",
                         "value " + Text(values[i]) + " at view " + std::to_string(row / d.height) +
                             ", texel (" + std::to_string(i % d.width) + ", " +
                             std::to_string(row % d.height) +
@@ -672,14 +672,14 @@ Mdf ReadMdf(const fs::path& dir, const MaterialManifest& manifest) {
   return mdf;
 }
 
-Image ReadMdfConfidence(const fs::path& dir, const MaterialManifest& manifest) {
+core::Image ReadMdfConfidence(const fs::path& dir, const MaterialManifest& manifest) {
   if (!manifest.mdf || !manifest.mdf->confidence) ThrowMissingPart(dir, "mdf.confidence", "MDF confidence");
   const MaterialDescription& d = manifest.description;
   const fs::path file = dir / kMdfConfidenceFile;
-  Image confidence = ReadPartImage(file, PixelEncoding::kFloat32, d.width, PackedHeight(d, d.view_directions), 1);
+  core::Image confidence = ReadPartImage(file, core::PixelEncoding::kFloat32, d.width, PackedHeight(d, d.view_directions), 1);
   if (const std::size_t i = FirstOutsideUnitInterval(confidence); i < confidence.size()) {
     const std::size_t row = i / d.width;
-    throw FormatError(file, "pixels",
+    throw core::FormatError(file, "pixels",
                       "value " + Text(confidence.data()[i]) + " at view " + std::to_string(row / d.height) +
                           ", texel (" + std::to_string(i % d.width) + ", " + std::to_string(row % d.height) +
                           "); expected a confidence in [0, 1]");
@@ -687,12 +687,12 @@ Image ReadMdfConfidence(const fs::path& dir, const MaterialManifest& manifest) {
   return confidence;
 }
 
-QuantizedMdf ReadQuantizedMdf(const fs::path& dir, const MaterialManifest& manifest) {
+core::QuantizedMdf ReadQuantizedMdf(const fs::path& dir, const MaterialManifest& manifest) {
   if (!manifest.mdf || !manifest.mdf->forms.uint8) ThrowMissingPart(dir, "mdf.uint8", "8-bit MDF");
   const MaterialDescription& d = manifest.description;
-  const Image image = ReadPartImage(dir / kMdfUint8File, PixelEncoding::kUInt8, d.width,
+  const core::Image image = ReadPartImage(dir / kMdfUint8File, core::PixelEncoding::kUInt8, d.width,
                                     PackedHeight(d, d.view_directions), 1);
-  QuantizedMdf q;
+  core::QuantizedMdf q;
   q.width = d.width;
   q.height = d.height;
   q.views = d.view_directions;
@@ -705,23 +705,23 @@ QuantizedMdf ReadQuantizedMdf(const fs::path& dir, const MaterialManifest& manif
   return q;
 }
 
-Image ReadFullBtfView(const fs::path& dir, const MaterialManifest& manifest, int view) {
+core::Image ReadFullBtfView(const fs::path& dir, const MaterialManifest& manifest, int view) {
   if (!manifest.full_btf) ThrowMissingPart(dir, "btf.full", "full BTF");
   const MaterialDescription& d = manifest.description;
   if (view < 0 || view >= d.view_directions.size()) {
-    throw Error(dir.string() + ": full BTF view " + std::to_string(view) + " outside 0.." +
+    throw core::Error(dir.string() + ": full BTF view " + std::to_string(view) + " outside 0.." +
                 std::to_string(d.view_directions.size() - 1));
   }
   const fs::path file = dir / FullBtfViewFile(view);
-  Image image = ReadPartImage(file, PixelEncoding::kFloat32, d.width, PackedHeight(d, d.light_directions), 3);
+  core::Image image = ReadPartImage(file, core::PixelEncoding::kFloat32, d.width, PackedHeight(d, d.light_directions), 3);
   ExpectFiniteInFile(file, image);
   return image;
 }
 
-FullBtf ReadFullBtf(const fs::path& dir, const MaterialManifest& manifest) {
+core::FullBtf ReadFullBtf(const fs::path& dir, const MaterialManifest& manifest) {
   if (!manifest.full_btf) ThrowMissingPart(dir, "btf.full", "full BTF");
   const MaterialDescription& d = manifest.description;
-  FullBtf btf;
+  core::FullBtf btf;
   btf.width = d.width;
   btf.height = d.height;
   btf.views = d.view_directions;
@@ -738,7 +738,7 @@ PackageFullBtfReader::PackageFullBtfReader(const fs::path& dir, const MaterialMa
 }
 
 PackageFullBtfReader::PackageFullBtfReader(const fs::path& dir, const MaterialDescription& description)
-    : FullBtfReader(description.width, description.height, description.view_directions,
+    : core::FullBtfReader(description.width, description.height, description.view_directions,
                     description.light_directions),
       dir_(dir),
       open_(description.view_directions.size()),
@@ -748,15 +748,15 @@ PackageFullBtfReader::~PackageFullBtfReader() = default;
 
 std::string PackageFullBtfReader::Source(int view) const { return (dir_ / FullBtfViewFile(view)).string(); }
 
-std::unique_ptr<ImageRowReader> PackageFullBtfReader::Open(int view) const {
+std::unique_ptr<core::ImageRowReader> PackageFullBtfReader::Open(int view) const {
   const fs::path file = dir_ / FullBtfViewFile(view);
-  ImageReadOptions expected;
+  core::ImageReadOptions expected;
   expected.expected_width = width();
   expected.expected_height = height() * light_count();
   expected.expected_channels = 3;
-  auto reader = std::make_unique<ImageRowReader>(file, expected);
-  if (reader->header().encoding != PixelEncoding::kFloat32) {
-    throw FormatError(file, "pixel type", std::string("expected float32, got ") + ToString(reader->header().encoding));
+  auto reader = std::make_unique<core::ImageRowReader>(file, expected);
+  if (reader->header().encoding != core::PixelEncoding::kFloat32) {
+    throw core::FormatError(file, "pixel type", std::string("expected float32, got ") + ToString(reader->header().encoding));
   }
   return reader;
 }
@@ -771,11 +771,11 @@ void PackageFullBtfReader::ReadRowsFromSource(int view, int first_row, int rows,
   open_[view]->Read(first_row, rows, out);
 }
 
-FactoredBtf ReadFactoredBtf(const fs::path& dir, const MaterialManifest& manifest) {
+core::FactoredBtf ReadFactoredBtf(const fs::path& dir, const MaterialManifest& manifest) {
   if (!manifest.factored_btf) ThrowMissingPart(dir, "btf.factored", "factored BTF");
   const MaterialDescription& d = manifest.description;
   const auto& part = *manifest.factored_btf;
-  FactoredBtf btf;
+  core::FactoredBtf btf;
   btf.width = d.width;
   btf.height = d.height;
   btf.views = d.view_directions;
@@ -785,11 +785,11 @@ FactoredBtf ReadFactoredBtf(const fs::path& dir, const MaterialManifest& manifes
   btf.rgb_to_factored = part.rgb_to_factored;
   for (int k = 0; k < part.rank; ++k) {
     const fs::path file = dir / BtfRowFactorFile(k);
-    btf.rows.push_back(ReadPartImage(file, PixelEncoding::kFloat32, d.width, btf.row_image_height(), 3));
+    btf.rows.push_back(ReadPartImage(file, core::PixelEncoding::kFloat32, d.width, btf.row_image_height(), 3));
     ExpectFiniteInFile(file, btf.rows.back());
   }
   const fs::path columns = dir / kColumnFactorFile;
-  btf.columns = ReadPartImage(columns, PixelEncoding::kFloat32, btf.column_count(), part.rank, 3);
+  btf.columns = ReadPartImage(columns, core::PixelEncoding::kFloat32, btf.column_count(), part.rank, 3);
   ExpectFiniteInFile(columns, btf.columns);
   return btf;
 }
@@ -803,7 +803,7 @@ AmbientTerm ReadAmbientTerm(const fs::path& dir, const MaterialManifest& manifes
   ambient.height = d.height;
   ambient.views = d.view_directions;
   ambient.values =
-      ReadPartImage(file, PixelEncoding::kFloat32, d.width, PackedHeight(d, d.view_directions), 3);
+      ReadPartImage(file, core::PixelEncoding::kFloat32, d.width, PackedHeight(d, d.view_directions), 3);
   ExpectFiniteInFile(file, ambient.values);
   return ambient;
 }
@@ -811,8 +811,8 @@ AmbientTerm ReadAmbientTerm(const fs::path& dir, const MaterialManifest& manifes
 nlohmann::json ReadErrorReport(const fs::path& dir, const MaterialManifest& manifest) {
   if (!manifest.error_report) ThrowMissingPart(dir, "error_report", "error report");
   const fs::path file = dir / kErrorReportFile;
-  nlohmann::json report = ReadJsonFile(file, kMaxJsonBytes);
-  if (!report.is_object()) throw FormatError(file, "", "expected a JSON object");
+  nlohmann::json report = core::ReadJsonFile(file, kMaxJsonBytes);
+  if (!report.is_object()) throw core::FormatError(file, "", "expected a JSON object");
   return report;
 }
 
@@ -836,4 +836,4 @@ MaterialPackage ReadMaterialPackage(const fs::path& dir) {
   return package;
 }
 
-}  // namespace mesocap
+}  // namespace mesocap::formats

@@ -31,7 +31,7 @@
 #include "core/sampling_set.h"
 #include "formats/calibration.h"
 
-namespace mesocap {
+namespace mesocap::formats {
 
 // Limits a manifest must respect; beyond them it is refused as implausible
 // before anything is allocated.
@@ -52,8 +52,8 @@ struct MaterialDescription {
   int height = 0;                              // texels along y
   Eigen::Vector2d physical_size_mm{0.0, 0.0};  // of the clipped square the texels cover, > 0
   double d_max_mm = 0.0;                       // mesostructure occupies -d_max <= z <= 0, > 0
-  SamplingSet view_directions;                 // of the MDF, the BTF and the ambient term
-  SamplingSet light_directions;                // of the BTF
+  core::SamplingSet view_directions;                 // of the MDF, the BTF and the ambient term
+  core::SamplingSet light_directions;                // of the BTF
   MaterialProvenance provenance;
 };
 
@@ -64,8 +64,8 @@ struct MaterialDescription {
 struct AmbientTerm {
   int width = 0;
   int height = 0;
-  SamplingSet views;
-  Image values;  // 3 channels, width x height * views.size()
+  core::SamplingSet views;
+  core::Image values;  // 3 channels, width x height * views.size()
 
   int view_count() const { return views.size(); }
   Eigen::Vector3f at(int x, int y, int view) const {
@@ -88,8 +88,8 @@ struct MaterialManifest {
     bool confidence = false;  // mdf_confidence.exr: a measured MDF's per-texel confidence
   };
   struct FactoredBtfPart {
-    BtfFactorLayout layout = BtfFactorLayout::kPaper;
-    BtfFactorColor color = BtfFactorColor::kRgb;
+    core::BtfFactorLayout layout = core::BtfFactorLayout::kPaper;
+    core::BtfFactorColor color = core::BtfFactorColor::kRgb;
     Eigen::Matrix3d rgb_to_factored = Eigen::Matrix3d::Identity();
     int rank = 0;
   };
@@ -107,10 +107,10 @@ struct MaterialManifest {
 // BTFs go through MaterialPackageWriter view by view instead.
 struct MaterialPackage {
   MaterialDescription description;
-  std::optional<Mdf> mdf;
+  std::optional<core::Mdf> mdf;
   MdfForms mdf_forms;
-  std::optional<FullBtf> full_btf;
-  std::optional<FactoredBtf> factored_btf;
+  std::optional<core::FullBtf> full_btf;
+  std::optional<core::FactoredBtf> factored_btf;
   std::optional<AmbientTerm> ambient;
   std::optional<nlohmann::json> error_report;  // a JSON object
 };
@@ -128,20 +128,20 @@ class MaterialPackageWriter {
   // created_utc are filled in with Version() and the current time.
   MaterialPackageWriter(const std::filesystem::path& dir, MaterialDescription description, bool replace);
 
-  void WriteMdf(const Mdf& mdf, MdfForms forms = {});
+  void WriteMdf(const core::Mdf& mdf, MdfForms forms = {});
   // A measured MDF's per-texel confidence in [0, 1] (issue 4: the share of a
   // view's scan weight that agrees on the texel; 0 where the MDF is unknown),
   // 1 channel in the MDF's layout. After WriteMdf.
-  void WriteMdfConfidence(const Image& confidence);
+  void WriteMdfConfidence(const core::Image& confidence);
   // One view of the full BTF: 3 channels, width x height * Nlight (light l
   // in rows [l*H, (l+1)*H)). Views may come in any order; all must be
   // written before Commit() once one is.
-  void WriteFullBtfView(int view, const Image& values);
+  void WriteFullBtfView(int view, const core::Image& values);
   // The full BTF written so far, read back from the files (PackageFullBtfReader),
   // e.g. to factor a BTF too large for memory; throws Error until every view
   // is written. Valid while the writer lives.
-  std::unique_ptr<FullBtfReader> ReadBackFullBtf() const;
-  void WriteFactoredBtf(const FactoredBtf& btf);
+  std::unique_ptr<core::FullBtfReader> ReadBackFullBtf() const;
+  void WriteFactoredBtf(const core::FactoredBtf& btf);
   void WriteAmbientTerm(const AmbientTerm& ambient);
   void WriteErrorReport(const nlohmann::json& report);
   // The calibration of the rig that captured the material (for ground truth,
@@ -158,7 +158,7 @@ class MaterialPackageWriter {
   void ExpectOpen() const;
 
   std::filesystem::path dir_;
-  AtomicDirectory folder_;
+  core::AtomicDirectory folder_;
   MaterialManifest manifest_;
   std::vector<bool> full_btf_views_written_;
   bool committed_ = false;
@@ -177,22 +177,22 @@ MaterialManifest ReadMaterialManifest(const std::filesystem::path& dir);
 // implies (checked before allocating), or a value is not a valid encoding.
 //
 // The float form if present, else the 8-bit form decoded (within scale/2).
-Mdf ReadMdf(const std::filesystem::path& dir, const MaterialManifest& manifest);
+core::Mdf ReadMdf(const std::filesystem::path& dir, const MaterialManifest& manifest);
 // The per-texel confidence (see WriteMdfConfidence); FormatError for a
 // value outside [0, 1].
-Image ReadMdfConfidence(const std::filesystem::path& dir, const MaterialManifest& manifest);
+core::Image ReadMdfConfidence(const std::filesystem::path& dir, const MaterialManifest& manifest);
 // The 8-bit form as stored (what a renderer uploads as a 3D texture).
-QuantizedMdf ReadQuantizedMdf(const std::filesystem::path& dir, const MaterialManifest& manifest);
+core::QuantizedMdf ReadQuantizedMdf(const std::filesystem::path& dir, const MaterialManifest& manifest);
 // One view of the full BTF (see WriteFullBtfView for the layout).
-Image ReadFullBtfView(const std::filesystem::path& dir, const MaterialManifest& manifest, int view);
-FullBtf ReadFullBtf(const std::filesystem::path& dir, const MaterialManifest& manifest);
+core::Image ReadFullBtfView(const std::filesystem::path& dir, const MaterialManifest& manifest, int view);
+core::FullBtf ReadFullBtf(const std::filesystem::path& dir, const MaterialManifest& manifest);
 // The package's full BTF read from its view files a range of rows at a time
 // (core/btf.h: FullBtfReader), so a pass over it never holds the whole BTF.
 // Keeps each view's file open between reads (up to kMaxOpenViews views; with
 // more, each read opens and closes its file); FormatError (naming the file)
 // for a view file of another size, channel count or pixel type, or a
 // truncated one.
-class PackageFullBtfReader : public FullBtfReader {
+class PackageFullBtfReader : public core::FullBtfReader {
  public:
   static constexpr int kMaxOpenViews = 256;
   // Throws FormatError when the manifest has no full BTF.
@@ -206,13 +206,13 @@ class PackageFullBtfReader : public FullBtfReader {
   void ReadRowsFromSource(int view, int first_row, int rows, float* out) override;
 
  private:
-  std::unique_ptr<ImageRowReader> Open(int view) const;
+  std::unique_ptr<core::ImageRowReader> Open(int view) const;
 
   std::filesystem::path dir_;
-  std::vector<std::unique_ptr<ImageRowReader>> open_;  // per view; null until first read
+  std::vector<std::unique_ptr<core::ImageRowReader>> open_;  // per view; null until first read
   std::vector<std::mutex> view_mutex_;                 // guards open_[view] and its reads
 };
-FactoredBtf ReadFactoredBtf(const std::filesystem::path& dir, const MaterialManifest& manifest);
+core::FactoredBtf ReadFactoredBtf(const std::filesystem::path& dir, const MaterialManifest& manifest);
 AmbientTerm ReadAmbientTerm(const std::filesystem::path& dir, const MaterialManifest& manifest);
 nlohmann::json ReadErrorReport(const std::filesystem::path& dir, const MaterialManifest& manifest);
 Calibration ReadPackageCalibration(const std::filesystem::path& dir, const MaterialManifest& manifest);
@@ -223,4 +223,4 @@ MaterialPackage ReadMaterialPackage(const std::filesystem::path& dir);
 std::filesystem::path FullBtfViewFile(int view);  // "btf/view_0007.exr"
 std::filesystem::path BtfRowFactorFile(int k);    // "btf/rows_03.exr"
 
-}  // namespace mesocap
+}  // namespace mesocap::formats

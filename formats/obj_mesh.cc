@@ -8,7 +8,7 @@
 
 #include "core/error.h"
 
-namespace mesocap {
+namespace mesocap::formats {
 namespace fs = std::filesystem;
 namespace {
 
@@ -36,14 +36,14 @@ bool ParseNumber(std::string_view token, Number* value) {
 
 ObjMesh ReadObjMesh(const fs::path& file) {
   std::error_code ec;
-  if (!fs::is_regular_file(file, ec)) throw FormatError(file, "", "not found or not a regular file");
+  if (!fs::is_regular_file(file, ec)) throw core::FormatError(file, "", "not found or not a regular file");
   std::ifstream in(file);
-  if (!in) throw FormatError(file, "", "cannot open the file");
+  if (!in) throw core::FormatError(file, "", "cannot open the file");
   ObjMesh mesh;
   std::string line;
   for (int number = 1; std::getline(in, line); ++number) {
     const auto fail = [&](const std::string& problem) {
-      throw FormatError(file, "line " + std::to_string(number), problem);
+      throw core::FormatError(file, "line " + std::to_string(number), problem);
     };
     const std::vector<std::string_view> tokens = SplitWhitespace(line);
     if (tokens.empty() || tokens[0].front() == '#') continue;
@@ -100,9 +100,9 @@ ObjMesh ReadObjMesh(const fs::path& file) {
       for (std::size_t k = 1; k + 1 < face.size(); ++k) mesh.triangles.push_back({face[0], face[k], face[k + 1]});
     }
   }
-  if (in.bad()) throw FormatError(file, "", "read error");
-  if (mesh.triangles.empty()) throw FormatError(file, "f", "the mesh has no faces");
+  if (in.bad()) throw core::FormatError(file, "", "read error");
+  if (mesh.triangles.empty()) throw core::FormatError(file, "f", "the mesh has no faces");
   return mesh;
 }
 
-}  // namespace mesocap
+}  // namespace mesocap::formats

@@ -12,7 +12,7 @@
 #include <filesystem>
 #include <vector>
 
-namespace mesocap {
+namespace mesocap::formats {
 
 struct ObjMesh {
   struct Corner {
@@ -31,4 +31,4 @@ struct ObjMesh {
 // that names no element so far, and a mesh with no faces.
 ObjMesh ReadObjMesh(const std::filesystem::path& file);
 
-}  // namespace mesocap
+}  // namespace mesocap::formats

@@ -7,14 +7,14 @@
 
 #include "core/json_field_reader.h"
 
-namespace mesocap::drivers {
+namespace mesocap::formats {
 namespace {
 
 constexpr double kDeg = std::numbers::pi / 180.0;
 constexpr std::size_t kMaxDevices = 256;
 constexpr std::size_t kMaxAngles = 4096;
 
-std::vector<double> AnglesDeg(const JsonFieldReader& f, std::string_view key, double min_deg,
+std::vector<double> AnglesDeg(const core::JsonFieldReader& f, std::string_view key, double min_deg,
                               double max_deg) {
   const auto& raw = f.Raw(key);
   if (!raw.is_array() || raw.empty() || raw.size() > kMaxAngles) {
@@ -32,7 +32,7 @@ std::vector<double> AnglesDeg(const JsonFieldReader& f, std::string_view key, do
   return out;
 }
 
-StageDescription ParseStage(const JsonFieldReader& f) {
+StageDescription ParseStage(const core::JsonFieldReader& f) {
   StageDescription s;
   s.backend = f.String("backend");
   s.angles_rad = AnglesDeg(f, "angles_deg", 0.0, 360.0);
@@ -40,7 +40,7 @@ StageDescription ParseStage(const JsonFieldReader& f) {
   return s;
 }
 
-CameraDescription ParseCamera(const JsonFieldReader& f) {
+CameraDescription ParseCamera(const core::JsonFieldReader& f) {
   CameraDescription c;
   c.id = f.String("id");
   if (c.id.empty()) f.Fail("id", "expected a non-empty id");
@@ -76,7 +76,7 @@ CameraDescription ParseCamera(const JsonFieldReader& f) {
 }  // namespace
 
 RigDescription ParseRigDescription(const nlohmann::json& json, const std::filesystem::path& file) {
-  const JsonFieldReader root(json, file);
+  const core::JsonFieldReader root(json, file);
   root.ExpectFormat("mesocap.rig", 1);
   RigDescription rig;
   rig.json = json;
@@ -138,7 +138,7 @@ RigDescription ParseRigDescription(const nlohmann::json& json, const std::filesy
 }
 
 RigDescription ReadRigDescription(const std::filesystem::path& file) {
-  return ParseRigDescription(ReadJsonFile(file, 4ull << 20), file);
+  return ParseRigDescription(core::ReadJsonFile(file, 4ull << 20), file);
 }
 
-}  // namespace mesocap::drivers
+}  // namespace mesocap::formats

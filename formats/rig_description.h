@@ -22,7 +22,7 @@
 
 #include "core/sampling_set.h"
 
-namespace mesocap::drivers {
+namespace mesocap::formats {
 
 struct CameraDescription {
   std::string id;
@@ -115,4 +115,4 @@ struct RigDescription {
 RigDescription ReadRigDescription(const std::filesystem::path& file);
 RigDescription ParseRigDescription(const nlohmann::json& json, const std::filesystem::path& file);
 
-}  // namespace mesocap::drivers
+}  // namespace mesocap::formats

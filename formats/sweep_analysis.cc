@@ -8,7 +8,7 @@
 #include "core/image_io.h"
 #include "core/json_field_reader.h"
 
-namespace mesocap {
+namespace mesocap::formats {
 
 namespace {
 
@@ -24,19 +24,19 @@ void WriteSweepAnalysis(const std::filesystem::path& file, const SweepAnalysis& 
   const std::size_t n = static_cast<std::size_t>(analysis.width) * analysis.height;
   if (analysis.peak_time.size() != n || analysis.peak_value.size() != n || analysis.second_time.size() != n ||
       analysis.second_value.size() != n || analysis.planes.size() != static_cast<std::size_t>(analysis.frame_count)) {
-    throw Error("sweep analysis " + file.string() + ": sizes do not match width, height and frame_count");
+    throw core::Error("sweep analysis " + file.string() + ": sizes do not match width, height and frame_count");
   }
-  Image image(analysis.width, analysis.height, 4);
+  core::Image image(analysis.width, analysis.height, 4);
   for (std::size_t p = 0; p < n; ++p) {
     image.data()[4 * p] = analysis.peak_time[p];
     image.data()[4 * p + 1] = analysis.peak_value[p];
     image.data()[4 * p + 2] = analysis.second_time[p];
     image.data()[4 * p + 3] = analysis.second_value[p];
   }
-  WriteImage(ImageFile(file), image, PixelEncoding::kFloat32);
+  core::WriteImage(ImageFile(file), image, core::PixelEncoding::kFloat32);
   nlohmann::json planes = nlohmann::json::array();
-  for (const Plane& plane : analysis.planes) planes.push_back(ToJson(plane));
-  WriteJsonFileAtomically(file, {{"format", "mesocap.sweep_analysis"},
+  for (const core::Plane& plane : analysis.planes) planes.push_back(ToJson(plane));
+  core::WriteJsonFileAtomically(file, {{"format", "mesocap.sweep_analysis"},
                                  {"version", 2},
                                  {"width", analysis.width},
                                  {"height", analysis.height},
@@ -46,36 +46,36 @@ void WriteSweepAnalysis(const std::filesystem::path& file, const SweepAnalysis& 
 }
 
 SweepAnalysis ReadSweepAnalysis(const std::filesystem::path& file) {
-  const nlohmann::json doc = ReadJsonFile(file, 64ull << 20);
+  const nlohmann::json doc = core::ReadJsonFile(file, 64ull << 20);
   auto integer = [&](const char* field, int max) {
     if (!doc.is_object() || !doc.contains(field) || !doc[field].is_number_integer() || doc[field].get<long long>() < 1 ||
         doc[field].get<long long>() > max) {
-      throw FormatError(file, field, "an integer in 1.." + std::to_string(max));
+      throw core::FormatError(file, field, "an integer in 1.." + std::to_string(max));
     }
     return doc[field].get<int>();
   };
   if (!doc.is_object() || doc.value("format", std::string()) != "mesocap.sweep_analysis") {
-    throw FormatError(file, "format", "\"mesocap.sweep_analysis\"");
+    throw core::FormatError(file, "format", "\"mesocap.sweep_analysis\"");
   }
   const int version = doc.value("version", 0);
-  if (version != 1 && version != 2) throw FormatError(file, "version", "1 or 2");
+  if (version != 1 && version != 2) throw core::FormatError(file, "version", "1 or 2");
   SweepAnalysis analysis;
   analysis.width = integer("width", 1 << 15);
   analysis.height = integer("height", 1 << 15);
   analysis.frame_count = integer("frame_count", 1 << 20);
   if (!doc.contains("planes") || !doc["planes"].is_array() ||
       doc["planes"].size() != static_cast<std::size_t>(analysis.frame_count)) {
-    throw FormatError(file, "planes", "an array of frame_count planes");
+    throw core::FormatError(file, "planes", "an array of frame_count planes");
   }
   for (std::size_t i = 0; i < doc["planes"].size(); ++i) {
-    analysis.planes.push_back(PlaneFromJson(doc["planes"][i], file, "planes[" + std::to_string(i) + "]"));
+    analysis.planes.push_back(core::PlaneFromJson(doc["planes"][i], file, "planes[" + std::to_string(i) + "]"));
   }
-  ImageReadOptions options;
+  core::ImageReadOptions options;
   options.expected_width = analysis.width;
   options.expected_height = analysis.height;
   const int channels = version == 1 ? 2 : 4;  // version 1: no second peaks
   options.expected_channels = channels;
-  const Image image = ReadImage(ImageFile(file), options);
+  const core::Image image = core::ReadImage(ImageFile(file), options);
   const std::size_t n = static_cast<std::size_t>(analysis.width) * analysis.height;
   analysis.peak_time.resize(n);
   analysis.peak_value.resize(n);
@@ -83,7 +83,7 @@ SweepAnalysis ReadSweepAnalysis(const std::filesystem::path& file) {
   analysis.second_value.assign(n, 0.0f);
   auto frame_time = [&](float t, const char* field) {
     if (!std::isnan(t) && !(t >= 0 && t <= analysis.frame_count - 1)) {
-      throw FormatError(ImageFile(file), field, "NaN or a frame time in [0, frame_count - 1]");
+      throw core::FormatError(ImageFile(file), field, "NaN or a frame time in [0, frame_count - 1]");
     }
     return t;
   };
@@ -99,4 +99,4 @@ SweepAnalysis ReadSweepAnalysis(const std::filesystem::path& file) {
   return analysis;
 }
 
-}  // namespace mesocap
+}  // namespace mesocap::formats

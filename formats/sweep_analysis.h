@@ -8,7 +8,7 @@
 
 #include "core/plane.h"
 
-namespace mesocap {
+namespace mesocap::formats {
 
 // The analysis of one sweep of one camera: per pixel (row-major) the peak
 // time in frames (NaN where unknown) and the peak value (0 where it never
@@ -31,7 +31,7 @@ struct SweepAnalysis {
   std::vector<float> peak_value;
   std::vector<float> second_time;
   std::vector<float> second_value;
-  std::vector<Plane> planes;  // frame_count
+  std::vector<core::Plane> planes;  // frame_count
 };
 
 // A sweep analysis on disk: <file> (JSON: sizes, planes) beside <file>.exr
@@ -43,4 +43,4 @@ void WriteSweepAnalysis(const std::filesystem::path& file, const SweepAnalysis& 
 // Throws FormatError naming the file and field on anything malformed.
 SweepAnalysis ReadSweepAnalysis(const std::filesystem::path& file);
 
-}  // namespace mesocap
+}  // namespace mesocap::formats

@@ -11,15 +11,15 @@
 #include "formats/sweep_analysis.h"
 #include "mdf/frame_plane.h"
 
-namespace mesocap {
+namespace mesocap::mdf {
 
-CheckResult TextureGrid::Check() const {
+core::CheckResult TextureGrid::Check() const {
   if (width < 1 || height < 1 || width > 16384 || height > 16384) return "texture size must be in 1..16384";
   if (!(sample_size_mm > 0 && std::isfinite(sample_size_mm))) return "sample_size_mm must be positive";
   return {};
 }
 
-CheckResult TriangulationOptions::Check() const {
+core::CheckResult TriangulationOptions::Check() const {
   if (!(min_ray_plane_sine > 0 && min_ray_plane_sine < 1)) return "min_ray_plane_sine must be in (0, 1)";
   if (!(max_height_mm >= 0)) return "max_height_mm must be >= 0";
   if (!(backing_depth_mm >= 0 && std::isfinite(backing_depth_mm))) return "backing_depth_mm must be >= 0";
@@ -29,16 +29,16 @@ CheckResult TriangulationOptions::Check() const {
 }
 
 // Half the clearance the rig keeps between the mesostructure and its backing
-// (drivers::kMinBackingClearanceMm): points within it of the board are on
+// (formats::kMinBackingClearanceMm): points within it of the board are on
 // the board.
-constexpr double kBackingMarginMm = 0.5 * drivers::kMinBackingClearanceMm;
+constexpr double kBackingMarginMm = 0.5 * formats::kMinBackingClearanceMm;
 
-SweepPoints TriangulateSweep(const SweepAnalysis& analysis, const CameraRays& rays,
-                             const RigidTransform& world_from_sample, const TriangulationOptions& options) {
+SweepPoints TriangulateSweep(const formats::SweepAnalysis& analysis, const calibration::CameraRays& rays,
+                             const core::RigidTransform& world_from_sample, const TriangulationOptions& options) {
   if (analysis.width != rays.width() || analysis.height != rays.height()) {
-    throw Error("triangulation: sweep analysis and camera differ in image size");
+    throw core::Error("triangulation: sweep analysis and camera differ in image size");
   }
-  const RigidTransform sample_from_world = world_from_sample.Inverse();
+  const core::RigidTransform sample_from_world = world_from_sample.Inverse();
   auto triangulate = [&](const std::vector<float>& times) {
     const float nan = std::numeric_limits<float>::quiet_NaN();
     std::vector<Eigen::Vector3f> points(static_cast<std::size_t>(analysis.width) * analysis.height,
@@ -48,7 +48,7 @@ SweepPoints TriangulateSweep(const SweepAnalysis& analysis, const CameraRays& ra
         const std::size_t p = static_cast<std::size_t>(y) * analysis.width + x;
         const float t = times[p];
         if (std::isnan(t)) continue;
-        const Plane plane = PlaneAtTime(analysis.planes, t);
+        const core::Plane plane = PlaneAtTime(analysis.planes, t);
         if (!plane.valid()) continue;
         const Eigen::Vector3d& dir = rays.Ray(x, y);
         const double sine = plane.normal.dot(dir);
@@ -123,9 +123,9 @@ DisplacementImage ResampleToTexture(const SweepPoints& points, int pixel_width, 
                                     const TriangulationOptions& options) {
   const std::size_t n = static_cast<std::size_t>(pixel_width) * pixel_height;
   if (points.first.size() != n || (!points.second.empty() && points.second.size() != n)) {
-    throw Error("displacement image: point count does not match the image size");
+    throw core::Error("displacement image: point count does not match the image size");
   }
-  if (!(view.z() > 1e-6)) throw Error("displacement image: the view direction must point above the reference plane");
+  if (!(view.z() > 1e-6)) throw core::Error("displacement image: the view direction must point above the reference plane");
   DisplacementImage out;
   out.width = grid.width;
   out.height = grid.height;
@@ -298,4 +298,4 @@ DisplacementImage ResampleToTexture(const SweepPoints& points, int pixel_width, 
   return out;
 }
 
-}  // namespace mesocap
+}  // namespace mesocap::mdf

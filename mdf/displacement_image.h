@@ -12,7 +12,7 @@
 #include "formats/sweep_analysis.h"
 #include "mdf/space_time_analyzer.h"
 
-namespace mesocap {
+namespace mesocap::mdf {
 
 // The W x H texel grid of sim/ground_truth.h: texel (i, j) centred at
 // (-S/2 + (i + 0.5) S / W, -S/2 + (j + 0.5) S / H, 0) in the sample frame.
@@ -22,7 +22,7 @@ struct TextureGrid {
   double sample_size_mm = 20.0;
 
   double texel_mm() const { return sample_size_mm / width; }
-  CheckResult Check() const;
+  core::CheckResult Check() const;
 };
 
 struct TriangulationOptions {
@@ -35,7 +35,7 @@ struct TriangulationOptions {
   // Mesostructure lies below the reference plane; points higher than this
   // (mm) are triangulation failures.
   double max_height_mm = 0.1;
-  // The rig's backing board (drivers::SampleBacking; 0: none). A point on it
+  // The rig's backing board (formats::SampleBacking; 0: none). A point on it
   // (deeper than half the board's clearance above it) was seen through a
   // hole: "no hit" evidence for its texel. Points deeper still than that
   // below the board are triangulation failures.
@@ -68,7 +68,7 @@ struct TriangulationOptions {
   // it from the laser.
   double edge_shift_weight = 0.5;
 
-  CheckResult Check() const;
+  core::CheckResult Check() const;
 };
 
 // The mesostructure points (sample frame) seen by each pixel (row-major):
@@ -81,8 +81,8 @@ struct SweepPoints {
   std::vector<Eigen::Vector3f> second;  // empty, or one per pixel
   std::vector<float> brightness;        // the first peak's value; empty, or one per pixel
 };
-SweepPoints TriangulateSweep(const SweepAnalysis& analysis, const CameraRays& rays,
-                             const RigidTransform& world_from_sample, const TriangulationOptions& options);
+SweepPoints TriangulateSweep(const formats::SweepAnalysis& analysis, const calibration::CameraRays& rays,
+                             const core::RigidTransform& world_from_sample, const TriangulationOptions& options);
 
 // D(x, y) for one view and one laser location on the texture grid: distance
 // in mm from the texel's reference point along -view (sample frame, unit,
@@ -120,4 +120,4 @@ DisplacementImage ResampleToTexture(const SweepPoints& points, int pixel_width, 
                                     const Eigen::Vector3d& view, const TextureGrid& grid,
                                     const TriangulationOptions& options);
 
-}  // namespace mesocap
+}  // namespace mesocap::mdf

@@ -7,14 +7,14 @@
 
 #include "core/mdf.h"
 
-namespace mesocap {
+namespace mesocap::mdf {
 
 double TetrahedronVolume(const Eigen::Vector3d& source, const Eigen::Vector3d& camera, const Eigen::Vector3d& line_a,
                          const Eigen::Vector3d& line_b) {
   return std::abs((source - line_a).dot((camera - line_a).cross(line_b - line_a))) / 6.0;
 }
 
-double ScanWeight(const Eigen::Vector3d& source, const Eigen::Vector3d& camera, const Plane& plane,
+double ScanWeight(const Eigen::Vector3d& source, const Eigen::Vector3d& camera, const core::Plane& plane,
                   double half_length_mm) {
   if (!plane.valid()) return 0.0;
   const Eigen::Vector3d along = plane.normal.cross(Eigen::Vector3d::UnitZ());
@@ -23,7 +23,7 @@ double ScanWeight(const Eigen::Vector3d& source, const Eigen::Vector3d& camera, 
   return TetrahedronVolume(source, camera, -u, u);
 }
 
-CheckResult MergeOptions::Check() const {
+core::CheckResult MergeOptions::Check() const {
   if (!(outlier_texels > 0)) return "outlier_texels must be positive";
   return {};
 }
@@ -32,13 +32,13 @@ MergedDisplacement MergeDisplacementImages(const std::vector<DisplacementImage>&
                                            const std::vector<double>& weights, double texel_mm,
                                            const MergeOptions& options) {
   if (images.empty() || images.size() != weights.size()) {
-    throw Error("merge: need one weight per displacement image and at least one image");
+    throw core::Error("merge: need one weight per displacement image and at least one image");
   }
   const int w = images[0].width, h = images[0].height;
   double total_weight = 0;
   for (std::size_t k = 0; k < images.size(); ++k) {
-    if (images[k].width != w || images[k].height != h) throw Error("merge: displacement images differ in size");
-    if (!(weights[k] > 0) || !std::isfinite(weights[k])) throw Error("merge: weights must be positive");
+    if (images[k].width != w || images[k].height != h) throw core::Error("merge: displacement images differ in size");
+    if (!(weights[k] > 0) || !std::isfinite(weights[k])) throw core::Error("merge: weights must be positive");
     total_weight += weights[k];
   }
   MergedDisplacement out;
@@ -70,10 +70,10 @@ MergedDisplacement MergeDisplacementImages(const std::vector<DisplacementImage>&
       }
     }
     double sum = 0, sum_weight = 0;
-    if (IsNoHit(median)) {
+    if (core::IsNoHit(median)) {
       // Most of the weight saw the texel's ray reach the backing.
-      for (const auto& s : samples) sum_weight += IsNoHit(s.first) ? s.second : 0.0;
-      out.image.distance_mm[p] = MdfNoHit();
+      for (const auto& s : samples) sum_weight += core::IsNoHit(s.first) ? s.second : 0.0;
+      out.image.distance_mm[p] = core::MdfNoHit();
       out.confidence[p] = static_cast<float>(sum_weight / total_weight);
       continue;
     }
@@ -88,4 +88,4 @@ MergedDisplacement MergeDisplacementImages(const std::vector<DisplacementImage>&
   return out;
 }
 
-}  // namespace mesocap
+}  // namespace mesocap::mdf

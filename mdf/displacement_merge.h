@@ -14,7 +14,7 @@
 #include "core/plane.h"
 #include "mdf/displacement_image.h"
 
-namespace mesocap {
+namespace mesocap::mdf {
 
 // Volume of the tetrahedron (source, camera, line_a, line_b), mm^3.
 double TetrahedronVolume(const Eigen::Vector3d& source, const Eigen::Vector3d& camera, const Eigen::Vector3d& line_a,
@@ -23,7 +23,7 @@ double TetrahedronVolume(const Eigen::Vector3d& source, const Eigen::Vector3d& c
 // The paper's weight of a scan: the tetrahedron with the two points of the
 // plane's trace on z = 0, shifted to pass through the turntable centre
 // (origin), at +-half_length_mm from it. 0 for an invalid or horizontal plane.
-double ScanWeight(const Eigen::Vector3d& source, const Eigen::Vector3d& camera, const Plane& plane,
+double ScanWeight(const Eigen::Vector3d& source, const Eigen::Vector3d& camera, const core::Plane& plane,
                   double half_length_mm);
 
 struct MergeOptions {
@@ -32,7 +32,7 @@ struct MergeOptions {
   // left out of the mean.
   double outlier_texels = 1.5;
 
-  CheckResult Check() const;
+  core::CheckResult Check() const;
 };
 
 // The merged image and a per-texel confidence in [0, 1]: the share of the
@@ -52,4 +52,4 @@ MergedDisplacement MergeDisplacementImages(const std::vector<DisplacementImage>&
                                            const std::vector<double>& weights, double texel_mm,
                                            const MergeOptions& options);
 
-}  // namespace mesocap
+}  // namespace mesocap::mdf

@@ -3,11 +3,11 @@
 #include <Eigen/Geometry>
 #include <cmath>
 
-namespace mesocap {
+namespace mesocap::mdf {
 
-Plane FramePlane(const ReferenceLine& line, const Plane& calibrated, const Eigen::Vector3d& tilt_axis,
+core::Plane FramePlane(const calibration::ReferenceLine& line, const core::Plane& calibrated, const Eigen::Vector3d& tilt_axis,
                  double delta_tilt_rad) {
-  Plane plane;
+  core::Plane plane;
   if (!line.valid || !calibrated.valid()) return plane;
   plane.normal = Eigen::AngleAxisd(delta_tilt_rad, tilt_axis.normalized()) * calibrated.normal;
   // The calibrated plane's horizontal trace is parallel to the line; keep
@@ -19,7 +19,7 @@ Plane FramePlane(const ReferenceLine& line, const Plane& calibrated, const Eigen
   return plane;
 }
 
-Plane PlaneAtTime(const std::vector<Plane>& planes, double t, int max_gap) {
+core::Plane PlaneAtTime(const std::vector<core::Plane>& planes, double t, int max_gap) {
   if (!(t >= 0) || t > static_cast<double>(planes.size()) - 1) return {};
   const int n = static_cast<int>(planes.size());
   // The nearest valid planes at or before and at or after t, at most
@@ -31,9 +31,9 @@ Plane PlaneAtTime(const std::vector<Plane>& planes, double t, int max_gap) {
   if (i0 < 0 || i1 >= n || i1 - i0 > max_gap) return {};
   if (i0 == i1) return planes[i0];
   const double f = (t - i0) / (i1 - i0);
-  const Plane& a = planes[i0];
-  const Plane& b = planes[i1];
-  Plane p;
+  const core::Plane& a = planes[i0];
+  const core::Plane& b = planes[i1];
+  core::Plane p;
   const Eigen::Vector3d normal = (1 - f) * a.normal + f * b.normal;
   const double norm = normal.norm();
   p.normal = normal / norm;
@@ -41,4 +41,4 @@ Plane PlaneAtTime(const std::vector<Plane>& planes, double t, int max_gap) {
   return p;
 }
 
-}  // namespace mesocap
+}  // namespace mesocap::mdf

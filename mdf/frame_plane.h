@@ -8,7 +8,7 @@
 #include "calibration/laser_line.h"
 #include "core/plane.h"
 
-namespace mesocap {
+namespace mesocap::mdf {
 
 // The plane of one frame of a sweep: through the stripe's line on the
 // reference plane (z = 0), with the calibrated plane's normal turned by
@@ -17,7 +17,7 @@ namespace mesocap {
 // the paper's "all laser planes in one scan are parallel"; the commanded
 // tilt removes that approximation's error (~d tan(tilt) at depth d).
 // Invalid when the line is.
-Plane FramePlane(const ReferenceLine& line, const Plane& calibrated, const Eigen::Vector3d& tilt_axis,
+core::Plane FramePlane(const calibration::ReferenceLine& line, const core::Plane& calibrated, const Eigen::Vector3d& tilt_axis,
                  double delta_tilt_rad);
 
 // The plane at fractional frame time t: normal and offset blended linearly
@@ -26,6 +26,6 @@ Plane FramePlane(const ReferenceLine& line, const Plane& calibrated, const Eigen
 // left by dropped frames or frames without a detected line is bridged).
 // Invalid when t is outside the frames or the bracketing valid planes are
 // more than max_gap frames apart.
-Plane PlaneAtTime(const std::vector<Plane>& planes, double t, int max_gap = 4);
+core::Plane PlaneAtTime(const std::vector<core::Plane>& planes, double t, int max_gap = 4);
 
-}  // namespace mesocap
+}  // namespace mesocap::mdf

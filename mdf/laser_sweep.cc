@@ -6,17 +6,17 @@
 #include <cmath>
 #include <string>
 
-namespace mesocap {
+namespace mesocap::mdf {
 
-PixelMask ReferenceRegion(const CameraRays& rays, const RigidTransform& world_from_sample, double sample_size_mm,
+calibration::PixelMask ReferenceRegion(const calibration::CameraRays& rays, const core::RigidTransform& world_from_sample, double sample_size_mm,
                           double margin_mm, double outer_mm) {
-  PixelMask mask(static_cast<std::size_t>(rays.width()) * rays.height(), 0);
-  const RigidTransform sample_from_world = world_from_sample.Inverse();
+  calibration::PixelMask mask(static_cast<std::size_t>(rays.width()) * rays.height(), 0);
+  const core::RigidTransform sample_from_world = world_from_sample.Inverse();
   const double half = 0.5 * sample_size_mm + margin_mm;
   for (int y = 0; y < rays.height(); ++y) {
     for (int x = 0; x < rays.width(); ++x) {
       Eigen::Vector3d p;
-      if (!IntersectHorizontalPlane(rays.centre(), rays.Ray(x, y), 0.0, &p)) continue;
+      if (!calibration::IntersectHorizontalPlane(rays.centre(), rays.Ray(x, y), 0.0, &p)) continue;
       const Eigen::Vector3d s = sample_from_world.Apply(p);
       const bool outside = std::abs(s.x()) > half || std::abs(s.y()) > half;
       if (outside && s.head<2>().norm() <= outer_mm) mask[static_cast<std::size_t>(y) * rays.width() + x] = 1;
@@ -25,31 +25,31 @@ PixelMask ReferenceRegion(const CameraRays& rays, const RigidTransform& world_fr
   return mask;
 }
 
-LaserSweepProcessor::LaserSweepProcessor(const CameraRays& rays, SweepGeometry geometry,
-                                         const LaserLineOptions& line_options,
+LaserSweepProcessor::LaserSweepProcessor(const calibration::CameraRays& rays, SweepGeometry geometry,
+                                         const calibration::LaserLineOptions& line_options,
                                          const SpaceTimeOptions& space_time_options)
     : rays_(rays),
       geometry_(std::move(geometry)),
       line_options_(line_options),
       analyzer_(rays.width(), rays.height(), static_cast<int>(geometry_.delta_tilt_rad.size()), space_time_options),
       lines_(geometry_.delta_tilt_rad.size()) {
-  if (const auto problem = line_options.Check(); !problem.empty()) throw Error("laser line: " + problem);
+  if (const auto problem = line_options.Check(); !problem.empty()) throw core::Error("laser line: " + problem);
   if (geometry_.reference_region.size() != static_cast<std::size_t>(rays.width()) * rays.height()) {
-    throw Error("laser sweep: the reference region does not match the camera's image size");
+    throw core::Error("laser sweep: the reference region does not match the camera's image size");
   }
-  if (!geometry_.calibrated_plane.valid()) throw Error("laser sweep: the calibrated laser plane is invalid");
+  if (!geometry_.calibrated_plane.valid()) throw core::Error("laser sweep: the calibrated laser plane is invalid");
   const Eigen::Vector2d horizontal = geometry_.calibrated_plane.normal.head<2>();
-  if (horizontal.norm() < 1e-6) throw Error("laser sweep: the calibrated laser plane is horizontal");
+  if (horizontal.norm() < 1e-6) throw core::Error("laser sweep: the calibrated laser plane is horizontal");
   scan_direction_ = horizontal.normalized();
 }
 
-void LaserSweepProcessor::AddFrame(int index, const Image& frame) {
+void LaserSweepProcessor::AddFrame(int index, const core::Image& frame) {
   analyzer_.AddFrame(index, frame);  // validates size and order first
-  lines_[index] = DetectLaserLine(frame, geometry_.reference_region, rays_, 0.0, scan_direction_, line_options_);
+  lines_[index] = calibration::DetectLaserLine(frame, geometry_.reference_region, rays_, 0.0, scan_direction_, line_options_);
 }
 
-SweepAnalysis LaserSweepProcessor::Finish() const {
-  SweepAnalysis result = analyzer_.Result();
+formats::SweepAnalysis LaserSweepProcessor::Finish() const {
+  formats::SweepAnalysis result = analyzer_.Result();
   for (std::size_t i = 0; i < lines_.size(); ++i) {
     result.planes[i] = FramePlane(lines_[i], geometry_.calibrated_plane, geometry_.tilt_axis,
                                   geometry_.delta_tilt_rad[i]);
@@ -57,4 +57,4 @@ SweepAnalysis LaserSweepProcessor::Finish() const {
   return result;
 }
 
-}  // namespace mesocap
+}  // namespace mesocap::mdf

@@ -2,21 +2,21 @@
 
 #include <string>
 
-namespace mesocap {
+namespace mesocap::mdf {
 
-MdfAssembler::MdfAssembler(TextureGrid grid, SamplingSet views, TriangulationOptions triangulation, MergeOptions merge)
+MdfAssembler::MdfAssembler(TextureGrid grid, core::SamplingSet views, TriangulationOptions triangulation, MergeOptions merge)
     : grid_(grid), views_(std::move(views)), triangulation_(triangulation), merge_(merge) {
   for (const auto& problem : {grid_.Check(), triangulation_.Check(), merge_.Check()}) {
-    if (!problem.empty()) throw Error("MDF assembly: " + problem);
+    if (!problem.empty()) throw core::Error("MDF assembly: " + problem);
   }
-  if (views_.size() < 1) throw Error("MDF assembly: the view set is empty");
+  if (views_.size() < 1) throw core::Error("MDF assembly: the view set is empty");
   images_.resize(views_.size());
   weights_.resize(views_.size());
 }
 
-void MdfAssembler::AddSweep(int view, const SweepAnalysis& analysis, const CameraRays& rays,
-                            const RigidTransform& world_from_sample, double weight) {
-  if (view < 0 || view >= views_.size()) throw Error("MDF assembly: view " + std::to_string(view) + " out of range");
+void MdfAssembler::AddSweep(int view, const formats::SweepAnalysis& analysis, const calibration::CameraRays& rays,
+                            const core::RigidTransform& world_from_sample, double weight) {
+  if (view < 0 || view >= views_.size()) throw core::Error("MDF assembly: view " + std::to_string(view) + " out of range");
   const SweepPoints points = TriangulateSweep(analysis, rays, world_from_sample, triangulation_);
   AddDisplacementImage(view,
                        ResampleToTexture(points, analysis.width, analysis.height, views_.direction(view), grid_,
@@ -25,18 +25,18 @@ void MdfAssembler::AddSweep(int view, const SweepAnalysis& analysis, const Camer
 }
 
 void MdfAssembler::AddDisplacementImage(int view, DisplacementImage image, double weight) {
-  if (view < 0 || view >= views_.size()) throw Error("MDF assembly: view " + std::to_string(view) + " out of range");
+  if (view < 0 || view >= views_.size()) throw core::Error("MDF assembly: view " + std::to_string(view) + " out of range");
   if (image.width != grid_.width || image.height != grid_.height) {
-    throw Error("MDF assembly: displacement image size differs from the texture grid");
+    throw core::Error("MDF assembly: displacement image size differs from the texture grid");
   }
   if (!(weight > 0)) return;  // a scan with zero weight (camera in the laser plane) carries no information
   images_[view].push_back(std::move(image));
   weights_[view].push_back(weight);
 }
 
-Mdf MdfAssembler::Finish(Image* confidence) const {
-  Mdf mdf = MakeMdf(grid_.width, grid_.height, views_);
-  if (confidence) *confidence = Image(grid_.width, grid_.height * views_.size(), 1, 0.0f);
+core::Mdf MdfAssembler::Finish(core::Image* confidence) const {
+  core::Mdf mdf = core::MakeMdf(grid_.width, grid_.height, views_);
+  if (confidence) *confidence = core::Image(grid_.width, grid_.height * views_.size(), 1, 0.0f);
   for (int v = 0; v < views_.size(); ++v) {
     if (images_[v].empty()) continue;
     const MergedDisplacement merged = MergeDisplacementImages(images_[v], weights_[v], grid_.texel_mm(), merge_);
@@ -51,4 +51,4 @@ Mdf MdfAssembler::Finish(Image* confidence) const {
   return mdf;
 }
 
-}  // namespace mesocap
+}  // namespace mesocap::mdf

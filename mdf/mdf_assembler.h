@@ -16,34 +16,34 @@
 #include "mdf/displacement_merge.h"
 #include "mdf/space_time_analyzer.h"
 
-namespace mesocap {
+namespace mesocap::mdf {
 
 class MdfAssembler {
  public:
   // Throws Error on bad options or an empty view set.
-  MdfAssembler(TextureGrid grid, SamplingSet views, TriangulationOptions triangulation, MergeOptions merge);
+  MdfAssembler(TextureGrid grid, core::SamplingSet views, TriangulationOptions triangulation, MergeOptions merge);
 
   // One sweep seen in `view` (an index into the view set) with scan weight
   // `weight` (> 0, ScanWeight). Sweeps may come in any order.
-  void AddSweep(int view, const SweepAnalysis& analysis, const CameraRays& rays,
-                const RigidTransform& world_from_sample, double weight);
+  void AddSweep(int view, const formats::SweepAnalysis& analysis, const calibration::CameraRays& rays,
+                const core::RigidTransform& world_from_sample, double weight);
   // Adds an already resampled displacement image.
   void AddDisplacementImage(int view, DisplacementImage image, double weight);
 
   // The merged MDF (views without sweeps stay unknown) and, when asked, the
   // per-texel confidence in the same layout (1 channel).
-  Mdf Finish(Image* confidence = nullptr) const;
+  core::Mdf Finish(core::Image* confidence = nullptr) const;
 
   const TextureGrid& grid() const { return grid_; }
-  const SamplingSet& views() const { return views_; }
+  const core::SamplingSet& views() const { return views_; }
 
  private:
   TextureGrid grid_;
-  SamplingSet views_;
+  core::SamplingSet views_;
   TriangulationOptions triangulation_;
   MergeOptions merge_;
   std::vector<std::vector<DisplacementImage>> images_;  // per view
   std::vector<std::vector<double>> weights_;
 };
 
-}  // namespace mesocap
+}  // namespace mesocap::mdf

@@ -9,7 +9,7 @@
 
 #include "core/error.h"
 
-namespace mesocap {
+namespace mesocap::mdf {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
@@ -21,23 +21,23 @@ double Quantile(std::vector<double>& values, double q) {
   return values[k];
 }
 
-void CheckComparable(const Mdf& truth, const Mdf& estimate) {
+void CheckComparable(const core::Mdf& truth, const core::Mdf& estimate) {
   if (truth.width != estimate.width || truth.height != estimate.height ||
       truth.view_count() != estimate.view_count()) {
-    throw Error("eval mdf: truth is " + std::to_string(truth.width) + "x" + std::to_string(truth.height) + " x " +
+    throw core::Error("eval mdf: truth is " + std::to_string(truth.width) + "x" + std::to_string(truth.height) + " x " +
                 std::to_string(truth.view_count()) + " views, estimate " + std::to_string(estimate.width) + "x" +
                 std::to_string(estimate.height) + " x " + std::to_string(estimate.view_count()));
   }
   for (int v = 0; v < truth.view_count(); ++v) {
     if (truth.views.direction(v).dot(estimate.views.direction(v)) < std::cos(1e-6)) {
-      throw Error("eval mdf: view " + std::to_string(v) + " differs between truth and estimate");
+      throw core::Error("eval mdf: view " + std::to_string(v) + " differs between truth and estimate");
     }
   }
 }
 
 }  // namespace
 
-MdfErrorRow EvaluateMdfViews(const Mdf& truth, const Mdf& estimate, double texel_mm, const MdfEvaluationScope& scope) {
+MdfErrorRow EvaluateMdfViews(const core::Mdf& truth, const core::Mdf& estimate, double texel_mm, const MdfEvaluationScope& scope) {
   CheckComparable(truth, estimate);
   const double theta_min_deg = scope.theta_min_deg, theta_max_deg = scope.theta_max_deg;
   const double half_x = 0.5 * texel_mm * truth.width, half_y = 0.5 * texel_mm * truth.height;
@@ -52,20 +52,20 @@ MdfErrorRow EvaluateMdfViews(const Mdf& truth, const Mdf& estimate, double texel
     for (int j = 0; j < truth.height; ++j) {
       for (int i = 0; i < truth.width; ++i) {
         const float t = truth.at(i, j, v), e = estimate.at(i, j, v);
-        if (IsUnknown(t)) continue;
+        if (core::IsUnknown(t)) continue;
         if (scope.inside_sample_only && std::isfinite(t)) {
           const Eigen::Vector3d hit = Eigen::Vector3d(-half_x + (i + 0.5) * texel_mm, -half_y + (j + 0.5) * texel_mm, 0) -
                                       static_cast<double>(t) * truth.views.direction(v);
           if (std::abs(hit.x()) > half_x || std::abs(hit.y()) > half_y) continue;
         }
-        if (IsNoHit(t)) {
+        if (core::IsNoHit(t)) {
           ++row.true_no_hits;
           if (std::isfinite(e)) ++false_hit;
-          if (IsNoHit(e)) ++measured_no_hit;
+          if (core::IsNoHit(e)) ++measured_no_hit;
           continue;
         }
         ++row.true_hits;
-        if (IsNoHit(e)) ++false_no_hit;
+        if (core::IsNoHit(e)) ++false_no_hit;
         if (std::isfinite(e)) {
           ++covered;
           errors.push_back(std::abs(static_cast<double>(e) - t));
@@ -85,8 +85,8 @@ MdfErrorRow EvaluateMdfViews(const Mdf& truth, const Mdf& estimate, double texel
   return row;
 }
 
-MdfErrorTable EvaluateMdf(const Mdf& truth, const Mdf& estimate, double texel_mm, bool inside_sample_only) {
-  if (!(texel_mm > 0)) throw Error("eval mdf: texel width must be positive");
+MdfErrorTable EvaluateMdf(const core::Mdf& truth, const core::Mdf& estimate, double texel_mm, bool inside_sample_only) {
+  if (!(texel_mm > 0)) throw core::Error("eval mdf: texel width must be positive");
   MdfErrorTable table;
   table.overall = EvaluateMdfViews(truth, estimate, texel_mm, {0, 90, inside_sample_only});
   for (int b = 0; b < 6; ++b) {
@@ -148,4 +148,4 @@ std::string FormatMdfErrorTable(const MdfErrorTable& table) {
   return out;
 }
 
-}  // namespace mesocap
+}  // namespace mesocap::mdf

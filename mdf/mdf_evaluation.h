@@ -13,7 +13,7 @@
 
 #include "core/mdf.h"
 
-namespace mesocap {
+namespace mesocap::mdf {
 
 struct MdfErrorRow {
   double theta_min_deg = 0;
@@ -45,13 +45,13 @@ struct MdfEvaluationScope {
   bool inside_sample_only = false;
 };
 
-MdfErrorRow EvaluateMdfViews(const Mdf& truth, const Mdf& estimate, double texel_mm, const MdfEvaluationScope& scope);
+MdfErrorRow EvaluateMdfViews(const core::Mdf& truth, const core::Mdf& estimate, double texel_mm, const MdfEvaluationScope& scope);
 // Throws Error when the two differ in texel grid or view directions (to 1e-6 rad).
-MdfErrorTable EvaluateMdf(const Mdf& truth, const Mdf& estimate, double texel_mm, bool inside_sample_only = false);
+MdfErrorTable EvaluateMdf(const core::Mdf& truth, const core::Mdf& estimate, double texel_mm, bool inside_sample_only = false);
 
 // {"overall": {...}, "by_polar_angle": [{...}, ...]}, NaN as null.
 nlohmann::json ToJson(const MdfErrorTable& table);
 // A fixed-width text table for people.
 std::string FormatMdfErrorTable(const MdfErrorTable& table);
 
-}  // namespace mesocap
+}  // namespace mesocap::mdf

@@ -15,31 +15,31 @@
 #include "mdf/mdf_assembler.h"
 #include "mdf/session_sweeps.h"
 
-namespace mesocap {
+namespace mesocap::mdf {
 namespace {
 
 namespace fs = std::filesystem;
 
 // A sweep stored as frames: streamed through line detection and the
 // space-time analysis.
-SweepAnalysis AnalyseFrames(const fs::path& file, const CameraRays& rays, const SweepGeometry& geometry,
+formats::SweepAnalysis AnalyseFrames(const fs::path& file, const calibration::CameraRays& rays, const SweepGeometry& geometry,
                             const MdfProcessingOptions& options) {
-  FrameSequenceReader reader(file);
-  const FrameSequenceHeader& header = reader.header();
+  formats::FrameSequenceReader reader(file);
+  const formats::FrameSequenceHeader& header = reader.header();
   if (header.width != rays.width() || header.height != rays.height()) {
-    throw FormatError(file, "frame size",
+    throw core::FormatError(file, "frame size",
                       std::to_string(rays.width()) + "x" + std::to_string(rays.height()) +
                           " (the camera's calibration), found " + std::to_string(header.width) + "x" +
                           std::to_string(header.height));
   }
-  if (header.channels != 1) throw FormatError(file, "channels", "1 (grey laser frames)");
+  if (header.channels != 1) throw core::FormatError(file, "channels", "1 (grey laser frames)");
   if (header.frame_count != static_cast<int>(geometry.delta_tilt_rad.size())) {
-    throw FormatError(file, "frame count",
+    throw core::FormatError(file, "frame count",
                       std::to_string(geometry.delta_tilt_rad.size()) + " (the plan's tilt_deg), found " +
                           std::to_string(header.frame_count));
   }
   LaserSweepProcessor processor(rays, geometry, options.geometry.line, options.space_time);
-  Image frame;
+  core::Image frame;
   while (reader.Next(&frame)) processor.AddFrame(reader.next_index() - 1, frame);
   return processor.Finish();
 }
@@ -47,17 +47,17 @@ SweepAnalysis AnalyseFrames(const fs::path& file, const CameraRays& rays, const 
 // A sweep the capture analysed as its frames arrived: peaks under this
 // run's threshold become unknown (a stored analysis keeps every peak above
 // half the capture's threshold).
-SweepAnalysis ReadStoredAnalysis(const fs::path& file, const CameraRays& rays, std::size_t frame_count,
+formats::SweepAnalysis ReadStoredAnalysis(const fs::path& file, const calibration::CameraRays& rays, std::size_t frame_count,
                                  const SpaceTimeOptions& space_time) {
-  SweepAnalysis analysis = ReadSweepAnalysis(file);
+  formats::SweepAnalysis analysis = formats::ReadSweepAnalysis(file);
   if (analysis.width != rays.width() || analysis.height != rays.height()) {
-    throw FormatError(file, "width, height",
+    throw core::FormatError(file, "width, height",
                       std::to_string(rays.width()) + "x" + std::to_string(rays.height()) +
                           " (the camera's calibration), found " + std::to_string(analysis.width) + "x" +
                           std::to_string(analysis.height));
   }
   if (analysis.frame_count != static_cast<int>(frame_count)) {
-    throw FormatError(file, "frame_count",
+    throw core::FormatError(file, "frame_count",
                       std::to_string(frame_count) + " (the plan's tilt_deg), found " +
                           std::to_string(analysis.frame_count));
   }
@@ -72,7 +72,7 @@ SweepAnalysis ReadStoredAnalysis(const fs::path& file, const CameraRays& rays, s
 
 }  // namespace
 
-CheckResult MdfProcessingOptions::Check() const {
+core::CheckResult MdfProcessingOptions::Check() const {
   if (texture_size < 1 || texture_size > 4096) return "texture_size must be in 1..4096";
   for (const auto& problem : {geometry.Check(), space_time.Check(), triangulation.Check(), merge.Check()}) {
     if (!problem.empty()) return problem;
@@ -80,53 +80,53 @@ CheckResult MdfProcessingOptions::Check() const {
   return {};
 }
 
-MdfProcessingResult ProcessMdfSession(const fs::path& session, const Calibration& calibration,
-                                      const MdfProcessingOptions& options, Progress::Style progress_style) {
-  if (const auto problem = options.Check(); !problem.empty()) throw Error("process mdf: " + problem);
-  const SessionManifest manifest = ReadSessionManifest(session);
-  const fs::path manifest_file = session / kSessionManifestName;
-  const drivers::RigDescription rig = drivers::ParseRigDescription(manifest.rig, manifest_file);
+MdfProcessingResult ProcessMdfSession(const fs::path& session, const formats::Calibration& calibration,
+                                      const MdfProcessingOptions& options, core::Progress::Style progress_style) {
+  if (const auto problem = options.Check(); !problem.empty()) throw core::Error("process mdf: " + problem);
+  const formats::SessionManifest manifest = formats::ReadSessionManifest(session);
+  const fs::path manifest_file = session / formats::kSessionManifestName;
+  const formats::RigDescription rig = formats::ParseRigDescription(manifest.rig, manifest_file);
   SessionSweepGeometry geometry(session, manifest, rig, calibration, options.geometry);
 
   std::vector<bool> use_location(rig.laser.locations.size(), options.locations.empty());
   for (int li : options.locations) {
     if (li < 0 || li >= static_cast<int>(use_location.size())) {
-      throw Error("process mdf: laser location " + std::to_string(li) + " is not in the rig (it has " +
+      throw core::Error("process mdf: laser location " + std::to_string(li) + " is not in the rig (it has " +
                   std::to_string(use_location.size()) + ")");
     }
     use_location[li] = true;
   }
   std::vector<SweepStep> sweeps;
   for (std::size_t s = 0; s < manifest.plan.size(); ++s) {
-    if (manifest.plan[s].kind != StepKind::kLaserSweep) continue;
+    if (manifest.plan[s].kind != formats::StepKind::kLaserSweep) continue;
     SweepStep step = ParseSweepStep(manifest.plan[s], s, rig, manifest_file);
     if (use_location[step.location]) sweeps.push_back(std::move(step));
   }
 
   const double sample_size = rig.sample_size_mm;
-  const SamplingSet views = drivers::ViewDirections(rig);
+  const core::SamplingSet views = calibration::ViewDirections(rig);
   TextureGrid grid{options.texture_size, options.texture_size, sample_size};
   TriangulationOptions triangulation = options.triangulation;
   triangulation.backing_depth_mm = rig.backing.depth_mm;  // "no hit" evidence, if the rig has a backing
   MdfAssembler assembler(grid, views, triangulation, options.merge);
   MdfProcessingResult result;
   result.sample_size_mm = sample_size;
-  Progress progress("process mdf", sweeps.size() * rig.cameras.size(), progress_style);
+  core::Progress progress("process mdf", sweeps.size() * rig.cameras.size(), progress_style);
   for (const SweepStep& step : sweeps) {
-    const LaserMountPose pose = MountInWorld(calibration, step.mount, step.arc_rad, 0.0);
-    const RigidTransform world_from_sample = WorldFromSample(calibration.turntable, step.turntable_rad);
-    const RigidTransform sample_from_world = world_from_sample.Inverse();
+    const calibration::LaserMountPose pose = calibration::MountInWorld(calibration, step.mount, step.arc_rad, 0.0);
+    const core::RigidTransform world_from_sample = calibration::WorldFromSample(calibration.turntable, step.turntable_rad);
+    const core::RigidTransform sample_from_world = world_from_sample.Inverse();
     for (std::size_t c = 0; c < rig.cameras.size(); ++c) {
       const std::string& id = rig.cameras[c].id;
-      const CameraRays& rays = geometry.rays(static_cast<int>(c));
+      const calibration::CameraRays& rays = geometry.rays(static_cast<int>(c));
       const auto file_entry = step.files.find(id);
       if (file_entry == step.files.end()) {
-        throw FormatError(manifest_file, "plan", "a laser sweep file of camera " + id + " for location " +
+        throw core::FormatError(manifest_file, "plan", "a laser sweep file of camera " + id + " for location " +
                                                      std::to_string(step.location));
       }
       const fs::path file = session / file_entry->second;
       // A stored analysis needs no reference region: only the plane, for the weight.
-      const SweepAnalysis analysis =
+      const formats::SweepAnalysis analysis =
           step.stores_analysis ? ReadStoredAnalysis(file, rays, step.tilts_rad.size(), options.space_time)
                                : AnalyseFrames(file, rays, geometry.Geometry(step, static_cast<int>(c)), options);
       const Eigen::Vector3d to_camera = sample_from_world.Apply(rays.centre()).normalized();
@@ -151,4 +151,4 @@ MdfProcessingResult ProcessMdfSession(const fs::path& session, const Calibration
   return result;
 }
 
-}  // namespace mesocap
+}  // namespace mesocap::mdf

@@ -17,7 +17,7 @@
 #include "mdf/session_sweeps.h"
 #include "mdf/space_time_analyzer.h"
 
-namespace mesocap {
+namespace mesocap::mdf {
 
 struct MdfProcessingOptions {
   int texture_size = 64;  // texels per side (the ground truth's default)
@@ -29,12 +29,12 @@ struct MdfProcessingOptions {
   // Laser locations to use (indices into the rig's list); empty: all.
   std::vector<int> locations;
 
-  CheckResult Check() const;
+  core::CheckResult Check() const;
 };
 
 struct MdfProcessingResult {
-  Mdf mdf;
-  Image confidence;      // per texel and view, MDF layout (MdfAssembler)
+  core::Mdf mdf;
+  core::Image confidence;      // per texel and view, MDF layout (MdfAssembler)
   double sample_size_mm = 0;
   double deepest_mm = 0;  // deepest measured point below the reference plane
   int sweeps = 0;         // camera sequences analysed
@@ -44,8 +44,8 @@ struct MdfProcessingResult {
 // the file and field for a missing calibration entry (a camera or laser
 // mount of the session's rig), a sequence whose frame size or count does not
 // match the calibration and plan, or a missing file; nothing is written.
-MdfProcessingResult ProcessMdfSession(const std::filesystem::path& session, const Calibration& calibration,
+MdfProcessingResult ProcessMdfSession(const std::filesystem::path& session, const formats::Calibration& calibration,
                                       const MdfProcessingOptions& options,
-                                      Progress::Style progress = Progress::Style::kAuto);
+                                      core::Progress::Style progress = core::Progress::Style::kAuto);
 
-}  // namespace mesocap
+}  // namespace mesocap::mdf

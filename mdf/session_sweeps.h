@@ -21,16 +21,16 @@
 #include "formats/rig_description.h"
 #include "mdf/laser_sweep.h"
 
-namespace mesocap {
+namespace mesocap::mdf {
 
 struct SweepGeometryOptions {
-  LaserLineOptions line;
+  calibration::LaserLineOptions line;
   // The reference region: the turntable outside the sample square grown by
   // this margin, within reference_extent x the sample size of the centre.
   double reference_margin_mm = 1.0;
   double reference_extent = 1.5;
 
-  CheckResult Check() const;
+  core::CheckResult Check() const;
 };
 
 // One laser_sweep step of a session's plan.
@@ -47,7 +47,7 @@ struct SweepStep {
 };
 
 // Throws FormatError naming the manifest and the step's field.
-SweepStep ParseSweepStep(const PlannedStep& step, std::size_t index, const drivers::RigDescription& rig,
+SweepStep ParseSweepStep(const formats::PlannedStep& step, std::size_t index, const formats::RigDescription& rig,
                          const std::filesystem::path& manifest_file);
 
 class SessionSweepGeometry {
@@ -56,19 +56,19 @@ class SessionSweepGeometry {
   // at the size the rig records) and checks the laser mounts; throws Error
   // naming what is missing. Plate frames are read when a location's plane
   // is first needed.
-  SessionSweepGeometry(std::filesystem::path session, const SessionManifest& manifest,
-                       drivers::RigDescription rig, const Calibration& calibration,
+  SessionSweepGeometry(std::filesystem::path session, const formats::SessionManifest& manifest,
+                       formats::RigDescription rig, const formats::Calibration& calibration,
                        SweepGeometryOptions options);
 
   // The rig's camera with this id; throws Error when there is none.
   int CameraIndex(const std::string& id) const;
-  const CameraRays& rays(int camera) const { return rays_.at(camera); }
-  const drivers::RigDescription& rig() const { return rig_; }
+  const calibration::CameraRays& rays(int camera) const { return rays_.at(camera); }
+  const formats::RigDescription& rig() const { return rig_; }
 
   // A location's plane seen by `camera` at its plates' tilt, fitted from
   // the two plate frames on first use (throws FormatError when the plan
   // lacks them, Error when the stripe is not found on a plate).
-  const Plane& CalibratedPlane(int location, int camera);
+  const core::Plane& CalibratedPlane(int location, int camera);
 
   // The geometry of `step`'s sweep seen by `camera`, for analysing its
   // frames: the location's CalibratedPlane, the reference region at the
@@ -83,13 +83,13 @@ class SessionSweepGeometry {
 
   std::filesystem::path session_;
   std::filesystem::path manifest_file_;
-  drivers::RigDescription rig_;
-  Calibration calibration_;
+  formats::RigDescription rig_;
+  formats::Calibration calibration_;
   SweepGeometryOptions options_;
-  std::vector<CameraRays> rays_;  // per rig camera
+  std::vector<calibration::CameraRays> rays_;  // per rig camera
   std::map<int, Plates> plates_;  // per location
-  std::map<std::pair<int, int>, Plane> planes_;  // (location, camera)
-  std::map<std::pair<long long, int>, PixelMask> regions_;  // (turntable micro-degrees, camera)
+  std::map<std::pair<int, int>, core::Plane> planes_;  // (location, camera)
+  std::map<std::pair<long long, int>, calibration::PixelMask> regions_;  // (turntable micro-degrees, camera)
 };
 
-}  // namespace mesocap
+}  // namespace mesocap::mdf

@@ -11,9 +11,9 @@
 #include "core/json_field_reader.h"
 #include "formats/sweep_analysis.h"
 
-namespace mesocap {
+namespace mesocap::mdf {
 
-CheckResult SpaceTimeOptions::Check() const {
+core::CheckResult SpaceTimeOptions::Check() const {
   if (!(threshold > 0 && threshold < 1)) return "threshold must be in (0, 1)";
   if (!(saturation > threshold && saturation <= 1)) return "saturation must be in (threshold, 1]";
   if (min_peak_separation < 2) return "min_peak_separation must be at least 2 frames";
@@ -23,9 +23,9 @@ CheckResult SpaceTimeOptions::Check() const {
 SpaceTimeAnalyzer::SpaceTimeAnalyzer(int width, int height, int frame_count, SpaceTimeOptions options)
     : width_(width), height_(height), frame_count_(frame_count), options_(options) {
   if (width <= 0 || height <= 0 || frame_count <= 0) {
-    throw Error("space-time analysis: image size and frame count must be positive");
+    throw core::Error("space-time analysis: image size and frame count must be positive");
   }
-  if (const auto problem = options.Check(); !problem.empty()) throw Error("space-time analysis: " + problem);
+  if (const auto problem = options.Check(); !problem.empty()) throw core::Error("space-time analysis: " + problem);
   const std::size_t n = static_cast<std::size_t>(width) * height;
   // Maxima below half the threshold are never tracked: the pixel is unknown
   // whatever they were, and the sensor noise of dark pixels, which keeps
@@ -51,14 +51,14 @@ SpaceTimeAnalyzer::SpaceTimeAnalyzer(int width, int height, int frame_count, Spa
   recent_maxima_.resize(options_.min_peak_separation);
 }
 
-void SpaceTimeAnalyzer::AddFrame(int index, const Image& frame) {
+void SpaceTimeAnalyzer::AddFrame(int index, const core::Image& frame) {
   if (frame.width() != width_ || frame.height() != height_ || frame.channels() != 1) {
-    throw Error("space-time analysis: frame " + std::to_string(index) + " is " + std::to_string(frame.width()) +
+    throw core::Error("space-time analysis: frame " + std::to_string(index) + " is " + std::to_string(frame.width()) +
                 "x" + std::to_string(frame.height()) + "x" + std::to_string(frame.channels()) + ", expected " +
                 std::to_string(width_) + "x" + std::to_string(height_) + "x1");
   }
   if (index <= last_index_ || index >= frame_count_) {
-    throw Error("space-time analysis: frame index " + std::to_string(index) + " after " +
+    throw core::Error("space-time analysis: frame index " + std::to_string(index) + " after " +
                 std::to_string(last_index_) + " (frames must increase, below " + std::to_string(frame_count_) + ")");
   }
   const float* values = frame.data();
@@ -170,8 +170,8 @@ void SpaceTimeAnalyzer::AddFrame(int index, const Image& frame) {
   ++frames_added_;
 }
 
-SweepAnalysis SpaceTimeAnalyzer::Result() const {
-  SweepAnalysis result;
+formats::SweepAnalysis SpaceTimeAnalyzer::Result() const {
+  formats::SweepAnalysis result;
   result.width = width_;
   result.height = height_;
   result.frame_count = frame_count_;
@@ -185,7 +185,7 @@ SweepAnalysis SpaceTimeAnalyzer::Result() const {
   // frame where one of them is missing: the first or last frame).
   auto vertex = [](int before_index, float before, int index, float value, int after_index, float after) {
     if (before_index < 0 || after_index < 0) return static_cast<float>(index);
-    return static_cast<float>(InterpolatePeak(before_index, before, index, value, after_index, after));
+    return static_cast<float>(calibration::InterpolatePeak(before_index, before, index, value, after_index, after));
   };
   for (std::size_t p = 0; p < n; ++p) {
     if (second_index_[p] >= 0 && second_[p] >= options_.threshold) {
@@ -205,4 +205,4 @@ SweepAnalysis SpaceTimeAnalyzer::Result() const {
   return result;
 }
 
-}  // namespace mesocap
+}  // namespace mesocap::mdf

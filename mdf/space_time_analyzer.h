@@ -18,7 +18,7 @@
 #include "core/image.h"
 #include "formats/sweep_analysis.h"
 
-namespace mesocap {
+namespace mesocap::mdf {
 
 struct SpaceTimeOptions {
   // Peak brightness below this (fraction of full scale) is "unknown". The
@@ -38,7 +38,7 @@ struct SpaceTimeOptions {
   // frames place edges no better than 5).
   int min_peak_separation = 5;
 
-  CheckResult Check() const;
+  core::CheckResult Check() const;
 };
 
 class SpaceTimeAnalyzer {
@@ -49,11 +49,11 @@ class SpaceTimeAnalyzer {
   // Frame `index` of the sweep (1 channel, the analyzer's size). Indices must
   // increase; a skipped index is a dropped frame: its neighbours' peaks are
   // interpolated over the real time gap. Throws Error otherwise.
-  void AddFrame(int index, const Image& frame);
+  void AddFrame(int index, const core::Image& frame);
   int frames_added() const { return frames_added_; }
 
   // The per-pixel result so far (planes left empty for the caller to fill).
-  SweepAnalysis Result() const;
+  formats::SweepAnalysis Result() const;
 
  private:
   // Per pixel, whatever the sweep length (structure of arrays): the arrays
@@ -96,4 +96,4 @@ class SpaceTimeAnalyzer {
   int frames_added_ = 0;
 };
 
-}  // namespace mesocap
+}  // namespace mesocap::mdf

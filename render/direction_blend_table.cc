@@ -4,7 +4,7 @@
 
 namespace mesocap::render {
 
-DirectionBlendTable MakeDirectionBlendTable(const SamplingSet& set, int phi_cells, int theta_cells) {
+DirectionBlendTable MakeDirectionBlendTable(const core::SamplingSet& set, int phi_cells, int theta_cells) {
   DirectionBlendTable table;
   table.phi_cells = phi_cells;
   table.theta_cells = theta_cells;
@@ -14,7 +14,7 @@ DirectionBlendTable MakeDirectionBlendTable(const SamplingSet& set, int phi_cell
     for (int p = 0; p < phi_cells; ++p) {
       const double theta = (t + 0.5) * (std::numbers::pi / 2) / theta_cells;
       const double phi = (p + 0.5) * (2 * std::numbers::pi) / phi_cells;
-      const SamplingSet::Blend blend = set.Interpolate(DirectionFromAngles(theta, phi));
+      const core::SamplingSet::Blend blend = set.Interpolate(core::DirectionFromAngles(theta, phi));
       const std::size_t cell = static_cast<std::size_t>(t) * phi_cells + p;
       table.index[cell] = {0, 0, 0, 0};
       table.weight[cell] = {0, 0, 0, 0};

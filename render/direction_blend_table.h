@@ -20,6 +20,6 @@ struct DirectionBlendTable {
   std::vector<std::array<float, 4>> weight;  // unused entries have weight 0 and index 0
 };
 
-DirectionBlendTable MakeDirectionBlendTable(const SamplingSet& set, int phi_cells = 128, int theta_cells = 64);
+DirectionBlendTable MakeDirectionBlendTable(const core::SamplingSet& set, int phi_cells = 128, int theta_cells = 64);
 
 }  // namespace mesocap::render

@@ -18,7 +18,7 @@ namespace {
 // 2D arrays, float depth with stencil, occlusion queries, gl_FragDepth).
 void ExpectGl45(const std::string& where) {
   if (epoxy_gl_version() < 45) {
-    throw Error(where + ": OpenGL 4.5 core is required, the driver offers " +
+    throw core::Error(where + ": OpenGL 4.5 core is required, the driver offers " +
                 std::to_string(epoxy_gl_version() / 10) + "." + std::to_string(epoxy_gl_version() % 10));
   }
 }
@@ -34,7 +34,7 @@ class EglContext : public GlContext {
  public:
   EglContext() {
     if (!epoxy_has_egl_extension(EGL_NO_DISPLAY, "EGL_EXT_platform_base")) {
-      throw Error("headless OpenGL: libEGL lacks EGL_EXT_platform_base (install libegl1 and libegl-mesa0)");
+      throw core::Error("headless OpenGL: libEGL lacks EGL_EXT_platform_base (install libegl1 and libegl-mesa0)");
     }
     std::string tried;
     if (epoxy_has_egl_extension(EGL_NO_DISPLAY, "EGL_MESA_platform_surfaceless")) {
@@ -52,31 +52,31 @@ class EglContext : public GlContext {
       tried += tried.empty() ? "EGL devices" : " and EGL devices";
     }
     if (display_ == EGL_NO_DISPLAY) {
-      throw Error("headless OpenGL: no EGL display (tried " + (tried.empty() ? std::string("nothing: neither "
+      throw core::Error("headless OpenGL: no EGL display (tried " + (tried.empty() ? std::string("nothing: neither "
                   "EGL_MESA_platform_surfaceless nor EGL_EXT_platform_device is offered") : tried) +
                   "; install libegl-mesa0 for Mesa's surfaceless platform)");
     }
     if (!eglBindAPI(EGL_OPENGL_API)) {
-      throw Error("headless OpenGL: the EGL display has no desktop OpenGL API (error " + EglErrorText() + ")");
+      throw core::Error("headless OpenGL: the EGL display has no desktop OpenGL API (error " + EglErrorText() + ")");
     }
     // Surface type 0: any config (the surfaceless platform offers pbuffer ones only).
     const EGLint config_attributes[] = {EGL_SURFACE_TYPE, 0, EGL_RENDERABLE_TYPE, EGL_OPENGL_BIT, EGL_NONE};
     EGLConfig config = nullptr;
     EGLint config_count = 0;
     if (!eglChooseConfig(display_, config_attributes, &config, 1, &config_count) || config_count < 1) {
-      throw Error("headless OpenGL: no EGL config with desktop OpenGL (error " + EglErrorText() + ")");
+      throw core::Error("headless OpenGL: no EGL config with desktop OpenGL (error " + EglErrorText() + ")");
     }
     const EGLint context_attributes[] = {EGL_CONTEXT_MAJOR_VERSION, 4, EGL_CONTEXT_MINOR_VERSION, 5,
                                          EGL_CONTEXT_OPENGL_PROFILE_MASK, EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT,
                                          EGL_NONE};
     context_ = eglCreateContext(display_, config, EGL_NO_CONTEXT, context_attributes);
     if (context_ == EGL_NO_CONTEXT) {
-      throw Error("headless OpenGL: the EGL driver cannot create an OpenGL 4.5 core context (error " +
+      throw core::Error("headless OpenGL: the EGL driver cannot create an OpenGL 4.5 core context (error " +
                   EglErrorText() + ")");
     }
     // Surfaceless: the renderer draws into framebuffer objects only.
     if (!eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, context_)) {
-      throw Error("headless OpenGL: cannot make the context current without a surface (error " +
+      throw core::Error("headless OpenGL: cannot make the context current without a surface (error " +
                   EglErrorText() + "; EGL_KHR_surfaceless_context missing?)");
     }
     ExpectGl45("headless OpenGL");
@@ -107,11 +107,11 @@ class GlfwContext : public GlContext {
     const char* x11 = std::getenv("DISPLAY");
     const char* wayland = std::getenv("WAYLAND_DISPLAY");
     if ((x11 == nullptr || *x11 == '\0') && (wayland == nullptr || *wayland == '\0')) {
-      throw Error("window: no display (neither DISPLAY nor WAYLAND_DISPLAY is set); use `mesocap render` for "
+      throw core::Error("window: no display (neither DISPLAY nor WAYLAND_DISPLAY is set); use `mesocap render` for "
                   "headless output");
     }
     glfwSetErrorCallback([](int, const char* text) { GlfwLastError() = text; });
-    if (!glfwInit()) throw Error("window: GLFW cannot initialise: " + GlfwLastError());
+    if (!glfwInit()) throw core::Error("window: GLFW cannot initialise: " + GlfwLastError());
     glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 4);
     glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 5);
     glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
@@ -119,7 +119,7 @@ class GlfwContext : public GlContext {
     window_ = glfwCreateWindow(width, height, title.c_str(), nullptr, nullptr);
     if (window_ == nullptr) {
       glfwTerminate();
-      throw Error("window: GLFW cannot create a window with an OpenGL 4.5 core context: " + GlfwLastError());
+      throw core::Error("window: GLFW cannot create a window with an OpenGL 4.5 core context: " + GlfwLastError());
     }
     glfwMakeContextCurrent(window_);
     ExpectGl45("window");

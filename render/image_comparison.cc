@@ -9,9 +9,9 @@
 namespace mesocap::render {
 namespace {
 
-void ExpectSameShape(const Image& a, const Image& b, bool same_channels = true) {
+void ExpectSameShape(const core::Image& a, const core::Image& b, bool same_channels = true) {
   if (a.width() != b.width() || a.height() != b.height() || (same_channels && a.channels() != b.channels())) {
-    throw Error("image comparison: sizes differ (" + std::to_string(a.width()) + "x" + std::to_string(a.height()) +
+    throw core::Error("image comparison: sizes differ (" + std::to_string(a.width()) + "x" + std::to_string(a.height()) +
                 "x" + std::to_string(a.channels()) + " vs " + std::to_string(b.width()) + "x" +
                 std::to_string(b.height()) + "x" + std::to_string(b.channels()) + ")");
   }
@@ -19,7 +19,7 @@ void ExpectSameShape(const Image& a, const Image& b, bool same_channels = true) 
 
 }  // namespace
 
-double MaskIou(const Image& a, const Image& b) {
+double MaskIou(const core::Image& a, const core::Image& b) {
   ExpectSameShape(a, b);
   long both = 0, either = 0;
   for (int y = 0; y < a.height(); ++y) {
@@ -32,7 +32,7 @@ double MaskIou(const Image& a, const Image& b) {
   return either == 0 ? 1.0 : static_cast<double>(both) / static_cast<double>(either);
 }
 
-double Psnr(const Image& a, const Image& b) {
+double Psnr(const core::Image& a, const core::Image& b) {
   ExpectSameShape(a, b);
   double sum = 0.0;
   for (std::size_t i = 0; i < a.size(); ++i) {
@@ -43,10 +43,10 @@ double Psnr(const Image& a, const Image& b) {
   return mse <= 1e-10 ? 100.0 : 10.0 * std::log10(1.0 / mse);
 }
 
-Image MaskDifference(const Image& rendered, const Image& truth, const Image& background) {
+core::Image MaskDifference(const core::Image& rendered, const core::Image& truth, const core::Image& background) {
   ExpectSameShape(rendered, truth);
   ExpectSameShape(background, truth, /*same_channels=*/false);
-  Image difference(truth.width(), truth.height(), 3);
+  core::Image difference(truth.width(), truth.height(), 3);
   for (int y = 0; y < truth.height(); ++y) {
     for (int x = 0; x < truth.width(); ++x) {
       const float grey = 0.4f * std::clamp(background.at(x, y), 0.0f, 1.0f);

@@ -9,17 +9,17 @@ namespace mesocap::render {
 
 // |A and B| / |A or B| of the pixels above 0.5 in channel 0; 1 when both
 // masks are empty. Throws Error when the sizes differ.
-double MaskIou(const Image& a, const Image& b);
+double MaskIou(const core::Image& a, const core::Image& b);
 
 // 10 log10(1 / MSE) over all channels, values clamped to [0, 1] first (the
 // displayable range at the scene's exposure); capped at 100 dB for equal
 // images. Throws Error when the sizes or channel counts differ.
-double Psnr(const Image& a, const Image& b);
+double Psnr(const core::Image& a, const core::Image& b);
 
 // Where two masks disagree, for a person to look at: red where only `truth`
 // is set, green where only `rendered` is, over a dim grey copy of
 // `background` (channel 0) so the places can be recognized. Throws Error
 // when the sizes differ.
-Image MaskDifference(const Image& rendered, const Image& truth, const Image& background);
+core::Image MaskDifference(const core::Image& rendered, const core::Image& truth, const core::Image& background);
 
 }  // namespace mesocap::render

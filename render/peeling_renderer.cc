@@ -61,7 +61,7 @@ GLuint Compile(GLenum type, const char* source) {
     char log[4096];
     glGetShaderInfoLog(shader, sizeof log, nullptr, log);
     glDeleteShader(shader);
-    throw Error(std::string("peeling renderer: the OpenGL driver rejects a shader: ") + log);
+    throw core::Error(std::string("peeling renderer: the OpenGL driver rejects a shader: ") + log);
   }
   return shader;
 }
@@ -81,7 +81,7 @@ GLuint MakeTextureArray(GLenum internal_format, GLenum format, int width, int he
   GLint max_layers = 0;
   glGetIntegerv(GL_MAX_ARRAY_TEXTURE_LAYERS, &max_layers);
   if (layers > max_layers) {
-    throw Error("peeling renderer: the material needs " + std::to_string(layers) +
+    throw core::Error("peeling renderer: the material needs " + std::to_string(layers) +
                 " texture array layers; the OpenGL driver allows " + std::to_string(max_layers));
   }
   GLuint texture = 0;
@@ -98,7 +98,7 @@ struct BlendTextures {
   GLuint weight = 0;
 };
 
-BlendTextures MakeBlendTextures(const SamplingSet& set) {
+BlendTextures MakeBlendTextures(const core::SamplingSet& set) {
   const DirectionBlendTable table = MakeDirectionBlendTable(set);
   BlendTextures t;
   glCreateTextures(GL_TEXTURE_2D, 1, &t.index);
@@ -130,21 +130,21 @@ GpuMaterial Upload(const RenderMaterial& m) {
   // MDF: no hit -> -1; unknown -> 0, i.e. the reference surface, which is
   // what BTF-only rendering assumes everywhere.
   std::vector<float> mdf(m.mdf.distance_mm.data(), m.mdf.distance_mm.data() + m.mdf.distance_mm.size());
-  for (float& d : mdf) d = IsNoHit(d) ? -1.0f : (IsUnknown(d) ? 0.0f : d);
+  for (float& d : mdf) d = core::IsNoHit(d) ? -1.0f : (core::IsUnknown(d) ? 0.0f : d);
   g.mdf = MakeTextureArray(GL_R32F, GL_RED, m.mdf.width, m.mdf.height, m.mdf.view_count(), mdf.data());
-  const FactoredBtf& btf = m.btf;
-  g.per_texel = btf.layout == BtfFactorLayout::kPerTexel;
+  const core::FactoredBtf& btf = m.btf;
+  g.per_texel = btf.layout == core::BtfFactorLayout::kPerTexel;
   g.rank = btf.rank();
   g.light_count = btf.light_count();
   const int layers_per_k = g.per_texel ? 1 : btf.light_count();
   std::vector<float> rows;
   rows.reserve(static_cast<std::size_t>(btf.rank()) * btf.rows[0].size());
-  for (const Image& r : btf.rows) rows.insert(rows.end(), r.data(), r.data() + r.size());
+  for (const core::Image& r : btf.rows) rows.insert(rows.end(), r.data(), r.data() + r.size());
   g.rows = MakeTextureArray(GL_RGB32F, GL_RGB, btf.width, btf.height, btf.rank() * layers_per_k, rows.data());
   g.columns = MakeTexture2d(GL_RGB32F, btf.columns.width(), btf.columns.height());
   glTextureSubImage2D(g.columns, 0, 0, 0, btf.columns.width(), btf.columns.height(), GL_RGB, GL_FLOAT,
                       btf.columns.data());
-  if (btf.color != BtfFactorColor::kRgb) g.factored_to_rgb = btf.rgb_to_factored.inverse().cast<float>();
+  if (btf.color != core::BtfFactorColor::kRgb) g.factored_to_rgb = btf.rgb_to_factored.inverse().cast<float>();
   g.ambient = MakeTextureArray(GL_RGB32F, GL_RGB, m.ambient.width, m.ambient.height, m.ambient.view_count(),
                                m.ambient.values.data());
   g.views = MakeBlendTextures(m.mdf.views);
@@ -226,7 +226,7 @@ struct PeelTargets {
     glNamedFramebufferRenderbuffer(front_fbo, GL_DEPTH_STENCIL_ATTACHMENT, GL_RENDERBUFFER, depth_stencil);
     glNamedFramebufferDrawBuffers(front_fbo, 2, two);
     if (glCheckNamedFramebufferStatus(front_fbo, GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
-      throw Error("peeling renderer: the OpenGL driver cannot render to float colour with a float depth + stencil "
+      throw core::Error("peeling renderer: the OpenGL driver cannot render to float colour with a float depth + stencil "
                   "buffer (GL_DEPTH32F_STENCIL8)");
     }
   }
@@ -255,10 +255,10 @@ RenderMode ParseRenderMode(const std::string& name) {
   for (const RenderMode mode : {RenderMode::kBtf, RenderMode::kSilhouette, RenderMode::kFull}) {
     if (name == ToString(mode)) return mode;
   }
-  throw Error("unknown render mode \"" + name + "\" (expected btf, silhouette or full)");
+  throw core::Error("unknown render mode \"" + name + "\" (expected btf, silhouette or full)");
 }
 
-CheckResult PeelingOptions::Check() const {
+core::CheckResult PeelingOptions::Check() const {
   if (width < 1 || height < 1 || width > 8192 || height > 8192) return "image size must be 1..8192 per side";
   if (passes < 0 || passes > kMaxStencilPasses) return "passes must be 0 (adaptive) or 1..254";
   if (max_passes < 1 || max_passes > kMaxStencilPasses) return "max_passes must be 1..254";
@@ -397,7 +397,7 @@ struct PeelingRenderer::Impl {
   }
 
   RenderResult Frame(const SceneCamera& camera, const SceneLight& scene_light, const PeelingOptions& options) {
-    if (const CheckResult problem = options.Check(); !problem.empty()) throw Error("render: " + problem);
+    if (const core::CheckResult problem = options.Check(); !problem.empty()) throw core::Error("render: " + problem);
     if (view.width != options.width || view.height != options.height) {
       if (view.width > 0) view.Destroy();
       view.Create(options.width, options.height);
@@ -458,7 +458,7 @@ struct PeelingRenderer::Impl {
     glFinish();
     result.frame_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     if (const GLenum error = glGetError(); error != GL_NO_ERROR) {
-      throw Error("peeling renderer: OpenGL error " + std::to_string(error) + " while rendering");
+      throw core::Error("peeling renderer: OpenGL error " + std::to_string(error) + " while rendering");
     }
     return result;
   }
@@ -479,7 +479,7 @@ PeelingRenderer::PeelingRenderer(const RenderScene& scene) : impl_(std::make_uni
   if (!ok) {
     char log[4096];
     glGetProgramInfoLog(s.program, sizeof log, nullptr, log);
-    throw Error(std::string("peeling renderer: the OpenGL driver cannot link the program: ") + log);
+    throw core::Error(std::string("peeling renderer: the OpenGL driver cannot link the program: ") + log);
   }
   const char* samplers[] = {"u_peel_now",    "u_zbo",          "u_mdf",          "u_rows",
                             "u_columns",     "u_ambient",      "u_view_index",   "u_view_weight",
@@ -491,7 +491,7 @@ PeelingRenderer::PeelingRenderer(const RenderScene& scene) : impl_(std::make_uni
   for (const SceneObject& o : scene.objects) s.meshes.push_back(Upload(o));
   std::tie(s.centre, s.radius) = scene.Bounds();
   if (const GLenum error = glGetError(); error != GL_NO_ERROR) {
-    throw Error("peeling renderer: OpenGL error " + std::to_string(error) + " while uploading the scene");
+    throw core::Error("peeling renderer: OpenGL error " + std::to_string(error) + " while uploading the scene");
   }
 }
 
@@ -526,9 +526,9 @@ RenderResult PeelingRenderer::Render(const SceneCamera& camera, const SceneLight
                     rgba.data());
   glGetTextureImage(impl_->view.masks, 0, GL_RGBA, GL_FLOAT, static_cast<GLsizei>(masks.size() * sizeof(float)),
                     masks.data());
-  result.color = Image(w, h, 3);
-  result.coverage = Image(w, h, 1);
-  result.shadow = Image(w, h, 1);
+  result.color = core::Image(w, h, 3);
+  result.coverage = core::Image(w, h, 1);
+  result.shadow = core::Image(w, h, 1);
   for (int y = 0; y < h; ++y) {
     for (int x = 0; x < w; ++x) {
       const std::size_t i = (static_cast<std::size_t>(h - 1 - y) * w + x) * 4;  // GL rows run bottom-up

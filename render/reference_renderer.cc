@@ -259,7 +259,7 @@ struct ReferenceRenderer::Impl {
     if (v == nullptr || i == nullptr) {
       rtcReleaseGeometry(geometry);
       rtcReleaseScene(scene);
-      throw Error("reference renderer: Embree cannot allocate " + what + " (" + std::to_string(face_count) +
+      throw core::Error("reference renderer: Embree cannot allocate " + what + " (" + std::to_string(face_count) +
                   " triangles)");
     }
     for (std::size_t k = 0; k < vertex_count; ++k) {
@@ -276,14 +276,14 @@ struct ReferenceRenderer::Impl {
     rtcCommitScene(scene);
     if (rtcGetDeviceError(device) != RTC_ERROR_NONE) {
       rtcReleaseScene(scene);
-      throw Error("reference renderer: Embree cannot build " + what);
+      throw core::Error("reference renderer: Embree cannot build " + what);
     }
     return scene;
   }
 
   void Build() {
     device = rtcNewDevice(nullptr);
-    if (device == nullptr) throw Error("reference renderer: Embree cannot create a device");
+    if (device == nullptr) throw core::Error("reference renderer: Embree cannot create a device");
     rtc_scene = BuildScene(
         vertices.size(), [&](std::size_t k) -> const Eigen::Vector3f& { return vertices[k].position; },
         triangles.size(), [&](std::size_t k) -> const std::array<int, 3>& { return triangles[k].vertex; },
@@ -407,7 +407,7 @@ ReferenceRenderer::ReferenceRenderer(const RenderScene& scene) : impl_(std::make
     }
     const RenderMaterial& material = scene.materials[object.material];
     if (!material.geometry) {
-      throw Error("reference renderer: material \"" + material.name + "\" of object \"" + object.name +
+      throw core::Error("reference renderer: material \"" + material.name + "\" of object \"" + object.name +
                   "\" has no true geometry (only simulated materials such as sim:brick have one)");
     }
     impl_->AddDisplaced(object, static_cast<int>(i), material);
@@ -425,7 +425,7 @@ std::size_t ReferenceRenderer::triangle_count() const { return impl_->triangles.
 
 ReferenceImage ReferenceRenderer::Render(const SceneCamera& camera, const SceneLight& light, int width,
                                          int height) const {
-  ReferenceImage image{Image(width, height, 3), Image(width, height, 1), Image(width, height, 1)};
+  ReferenceImage image{core::Image(width, height, 3), core::Image(width, height, 1), core::Image(width, height, 1)};
   const Eigen::Vector3d forward = (camera.look_at - camera.position).normalized();
   const Eigen::Vector3d right = forward.cross(camera.up).normalized();
   const Eigen::Vector3d up = right.cross(forward);

@@ -25,9 +25,9 @@
 namespace mesocap::render {
 
 struct ReferenceImage {
-  Image color;     // 3 channels, radiance times exposure, origin top-left
-  Image coverage;  // 1 channel
-  Image shadow;    // 1 channel
+  core::Image color;     // 3 channels, radiance times exposure, origin top-left
+  core::Image coverage;  // 1 channel
+  core::Image shadow;    // 1 channel
 };
 
 class ReferenceRenderer {

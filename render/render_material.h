@@ -19,9 +19,9 @@ struct RenderMaterial {
   std::string name;
   double sample_size_mm = 0.0;  // side of the square one texture unit covers
   double d_max_mm = 0.0;
-  FactoredBtf btf;
-  Mdf mdf;
-  AmbientTerm ambient;
+  core::FactoredBtf btf;
+  core::Mdf mdf;
+  formats::AmbientTerm ambient;
   // The geometry the material was made from (simulated materials only): the
   // reference renderer maps it onto meshes. Absent for measured materials.
   std::optional<sim::TileGeometry> geometry;

@@ -57,7 +57,7 @@ void AppendParametric(const std::function<Eigen::Vector3d(double, double)>& surf
 void ComputeTangentFrames(RenderMesh* mesh, double sample_size_mm) {
   const std::size_t n = mesh->positions.size();
   if (mesh->normals.size() != n || mesh->texcoords.size() != n) {
-    throw Error("mesh: positions, normals and texture coordinates differ in count");
+    throw core::Error("mesh: positions, normals and texture coordinates differ in count");
   }
   std::vector<Eigen::Vector3d> sum_dx(n, Eigen::Vector3d::Zero()), sum_dy(n, Eigen::Vector3d::Zero());
   std::vector<double> sum_lx(n, 0.0), sum_ly(n, 0.0), sum_area(n, 0.0);
@@ -225,7 +225,7 @@ RenderMesh MakeBox(const Eigen::Vector3d& min, const Eigen::Vector3d& max, doubl
 }
 
 RenderMesh LoadObjRenderMesh(const std::filesystem::path& file, double scale, Eigen::Vector2d tiles) {
-  const ObjMesh obj = ReadObjMesh(file);
+  const formats::ObjMesh obj = formats::ReadObjMesh(file);
   // Smooth normals for corners that give none: area-weighted face normals.
   std::vector<Eigen::Vector3d> smooth(obj.positions.size(), Eigen::Vector3d::Zero());
   for (const auto& t : obj.triangles) {
@@ -238,13 +238,13 @@ RenderMesh LoadObjRenderMesh(const std::filesystem::path& file, double scale, Ei
   for (const auto& t : obj.triangles) {
     Eigen::Vector3i triangle;
     for (int k = 0; k < 3; ++k) {
-      const ObjMesh::Corner& c = t[k];
-      if (c.texcoord < 0) throw FormatError(file, "f", "every face corner needs a texture coordinate (v/vt or v/vt/vn)");
+      const formats::ObjMesh::Corner& c = t[k];
+      if (c.texcoord < 0) throw core::FormatError(file, "f", "every face corner needs a texture coordinate (v/vt or v/vt/vn)");
       const auto key = std::make_tuple(c.position, c.texcoord, c.normal);
       auto [it, inserted] = vertex_of.try_emplace(key, mesh.vertex_count());
       if (inserted) {
         const Eigen::Vector3d n = c.normal >= 0 ? obj.normals[c.normal] : smooth[c.position];
-        if (!(n.norm() > 0)) throw FormatError(file, "vn", "a vertex has a zero normal (degenerate faces only)");
+        if (!(n.norm() > 0)) throw core::FormatError(file, "vn", "a vertex has a zero normal (degenerate faces only)");
         mesh.positions.push_back((scale * obj.positions[c.position]).cast<float>());
         mesh.normals.push_back(n.normalized().cast<float>());
         mesh.texcoords.push_back(obj.texcoords[c.texcoord].cwiseProduct(tiles).cast<float>());

@@ -13,23 +13,23 @@ namespace {
 
 constexpr double kDegree = std::numbers::pi / 180.0;
 
-Eigen::Vector3f Albedo(const JsonFieldReader& o, std::string_view key) {
+Eigen::Vector3f Albedo(const core::JsonFieldReader& o, std::string_view key) {
   const Eigen::Vector3d albedo = o.Has(key) ? o.Vector3(key) : Eigen::Vector3d::Constant(0.5);
   if (albedo.minCoeff() < 0 || albedo.maxCoeff() > 1) o.Fail(key, "expected three numbers in [0, 1]");
   return albedo.cast<float>();
 }
 
-Eigen::Vector2d Tiles(const JsonFieldReader& o) {
+Eigen::Vector2d Tiles(const core::JsonFieldReader& o) {
   const Eigen::Vector2d tiles = o.Has("tiles") ? o.Vector2("tiles") : Eigen::Vector2d(1, 1);
   if (!(tiles.minCoeff() > 0) || tiles.maxCoeff() > 1000) o.Fail("tiles", "expected two numbers in (0, 1000]");
   return tiles;
 }
 
-int Segments(const JsonFieldReader& o, std::string_view key, int fallback) {
+int Segments(const core::JsonFieldReader& o, std::string_view key, int fallback) {
   return o.Has(key) ? static_cast<int>(o.Integer(key, 3, 4096)) : fallback;
 }
 
-RenderMesh ReadShape(const JsonFieldReader& o, const std::filesystem::path& scene_dir) {
+RenderMesh ReadShape(const core::JsonFieldReader& o, const std::filesystem::path& scene_dir) {
   const std::string shape = o.Choice("shape", {"cylinder", "torus", "torus_knot", "box", "obj"});
   if (shape == "obj") {
     o.RejectUnknownMembers({"name", "shape", "file", "scale", "tiles", "material", "albedo", "translate",
@@ -87,14 +87,14 @@ RenderMaterial ResolvePackageMaterial(const std::string& spec, const std::filesy
 }
 
 RenderScene ReadRenderScene(const std::filesystem::path& file, const MaterialResolver& resolver) {
-  const nlohmann::json document = ReadJsonFile(file, 1 << 20);
-  const JsonFieldReader root(document, file);
+  const nlohmann::json document = core::ReadJsonFile(file, 1 << 20);
+  const core::JsonFieldReader root(document, file);
   root.ExpectFormat("mesocap.scene", 1);
   root.RejectUnknownMembers({"format", "version", "camera", "light", "exposure", "objects"});
   RenderScene scene;
   scene.file = file;
   {
-    const JsonFieldReader c = root.Object("camera");
+    const core::JsonFieldReader c = root.Object("camera");
     c.RejectUnknownMembers({"position", "look_at", "up", "fov_y_deg"});
     scene.camera.position = c.Vector3("position");
     scene.camera.look_at = c.Vector3("look_at");
@@ -107,7 +107,7 @@ RenderScene ReadRenderScene(const std::filesystem::path& file, const MaterialRes
     }
   }
   {
-    const JsonFieldReader l = root.Object("light");
+    const core::JsonFieldReader l = root.Object("light");
     l.RejectUnknownMembers({"position", "intensity", "ambient"});
     scene.light.position = l.Vector3("position");
     scene.light.intensity = l.Number("intensity", 0.0, 1e12);
@@ -116,7 +116,7 @@ RenderScene ReadRenderScene(const std::filesystem::path& file, const MaterialRes
   scene.exposure = root.NumberOr("exposure", 1.0, 1e-12, 1e12);
   const std::filesystem::path scene_dir = file.parent_path();
   std::vector<std::string> material_specs;
-  for (const JsonFieldReader& o : root.Objects("objects", 64)) {
+  for (const core::JsonFieldReader& o : root.Objects("objects", 64)) {
     SceneObject object;
     object.name = o.StringOr("name", "object");
     object.mesh = ReadShape(o, scene_dir);

@@ -17,8 +17,8 @@ sim::GroundTruthOptions SimMaterialGroundTruthOptions(const std::string& scene_n
   // grazing light changes faster in azimuth than 30-degree steps follow, and
   // the torus 8x3 cast-shadow outline showed it (shadow IoU 0.947 -> 0.955
   // at 320x240).
-  options.views = SamplingSet::RegularGrid(24, 8);
-  options.lights = SamplingSet::RegularGrid(12, 4);
+  options.views = core::SamplingSet::RegularGrid(24, 8);
+  options.lights = core::SamplingSet::RegularGrid(12, 4);
   return options;
 }
 

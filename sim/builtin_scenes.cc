@@ -244,7 +244,7 @@ TileGeometry BuiltinTileGeometry(const std::string& name) {
   }
   std::string known;
   for (const BuiltinScene& scene : kScenes) known += std::string(known.empty() ? "" : ", ") + scene.name;
-  throw Error("unknown scene '" + name + "'; built-in scenes: " + known);
+  throw core::Error("unknown scene '" + name + "'; built-in scenes: " + known);
 }
 
 std::unique_ptr<MesostructureScene> MakeBuiltinScene(const std::string& name) {

@@ -34,7 +34,7 @@ Eigen::Matrix3d RotationZ(double angle_rad) {
   return Eigen::AngleAxisd(angle_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
 }
 
-double ExposureSeconds(const drivers::CameraDescription& camera) { return camera.exposure_us * 1e-6; }
+double ExposureSeconds(const formats::CameraDescription& camera) { return camera.exposure_us * 1e-6; }
 
 // The laser is one colour; a grey sensor response to it sees the mean of
 // the RGB reflectance.
@@ -48,7 +48,7 @@ Eigen::Vector2d SubPixelOffset(int k, int n) {
 
 }  // namespace
 
-Eigen::Vector2d Distort(const Distortion& d, const Eigen::Vector2d& p) {
+Eigen::Vector2d Distort(const formats::Distortion& d, const Eigen::Vector2d& p) {
   const double x = p.x(), y = p.y();
   const double r2 = x * x + y * y;
   const double radial = 1.0 + r2 * (d.k1 + r2 * (d.k2 + r2 * d.k3));
@@ -56,7 +56,7 @@ Eigen::Vector2d Distort(const Distortion& d, const Eigen::Vector2d& p) {
           y * radial + d.p1 * (r2 + 2.0 * y * y) + 2.0 * d.p2 * x * y};
 }
 
-Eigen::Vector2d Undistort(const Distortion& d, const Eigen::Vector2d& distorted) {
+Eigen::Vector2d Undistort(const formats::Distortion& d, const Eigen::Vector2d& distorted) {
   // x = (x_d - tangential(x)) / radial(x): a contraction for real lenses'
   // distortion near the image, converging to double precision in a few
   // dozen steps.
@@ -75,30 +75,30 @@ Eigen::Vector2d Undistort(const Distortion& d, const Eigen::Vector2d& distorted)
   return p;
 }
 
-Eigen::Vector2d ProjectToPixel(const CameraCalibration& camera, const Eigen::Vector3d& world) {
-  const RigidTransform& pose = camera.pose.transform;  // world <- camera
+Eigen::Vector2d ProjectToPixel(const formats::CameraCalibration& camera, const Eigen::Vector3d& world) {
+  const core::RigidTransform& pose = camera.pose.transform;  // world <- camera
   const Eigen::Vector3d c = pose.rotation.transpose() * (world - pose.translation);
   const Eigen::Vector2d d = Distort(camera.distortion, Eigen::Vector2d(c.x() / c.z(), c.y() / c.z()));
-  const Intrinsics& k = camera.intrinsics;
+  const formats::Intrinsics& k = camera.intrinsics;
   return {k.fx * d.x() + k.cx, k.fy * d.y() + k.cy};
 }
 
-CameraRenderer::CameraRenderer(const MesostructureScene& scene, const drivers::RigDescription& rig,
+CameraRenderer::CameraRenderer(const MesostructureScene& scene, const formats::RigDescription& rig,
                                CameraRendererOptions options)
     : scene_(scene), rig_(rig), options_(options), calibration_(TrueCalibration(rig)) {
-  if (rig.backing.present() && rig.backing.depth_mm < scene.d_max_mm() + drivers::kMinBackingClearanceMm) {
+  if (rig.backing.present() && rig.backing.depth_mm < scene.d_max_mm() + formats::kMinBackingClearanceMm) {
     std::ostringstream message;
     message << "camera renderer: the backing of rig '" << rig.name << "' at " << rig.backing.depth_mm
-            << " mm lies within " << drivers::kMinBackingClearanceMm << " mm of the deepest point of scene '"
+            << " mm lies within " << formats::kMinBackingClearanceMm << " mm of the deepest point of scene '"
             << scene.name() << "' (d_max " << scene.d_max_mm()
             << " mm): use a rig description with a deeper sample.backing.depth_mm";
-    throw Error(message.str());
+    throw core::Error(message.str());
   }
   if (options_.samples_per_pixel_side < 1 || options_.samples_per_pixel_side > 16) {
-    throw Error("camera renderer: samples per pixel side must be 1..16");
+    throw core::Error("camera renderer: samples per pixel side must be 1..16");
   }
   if (options_.interreflection_rays_per_pixel < 0 || options_.interreflection_rays_per_pixel > 256) {
-    throw Error("camera renderer: interreflection rays per pixel must be 0..256");
+    throw core::Error("camera renderer: interreflection rays per pixel must be 0..256");
   }
 }
 
@@ -107,8 +107,8 @@ Eigen::Vector3d CameraRenderer::CameraCentre(int camera) const {
 }
 
 Eigen::Vector3d CameraRenderer::PixelRay(int camera, double u, double v) const {
-  const CameraCalibration& c = calibration_.cameras.at(camera);
-  const Intrinsics& k = c.intrinsics;
+  const formats::CameraCalibration& c = calibration_.cameras.at(camera);
+  const formats::Intrinsics& k = c.intrinsics;
   const Eigen::Vector2d n = Undistort(c.distortion, Eigen::Vector2d((u - k.cx) / k.fx, (v - k.cy) / k.fy));
   return (c.pose.transform.rotation * Eigen::Vector3d(n.x(), n.y(), 1.0)).normalized();
 }
@@ -170,7 +170,7 @@ ViewSample CameraRenderer::SampleHit(const Eigen::Vector3d& origin_world, const 
 
 template <typename HitFunction>
 CameraView CameraRenderer::Trace(int camera, double turntable_rad, const HitFunction& first_hit) const {
-  const CameraCalibration& c = calibration_.cameras.at(camera);
+  const formats::CameraCalibration& c = calibration_.cameras.at(camera);
   const int n = options_.samples_per_pixel_side;
   CameraView view;
   view.camera = camera;
@@ -249,7 +249,7 @@ std::optional<ViewSample> CameraRenderer::BounceHit(const CameraView& view, cons
   return out;
 }
 
-Image CameraRenderer::RenderLamps(const CameraView& view, double arc_rad, const std::vector<bool>& lamps_on) const {
+core::Image CameraRenderer::RenderLamps(const CameraView& view, double arc_rad, const std::vector<bool>& lamps_on) const {
   const Eigen::Matrix3d arc = RotationZ(arc_rad);
   struct Lamp {
     Eigen::Vector3d position;
@@ -261,7 +261,7 @@ Image CameraRenderer::RenderLamps(const CameraView& view, double arc_rad, const 
   }
   const double gain = ExposureSeconds(rig_.cameras.at(view.camera)) * kSignalPerRadianceSecond;
   const Eigen::Vector3d centre = CameraCentre(view.camera);
-  Image out(view.width, view.height, 3);
+  core::Image out(view.width, view.height, 3);
   tbb::parallel_for(0, view.height, [&](int y) {
     for (int x = 0; x < view.width; ++x) {
       Eigen::Vector3d sum = Eigen::Vector3d::Zero();
@@ -288,7 +288,7 @@ Image CameraRenderer::RenderLamps(const CameraView& view, double arc_rad, const 
 }
 
 LaserPlane CameraRenderer::LaserPlaneAt(int mount, double arc_rad, double tilt_rad) const {
-  const LaserMountCalibration& m = calibration_.laser_mounts.at(mount);
+  const formats::LaserMountCalibration& m = calibration_.laser_mounts.at(mount);
   const Eigen::Matrix3d arc = RotationZ(arc_rad);
   const Eigen::Vector3d normal = Eigen::AngleAxisd(tilt_rad, m.tilt_axis.normalized()) * m.plane_normal_at_zero_tilt;
   return {arc * m.source_mm, (arc * normal).normalized()};
@@ -311,7 +311,7 @@ struct CameraRenderer::RenderCache {
 
 CameraRenderer::RenderCache& CameraRenderer::CachedRender(const SimulatedRigState& state, int camera) {
   if (camera < 0 || camera >= static_cast<int>(rig_.cameras.size())) {
-    throw Error("camera renderer: no camera " + std::to_string(camera) + " in rig \"" + rig_.name + "\"");
+    throw core::Error("camera renderer: no camera " + std::to_string(camera) + " in rig \"" + rig_.name + "\"");
   }
   if (cache_.empty()) cache_.resize(rig_.cameras.size());
   std::shared_ptr<RenderCache>& entry = cache_[camera];
@@ -333,18 +333,18 @@ CameraRenderer::RenderCache& CameraRenderer::CachedRender(const SimulatedRigStat
   return *entry;
 }
 
-Image CameraRenderer::Render(const SimulatedRigState& state, int camera, int channels) {
+core::Image CameraRenderer::Render(const SimulatedRigState& state, int camera, int channels) {
   if (channels != 1 && channels != 3) {
-    throw Error("camera renderer: a readout has 1 or 3 channels, not " + std::to_string(channels));
+    throw core::Error("camera renderer: a readout has 1 or 3 channels, not " + std::to_string(channels));
   }
   const RenderCache& cached = CachedRender(state, camera);
   const bool any_lamp = std::find(state.lamps_on.begin(), state.lamps_on.end(), true) != state.lamps_on.end();
   if (!any_lamp && state.laser_on && channels == 1) return cached.sweep->Frame(state.laser_tilt_rad);
-  Image image = any_lamp ? RenderLamps(cached.view, state.light_arc_rad, state.lamps_on)
-                         : Image(cached.view.width, cached.view.height, channels);
-  if (channels == 1) image = ChannelMean(std::move(image));
+  core::Image image = any_lamp ? RenderLamps(cached.view, state.light_arc_rad, state.lamps_on)
+                         : core::Image(cached.view.width, cached.view.height, channels);
+  if (channels == 1) image = core::ChannelMean(std::move(image));
   if (state.laser_on) {
-    const Image stripe = cached.sweep->Frame(state.laser_tilt_rad);
+    const core::Image stripe = cached.sweep->Frame(state.laser_tilt_rad);
     for (int y = 0; y < image.height(); ++y) {
       for (int x = 0; x < image.width(); ++x) {
         for (int c = 0; c < channels; ++c) image.at(x, y, c) += stripe.at(x, y);
@@ -381,7 +381,7 @@ double WrapAngle(double x) {
 LaserSweepRenderer::LaserSweepRenderer(const CameraRenderer& renderer, const CameraView& view, int mount,
                                        double arc_rad)
     : width_(view.width), height_(view.height), sigma_mm_(renderer.rig().laser.stripe_sigma_mm) {
-  const LaserMountCalibration& m = renderer.calibration().laser_mounts.at(mount);
+  const formats::LaserMountCalibration& m = renderer.calibration().laser_mounts.at(mount);
   const Eigen::Matrix3d arc = RotationZ(arc_rad);
   source_ = arc * m.source_mm;
   const Eigen::Vector3d axis = arc * m.tilt_axis.normalized();
@@ -391,7 +391,7 @@ LaserSweepRenderer::LaserSweepRenderer(const CameraRenderer& renderer, const Cam
   const double gain = ExposureSeconds(renderer.rig().cameras.at(view.camera)) * kSignalPerRadianceSecond *
                       renderer.LaserPeakIrradiance();
   const Eigen::Vector3d centre = renderer.CameraCentre(view.camera);
-  const CameraCalibration& camera = renderer.calibration().cameras.at(view.camera);
+  const formats::CameraCalibration& camera = renderer.calibration().cameras.at(view.camera);
   const int side = renderer.options().samples_per_pixel_side;
   // Per row, the row's lit samples in pixel order, joined in order after.
   std::vector<std::vector<LitSample>> rows(view.height);
@@ -435,7 +435,7 @@ LaserSweepRenderer::StripeSample LaserSweepRenderer::Stripe(const Eigen::Vector3
   return out;
 }
 
-double StripeFootprintVariance(const CameraCalibration& camera, const ViewSample& sample,
+double StripeFootprintVariance(const formats::CameraCalibration& camera, const ViewSample& sample,
                                const Eigen::Vector3d& plane_normal, int samples_per_pixel_side) {
   // P(u, v) = C + z q(u, v) on the tangent plane, q the camera-frame ray
   // (x, y, 1) in the world: dP/du = z / fx (X - (n.X) / (n.Q) Q), Q = (P - C) / z.
@@ -582,11 +582,11 @@ std::size_t LaserSweepRenderer::BinOf(double begin) const {
   return static_cast<std::size_t>(std::clamp(b, 0.0, static_cast<double>(kTiltBins - 1)));
 }
 
-Image LaserSweepRenderer::Frame(double tilt_rad) const {
+core::Image LaserSweepRenderer::Frame(double tilt_rad) const {
   const double cos_t = std::cos(tilt_rad);
   const double sin_t = std::sin(tilt_rad);
   const float tilt = static_cast<float>(WrapAngle(tilt_rad));
-  Image out(width_, height_, 1);
+  core::Image out(width_, height_, 1);
   float* values = out.data();
   const auto add = [&](const LitSample& s) {
     if (!(s.begin <= tilt && tilt <= s.end)) return;

@@ -102,7 +102,7 @@ struct LaserPlane {
 class CameraRenderer : public FrameRenderer {
  public:
   // Keeps references to both; they must outlive the renderer.
-  CameraRenderer(const MesostructureScene& scene, const drivers::RigDescription& rig,
+  CameraRenderer(const MesostructureScene& scene, const formats::RigDescription& rig,
                  CameraRendererOptions options = {});
 
   // Lamps that are on plus the laser when on (added equally to R, G and B:
@@ -115,7 +115,7 @@ class CameraRenderer : public FrameRenderer {
   // traces each camera once per turntable angle and a sweep frame costs
   // only the stripe (the pieces below). The cache holds one camera view per
   // camera: samples_per_pixel_side^2 ViewSamples a pixel.
-  Image Render(const SimulatedRigState& state, int camera, int channels) override;
+  core::Image Render(const SimulatedRigState& state, int camera, int channels) override;
 
   // First hits of the camera's rays on the sample at a turntable angle.
   CameraView TraceSample(int camera, double turntable_rad) const;
@@ -130,7 +130,7 @@ class CameraRenderer : public FrameRenderer {
 
   // Signal of the lamps that are on (lamps_on[i] for lamp i) at light-arc
   // angle arc_rad; 3 channels (RGB), before the sensor (camera_sensor.h).
-  Image RenderLamps(const CameraView& view, double arc_rad, const std::vector<bool>& lamps_on) const;
+  core::Image RenderLamps(const CameraView& view, double arc_rad, const std::vector<bool>& lamps_on) const;
 
   // The laser plane of `mount` with the light arc at arc_rad and the emitter
   // at `tilt_rad`: the mount's plane at tilt 0 turned about its tilt axis by
@@ -157,8 +157,8 @@ class CameraRenderer : public FrameRenderer {
   Eigen::Vector3d CameraCentre(int camera) const;
   Eigen::Vector3d PixelRay(int camera, double u, double v) const;
 
-  const Calibration& calibration() const { return calibration_; }
-  const drivers::RigDescription& rig() const { return rig_; }
+  const formats::Calibration& calibration() const { return calibration_; }
+  const formats::RigDescription& rig() const { return rig_; }
   const CameraRendererOptions& options() const { return options_; }
 
  private:
@@ -175,9 +175,9 @@ class CameraRenderer : public FrameRenderer {
   RenderCache& CachedRender(const SimulatedRigState& state, int camera);
 
   const MesostructureScene& scene_;
-  const drivers::RigDescription& rig_;
+  const formats::RigDescription& rig_;
   CameraRendererOptions options_;
-  Calibration calibration_;
+  formats::Calibration calibration_;
   std::vector<std::shared_ptr<RenderCache>> cache_;  // per camera
 };
 
@@ -206,7 +206,7 @@ class LaserSweepRenderer {
   LaserSweepRenderer(const CameraRenderer& renderer, const CameraView& view, int mount, double arc_rad);
 
   // The stripe's signal at one tilt: 1 channel, before the sensor.
-  Image Frame(double tilt_rad) const;
+  core::Image Frame(double tilt_rad) const;
 
  private:
   // The signed distance of a sample from the plane at tilt t is
@@ -274,16 +274,16 @@ class LaserSweepRenderer {
 // corners); the tangent plane is taken at least kMinFootprintCosine from
 // edge-on, where the footprint would have no bound.
 inline constexpr double kMinFootprintCosine = 0.05;
-double StripeFootprintVariance(const CameraCalibration& camera, const ViewSample& sample,
+double StripeFootprintVariance(const formats::CameraCalibration& camera, const ViewSample& sample,
                                const Eigen::Vector3d& plane_normal, int samples_per_pixel_side);
 
 // Brown-Conrady (OpenCV) distortion of normalized image coordinates, and its
 // inverse by fixed-point iteration (at most 100 steps, stopping when a step
 // moves less than 1e-14): accurate to far below 1e-3 px for the moderate
 // distortion of real lenses.
-Eigen::Vector2d Distort(const Distortion& d, const Eigen::Vector2d& undistorted);
-Eigen::Vector2d Undistort(const Distortion& d, const Eigen::Vector2d& distorted);
+Eigen::Vector2d Distort(const formats::Distortion& d, const Eigen::Vector2d& undistorted);
+Eigen::Vector2d Undistort(const formats::Distortion& d, const Eigen::Vector2d& distorted);
 // Projects a world point to pixel coordinates with a camera's calibration.
-Eigen::Vector2d ProjectToPixel(const CameraCalibration& camera, const Eigen::Vector3d& world);
+Eigen::Vector2d ProjectToPixel(const formats::CameraCalibration& camera, const Eigen::Vector3d& world);
 
 }  // namespace mesocap::sim

@@ -91,13 +91,13 @@ class SplitMix64 {
 
 }  // namespace
 
-Image ApplySensor(const Image& signal, const drivers::CameraDescription& camera, std::mt19937_64& rng,
+core::Image ApplySensor(const core::Image& signal, const formats::CameraDescription& camera, std::mt19937_64& rng,
                   bool noise_on) {
   const double full_well = camera.full_well_electrons;
   const double max_code = MaxCode(camera);
   const double codes_per_electron = max_code / full_well;
   const double read_variance = camera.read_noise_electrons * camera.read_noise_electrons;
-  Image out(signal.width(), signal.height(), signal.channels());
+  core::Image out(signal.width(), signal.height(), signal.channels());
   // Rows are drawn in parallel, each from its own generator seeded by one
   // draw of `rng` and the row: the same image whatever the threads do.
   const DarkCodeTable dark(camera.read_noise_electrons * codes_per_electron, max_code);

@@ -15,7 +15,7 @@
 namespace mesocap::sim {
 
 // The sensor's digital range: codes 0 .. 2^bit_depth - 1.
-inline double MaxCode(const drivers::CameraDescription& camera) {
+inline double MaxCode(const formats::CameraDescription& camera) {
   return static_cast<double>((std::uint32_t{1} << camera.bit_depth) - 1);
 }
 
@@ -30,7 +30,7 @@ inline double MaxCode(const drivers::CameraDescription& camera) {
 // WriteImage stores in a 16-bit file without further rounding loss.
 // Deterministic for a given generator state (it takes one draw and seeds a
 // generator per row from it, so rows are drawn in parallel).
-Image ApplySensor(const Image& signal, const drivers::CameraDescription& camera, std::mt19937_64& rng,
+core::Image ApplySensor(const core::Image& signal, const formats::CameraDescription& camera, std::mt19937_64& rng,
                   bool noise_on);
 
 // A generator for one image, seeded from the run's seed and the image's

@@ -24,7 +24,7 @@ bool IsLampIndex(const std::string& device) {
          std::all_of(device.begin(), device.end(), [](char c) { return c >= '0' && c <= '9'; });
 }
 
-FaultRule ParseRule(const JsonFieldReader& f, FaultKind kind) {
+FaultRule ParseRule(const core::JsonFieldReader& f, FaultKind kind) {
   f.RejectUnknownMembers({"rate", "at", "device"});
   FaultRule rule;
   rule.kind = kind;
@@ -56,7 +56,7 @@ FaultRule ParseRule(const JsonFieldReader& f, FaultKind kind) {
   return rule;
 }
 
-FaultPlan Parse(const JsonFieldReader& root, bool is_file) {
+FaultPlan Parse(const core::JsonFieldReader& root, bool is_file) {
   std::vector<std::string_view> names;
   for (FaultKind k : kAllFaultKinds) names.push_back(FaultKindName(k));
   if (is_file) {
@@ -115,7 +115,7 @@ std::string_view FaultKindName(FaultKind kind) {
 
 std::string LampDeviceId(int lamp) { return std::to_string(lamp); }
 
-CheckResult FaultPlan::Check() const {
+core::CheckResult FaultPlan::Check() const {
   for (std::size_t i = 0; i < rules.size(); ++i) {
     const FaultRule& r = rules[i];
     if (r.rate.has_value() == !r.at.empty()) return RuleName(i, r) + ": expected either a rate or operation counts";
@@ -135,7 +135,7 @@ CheckResult FaultPlan::Check() const {
   return {};
 }
 
-CheckResult FaultPlan::Check(const drivers::RigDescription& rig) const {
+core::CheckResult FaultPlan::Check(const formats::RigDescription& rig) const {
   if (auto problem = Check(); !problem.empty()) return problem;
   for (std::size_t i = 0; i < rules.size(); ++i) {
     const FaultRule& r = rules[i];
@@ -154,17 +154,17 @@ CheckResult FaultPlan::Check(const drivers::RigDescription& rig) const {
 }
 
 FaultPlan ParseFaultPlan(const nlohmann::json& json, const std::filesystem::path& file, const std::string& where) {
-  if (!json.is_object()) throw FormatError(file, where, "expected an object of fault kinds");
-  return Parse(JsonFieldReader(json, file, where), false);
+  if (!json.is_object()) throw core::FormatError(file, where, "expected an object of fault kinds");
+  return Parse(core::JsonFieldReader(json, file, where), false);
 }
 
 FaultPlan ReadFaultPlan(const std::filesystem::path& file) {
-  const nlohmann::json json = ReadJsonFile(file, 16ull << 20);
-  if (!json.is_object()) throw FormatError(file, "", "expected an object");
-  return Parse(JsonFieldReader(json, file), true);
+  const nlohmann::json json = core::ReadJsonFile(file, 16ull << 20);
+  if (!json.is_object()) throw core::FormatError(file, "", "expected an object");
+  return Parse(core::JsonFieldReader(json, file), true);
 }
 
-FaultPlan FaultPlanOfRig(const drivers::RigDescription& rig) {
+FaultPlan FaultPlanOfRig(const formats::RigDescription& rig) {
   if (!rig.json.is_object() || !rig.json.contains("faults")) return {};
   return ParseFaultPlan(rig.json["faults"], "rig \"" + rig.name + "\"", "faults");
 }

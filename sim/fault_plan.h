@@ -87,10 +87,10 @@ struct FaultPlan {
   bool empty() const { return rules.empty(); }
   // A rule has exactly one of rate / at; rates in [0, 1]; counts from 1;
   // a lamp device is a lamp index. Empty when valid.
-  CheckResult Check() const;
+  core::CheckResult Check() const;
   // Check(), and that every device a rule names exists in `rig`, so a
   // misspelt camera id does not silently never fail.
-  CheckResult Check(const drivers::RigDescription& rig) const;
+  core::CheckResult Check(const formats::RigDescription& rig) const;
 };
 
 // Parses the object described above; errors name the file and the field.
@@ -100,7 +100,7 @@ FaultPlan ParseFaultPlan(const nlohmann::json& json, const std::filesystem::path
 // A file of its own ("format": "mesocap.faults", "version": 1).
 FaultPlan ReadFaultPlan(const std::filesystem::path& file);
 // The rig description's "faults" member, or an empty plan without one.
-FaultPlan FaultPlanOfRig(const drivers::RigDescription& rig);
+FaultPlan FaultPlanOfRig(const formats::RigDescription& rig);
 
 // When one kind of fault fires on one device: counts the device's
 // operations and draws against the rules that apply to it.

@@ -19,10 +19,10 @@ std::optional<SurfaceHit> FirstHitBelow(const MesostructureScene& scene, const E
 
 }  // namespace
 
-CheckResult GroundTruthOptions::Check() const {
-  if (texture_width < 1 || texture_height < 1 || texture_width > kMaxTextureSize ||
-      texture_height > kMaxTextureSize) {
-    return "texture size must be 1.." + std::to_string(kMaxTextureSize) + " texels per side";
+core::CheckResult GroundTruthOptions::Check() const {
+  if (texture_width < 1 || texture_height < 1 || texture_width > formats::kMaxTextureSize ||
+      texture_height > formats::kMaxTextureSize) {
+    return "texture size must be 1.." + std::to_string(formats::kMaxTextureSize) + " texels per side";
   }
   if (!(sample_size_mm > 0.0) || !std::isfinite(sample_size_mm)) return "sample size must be positive";
   if (views.size() == 0 || lights.size() == 0) return "view and light sets must not be empty";
@@ -34,30 +34,30 @@ Eigen::Vector3d TexelCentre(const GroundTruthOptions& o, int i, int j) {
   return {-s / 2 + (i + 0.5) * s / o.texture_width, -s / 2 + (j + 0.5) * s / o.texture_height, 0.0};
 }
 
-Mdf ComputeTrueMdf(const MesostructureScene& scene, const GroundTruthOptions& o) {
-  Mdf mdf = MakeMdf(o.texture_width, o.texture_height, o.views);
+core::Mdf ComputeTrueMdf(const MesostructureScene& scene, const GroundTruthOptions& o) {
+  core::Mdf mdf = core::MakeMdf(o.texture_width, o.texture_height, o.views);
   tbb::parallel_for(0, o.views.size() * o.texture_height, [&](int row) {
     const int v = row / o.texture_height;
     const int j = row % o.texture_height;
     const Eigen::Vector3d& view = o.views.direction(v);
     for (int i = 0; i < o.texture_width; ++i) {
       const auto hit = FirstHitBelow(scene, TexelCentre(o, i, j), view);
-      mdf.at(i, j, v) = hit ? static_cast<float>(hit->distance) : MdfNoHit();
+      mdf.at(i, j, v) = hit ? static_cast<float>(hit->distance) : core::MdfNoHit();
     }
   });
   return mdf;
 }
 
-FullBtf RenderTrueBtf(const MesostructureScene& scene, const GroundTruthOptions& options) {
-  FullBtf btf = MakeFullBtf(options.texture_width, options.texture_height, options.views, options.lights);
+core::FullBtf RenderTrueBtf(const MesostructureScene& scene, const GroundTruthOptions& options) {
+  core::FullBtf btf = core::MakeFullBtf(options.texture_width, options.texture_height, options.views, options.lights);
   for (int v = 0; v < options.views.size(); ++v) btf.view_images[v] = RenderTrueBtfView(scene, options, v);
   return btf;
 }
 
-Image RenderTrueBtfView(const MesostructureScene& scene, const GroundTruthOptions& o, int v) {
+core::Image RenderTrueBtfView(const MesostructureScene& scene, const GroundTruthOptions& o, int v) {
   const int w = o.texture_width;
   const int h = o.texture_height;
-  Image out(w, h * o.lights.size(), 3);
+  core::Image out(w, h * o.lights.size(), 3);
   const Eigen::Vector3d& view = o.views.direction(v);
   tbb::parallel_for(0, h, [&](int j) {
     for (int i = 0; i < w; ++i) {
@@ -80,7 +80,7 @@ Image RenderTrueBtfView(const MesostructureScene& scene, const GroundTruthOption
   return out;
 }
 
-void AccumulateAmbientTerm(const Image& btf_view, const SamplingSet& lights, int view, AmbientTerm* ambient) {
+void AccumulateAmbientTerm(const core::Image& btf_view, const core::SamplingSet& lights, int view, formats::AmbientTerm* ambient) {
   const int w = ambient->width;
   const int h = ambient->height;
   for (int l = 0; l < lights.size(); ++l) {
@@ -96,10 +96,10 @@ void AccumulateAmbientTerm(const Image& btf_view, const SamplingSet& lights, int
 }
 
 void WriteGroundTruthPackage(const MesostructureScene& scene, const GroundTruthOptions& o,
-                             const Calibration* calibration, const std::string& source,
-                             const std::filesystem::path& out, bool replace, Progress::Style progress_style) {
-  if (const auto problem = o.Check(); !problem.empty()) throw Error("ground truth: " + problem);
-  MaterialDescription d;
+                             const formats::Calibration* calibration, const std::string& source,
+                             const std::filesystem::path& out, bool replace, core::Progress::Style progress_style) {
+  if (const auto problem = o.Check(); !problem.empty()) throw core::Error("ground truth: " + problem);
+  formats::MaterialDescription d;
   d.name = scene.name();
   d.width = o.texture_width;
   d.height = o.texture_height;
@@ -108,16 +108,16 @@ void WriteGroundTruthPackage(const MesostructureScene& scene, const GroundTruthO
   d.view_directions = o.views;
   d.light_directions = o.lights;
   d.provenance.source = source;
-  MaterialPackageWriter writer(out, d, replace);
+  formats::MaterialPackageWriter writer(out, d, replace);
 
-  Progress progress("groundtruth " + scene.name(), o.views.size() + 1, progress_style);
+  core::Progress progress("groundtruth " + scene.name(), o.views.size() + 1, progress_style);
   writer.WriteMdf(ComputeTrueMdf(scene, o));
   progress.Advance();
 
-  AmbientTerm ambient{o.texture_width, o.texture_height, o.views,
-                      Image(o.texture_width, o.texture_height * o.views.size(), 3)};
+  formats::AmbientTerm ambient{o.texture_width, o.texture_height, o.views,
+                      core::Image(o.texture_width, o.texture_height * o.views.size(), 3)};
   for (int v = 0; v < o.views.size(); ++v) {
-    const Image view = RenderTrueBtfView(scene, o, v);
+    const core::Image view = RenderTrueBtfView(scene, o, v);
     AccumulateAmbientTerm(view, o.lights, v, &ambient);
     writer.WriteFullBtfView(v, view);
     progress.Advance();

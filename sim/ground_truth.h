@@ -27,10 +27,10 @@ struct GroundTruthOptions {
   int texture_width = 64;
   int texture_height = 64;
   double sample_size_mm = 20.0;
-  SamplingSet views = SamplingSet::Named("paper12x8");
-  SamplingSet lights = SamplingSet::Named("paper12x8");
+  core::SamplingSet views = core::SamplingSet::Named("paper12x8");
+  core::SamplingSet lights = core::SamplingSet::Named("paper12x8");
 
-  CheckResult Check() const;
+  core::CheckResult Check() const;
 };
 
 // Reference-plane point at the centre of texel (i, j).
@@ -38,28 +38,28 @@ Eigen::Vector3d TexelCentre(const GroundTruthOptions& options, int i, int j);
 
 // D(x, y, v) = distance from p(x, y) along -v to the first hit; MdfNoHit()
 // where the ray leaves the slab (through-holes).
-Mdf ComputeTrueMdf(const MesostructureScene& scene, const GroundTruthOptions& options);
+core::Mdf ComputeTrueMdf(const MesostructureScene& scene, const GroundTruthOptions& options);
 
 // One view of the BTF, in the layout of FullBtf::view_images (3 channels,
 // W x H * Nlight). T = f_r(n, l, v) (n . l) / cos(theta_l) at the first hit
 // seen along -v, zero where that point is shadowed from l or faces away, so a
 // flat Lambertian sample has T = albedo / pi. Rays through holes see a black
 // backing (T = 0).
-Image RenderTrueBtfView(const MesostructureScene& scene, const GroundTruthOptions& options, int view);
+core::Image RenderTrueBtfView(const MesostructureScene& scene, const GroundTruthOptions& options, int view);
 // Every view of it, in memory (for small grids: tests and benchmarks).
-FullBtf RenderTrueBtf(const MesostructureScene& scene, const GroundTruthOptions& options);
+core::FullBtf RenderTrueBtf(const MesostructureScene& scene, const GroundTruthOptions& options);
 
 // La(x, y, v) = sum over lights of T(x, y, v, l) cos(theta_l) w_l (the
 // light set's solid-angle weights): the radiance under a uniform sky of unit
 // radiance. Adds one view's contribution from its BTF view image.
-void AccumulateAmbientTerm(const Image& btf_view, const SamplingSet& lights, int view, AmbientTerm* ambient);
+void AccumulateAmbientTerm(const core::Image& btf_view, const core::SamplingSet& lights, int view, formats::AmbientTerm* ambient);
 
 // Writes the whole ground-truth material package (MDF in both forms, full
 // BTF, ambient term and, when given, the rig's true calibration) into `out`;
 // atomic. Reports progress per view in the given style.
 void WriteGroundTruthPackage(const MesostructureScene& scene, const GroundTruthOptions& options,
-                             const Calibration* calibration, const std::string& source,
+                             const formats::Calibration* calibration, const std::string& source,
                              const std::filesystem::path& out, bool replace,
-                             Progress::Style progress = Progress::Style::kAuto);
+                             core::Progress::Style progress = core::Progress::Style::kAuto);
 
 }  // namespace mesocap::sim

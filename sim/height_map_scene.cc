@@ -18,7 +18,7 @@ constexpr long kMaxPixels = 1024L * 1024L;
 
 // The height value of a pixel: its only channel, the grey of grey + alpha,
 // or the luminance (Rec. 709, linear) of RGB(A).
-float ValueAt(const Image& image, int x, int y) {
+float ValueAt(const core::Image& image, int x, int y) {
   if (image.channels() <= 2) return image.at(x, y, 0);
   return 0.2126f * image.at(x, y, 0) + 0.7152f * image.at(x, y, 1) + 0.0722f * image.at(x, y, 2);
 }
@@ -29,16 +29,16 @@ std::unique_ptr<MesostructureScene> LoadHeightMapScene(const fs::path& image_fil
                                                        double depth_mm) {
   if (!(tile_size_mm > 0.0) || !std::isfinite(tile_size_mm) || !(depth_mm > 0.0) ||
       !std::isfinite(depth_mm)) {
-    throw Error(image_file.string() + ": height map tile size and depth must be positive and finite, got " +
+    throw core::Error(image_file.string() + ": height map tile size and depth must be positive and finite, got " +
                 std::to_string(tile_size_mm) + " and " + std::to_string(depth_mm) + " mm");
   }
-  const ImageHeader header = ReadImageHeader(image_file);
+  const core::ImageHeader header = core::ReadImageHeader(image_file);
   if (static_cast<long>(header.width) * header.height > kMaxPixels) {
-    throw FormatError(image_file, "size",
+    throw core::FormatError(image_file, "size",
                       "a height map may have at most " + std::to_string(kMaxPixels) + " pixels, got " +
                           std::to_string(header.width) + "x" + std::to_string(header.height));
   }
-  const Image image = ReadImage(image_file);
+  const core::Image image = core::ReadImage(image_file);
   const int w = image.width();
   const int h = image.height();
 
@@ -49,7 +49,7 @@ std::unique_ptr<MesostructureScene> LoadHeightMapScene(const fs::path& image_fil
     for (int x = 0; x <= w; ++x) {
       const float value = ValueAt(image, x % w, y % h);
       if (!(value >= 0.0f && value <= 1.0f)) {
-        throw FormatError(image_file, "pixel (" + std::to_string(x % w) + ", " + std::to_string(y % h) + ")",
+        throw core::FormatError(image_file, "pixel (" + std::to_string(x % w) + ", " + std::to_string(y % h) + ")",
                           "height value " + std::to_string(value) + " is outside [0, 1]");
       }
       g.AddVertex({(x + 0.5) * tile_size_mm / w, (y + 0.5) * tile_size_mm / h, -depth_mm * (1.0 - value)});

@@ -15,9 +15,9 @@ namespace fs = std::filesystem;
 
 std::unique_ptr<MesostructureScene> LoadObjScene(const fs::path& obj, double scale) {
   if (!(scale > 0.0) || !std::isfinite(scale)) {
-    throw Error(obj.string() + ": OBJ scale must be positive and finite, got " + std::to_string(scale));
+    throw core::Error(obj.string() + ": OBJ scale must be positive and finite, got " + std::to_string(scale));
   }
-  const ObjMesh obj_mesh = ReadObjMesh(obj);
+  const formats::ObjMesh obj_mesh = formats::ReadObjMesh(obj);
   struct {
     std::vector<Eigen::Vector3d> vertices;
     std::vector<Eigen::Vector3i> triangles;
@@ -39,11 +39,11 @@ std::unique_ptr<MesostructureScene> LoadObjScene(const fs::path& obj, double sca
     hi = hi.cwiseMax(v);
   }
   const Eigen::Vector3d extent = hi - lo;
-  if (!extent.allFinite()) throw FormatError(obj, "v", "coordinates overflow after scaling");
-  if (!(extent.x() > 0.0)) throw FormatError(obj, "v", "the mesh has no extent in x");
+  if (!extent.allFinite()) throw core::FormatError(obj, "v", "coordinates overflow after scaling");
+  if (!(extent.x() > 0.0)) throw core::FormatError(obj, "v", "the mesh has no extent in x");
   // The x, y extent is one tile: a tile must be square.
   if (std::abs(extent.y() - extent.x()) > 0.01 * extent.x()) {
-    throw FormatError(obj, "v",
+    throw core::FormatError(obj, "v",
                       "x and y extents must be equal within 1% (one square tile), got " +
                           std::to_string(extent.x()) + " and " + std::to_string(extent.y()) + " mm");
   }
@@ -58,7 +58,7 @@ std::unique_ptr<MesostructureScene> LoadObjScene(const fs::path& obj, double sca
     const Eigen::Vector3d& a = g.vertices[used[t[0]]];
     any_area |= (g.vertices[used[t[1]]] - a).cross(g.vertices[used[t[2]]] - a).squaredNorm() > 0.0;
   }
-  if (!any_area) throw FormatError(obj, "f", "every face has zero area");
+  if (!any_area) throw core::FormatError(obj, "f", "every face has zero area");
   return MakeTiledScene(std::move(g));
 }
 

@@ -13,6 +13,6 @@ std::vector<std::string> ShippedRigNames();
 
 // A shipped rig by name, or else a rig description file by path. Throws Error
 // listing the shipped names when neither exists.
-drivers::RigDescription LoadRig(const std::string& name_or_path);
+formats::RigDescription LoadRig(const std::string& name_or_path);
 
 }  // namespace mesocap::sim

@@ -40,7 +40,7 @@ std::string Range(double min, double max, const char* unit) {
 
 // ---------------------------------------------------------------- camera
 
-SimulatedCamera::SimulatedCamera(const drivers::RigDescription& rig, int camera_index,
+SimulatedCamera::SimulatedCamera(const formats::RigDescription& rig, int camera_index,
                                  std::shared_ptr<SimulatedRigState> state, FrameRenderer& renderer,
                                  const FaultPlan& faults, std::uint64_t seed, SensorModel sensor)
     : state_(std::move(state)),
@@ -49,7 +49,7 @@ SimulatedCamera::SimulatedCamera(const drivers::RigDescription& rig, int camera_
       description_(rig.cameras.at(camera_index)),
       seed_(seed),
       sensor_(sensor) {
-  const drivers::CameraDescription& d = rig.cameras.at(camera_index);
+  const formats::CameraDescription& d = rig.cameras.at(camera_index);
   info_.id = d.id;
   info_.model = "mesocap simulated camera";
   info_.sensor_width = d.width;
@@ -152,10 +152,10 @@ drivers::Frame SimulatedCamera::Grab(std::chrono::milliseconds timeout) {
   frame.settings = settings_;
   frame.bit_depth = info_.bit_depth;
   const int channels = settings_.pixel_format == drivers::PixelFormat::kMono ? 1 : info_.channels;
-  Image full = renderer_->Render(*state_, index_, channels);
+  core::Image full = renderer_->Render(*state_, index_, channels);
   state_->clock_s += exposure_s;
   if (full.width() != info_.sensor_width || full.height() != info_.sensor_height || full.channels() != channels) {
-    throw Error("camera " + info_.id + ": the frame renderer gave a " + std::to_string(full.width()) + " x " +
+    throw core::Error("camera " + info_.id + ": the frame renderer gave a " + std::to_string(full.width()) + " x " +
                 std::to_string(full.height()) + " x " + std::to_string(full.channels()) + " image for a " +
                 std::to_string(info_.sensor_width) + " x " + std::to_string(info_.sensor_height) + " x " +
                 std::to_string(channels) + " readout");
@@ -167,11 +167,11 @@ drivers::Frame SimulatedCamera::Grab(std::chrono::milliseconds timeout) {
   // The renderer's signal is at the description's exposure and 0 dB.
   const double scale =
       settings_.exposure_us / reference_exposure_us_ * std::pow(10.0, settings_.gain_db / 20.0);
-  Image signal;
+  core::Image signal;
   if (width == info_.sensor_width && height == info_.sensor_height && scale == 1.0) {
     signal = std::move(full);  // the whole sensor at the description's exposure: nothing to cut or scale
   } else {
-    signal = Image(width, height, channels);
+    signal = core::Image(width, height, channels);
     for (int y = 0; y < height; ++y) {
       for (int x = 0; x < width; ++x) {
         const float* in = full.pixel(r.x + x, r.y + y);
@@ -236,7 +236,7 @@ std::uint64_t SimulatedCamera::ImagedStateKey() const {
 
 // ---------------------------------------------------------------- stages
 
-SimulatedRotaryStage::SimulatedRotaryStage(const drivers::RigDescription& rig, Axis axis,
+SimulatedRotaryStage::SimulatedRotaryStage(const formats::RigDescription& rig, Axis axis,
                                            std::shared_ptr<SimulatedRigState> state, const FaultPlan& faults,
                                            std::uint64_t seed)
     : state_(std::move(state)),
@@ -377,7 +377,7 @@ double SimulatedRotaryStage::Position() const {
 
 // ---------------------------------------------------------------- lamps
 
-SimulatedLampBank::SimulatedLampBank(const drivers::RigDescription& rig, std::shared_ptr<SimulatedRigState> state,
+SimulatedLampBank::SimulatedLampBank(const formats::RigDescription& rig, std::shared_ptr<SimulatedRigState> state,
                                      const FaultPlan& faults, std::uint64_t seed)
     : state_(std::move(state)) {
   const int count = static_cast<int>(rig.lamps.elevations_rad.size());
@@ -418,7 +418,7 @@ bool SimulatedLampBank::IsDead(int index) const {
 
 // ---------------------------------------------------------------- laser
 
-SimulatedLaserUnit::SimulatedLaserUnit(const drivers::RigDescription& rig, std::shared_ptr<SimulatedRigState> state)
+SimulatedLaserUnit::SimulatedLaserUnit(const formats::RigDescription& rig, std::shared_ptr<SimulatedRigState> state)
     : state_(std::move(state)), mount_count_(static_cast<int>(rig.laser.mount_elevations_rad.size())) {}
 
 void SimulatedLaserUnit::SetEnabled(bool on) { state_->laser_on = on; }

@@ -58,7 +58,7 @@ enum class SensorModel {
 // exposure and one sequence number, and the camera goes on to the next.
 class SimulatedCamera : public drivers::Camera {
  public:
-  SimulatedCamera(const drivers::RigDescription& rig, int camera_index,
+  SimulatedCamera(const formats::RigDescription& rig, int camera_index,
                   std::shared_ptr<SimulatedRigState> state, FrameRenderer& renderer,
                   const FaultPlan& faults, std::uint64_t seed, SensorModel sensor = SensorModel::kNoisy);
 
@@ -86,7 +86,7 @@ class SimulatedCamera : public drivers::Camera {
   std::shared_ptr<SimulatedRigState> state_;
   FrameRenderer* renderer_;
   int index_;
-  drivers::CameraDescription description_;
+  formats::CameraDescription description_;
   std::uint64_t seed_;
   SensorModel sensor_;
   std::uint64_t last_state_key_ = 0;
@@ -117,7 +117,7 @@ class SimulatedRotaryStage : public drivers::RotaryStage {
   enum class Axis { kTurntable, kLightArc };
   static constexpr double kHomingApproachS = 1.0;
 
-  SimulatedRotaryStage(const drivers::RigDescription& rig, Axis axis,
+  SimulatedRotaryStage(const formats::RigDescription& rig, Axis axis,
                        std::shared_ptr<SimulatedRigState> state, const FaultPlan& faults,
                        std::uint64_t seed);
 
@@ -169,7 +169,7 @@ class SimulatedRotaryStage : public drivers::RotaryStage {
 // The lamps on the light arc; state.lamps_on has one entry per lamp.
 class SimulatedLampBank : public drivers::LampBank {
  public:
-  SimulatedLampBank(const drivers::RigDescription& rig, std::shared_ptr<SimulatedRigState> state,
+  SimulatedLampBank(const formats::RigDescription& rig, std::shared_ptr<SimulatedRigState> state,
                     const FaultPlan& faults, std::uint64_t seed);
 
   int lamp_count() const override { return static_cast<int>(failure_.size()); }
@@ -192,7 +192,7 @@ class SimulatedLaserUnit : public drivers::LaserUnit {
   static constexpr double kMaxTiltRad = 0.7853981633974483;  // 45 degrees
   static constexpr double kTiltSpeedRadPerS = 0.5235987755982988;  // 30 degrees/s
 
-  SimulatedLaserUnit(const drivers::RigDescription& rig, std::shared_ptr<SimulatedRigState> state);
+  SimulatedLaserUnit(const formats::RigDescription& rig, std::shared_ptr<SimulatedRigState> state);
 
   void SetEnabled(bool on) override;
   bool IsEnabled() const override { return state_->laser_on; }

@@ -11,40 +11,40 @@ SimulatedRigBackend::SimulatedRigBackend(FrameRenderer& renderer, FaultPlan faul
       faults_(std::move(faults)),
       seed_(seed),
       sensor_(sensor) {
-  if (auto problem = faults_.Check(); !problem.empty()) throw Error("simulated rig: " + problem);
+  if (auto problem = faults_.Check(); !problem.empty()) throw core::Error("simulated rig: " + problem);
 }
 
-void SimulatedRigBackend::CheckFaultsAgainst(const drivers::RigDescription& rig) const {
-  if (auto problem = faults_.Check(rig); !problem.empty()) throw Error("simulated rig: " + problem);
+void SimulatedRigBackend::CheckFaultsAgainst(const formats::RigDescription& rig) const {
+  if (auto problem = faults_.Check(rig); !problem.empty()) throw core::Error("simulated rig: " + problem);
 }
 
-std::unique_ptr<drivers::Camera> SimulatedRigBackend::MakeCamera(const drivers::RigDescription& rig,
+std::unique_ptr<drivers::Camera> SimulatedRigBackend::MakeCamera(const formats::RigDescription& rig,
                                                                  int camera_index) {
   CheckFaultsAgainst(rig);
   if (camera_index < 0 || camera_index >= static_cast<int>(rig.cameras.size())) {
-    throw Error("simulated rig: no camera " + std::to_string(camera_index) + " in rig \"" + rig.name + "\"");
+    throw core::Error("simulated rig: no camera " + std::to_string(camera_index) + " in rig \"" + rig.name + "\"");
   }
   return std::make_unique<SimulatedCamera>(rig, camera_index, state_, renderer_, faults_, seed_, sensor_);
 }
 
 // The two stages are one class; which state angle each drives follows from
 // which virtual BuildRig calls.
-std::unique_ptr<drivers::RotaryStage> SimulatedRigBackend::MakeTurntable(const drivers::RigDescription& rig) {
+std::unique_ptr<drivers::RotaryStage> SimulatedRigBackend::MakeTurntable(const formats::RigDescription& rig) {
   CheckFaultsAgainst(rig);
   return std::make_unique<SimulatedRotaryStage>(rig, SimulatedRotaryStage::Axis::kTurntable, state_, faults_, seed_);
 }
 
-std::unique_ptr<drivers::RotaryStage> SimulatedRigBackend::MakeLightArc(const drivers::RigDescription& rig) {
+std::unique_ptr<drivers::RotaryStage> SimulatedRigBackend::MakeLightArc(const formats::RigDescription& rig) {
   CheckFaultsAgainst(rig);
   return std::make_unique<SimulatedRotaryStage>(rig, SimulatedRotaryStage::Axis::kLightArc, state_, faults_, seed_);
 }
 
-std::unique_ptr<drivers::LampBank> SimulatedRigBackend::MakeLampBank(const drivers::RigDescription& rig) {
+std::unique_ptr<drivers::LampBank> SimulatedRigBackend::MakeLampBank(const formats::RigDescription& rig) {
   CheckFaultsAgainst(rig);
   return std::make_unique<SimulatedLampBank>(rig, state_, faults_, seed_);
 }
 
-std::unique_ptr<drivers::LaserUnit> SimulatedRigBackend::MakeLaserUnit(const drivers::RigDescription& rig) {
+std::unique_ptr<drivers::LaserUnit> SimulatedRigBackend::MakeLaserUnit(const formats::RigDescription& rig) {
   CheckFaultsAgainst(rig);
   return std::make_unique<SimulatedLaserUnit>(rig, state_);
 }

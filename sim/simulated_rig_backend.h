@@ -28,11 +28,11 @@ class SimulatedRigBackend : public drivers::RigBackend {
 
   std::string name() const override { return "sim"; }
   // Each throws Error when the fault plan names a device `rig` lacks.
-  std::unique_ptr<drivers::Camera> MakeCamera(const drivers::RigDescription& rig, int camera_index) override;
-  std::unique_ptr<drivers::RotaryStage> MakeTurntable(const drivers::RigDescription& rig) override;
-  std::unique_ptr<drivers::RotaryStage> MakeLightArc(const drivers::RigDescription& rig) override;
-  std::unique_ptr<drivers::LampBank> MakeLampBank(const drivers::RigDescription& rig) override;
-  std::unique_ptr<drivers::LaserUnit> MakeLaserUnit(const drivers::RigDescription& rig) override;
+  std::unique_ptr<drivers::Camera> MakeCamera(const formats::RigDescription& rig, int camera_index) override;
+  std::unique_ptr<drivers::RotaryStage> MakeTurntable(const formats::RigDescription& rig) override;
+  std::unique_ptr<drivers::RotaryStage> MakeLightArc(const formats::RigDescription& rig) override;
+  std::unique_ptr<drivers::LampBank> MakeLampBank(const formats::RigDescription& rig) override;
+  std::unique_ptr<drivers::LaserUnit> MakeLaserUnit(const formats::RigDescription& rig) override;
 
   // Shared with every device made here (std::shared_ptr), so devices stay
   // valid when a Rig outlives the backend that built it, and a renderer or
@@ -44,7 +44,7 @@ class SimulatedRigBackend : public drivers::RigBackend {
   std::uint64_t seed() const { return seed_; }
 
  private:
-  void CheckFaultsAgainst(const drivers::RigDescription& rig) const;
+  void CheckFaultsAgainst(const formats::RigDescription& rig) const;
 
   std::shared_ptr<SimulatedRigState> state_;
   FrameRenderer& renderer_;

@@ -34,7 +34,7 @@ struct SimulatedRigState {
 class FrameRenderer {
  public:
   virtual ~FrameRenderer() = default;
-  virtual Image Render(const SimulatedRigState& state, int camera, int channels) = 0;
+  virtual core::Image Render(const SimulatedRigState& state, int camera, int channels) = 0;
 };
 
 }  // namespace mesocap::sim

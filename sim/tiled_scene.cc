@@ -124,11 +124,11 @@ void TiledScene::BuildEmbreeScene() {
       }
     }
   }
-  if (triangles.empty()) throw Error("scene '" + g.name + "': every triangle has zero area");
+  if (triangles.empty()) throw core::Error("scene '" + g.name + "': every triangle has zero area");
 
   device_.reset(rtcNewDevice(nullptr));
   if (!device_) {
-    throw Error("Embree: cannot create a device (error " + std::to_string(rtcGetDeviceError(nullptr)) + ")");
+    throw core::Error("Embree: cannot create a device (error " + std::to_string(rtcGetDeviceError(nullptr)) + ")");
   }
   scene_.reset(rtcNewScene(device_.get()));
   // ROBUST keeps the triangle test watertight along shared edges (the base's
@@ -142,7 +142,7 @@ void TiledScene::BuildEmbreeScene() {
       mesh, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(std::uint32_t), triangles.size()));
   if (vertex_buffer == nullptr || index_buffer == nullptr) {
     rtcReleaseGeometry(mesh);
-    throw Error("Embree: cannot allocate the buffers of scene '" + g.name + "'");
+    throw core::Error("Embree: cannot allocate the buffers of scene '" + g.name + "'");
   }
   for (std::size_t v = 0; v < vertices.size(); ++v) {
     for (int k = 0; k < 3; ++k) vertex_buffer[3 * v + k] = static_cast<float>(vertices[v][k]);
@@ -155,7 +155,7 @@ void TiledScene::BuildEmbreeScene() {
   rtcReleaseGeometry(mesh);
   rtcCommitScene(scene_.get());
   if (const RTCError error = rtcGetDeviceError(device_.get()); error != RTC_ERROR_NONE) {
-    throw Error("Embree: cannot build scene '" + g.name + "' (error " + std::to_string(error) + ")");
+    throw core::Error("Embree: cannot build scene '" + g.name + "' (error " + std::to_string(error) + ")");
   }
 }
 

@@ -23,10 +23,10 @@ Eigen::Matrix3d LookAtOrigin(const Eigen::Vector3d& centre) {
 
 }  // namespace
 
-Calibration TrueCalibration(const drivers::RigDescription& rig) {
-  Calibration c;
+formats::Calibration TrueCalibration(const formats::RigDescription& rig) {
+  formats::Calibration c;
   for (const auto& cam : rig.cameras) {
-    CameraCalibration out;
+    formats::CameraCalibration out;
     out.id = cam.id;
     out.width = cam.width;
     out.height = cam.height;
@@ -40,31 +40,31 @@ Calibration TrueCalibration(const drivers::RigDescription& rig) {
     out.distortion.k3 = cam.distortion[4];
     out.pose.transform.parent_frame = "world";
     out.pose.transform.child_frame = "camera:" + cam.id;
-    const Eigen::Vector3d centre = drivers::CameraCentre(cam);
+    const Eigen::Vector3d centre = calibration::CameraCentre(cam);
     out.pose.transform.rotation = LookAtOrigin(centre);
     out.pose.transform.translation = centre;
     // Every simulated camera renders with the same exact gain.
-    out.radiometry = CameraRadiometry{.signal_per_radiance_second = kSignalPerRadianceSecond, .uncertainty = {}};
+    out.radiometry = formats::CameraRadiometry{.signal_per_radiance_second = kSignalPerRadianceSecond, .uncertainty = {}};
     c.cameras.push_back(out);
   }
   c.turntable.sample_pose.transform.parent_frame = "turntable";
   c.turntable.sample_pose.transform.child_frame = "sample";
   for (int i = 0; i < static_cast<int>(rig.lamps.elevations_rad.size()); ++i) {
-    LampCalibration lamp;
+    formats::LampCalibration lamp;
     lamp.id = "lamp" + std::to_string(i);
-    lamp.position_mm = drivers::LampPosition(rig.lamps, i, 0.0);
+    lamp.position_mm = calibration::LampPosition(rig.lamps, i, 0.0);
     lamp.intensity = rig.lamps.intensity;
     c.lamps.push_back(lamp);
   }
   const auto& laser = rig.laser;
   for (int m = 0; m < static_cast<int>(laser.mount_elevations_rad.size()); ++m) {
-    LaserMountCalibration mount;
+    formats::LaserMountCalibration mount;
     mount.id = "mount" + std::to_string(m);
-    mount.source_mm = drivers::LaserSource(laser, {m, 0.0});
-    mount.tilt_axis = drivers::LaserTiltAxis({m, 0.0});
-    mount.plane_normal_at_zero_tilt = drivers::LaserPlaneNormalAtZeroTilt(laser, {m, 0.0});
-    mount.tilt_range_rad = {drivers::LaserTiltForOffset(laser, m, laser.sweep_min_mm),
-                            drivers::LaserTiltForOffset(laser, m, laser.sweep_max_mm)};
+    mount.source_mm = calibration::LaserSource(laser, {m, 0.0});
+    mount.tilt_axis = calibration::LaserTiltAxis({m, 0.0});
+    mount.plane_normal_at_zero_tilt = calibration::LaserPlaneNormalAtZeroTilt(laser, {m, 0.0});
+    mount.tilt_range_rad = {calibration::LaserTiltForOffset(laser, m, laser.sweep_min_mm),
+                            calibration::LaserTiltForOffset(laser, m, laser.sweep_max_mm)};
     c.laser_mounts.push_back(mount);
   }
   return c;

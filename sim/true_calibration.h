@@ -13,6 +13,6 @@ namespace mesocap::sim {
 // and tangent to the arc, oriented so that a positive tilt moves the stripe
 // away from the laser (drivers::LaserTiltForOffset). Each camera's
 // radiometry is the simulated cameras' exact gain (kSignalPerRadianceSecond).
-Calibration TrueCalibration(const drivers::RigDescription& rig);
+formats::Calibration TrueCalibration(const formats::RigDescription& rig);
 
 }  // namespace mesocap::sim

@@ -32,21 +32,21 @@ struct CompareCommandOptions {
 
 // --images DIR: one renderer's (a mode's, or the reference's) colour,
 // coverage and shadow images as NAME_color.png etc.
-void WriteRenderImages(const std::filesystem::path& dir, const std::string& name, const Image& color,
-                       const Image& coverage, const Image& shadow) {
-  WriteImage(dir / (name + "_color.png"), color, PixelEncoding::kUInt8);
-  WriteImage(dir / (name + "_coverage.png"), coverage, PixelEncoding::kUInt8);
-  WriteImage(dir / (name + "_shadow.png"), shadow, PixelEncoding::kUInt8);
+void WriteRenderImages(const std::filesystem::path& dir, const std::string& name, const core::Image& color,
+                       const core::Image& coverage, const core::Image& shadow) {
+  core::WriteImage(dir / (name + "_color.png"), color, core::PixelEncoding::kUInt8);
+  core::WriteImage(dir / (name + "_coverage.png"), coverage, core::PixelEncoding::kUInt8);
+  core::WriteImage(dir / (name + "_shadow.png"), shadow, core::PixelEncoding::kUInt8);
 }
 
 // A mode's images and where its masks disagree with the reference's.
 void WriteComparisonImages(const std::filesystem::path& dir, const std::string& name, const render::RenderResult& r,
                            const render::ReferenceImage& truth) {
   WriteRenderImages(dir, name, r.color, r.coverage, r.shadow);
-  WriteImage(dir / (name + "_coverage_difference.png"), render::MaskDifference(r.coverage, truth.coverage, truth.color),
-             PixelEncoding::kUInt8);
-  WriteImage(dir / (name + "_shadow_difference.png"), render::MaskDifference(r.shadow, truth.shadow, truth.color),
-             PixelEncoding::kUInt8);
+  core::WriteImage(dir / (name + "_coverage_difference.png"), render::MaskDifference(r.coverage, truth.coverage, truth.color),
+             core::PixelEncoding::kUInt8);
+  core::WriteImage(dir / (name + "_shadow_difference.png"), render::MaskDifference(r.shadow, truth.shadow, truth.color),
+             core::PixelEncoding::kUInt8);
 }
 
 void RunCompare(const CompareCommandOptions& o) {

@@ -18,12 +18,12 @@ namespace {
 struct CompressCommandOptions {
   std::filesystem::path in;
   std::filesystem::path out;
-  BtfCompressionOptions compression;
+  btf::BtfCompressionOptions compression;
   bool replace = false;
 };
 
 void RunCompress(const CompressCommandOptions& o) {
-  CompressMaterialPackage(o.in, o.out, o.compression, o.replace);
+  btf::CompressMaterialPackage(o.in, o.out, o.compression, o.replace);
   spdlog::info("wrote {}", o.out.string());
 }
 
@@ -36,19 +36,19 @@ void RegisterCompressCommand(CLI::App& app) {
   sub->add_option("--in", o->in, "material package holding a full BTF")->required()->check(CLI::ExistingDirectory);
   sub->add_option("--out", o->out, "material package folder to write")->required();
   auto* rank = sub->add_option("--rank", o->compression.rank, "number of SVD terms, 1..100")
-                   ->check(CLI::Range(1, kMaxBtfRank));
+                   ->check(CLI::Range(1, core::kMaxBtfRank));
   sub->add_option("--max-error", o->compression.max_relative_error,
                   "error budget: the smallest rank whose relative RMS error (of all RGB values) is at most this")
       ->check(CLI::Range(1e-12, 1.0))
       ->capture_default_str()
       ->excludes(rank);
-  const std::map<std::string, BtfFactorLayout> layouts{{"paper", BtfFactorLayout::kPaper},
-                                                       {"per_texel", BtfFactorLayout::kPerTexel}};
+  const std::map<std::string, core::BtfFactorLayout> layouts{{"paper", core::BtfFactorLayout::kPaper},
+                                                       {"per_texel", core::BtfFactorLayout::kPerTexel}};
   sub->add_option("--layout", o->compression.layout,
                   "matrix layout: paper (rows x, y, light; columns view) or per_texel (rows x, y; columns view, light)")
       ->transform(CLI::CheckedTransformer(layouts, CLI::ignore_case))
       ->default_str("paper");
-  const std::map<std::string, BtfFactorColor> colors{{"rgb", BtfFactorColor::kRgb}, {"ycbcr", BtfFactorColor::kYCbCr}};
+  const std::map<std::string, core::BtfFactorColor> colors{{"rgb", core::BtfFactorColor::kRgb}, {"ycbcr", core::BtfFactorColor::kYCbCr}};
   sub->add_option("--color", o->compression.color, "channels factored: rgb, or ycbcr (luminance/chroma)")
       ->transform(CLI::CheckedTransformer(colors, CLI::ignore_case))
       ->default_str("rgb");

@@ -23,7 +23,7 @@ struct EvalBtfCommandOptions {
   bool json = false;
 };
 
-bool SameDirections(const SamplingSet& a, const SamplingSet& b) {
+bool SameDirections(const core::SamplingSet& a, const core::SamplingSet& b) {
   if (a.size() != b.size()) return false;
   for (int i = 0; i < a.size(); ++i) {
     if (a.direction(i).dot(b.direction(i)) < std::cos(1e-6)) return false;
@@ -31,9 +31,9 @@ bool SameDirections(const SamplingSet& a, const SamplingSet& b) {
   return true;
 }
 
-void ExpectComparable(const EvalBtfCommandOptions& o, const MaterialDescription& t, const MaterialDescription& e) {
+void ExpectComparable(const EvalBtfCommandOptions& o, const formats::MaterialDescription& t, const formats::MaterialDescription& e) {
   const auto mismatch = [&](const std::string& what) {
-    throw Error("eval btf: " + o.estimate.string() + " and " + o.truth.string() + " differ in " + what +
+    throw core::Error("eval btf: " + o.estimate.string() + " and " + o.truth.string() + " differ in " + what +
                 "; evaluate against a ground truth on the estimate's grid (mesocap groundtruth --texture-size, --views, "
                 "--lights)");
   };
@@ -43,27 +43,27 @@ void ExpectComparable(const EvalBtfCommandOptions& o, const MaterialDescription&
 }
 
 void RunEvalBtf(const EvalBtfCommandOptions& o) {
-  const MaterialManifest truth = ReadMaterialManifest(o.truth);
-  if (!truth.full_btf) throw Error("eval btf: the truth " + o.truth.string() + " holds no full BTF");
-  const MaterialManifest estimate = ReadMaterialManifest(o.estimate);
+  const formats::MaterialManifest truth = formats::ReadMaterialManifest(o.truth);
+  if (!truth.full_btf) throw core::Error("eval btf: the truth " + o.truth.string() + " holds no full BTF");
+  const formats::MaterialManifest estimate = formats::ReadMaterialManifest(o.estimate);
   if (!estimate.full_btf && !estimate.factored_btf) {
-    throw Error("eval btf: the estimate " + o.estimate.string() + " holds no BTF");
+    throw core::Error("eval btf: the estimate " + o.estimate.string() + " holds no BTF");
   }
   ExpectComparable(o, truth.description, estimate.description);
 
-  std::optional<FactoredBtf> factored;
-  if (estimate.factored_btf) factored = ReadFactoredBtf(o.estimate, estimate);
-  BtfErrorAccumulator errors(truth.description.view_directions);
+  std::optional<core::FactoredBtf> factored;
+  if (estimate.factored_btf) factored = formats::ReadFactoredBtf(o.estimate, estimate);
+  btf::BtfErrorAccumulator errors(truth.description.view_directions);
   for (int v = 0; v < truth.description.view_directions.size(); ++v) {
-    const Image t = ReadFullBtfView(o.truth, truth, v);
-    errors.Add(v, t, factored ? ReconstructBtfView(*factored, v) : ReadFullBtfView(o.estimate, estimate, v));
+    const core::Image t = formats::ReadFullBtfView(o.truth, truth, v);
+    errors.Add(v, t, factored ? btf::ReconstructBtfView(*factored, v) : formats::ReadFullBtfView(o.estimate, estimate, v));
   }
   nlohmann::json result = ToJson(errors, factored ? std::optional<int>(factored->rank()) : std::nullopt);
   result["form"] = factored ? "factored" : "full";
   if (truth.ambient && estimate.ambient) {
-    const AmbientTerm ta = ReadAmbientTerm(o.truth, truth);
-    const AmbientTerm ea = ReadAmbientTerm(o.estimate, estimate);
-    BtfErrorAccumulator ambient(SamplingSet::Named("grid1x1"));  // one "view": the whole ambient image
+    const formats::AmbientTerm ta = formats::ReadAmbientTerm(o.truth, truth);
+    const formats::AmbientTerm ea = formats::ReadAmbientTerm(o.estimate, estimate);
+    btf::BtfErrorAccumulator ambient(core::SamplingSet::Named("grid1x1"));  // one "view": the whole ambient image
     ambient.Add(0, ta.values, ea.values);
     result["ambient"] = {{"relative_rms", ambient.Overall().relative_rms}, {"psnr_db", ambient.Overall().psnr_db}};
   }

@@ -22,21 +22,21 @@ struct EvalMdfOptions {
 };
 
 void RunEvalMdf(const EvalMdfOptions& o) {
-  const MaterialManifest truth_manifest = ReadMaterialManifest(o.truth);
-  const MaterialManifest estimate_manifest = ReadMaterialManifest(o.estimate);
-  const Mdf truth = ReadMdf(o.truth, truth_manifest);
-  const Mdf estimate = ReadMdf(o.estimate, estimate_manifest);
+  const formats::MaterialManifest truth_manifest = formats::ReadMaterialManifest(o.truth);
+  const formats::MaterialManifest estimate_manifest = formats::ReadMaterialManifest(o.estimate);
+  const core::Mdf truth = formats::ReadMdf(o.truth, truth_manifest);
+  const core::Mdf estimate = formats::ReadMdf(o.estimate, estimate_manifest);
   const auto& size = truth_manifest.description.physical_size_mm;
   if ((estimate_manifest.description.physical_size_mm - size).norm() > 1e-6 * size.norm()) {
-    throw Error("eval mdf: truth and estimate cover different sample sizes");
+    throw core::Error("eval mdf: truth and estimate cover different sample sizes");
   }
-  const MdfErrorTable table = EvaluateMdf(truth, estimate, size.x() / truth.width, o.inside_sample_only);
+  const mdf::MdfErrorTable table = mdf::EvaluateMdf(truth, estimate, size.x() / truth.width, o.inside_sample_only);
   const nlohmann::json json = ToJson(table);
-  if (!o.out.empty()) WriteJsonFileAtomically(o.out, json);
+  if (!o.out.empty()) core::WriteJsonFileAtomically(o.out, json);
   if (o.json) {
     std::printf("%s\n", json.dump(2).c_str());
   } else {
-    std::printf("%s", FormatMdfErrorTable(table).c_str());
+    std::printf("%s", mdf::FormatMdfErrorTable(table).c_str());
   }
 }
 

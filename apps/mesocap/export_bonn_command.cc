@@ -16,11 +16,11 @@ namespace {
 struct ExportBonnCommandOptions {
   std::filesystem::path in;
   std::filesystem::path out;
-  BonnExportOptions bonn;
+  bonn::BonnExportOptions bonn;
 };
 
 void RunExportBonn(const ExportBonnCommandOptions& o) {
-  const BonnExportReport r = ExportBonn(o.in, o.out, o.bonn);
+  const bonn::BonnExportReport r = bonn::ExportBonn(o.in, o.out, o.bonn);
   if (r.compression) {
     spdlog::info("factored to rank {} ({}); relative RMS error {:.3g}", r.compression->rank, r.compression->reason,
                  r.compression->measured_relative_rms_error);
@@ -40,33 +40,33 @@ void RegisterExportBonnCommand(CLI::App& app) {
       ->required()
       ->check(CLI::ExistingDirectory);
   sub->add_option("--out", o->out, "folder (ubo2003) or file (fmf, dfmf) to write")->required();
-  const std::map<std::string, BonnForm> forms{
-      {"ubo2003", BonnForm::kUbo2003}, {"fmf", BonnForm::kFmf}, {"dfmf", BonnForm::kDfmf}};
+  const std::map<std::string, bonn::BonnForm> forms{
+      {"ubo2003", bonn::BonnForm::kUbo2003}, {"fmf", bonn::BonnForm::kFmf}, {"dfmf", bonn::BonnForm::kDfmf}};
   sub->add_option("--form", o->bonn.form,
                   "ubo2003 (image folder tl..._pl..._tv..._pv...), fmf (!FMF12FCER) or dfmf (!DFMF08FCR)")
       ->required()
       ->transform(CLI::CheckedTransformer(forms, CLI::ignore_case));
-  const std::map<std::string, Ubo2003Encoding> encodings{{"png", Ubo2003Encoding::kSrgb8Png},
-                                                         {"exr", Ubo2003Encoding::kHalfExr}};
+  const std::map<std::string, bonn::Ubo2003Encoding> encodings{{"png", bonn::Ubo2003Encoding::kSrgb8Png},
+                                                         {"exr", bonn::Ubo2003Encoding::kHalfExr}};
   sub->add_option("--encoding", o->bonn.encoding, "ubo2003 images: png (8-bit sRGB) or exr (linear half)")
       ->transform(CLI::CheckedTransformer(encodings, CLI::ignore_case))
       ->default_str("png");
   sub->add_option("--scale", o->bonn.scale, "ubo2003 images: image value = reflectance x scale")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
-  const std::map<std::string, BonnScalar> scalars{{"half", BonnScalar::kHalf}, {"float", BonnScalar::kFloat}};
+  const std::map<std::string, bonn::BonnScalar> scalars{{"half", bonn::BonnScalar::kHalf}, {"float", bonn::BonnScalar::kFloat}};
   sub->add_option("--scalar", o->bonn.scalar, "fmf/dfmf factor values: half (as btflib writes) or float")
       ->transform(CLI::CheckedTransformer(scalars, CLI::ignore_case))
       ->default_str("half");
   auto* rank = sub->add_option("--rank", o->bonn.compression.rank,
                                "fmf/dfmf when factoring here: number of SVD components, 1..100")
-                   ->check(CLI::Range(1, kMaxBtfRank));
+                   ->check(CLI::Range(1, core::kMaxBtfRank));
   sub->add_option("--max-error", o->bonn.compression.max_relative_error,
                   "fmf/dfmf when factoring here: the smallest rank whose relative RMS error is at most this")
       ->check(CLI::Range(1e-12, 1.0))
       ->capture_default_str()
       ->excludes(rank);
-  const std::map<std::string, BtfFactorColor> colors{{"rgb", BtfFactorColor::kRgb}, {"ycbcr", BtfFactorColor::kYCbCr}};
+  const std::map<std::string, core::BtfFactorColor> colors{{"rgb", core::BtfFactorColor::kRgb}, {"ycbcr", core::BtfFactorColor::kYCbCr}};
   sub->add_option("--color", o->bonn.compression.color,
                   "dfmf when factoring here: rgb (colour model 0) or ycbcr (written as the PCA model 3)")
       ->transform(CLI::CheckedTransformer(colors, CLI::ignore_case))

@@ -6,6 +6,7 @@
 
 #include "apps/mesocap/command.h"
 #include "apps/mesocap/scene_option.h"
+#include "calibration/nominal_geometry.h"
 #include "core/error.h"
 #include "sim/ground_truth.h"
 #include "sim/shipped_rigs.h"
@@ -24,20 +25,20 @@ struct GroundTruthCommandOptions {
   bool replace = false;
 };
 
-SamplingSet DirectionSet(const std::string& name, const SamplingSet& rig_set) {
-  return name == "rig" ? rig_set : SamplingSet::Named(name);
+core::SamplingSet DirectionSet(const std::string& name, const core::SamplingSet& rig_set) {
+  return name == "rig" ? rig_set : core::SamplingSet::Named(name);
 }
 
 void RunGroundTruth(const GroundTruthCommandOptions& o) {
   const auto scene = o.scene.Load();
-  const drivers::RigDescription rig = sim::LoadRig(o.rig);
+  const formats::RigDescription rig = sim::LoadRig(o.rig);
   sim::GroundTruthOptions gt;
   gt.texture_width = gt.texture_height = o.texture_size;
   gt.sample_size_mm = rig.sample_size_mm;
-  gt.views = DirectionSet(o.views, drivers::ViewDirections(rig));
-  gt.lights = DirectionSet(o.lights, drivers::LightDirections(rig));
-  if (const auto problem = gt.Check(); !problem.empty()) throw Error("groundtruth: " + problem);
-  const Calibration calibration = sim::TrueCalibration(rig);
+  gt.views = DirectionSet(o.views, calibration::ViewDirections(rig));
+  gt.lights = DirectionSet(o.lights, calibration::LightDirections(rig));
+  if (const auto problem = gt.Check(); !problem.empty()) throw core::Error("groundtruth: " + problem);
+  const formats::Calibration calibration = sim::TrueCalibration(rig);
   spdlog::info("ground truth of scene {} on rig {}: {}x{} texels, {} views x {} lights", scene->name(), rig.name,
                gt.texture_width, gt.texture_height, gt.views.size(), gt.lights.size());
   sim::WriteGroundTruthPackage(*scene, gt, &calibration,

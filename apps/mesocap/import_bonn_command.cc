@@ -16,13 +16,13 @@ namespace {
 struct ImportBonnCommandOptions {
   std::filesystem::path in;
   std::filesystem::path out;
-  BonnImportOptions bonn;
-  BonnImportParts parts = BonnImportParts::kFactored;  // used when --btf is given
+  bonn::BonnImportOptions bonn;
+  bonn::BonnImportParts parts = bonn::BonnImportParts::kFactored;  // used when --btf is given
 };
 
 void RunImportBonn(const ImportBonnCommandOptions& o) {
-  const BonnImportReport r = ImportBonn(o.in, o.out, o.bonn);
-  const MaterialDescription& d = r.manifest.description;
+  const bonn::BonnImportReport r = bonn::ImportBonn(o.in, o.out, o.bonn);
+  const formats::MaterialDescription& d = r.manifest.description;
   spdlog::info("wrote {} from the {} {}: {}x{} texels, {} views x {} lights{}{} ({:.2f} s)", o.out.string(),
                ToString(r.form), r.signature.empty() ? "folder" : r.signature, d.width, d.height,
                d.view_directions.size(), d.light_directions.size(), r.manifest.full_btf ? ", full BTF" : "",
@@ -47,8 +47,8 @@ void RegisterImportBonnCommand(CLI::App& app) {
   sub->add_option("--size-mm", o->bonn.width_mm,
                   "physical width of the texture, mm (default for FMF/DFMF: width / the file's pixels per mm)")
       ->check(CLI::PositiveNumber);
-  const std::map<std::string, BonnImportParts> parts{
-      {"factored", BonnImportParts::kFactored}, {"full", BonnImportParts::kFull}, {"both", BonnImportParts::kBoth}};
+  const std::map<std::string, bonn::BonnImportParts> parts{
+      {"factored", bonn::BonnImportParts::kFactored}, {"full", bonn::BonnImportParts::kFull}, {"both", bonn::BonnImportParts::kBoth}};
   CLI::Option* parts_option = sub->add_option("--btf", o->parts,
                   "BTF forms to write: factored (default for FMF/DFMF), full (default and only choice for images) "
                   "or both")

@@ -37,10 +37,10 @@ struct InfoOptions {
   bool json = false;
 };
 
-json SetSummary(const SamplingSet& s) { return {{"name", s.name()}, {"count", s.size()}}; }
+json SetSummary(const core::SamplingSet& s) { return {{"name", s.name()}, {"count", s.size()}}; }
 
 json MaterialInfo(const fs::path& dir) {
-  const MaterialManifest m = ReadMaterialManifest(dir);
+  const formats::MaterialManifest m = formats::ReadMaterialManifest(dir);
   const auto& d = m.description;
   json parts = json::object();
   if (m.mdf) {
@@ -55,9 +55,9 @@ json MaterialInfo(const fs::path& dir) {
                              {"rank", m.factored_btf->rank}};
   }
   if (m.ambient) parts["ambient"] = true;
-  if (m.error_report) parts["error_report"] = ReadErrorReport(dir, m);
+  if (m.error_report) parts["error_report"] = formats::ReadErrorReport(dir, m);
   if (m.calibration) {
-    const Calibration c = ReadPackageCalibration(dir, m);
+    const formats::Calibration c = formats::ReadPackageCalibration(dir, m);
     parts["calibration"] = {{"cameras", c.cameras.size()}, {"lamps", c.lamps.size()},
                             {"laser_mounts", c.laser_mounts.size()}};
   }
@@ -77,9 +77,9 @@ json MaterialInfo(const fs::path& dir) {
 }
 
 json SessionInfo(const fs::path& dir) {
-  const SessionManifest m = ReadSessionManifest(dir);
+  const formats::SessionManifest m = formats::ReadSessionManifest(dir);
   std::map<std::string, int> kinds;
-  for (const auto& s : m.plan) ++kinds[StepKindName(s.kind)];
+  for (const auto& s : m.plan) ++kinds[formats::StepKindName(s.kind)];
   json out = {{"kind", "session"},
               {"path", dir.string()},
               {"rig", m.rig.value("name", "")},
@@ -88,10 +88,10 @@ json SessionInfo(const fs::path& dir) {
               {"calibration", m.calibration ? json(*m.calibration) : json(nullptr)},
               {"planned_steps", m.plan.size()},
               {"planned_steps_by_kind", kinds}};
-  const fs::path journal = dir / kSessionJournalName;
+  const fs::path journal = dir / formats::kSessionJournalName;
   std::size_t done = 0;
   if (fs::exists(journal)) {
-    const JournalContents j = ReadCaptureJournal(journal, &m);
+    const formats::JournalContents j = formats::ReadCaptureJournal(journal, &m);
     done = j.records.size();
     out["torn_tail_bytes"] = j.dropped_bytes;
   }
@@ -101,7 +101,7 @@ json SessionInfo(const fs::path& dir) {
 }
 
 json CalibrationInfo(const fs::path& file) {
-  const Calibration c = ReadCalibration(file);
+  const formats::Calibration c = formats::ReadCalibration(file);
   json cameras = json::array();
   for (const auto& cam : c.cameras) {
     cameras.push_back({{"id", cam.id},
@@ -128,14 +128,14 @@ json CalibrationInfo(const fs::path& file) {
 // the worst pair: a rig designer's check that no location's laser plane
 // nearly contains a camera's rays (MDF triangulation rejects rays under
 // TriangulationOptions::min_ray_plane_sine).
-json LaserConditioning(const drivers::RigDescription& r) {
+json LaserConditioning(const formats::RigDescription& r) {
   json sines = json::array();
   double worst = 2.0;
   int worst_camera = 0, worst_location = 0;
   for (int l = 0; l < static_cast<int>(r.laser.locations.size()); ++l) {
     json row = json::array();
     for (int c = 0; c < static_cast<int>(r.cameras.size()); ++c) {
-      const double sine = drivers::LaserRaySine(r, c, l);
+      const double sine = calibration::LaserRaySine(r, c, l);
       row.push_back(std::round(sine * 1000) / 1000);
       if (sine < worst) std::tie(worst, worst_camera, worst_location) = std::tuple(sine, c, l);
     }
@@ -146,11 +146,11 @@ json LaserConditioning(const drivers::RigDescription& r) {
            {{"sine", worst},
             {"camera", r.cameras[worst_camera].id},
             {"location", worst_location},
-            {"below_triangulation_limit", worst < TriangulationOptions{}.min_ray_plane_sine}}}};
+            {"below_triangulation_limit", worst < mdf::TriangulationOptions{}.min_ray_plane_sine}}}};
 }
 
 json RigInfo(const fs::path& file) {
-  const drivers::RigDescription r = drivers::ReadRigDescription(file);
+  const formats::RigDescription r = formats::ReadRigDescription(file);
   json info = {{"kind", "rig"},
                {"path", file.string()},
                {"name", r.name},
@@ -166,35 +166,35 @@ json RigInfo(const fs::path& file) {
 }
 
 json ImageInfo(const fs::path& file) {
-  const ImageHeader h = ReadImageHeader(file);
+  const core::ImageHeader h = core::ReadImageHeader(file);
   return {{"kind", "image"},   {"path", file.string()},     {"width", h.width},
           {"height", h.height}, {"channels", h.channels}, {"encoding", ToString(h.encoding)}};
 }
 
 // The "format" member every mesocap JSON file carries.
 std::string FormatOf(const fs::path& file) {
-  const json doc = ReadJsonFile(file);
-  return JsonFieldReader(doc, file).String("format");
+  const json doc = core::ReadJsonFile(file);
+  return core::JsonFieldReader(doc, file).String("format");
 }
 
 json Describe(const fs::path& path) {
   std::error_code ec;
-  if (!fs::exists(path, ec)) throw Error(path.string() + ": no such file or folder");
+  if (!fs::exists(path, ec)) throw core::Error(path.string() + ": no such file or folder");
   if (fs::is_directory(path, ec)) {
     const fs::path manifest = path / "manifest.json";
     if (!fs::exists(manifest, ec)) {
-      throw Error(path.string() + ": not a capture session or material package (no manifest.json)");
+      throw core::Error(path.string() + ": not a capture session or material package (no manifest.json)");
     }
     const std::string format = FormatOf(manifest);
     if (format == "mesocap.material") return MaterialInfo(path);
     if (format == "mesocap.session") return SessionInfo(path);
-    throw FormatError(manifest, "format", "expected \"mesocap.material\" or \"mesocap.session\", got \"" + format + "\"");
+    throw core::FormatError(manifest, "format", "expected \"mesocap.material\" or \"mesocap.session\", got \"" + format + "\"");
   }
   if (path.extension() == ".json") {
     const std::string format = FormatOf(path);
     if (format == "mesocap.calibration") return CalibrationInfo(path);
     if (format == "mesocap.rig") return RigInfo(path);
-    throw FormatError(path, "format", "expected \"mesocap.calibration\" or \"mesocap.rig\", got \"" + format + "\"");
+    throw core::FormatError(path, "format", "expected \"mesocap.calibration\" or \"mesocap.rig\", got \"" + format + "\"");
   }
   return ImageInfo(path);
 }

@@ -21,7 +21,7 @@ int main(int argc, char** argv) {
   mallopt(M_MMAP_THRESHOLD, 32 << 20);
   mallopt(M_TRIM_THRESHOLD, 512 << 20);
   CLI::App app{"mesocap: capture, process and render measured mesostructure (BTF + MDF)"};
-  app.set_version_flag("--version", std::string("mesocap ") + mesocap::Version());
+  app.set_version_flag("--version", std::string("mesocap ") + mesocap::core::Version());
   app.require_subcommand(1);
   app.fallthrough();
 
@@ -31,7 +31,7 @@ int main(int argc, char** argv) {
   app.add_flag("-q,--quiet", quiet, "only warnings and errors in the log");
 
   // Runs after the flags are parsed and before any subcommand's callback.
-  app.parse_complete_callback([&] { mesocap::ConfigureLogging(verbose - quiet); });
+  app.parse_complete_callback([&] { mesocap::core::ConfigureLogging(verbose - quiet); });
 
   mesocap::RegisterInfoCommand(app);
   mesocap::RegisterGroundTruthCommand(app);
@@ -53,7 +53,7 @@ int main(int argc, char** argv) {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
-  } catch (const mesocap::Error& e) {
+  } catch (const mesocap::core::Error& e) {
     std::fprintf(stderr, "mesocap: error: %s\n", e.what());
     return 1;
   } catch (const std::exception& e) {

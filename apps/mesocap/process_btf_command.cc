@@ -38,28 +38,28 @@ struct ProcessBtfCommandOptions {
   bool full = false;
   bool resample = false;
   bool replace = false;
-  BtfCompressionOptions compression;
+  btf::BtfCompressionOptions compression;
 };
 
 void RunProcessBtf(const ProcessBtfCommandOptions& o) {
-  const SessionManifest manifest = ReadSessionManifest(o.session);
-  const drivers::RigDescription rig = drivers::ParseRigDescription(manifest.rig, o.session / kSessionManifestName);
+  const formats::SessionManifest manifest = formats::ReadSessionManifest(o.session);
+  const formats::RigDescription rig = formats::ParseRigDescription(manifest.rig, o.session / formats::kSessionManifestName);
   fs::path calibration_file = o.calibration;
   if (calibration_file.empty()) {
-    if (!manifest.calibration) throw Error("process btf: give --calibration (the session names none)");
+    if (!manifest.calibration) throw core::Error("process btf: give --calibration (the session names none)");
     calibration_file = o.session / *manifest.calibration;
   }
-  const Calibration calibration = ReadCalibration(calibration_file);
+  const formats::Calibration calibration = formats::ReadCalibration(calibration_file);
 
-  BtfAssemblyOptions a;
+  btf::BtfAssemblyOptions a;
   a.texture_width = a.texture_height = o.texture_size;
   a.sample_size_mm = rig.sample_size_mm;
-  a.views = drivers::ViewDirections(rig);
-  a.lights = drivers::LightDirections(rig);
+  a.views = calibration::ViewDirections(rig);
+  a.lights = calibration::LightDirections(rig);
   a.resample = o.resample;
-  for (const CameraCalibration& camera : calibration.cameras) {
+  for (const formats::CameraCalibration& camera : calibration.cameras) {
     const auto it = std::find_if(rig.cameras.begin(), rig.cameras.end(), [&](const auto& c) { return c.id == camera.id; });
-    if (it == rig.cameras.end()) throw Error("process btf: calibrated camera " + camera.id + " is not in the rig");
+    if (it == rig.cameras.end()) throw core::Error("process btf: calibrated camera " + camera.id + " is not in the rig");
     a.exposure_s.push_back(it->exposure_us * 1e-6);
     // The radiometric gain is the calibration's; --gain overrides it for all.
     if (o.gain > 0) {
@@ -67,15 +67,15 @@ void RunProcessBtf(const ProcessBtfCommandOptions& o) {
     } else if (camera.radiometry) {
       a.signal_per_radiance_second.push_back(camera.radiometry->signal_per_radiance_second);
     } else {
-      throw Error("process btf: " + calibration_file.string() + ": camera " + camera.id +
+      throw core::Error("process btf: " + calibration_file.string() + ": camera " + camera.id +
                   " has no radiometry.signal_per_radiance_second (its gain); calibrate it or give --gain G for "
                   "all cameras");
     }
   }
-  const std::vector<BtfCaptureImage> images = SessionBtfImages(o.session, manifest, calibration);
+  const std::vector<btf::BtfCaptureImage> images = btf::SessionBtfImages(o.session, manifest, calibration);
   spdlog::info("assembling the BTF of {}: {} images, {} views x {} lights, {}x{} texels", o.session.string(),
                images.size(), a.views.size(), a.lights.size(), o.texture_size, o.texture_size);
-  MaterialDescription d;
+  formats::MaterialDescription d;
   d.name = manifest.rig.value("name", "") + " session";
   d.width = d.height = o.texture_size;
   d.physical_size_mm = {rig.sample_size_mm, rig.sample_size_mm};
@@ -85,27 +85,27 @@ void RunProcessBtf(const ProcessBtfCommandOptions& o) {
   d.view_directions = a.views;
   d.light_directions = a.lights;
   d.provenance.source = "process btf session=" + o.session.string();
-  MaterialPackageWriter writer(o.out, d, o.replace);
+  formats::MaterialPackageWriter writer(o.out, d, o.replace);
 
   // Each assembled view goes to disk as soon as it is made, and the SVD
   // streams it back in bands, so the BTF (1.5 GB of float for a paper rig at
   // 128 x 128) is never whole in memory. Without --full the views go to a
   // scratch package beside the output that is never committed: it is
   // removed when the command ends, however it ends.
-  std::optional<MaterialPackageWriter> scratch;
+  std::optional<formats::MaterialPackageWriter> scratch;
   if (!o.full) scratch.emplace(fs::path(o.out.string() + ".assembled"), d, true);
-  MaterialPackageWriter& views = o.full ? writer : *scratch;
-  AmbientTerm ambient = MakeAmbientTerm(o.texture_size, o.texture_size, a.views);
-  BtfAssemblyReport assembly;
-  AssembleBtfViews(
+  formats::MaterialPackageWriter& views = o.full ? writer : *scratch;
+  formats::AmbientTerm ambient = btf::MakeAmbientTerm(o.texture_size, o.texture_size, a.views);
+  btf::BtfAssemblyReport assembly;
+  btf::AssembleBtfViews(
       images, calibration, a,
-      [&](int v, Image&& values) {
-        AddAmbientView(values, a.lights, v, &ambient);
+      [&](int v, core::Image&& values) {
+        btf::AddAmbientView(values, a.lights, v, &ambient);
         views.WriteFullBtfView(v, values);
       },
       &assembly);
-  BtfCompressionReport compression;
-  const FactoredBtf factored = CompressBtf(*views.ReadBackFullBtf(), o.compression, &compression);
+  btf::BtfCompressionReport compression;
+  const core::FactoredBtf factored = btf::CompressBtf(*views.ReadBackFullBtf(), o.compression, &compression);
   spdlog::info("rank {}: {}", compression.rank, compression.reason);
   scratch.reset();
 
@@ -140,7 +140,7 @@ void RegisterProcessBtfCommand(CLI::App& app) {
   sub->add_option("--out", o->out, "material package folder to write")->required();
   sub->add_option("--texture-size", o->texture_size, "texels per side")->check(CLI::Range(1, 4096))->capture_default_str();
   auto* rank = sub->add_option("--rank", o->compression.rank, "number of SVD terms, 1..100")
-                   ->check(CLI::Range(1, kMaxBtfRank));
+                   ->check(CLI::Range(1, core::kMaxBtfRank));
   sub->add_option("--max-error", o->compression.max_relative_error,
                   "error budget: the smallest rank whose relative RMS error is at most this")
       ->check(CLI::Range(1e-12, 1.0))
@@ -149,7 +149,7 @@ void RegisterProcessBtfCommand(CLI::App& app) {
   sub->add_option("--gain", o->gain,
                   "camera signal (fraction of full scale) per radiance second, for every camera, overriding "
                   "the calibration's radiometry (default: each camera's from the calibration)")
-      ->check(CLI::Range(kMinCameraGain, kMaxCameraGain));
+      ->check(CLI::Range(formats::kMinCameraGain, formats::kMaxCameraGain));
   sub->add_flag("--full", o->full, "also store the full (uncompressed) BTF");
   sub->add_flag("--resample", o->resample,
                 "resample captures whose directions are off the session's sets (each texel with its own view and "

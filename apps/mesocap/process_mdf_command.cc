@@ -25,19 +25,19 @@ struct ProcessMdfOptions {
   std::filesystem::path out;
   double d_max_mm = 0;  // 0: the deepest measured point
   bool replace = false;
-  MdfProcessingOptions processing;
+  mdf::MdfProcessingOptions processing;
 };
 
 void RunProcessMdf(const ProcessMdfOptions& o) {
   if (!o.replace && std::filesystem::exists(o.out)) {
-    throw Error("process mdf: " + o.out.string() + " exists (use --replace to replace it)");
+    throw core::Error("process mdf: " + o.out.string() + " exists (use --replace to replace it)");
   }
-  const Calibration calibration = ReadCalibration(o.calibration);
-  const MdfProcessingResult result = ProcessMdfSession(o.session, calibration, o.processing);
-  const SessionManifest manifest = ReadSessionManifest(o.session);
-  const drivers::RigDescription rig =
-      drivers::ParseRigDescription(manifest.rig, o.session / kSessionManifestName);
-  MaterialDescription description;
+  const formats::Calibration calibration = formats::ReadCalibration(o.calibration);
+  const mdf::MdfProcessingResult result = mdf::ProcessMdfSession(o.session, calibration, o.processing);
+  const formats::SessionManifest manifest = formats::ReadSessionManifest(o.session);
+  const formats::RigDescription rig =
+      formats::ParseRigDescription(manifest.rig, o.session / formats::kSessionManifestName);
+  formats::MaterialDescription description;
   description.name = o.out.filename().string();
   description.width = description.height = o.processing.texture_size;
   description.physical_size_mm = {result.sample_size_mm, result.sample_size_mm};
@@ -45,9 +45,9 @@ void RunProcessMdf(const ProcessMdfOptions& o) {
   // 0.1 mm (the 8-bit scale follows the largest distance either way).
   description.d_max_mm = o.d_max_mm > 0 ? o.d_max_mm : std::max(0.1, std::ceil(result.deepest_mm * 10.0) / 10.0);
   description.view_directions = result.mdf.views;
-  description.light_directions = drivers::LightDirections(rig);
+  description.light_directions = calibration::LightDirections(rig);
   description.provenance.source = "process mdf session=" + o.session.string();
-  MaterialPackageWriter writer(o.out, description, o.replace);
+  formats::MaterialPackageWriter writer(o.out, description, o.replace);
   writer.WriteMdf(result.mdf);
   writer.WriteMdfConfidence(result.confidence);
   writer.WriteCalibration(calibration);

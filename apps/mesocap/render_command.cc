@@ -20,23 +20,23 @@ struct RenderCommandOptions {
   std::string mode = "full";
 };
 
-PixelEncoding EncodingFor(const std::filesystem::path& file) {
+core::PixelEncoding EncodingFor(const std::filesystem::path& file) {
   const std::string ext = file.extension().string();
-  if (ext == ".exr") return PixelEncoding::kFloat32;
-  if (ext == ".png" || ext == ".tif" || ext == ".tiff") return PixelEncoding::kUInt8;
-  throw Error("--out " + file.string() + ": expected a .png, .tif or .exr file");
+  if (ext == ".exr") return core::PixelEncoding::kFloat32;
+  if (ext == ".png" || ext == ".tif" || ext == ".tiff") return core::PixelEncoding::kUInt8;
+  throw core::Error("--out " + file.string() + ": expected a .png, .tif or .exr file");
 }
 
 void RunRender(const RenderCommandOptions& o) {
   render::PeelingOptions peeling = o.scene.Peeling();
   peeling.mode = render::ParseRenderMode(o.mode);
-  const PixelEncoding encoding = EncodingFor(o.out);
+  const core::PixelEncoding encoding = EncodingFor(o.out);
   const render::RenderScene scene = render::ReadRenderScene(o.scene.scene, ResolveRenderMaterial);
   const auto context = render::GlContext::MakeHeadless();
   spdlog::info("OpenGL: {}", context->Description());
   render::PeelingRenderer renderer(scene);
   const render::RenderResult result = renderer.Render(scene.camera, scene.light, peeling);
-  WriteImage(o.out, result.color, encoding);
+  core::WriteImage(o.out, result.color, encoding);
   spdlog::info("{} {}x{} mode {}: {:.2f} ms, {} view passes, {} shadow passes -> {}", o.scene.scene.string(),
                peeling.width, peeling.height, o.mode, result.frame_ms, result.passes, result.shadow_passes,
                o.out.string());

@@ -20,7 +20,7 @@ int ParseInt(const std::string& text, const std::string& flag) {
   int value = 0;
   const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
   if (error != std::errc() || end != text.data() + text.size()) {
-    throw Error(flag + ": expected a whole number, got \"" + text + "\"");
+    throw core::Error(flag + ": expected a whole number, got \"" + text + "\"");
   }
   return value;
 }
@@ -33,7 +33,7 @@ std::filesystem::path CacheDir() {
   if (const char* home = std::getenv("HOME"); home != nullptr && *home != '\0') {
     return std::filesystem::path(home) / ".cache" / "mesocap";
   }
-  throw Error("sim materials: no cache folder (set MESOCAP_CACHE_DIR, XDG_CACHE_HOME or HOME)");
+  throw core::Error("sim materials: no cache folder (set MESOCAP_CACHE_DIR, XDG_CACHE_HOME or HOME)");
 }
 
 // The rank the built-in materials are factored to: the renderer's cost grows
@@ -49,13 +49,13 @@ constexpr const char* kSimMaterialCacheVersion = "v3";
 render::PeelingOptions RenderSceneOptions::Peeling() const {
   render::PeelingOptions o;
   const std::size_t x = size.find('x');
-  if (x == std::string::npos) throw Error("--size: expected WIDTHxHEIGHT, got \"" + size + "\"");
+  if (x == std::string::npos) throw core::Error("--size: expected WIDTHxHEIGHT, got \"" + size + "\"");
   o.width = ParseInt(size.substr(0, x), "--size");
   o.height = ParseInt(size.substr(x + 1), "--size");
   o.passes = passes == "auto" ? 0 : ParseInt(passes, "--passes");
-  if (passes != "auto" && o.passes < 1) throw Error("--passes: expected auto or 1..254, got " + passes);
+  if (passes != "auto" && o.passes < 1) throw core::Error("--passes: expected auto or 1..254, got " + passes);
   o.shadow_map_size = shadow_map_size;
-  if (const CheckResult problem = o.Check(); !problem.empty()) throw Error(problem);
+  if (const core::CheckResult problem = o.Check(); !problem.empty()) throw core::Error(problem);
   return o;
 }
 
@@ -83,13 +83,13 @@ render::RenderMaterial ResolveRenderMaterial(const std::string& spec, const std:
     spdlog::info("building material {} from ground truth into {}", spec, package.string());
     sim::WriteGroundTruthPackage(*scene, render::SimMaterialGroundTruthOptions(name), nullptr,
                                  "groundtruth scene=" + name + " for render", truth, true);
-    BtfCompressionOptions compression;
+    btf::BtfCompressionOptions compression;
     compression.rank = kSimMaterialRank;
-    CompressMaterialPackage(truth, package, compression, true);
+    btf::CompressMaterialPackage(truth, package, compression, true);
     std::filesystem::remove_all(truth);
   }
-  if (!ReadMaterialManifest(package).factored_btf) {
-    throw Error("material " + spec + ": the cached package " + package.string() +
+  if (!formats::ReadMaterialManifest(package).factored_btf) {
+    throw core::Error("material " + spec + ": the cached package " + package.string() +
                 " has no factored BTF; remove it to have it built again");
   }
   render::RenderMaterial material = render::LoadRenderMaterial(package);

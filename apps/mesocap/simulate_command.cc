@@ -54,8 +54,8 @@ struct SimulateCommandOptions {
   int interreflection_rays = 0;
 };
 
-json PlanJson(const std::vector<PlannedStep>& plan) {
-  SessionManifest m;
+json PlanJson(const std::vector<formats::PlannedStep>& plan) {
+  formats::SessionManifest m;
   m.rig = {{"name", "-"}};
   m.plan = plan;
   return ToJson(m).at("plan");
@@ -63,16 +63,16 @@ json PlanJson(const std::vector<PlannedStep>& plan) {
 
 void RunSimulate(const SimulateCommandOptions& o) {
   const auto scene = o.scene.Load();
-  const drivers::RigDescription rig = sim::LoadRig(o.rig);
+  const formats::RigDescription rig = sim::LoadRig(o.rig);
   sim::FaultPlan faults = sim::FaultPlanOfRig(rig);
   if (!o.faults.empty()) {
     const sim::FaultPlan extra = sim::ReadFaultPlan(o.faults);
     faults.rules.insert(faults.rules.end(), extra.rules.begin(), extra.rules.end());
   }
-  if (const CheckResult problem = faults.Check(rig); !problem.empty()) {
-    throw Error((o.faults.empty() ? rig.name : o.faults.string()) + ": " + problem);
+  if (const core::CheckResult problem = faults.Check(rig); !problem.empty()) {
+    throw core::Error((o.faults.empty() ? rig.name : o.faults.string()) + ": " + problem);
   }
-  const Calibration calibration = sim::TrueCalibration(rig);
+  const formats::Calibration calibration = sim::TrueCalibration(rig);
   // Before anything is written: the renderer refuses a scene the rig cannot
   // hold (its backing board too close below the mesostructure).
   sim::CameraRendererOptions render_options;
@@ -86,27 +86,27 @@ void RunSimulate(const SimulateCommandOptions& o) {
                           {"sensor_noise", !o.no_noise},
                           {"samples_per_pixel_side", o.samples_per_pixel_side},
                           {"interreflection_rays_per_pixel", o.interreflection_rays}};
-  const std::vector<PlannedStep> plan = acquisition::MakeCapturePlan(rig, recording);
+  const std::vector<formats::PlannedStep> plan = acquisition::MakeCapturePlan(rig, recording);
 
-  const bool existing = fs::exists(o.out / kSessionManifestName);
+  const bool existing = fs::exists(o.out / formats::kSessionManifestName);
   if (existing && !o.resume) {
-    throw Error(o.out.string() + ": already holds a capture session; use --resume to complete it");
+    throw core::Error(o.out.string() + ": already holds a capture session; use --resume to complete it");
   }
   if (existing) {
-    const SessionManifest manifest = ReadSessionManifest(o.out);
+    const formats::SessionManifest manifest = formats::ReadSessionManifest(o.out);
     // A resumed session must be the same capture: same rig, scene, seed,
     // noise and sampling (all in the plan's step params).
     if (manifest.rig != rig.json || PlanJson(manifest.plan) != PlanJson(plan)) {
-      throw Error(o.out.string() + ": the session was started with a different rig, scene, seed or options");
+      throw core::Error(o.out.string() + ": the session was started with a different rig, scene, seed or options");
     }
   } else {
-    SessionManifest manifest;
+    formats::SessionManifest manifest;
     manifest.rig = rig.json;
     manifest.calibration = kCalibrationFile;
     manifest.plan = plan;
-    CreateCaptureSession(o.out, manifest);
+    formats::CreateCaptureSession(o.out, manifest);
   }
-  if (!fs::exists(o.out / kCalibrationFile)) WriteCalibration(o.out / kCalibrationFile, calibration);
+  if (!fs::exists(o.out / kCalibrationFile)) formats::WriteCalibration(o.out / kCalibrationFile, calibration);
 
   sim::SimulatedRigBackend backend(renderer, faults, o.seed,
                                    o.no_noise ? sim::SensorModel::kNoiseless : sim::SensorModel::kNoisy);

@@ -13,7 +13,7 @@
 #include "core/error.h"
 #include "formats/material_package.h"
 
-namespace mesocap {
+namespace mesocap::bonn {
 namespace fs = std::filesystem;
 namespace {
 
@@ -55,11 +55,11 @@ class ByteReader {
  public:
   explicit ByteReader(const fs::path& file) : file_(file) {
     std::error_code ec;
-    if (!fs::is_regular_file(file, ec)) throw FormatError(file, "", "not a regular file");
+    if (!fs::is_regular_file(file, ec)) throw core::FormatError(file, "", "not a regular file");
     size_ = fs::file_size(file, ec);
-    if (ec) throw FormatError(file, "", "cannot read its size: " + ec.message());
+    if (ec) throw core::FormatError(file, "", "cannot read its size: " + ec.message());
     in_.open(file, std::ios::binary);
-    if (!in_) throw FormatError(file, "", "cannot open for reading");
+    if (!in_) throw core::FormatError(file, "", "cannot open for reading");
   }
 
   const fs::path& file() const { return file_; }
@@ -68,7 +68,7 @@ class ByteReader {
 
   void Need(std::uint64_t bytes, const std::string& field) const {
     if (bytes > remaining()) {
-      throw FormatError(file_, field,
+      throw core::FormatError(file_, field,
                         "truncated: needs " + std::to_string(bytes) + " bytes at offset " + std::to_string(offset_) +
                             ", the file has " + std::to_string(remaining()) + " left");
     }
@@ -76,7 +76,7 @@ class ByteReader {
   void Read(void* dst, std::uint64_t bytes, const std::string& field) {
     Need(bytes, field);
     in_.read(static_cast<char*>(dst), static_cast<std::streamsize>(bytes));
-    if (!in_) throw FormatError(file_, field, "read failed at offset " + std::to_string(offset_));
+    if (!in_) throw core::FormatError(file_, field, "read failed at offset " + std::to_string(offset_));
     offset_ += bytes;
   }
   void Skip(std::uint64_t bytes, const std::string& field) {
@@ -99,7 +99,7 @@ class ByteReader {
   int Count(const std::string& field, std::uint32_t lo, std::uint32_t hi) {
     const auto v = Get<std::uint32_t>(field);
     if (v < lo || v > hi) {
-      throw FormatError(file_, field, "expected " + std::to_string(lo) + ".." + std::to_string(hi) + ", got " +
+      throw core::FormatError(file_, field, "expected " + std::to_string(lo) + ".." + std::to_string(hi) + ", got " +
                                           std::to_string(v));
     }
     return static_cast<int>(v);
@@ -124,10 +124,10 @@ BonnDirection ReadDirection(ByteReader& in, const std::string& field) {
   d.theta = in.Get<float>(field + ".theta");
   d.phi = in.Get<float>(field + ".phi");
   if (!std::isfinite(d.theta) || !(d.theta >= 0.0f) || !(d.theta < static_cast<float>(std::numbers::pi / 2))) {
-    throw FormatError(in.file(), field + ".theta",
+    throw core::FormatError(in.file(), field + ".theta",
                       "expected a polar angle in [0, pi/2) rad (upper hemisphere), got " + Num(d.theta));
   }
-  if (!std::isfinite(d.phi)) throw FormatError(in.file(), field + ".phi", "expected a finite azimuth, got " + Num(d.phi));
+  if (!std::isfinite(d.phi)) throw core::FormatError(in.file(), field + ".phi", "expected a finite azimuth, got " + Num(d.phi));
   return d;
 }
 
@@ -136,14 +136,14 @@ void ReadMeta(ByteReader& in, BonnBtfFile* btf) {
   const auto size = in.Get<std::uint32_t>("meta.size");
   const auto version = in.Get<std::uint32_t>("meta.version");
   if (version < 1 || version > kMetaVersion) {
-    throw FormatError(in.file(), "meta.version", "expected 1..4, got " + std::to_string(version));
+    throw core::FormatError(in.file(), "meta.version", "expected 1..4, got " + std::to_string(version));
   }
   btf->measurement_setup = Trimmed(in.Chars(kMetaStringBytes, "meta.measurement_setup"));
   btf->image_sensor = Trimmed(in.Chars(kMetaStringBytes, "meta.image_sensor"));
   btf->light_source = Trimmed(in.Chars(kMetaStringBytes, "meta.light_source"));
   btf->pixels_per_mm = in.Get<float>("meta.pixels_per_mm");
   if (!std::isfinite(btf->pixels_per_mm)) {
-    throw FormatError(in.file(), "meta.pixels_per_mm", "expected a finite number, got " + Num(btf->pixels_per_mm));
+    throw core::FormatError(in.file(), "meta.pixels_per_mm", "expected a finite number, got " + Num(btf->pixels_per_mm));
   }
   for (int c = 0; c < 3; ++c) btf->rgb_scale_factor[c] = in.Get<float>("meta.rgb_scale_factor");
   btf->cosine_flag = version > 1 ? in.Get<std::uint32_t>("meta.cosine_flag") != 0 : false;
@@ -156,7 +156,7 @@ void ReadMeta(ByteReader& in, BonnBtfFile* btf) {
   if (version > 3) {
     const auto channels = in.Get<std::uint32_t>("meta.channel_count");
     if (channels != 3) {
-      throw FormatError(in.file(), "meta.channel_count",
+      throw core::FormatError(in.file(), "meta.channel_count",
                         "expected 3 colour channels (RGB), got " + std::to_string(channels) +
                             " (spectral BTFs are not supported)");
     }
@@ -165,14 +165,14 @@ void ReadMeta(ByteReader& in, BonnBtfFile* btf) {
       const std::string field = "meta.channel_names[" + std::to_string(c) + "]";
       const auto n = in.Get<std::uint32_t>(field + ".length");
       if (n > kMaxNameBytes) {
-        throw FormatError(in.file(), field + ".length",
+        throw core::FormatError(in.file(), field + ".length",
                           "expected at most " + std::to_string(kMaxNameBytes) + ", got " + std::to_string(n));
       }
       btf->channel_names.push_back(in.Chars(n, field));
     }
   }
   if (in.offset() - start != size) {
-    throw FormatError(in.file(), "meta.size",
+    throw core::FormatError(in.file(), "meta.size",
                       "says the meta-data block has " + std::to_string(size) + " bytes, its fields (version " +
                           std::to_string(version) + ") take " + std::to_string(in.offset() - start));
   }
@@ -181,16 +181,16 @@ void ReadMeta(ByteReader& in, BonnBtfFile* btf) {
 void ReadDirections(ByteReader& in, BonnBtfFile* btf) {
   // Each view costs at least 12 bytes, each light 8: bound the counts by the
   // file before reserving anything.
-  const int views = in.Count("views.count", 1, kMaxDirections);
+  const int views = in.Count("views.count", 1, formats::kMaxDirections);
   in.Need(static_cast<std::uint64_t>(views) * 12, "views");
   btf->views.clear();
   btf->lights.clear();
   for (int v = 0; v < views; ++v) {
     const std::string field = "views[" + std::to_string(v) + "]";
     btf->views.push_back(ReadDirection(in, field));
-    const int lights = in.Count(field + ".light_count", 1, kMaxDirections);
+    const int lights = in.Count(field + ".light_count", 1, formats::kMaxDirections);
     if (v > 0 && lights != btf->light_count()) {
-      throw FormatError(in.file(), field + ".light_count",
+      throw core::FormatError(in.file(), field + ".light_count",
                         "expected the same light count after every view (" + std::to_string(btf->light_count()) +
                             "), got " + std::to_string(lights));
     }
@@ -203,7 +203,7 @@ void ReadDirections(ByteReader& in, BonnBtfFile* btf) {
       } else if (std::abs(d.theta - btf->lights[l].theta) > 1e-6f ||
                  std::abs(std::remainder(d.phi - btf->lights[l].phi, 2 * std::numbers::pi_v<float>)) > 1e-6f) {
         // mesocap's BTF is a tensor product: one light set for every view.
-        throw FormatError(in.file(), light_field,
+        throw core::FormatError(in.file(), light_field,
                           "expected the same light directions after every view; differs from views[0].lights[" +
                               std::to_string(l) + "]");
       }
@@ -240,7 +240,7 @@ void ReadScalars(ByteReader& in, BonnScalar scalar, std::uint64_t count, float* 
   }
   for (std::uint64_t i = 0; i < count; ++i) {
     if (!std::isfinite(dst[i])) {
-      throw FormatError(in.file(), field, "value " + Num(dst[i]) + " at index " + std::to_string(i) +
+      throw core::FormatError(in.file(), field, "value " + Num(dst[i]) + " at index " + std::to_string(i) +
                                               "; expected finite numbers");
     }
   }
@@ -250,7 +250,7 @@ BonnScalar ScalarOf(ByteReader& in, std::uint8_t size, const std::string& field)
   if (size == 2) return BonnScalar::kHalf;
   if (size == 4) return BonnScalar::kFloat;
   if (size == 8) return BonnScalar::kDouble;
-  throw FormatError(in.file(), field, "expected 2 (half), 4 (float) or 8 (double) bytes, got " + std::to_string(size));
+  throw core::FormatError(in.file(), field, "expected 2 (half), 4 (float) or 8 (double) bytes, got " + std::to_string(size));
 }
 
 // Which way round a matrix of `rows` x `columns` lies; `channels` is 3 for
@@ -263,7 +263,7 @@ BonnRowSpace RowSpaceOf(const ByteReader& in, const BonnBtfFile& btf, std::uint6
   if (rows == channels * directions && columns == texels) return BonnRowSpace::kDirections;
   if (rows == channels * texels && columns == directions) return BonnRowSpace::kTexels;
   const std::string c = channels == 1 ? "" : std::to_string(channels) + " x ";
-  throw FormatError(in.file(), field,
+  throw core::FormatError(in.file(), field,
                     "expected " + c + "width x height = " + std::to_string(channels * texels) + " rows and lights x views = " +
                         std::to_string(directions) + " columns, or " + c + "lights x views = " +
                         std::to_string(channels * directions) + " rows and width x height = " + std::to_string(texels) +
@@ -290,7 +290,7 @@ BonnFactors ReadFactors(ByteReader& in, BonnScalar scalar, int rank, std::uint64
 class ByteWriter {
  public:
   explicit ByteWriter(const fs::path& file) : file_(file), out_(file, std::ios::binary | std::ios::trunc) {
-    if (!out_) throw Error(file.string() + ": cannot open for writing");
+    if (!out_) throw core::Error(file.string() + ": cannot open for writing");
   }
   template <typename T>
   void Put(T v) {
@@ -298,11 +298,11 @@ class ByteWriter {
   }
   void Write(const void* p, std::size_t bytes) {
     out_.write(static_cast<const char*>(p), static_cast<std::streamsize>(bytes));
-    if (!out_) throw Error(file_.string() + ": write failed");
+    if (!out_) throw core::Error(file_.string() + ": write failed");
   }
   void Close() {
     out_.close();
-    if (!out_) throw Error(file_.string() + ": write failed on close");
+    if (!out_) throw core::Error(file_.string() + ": write failed on close");
   }
 
  private:
@@ -312,7 +312,7 @@ class ByteWriter {
 
 void PutFixedString(ByteWriter& out, const std::string& s, const std::string& field) {
   if (s.size() > kMetaStringBytes) {
-    throw Error("Bonn BTF " + field + " \"" + s + "\" is longer than " + std::to_string(kMetaStringBytes) + " bytes");
+    throw core::Error("Bonn BTF " + field + " \"" + s + "\" is longer than " + std::to_string(kMetaStringBytes) + " bytes");
   }
   std::string padded = s;
   padded.resize(kMetaStringBytes, '\0');
@@ -362,7 +362,7 @@ void PutScalars(ByteWriter& out, BonnScalar scalar, const float* values, std::si
   std::vector<std::uint16_t> bits(count);
   for (std::size_t i = 0; i < count; ++i) {
     if (!(std::abs(values[i]) <= kHalfMax)) {
-      throw Error("Bonn BTF " + what + " value " + Num(values[i]) + " at index " + std::to_string(i) +
+      throw core::Error("Bonn BTF " + what + " value " + Num(values[i]) + " at index " + std::to_string(i) +
                   " does not fit a half float (|v| <= 65504); write float scalars instead");
     }
     bits[i] = Eigen::numext::bit_cast<std::uint16_t>(Eigen::half(values[i]));
@@ -377,12 +377,12 @@ void PutFactors(ByteWriter& out, BonnScalar scalar, const BonnFactors& f, const 
 }
 
 void CheckForWriting(const BonnBtfFile& btf) {
-  if (btf.views.empty() || btf.lights.empty()) throw Error("Bonn BTF: no view or light directions to write");
-  if (btf.width <= 0 || btf.height <= 0) throw Error("Bonn BTF: the texture size must be positive");
-  if (btf.channel_names.size() != 3) throw Error("Bonn BTF: expected 3 channel names");
+  if (btf.views.empty() || btf.lights.empty()) throw core::Error("Bonn BTF: no view or light directions to write");
+  if (btf.width <= 0 || btf.height <= 0) throw core::Error("Bonn BTF: the texture size must be positive");
+  if (btf.channel_names.size() != 3) throw core::Error("Bonn BTF: expected 3 channel names");
   const std::size_t expected = btf.form == BonnBtfForm::kFmf ? 1 : 3;
   if (btf.factors.size() != expected) {
-    throw Error("Bonn BTF: expected " + std::to_string(expected) + " factor sets, got " +
+    throw core::Error("Bonn BTF: expected " + std::to_string(expected) + " factor sets, got " +
                 std::to_string(btf.factors.size()));
   }
   const int channels = btf.form == BonnBtfForm::kFmf ? 3 : 1;
@@ -393,7 +393,7 @@ void CheckForWriting(const BonnBtfFile& btf) {
   for (const auto& f : btf.factors) {
     if (f.rank() < 1 || f.u.rows() != rows || f.sxv.rows() != columns || f.sxv.cols() != f.rank() ||
         f.singular_values.size() != f.rank()) {
-      throw Error("Bonn BTF: factor sizes " + std::to_string(f.u.rows()) + "x" + std::to_string(f.u.cols()) + " and " +
+      throw core::Error("Bonn BTF: factor sizes " + std::to_string(f.u.rows()) + "x" + std::to_string(f.u.cols()) + " and " +
                   std::to_string(f.sxv.rows()) + "x" + std::to_string(f.sxv.cols()) + " do not match " +
                   std::to_string(rows) + " rows and " + std::to_string(columns) + " columns");
     }
@@ -402,9 +402,9 @@ void CheckForWriting(const BonnBtfFile& btf) {
 
 }  // namespace
 
-SphericalAngles AnglesFromBonn(const BonnDirection& d) {
+core::SphericalAngles AnglesFromBonn(const BonnDirection& d) {
   constexpr double kTwoPi = 2.0 * std::numbers::pi;
-  SphericalAngles a;
+  core::SphericalAngles a;
   a.theta = d.theta;
   double phi = std::fmod(static_cast<double>(d.phi), kTwoPi);
   if (phi < 0.0) phi += kTwoPi;
@@ -413,7 +413,7 @@ SphericalAngles AnglesFromBonn(const BonnDirection& d) {
   return a;
 }
 
-BonnDirection BonnFromAngles(const SphericalAngles& a) {
+BonnDirection BonnFromAngles(const core::SphericalAngles& a) {
   // btflib's cart2sph2 gives phi = atan2(y, x) in (-pi, pi].
   return {static_cast<float>(a.theta), static_cast<float>(std::remainder(a.phi, 2.0 * std::numbers::pi))};
 }
@@ -430,7 +430,7 @@ BonnBtfFile ReadBonnBtfFile(const fs::path& file) {
   if (!match) {
     std::string shown;
     for (unsigned char c : head) shown += (c >= 32 && c < 127) ? static_cast<char>(c) : '?';
-    throw FormatError(file, "signature",
+    throw core::FormatError(file, "signature",
                       "expected \"!FMF12FCER\", \"!FMF06FCR\", \"!FMF06FC\" or \"!DFMF08FCR\", got \"" + shown + "\"");
   }
   BonnBtfFile btf;
@@ -442,8 +442,8 @@ BonnBtfFile ReadBonnBtfFile(const fs::path& file) {
 
   ReadMeta(body, &btf);
   ReadDirections(body, &btf);
-  btf.width = body.Count("width", 1, kMaxTextureSize);
-  btf.height = body.Count("height", 1, kMaxTextureSize);
+  btf.width = body.Count("width", 1, formats::kMaxTextureSize);
+  btf.height = body.Count("height", 1, formats::kMaxTextureSize);
   if (btf.signature.back() == 'R') {
     const auto rotations = body.Get<std::uint32_t>("rotations.count");
     body.Skip(static_cast<std::uint64_t>(rotations) * 36, "rotations");
@@ -454,7 +454,7 @@ BonnBtfFile ReadBonnBtfFile(const fs::path& file) {
     if (match->fmf_header_version) {
       header_version = body.Get<std::uint8_t>("fmf.header_version");
       if (header_version > 2) {
-        throw FormatError(file, "fmf.header_version", "expected 0..2, got " + std::to_string(header_version));
+        throw core::FormatError(file, "fmf.header_version", "expected 0..2, got " + std::to_string(header_version));
       }
     }
     if (header_version >= 1) btf.dynamic_range_reduction = body.Get<std::uint32_t>("fmf.dynamic_range_reduction");
@@ -467,7 +467,7 @@ BonnBtfFile ReadBonnBtfFile(const fs::path& file) {
     const BonnScalar scalar = ScalarOf(body, body.Get<std::uint8_t>("scalar_size"), "scalar_size");
     const auto rank = body.Get<std::uint32_t>("components (repeated)");
     if (rank != rank_file || rank < 1) {
-      throw FormatError(file, "components (repeated)",
+      throw core::FormatError(file, "components (repeated)",
                         "expected a positive count equal to the first (" + std::to_string(rank_file) + "), got " +
                             std::to_string(rank));
     }
@@ -483,14 +483,14 @@ BonnBtfFile ReadBonnBtfFile(const fs::path& file) {
     for (int r = 0; r < 3; ++r)
       for (int c = 0; c < 3; ++c) btf.color_matrix(r, c) = body.Get<float>("color_transformation_matrix");
     if (!btf.color_mean.allFinite() || !btf.color_matrix.allFinite()) {
-      throw FormatError(file, "color_transformation_matrix", "expected finite colour mean and matrix");
+      throw core::FormatError(file, "color_transformation_matrix", "expected finite colour mean and matrix");
     }
     for (int c = 0; c < 3; ++c) {
       const std::string prefix = "channels[" + std::to_string(c) + "].";
       const BonnScalar scalar = ScalarOf(body, body.Get<std::uint8_t>(prefix + "scalar_size"), prefix + "scalar_size");
       const auto rank = body.Get<std::uint32_t>(prefix + "components");
       if (rank < 1 || rank > max_rank) {
-        throw FormatError(file, prefix + "components",
+        throw core::FormatError(file, prefix + "components",
                           "expected 1.." + std::to_string(max_rank) + " (the header's largest count), got " +
                               std::to_string(rank));
       }
@@ -498,7 +498,7 @@ BonnBtfFile ReadBonnBtfFile(const fs::path& file) {
       const auto columns = body.Get<std::uint32_t>(prefix + "columns");
       const BonnRowSpace space = RowSpaceOf(body, btf, rows, columns, 1, prefix + "rows");
       if (c > 0 && space != btf.row_space) {
-        throw FormatError(file, prefix + "rows", "expected the same matrix orientation as channels[0]");
+        throw core::FormatError(file, prefix + "rows", "expected the same matrix orientation as channels[0]");
       }
       btf.row_space = space;
       if (c == 0) btf.scalar = scalar;
@@ -506,7 +506,7 @@ BonnBtfFile ReadBonnBtfFile(const fs::path& file) {
     }
   }
   if (body.remaining() != 0) {
-    throw FormatError(file, "size",
+    throw core::FormatError(file, "size",
                       std::to_string(body.remaining()) + " bytes after the last factor matrix; expected none " +
                           "(inconsistent counts in the header?)");
   }
@@ -514,7 +514,7 @@ BonnBtfFile ReadBonnBtfFile(const fs::path& file) {
 }
 
 void WriteBonnBtfFile(const fs::path& file, const BonnBtfFile& btf, BonnScalar scalar) {
-  if (scalar == BonnScalar::kDouble) throw Error("Bonn BTF: mesocap writes half or float factors, not double");
+  if (scalar == BonnScalar::kDouble) throw core::Error("Bonn BTF: mesocap writes half or float factors, not double");
   CheckForWriting(btf);
   // With as many texels as direction pairs the counts cannot tell the
   // orientation, and btflib (like ReadBonnBtfFile) takes U's rows as
@@ -523,7 +523,7 @@ void WriteBonnBtfFile(const fs::path& file, const BonnBtfFile& btf, BonnScalar s
   if (btf.row_space == BonnRowSpace::kTexels &&
       static_cast<long long>(btf.width) * btf.height == static_cast<long long>(btf.view_count()) * btf.light_count()) {
     if (btf.form == BonnBtfForm::kFmf) {
-      throw Error("Bonn FMF: width x height equals views x lights (" + std::to_string(btf.width * btf.height) +
+      throw core::Error("Bonn FMF: width x height equals views x lights (" + std::to_string(btf.width * btf.height) +
                   "), so a reader would take the texel rows for direction rows; write a DFMF instead");
     }
     BonnBtfFile swapped = btf;
@@ -532,7 +532,7 @@ void WriteBonnBtfFile(const fs::path& file, const BonnBtfFile& btf, BonnScalar s
     WriteBonnBtfFile(file, swapped, scalar);
     return;
   }
-  AtomicFile target(file);
+  core::AtomicFile target(file);
   ByteWriter out(target.temp_path());
   const auto byte = static_cast<std::uint8_t>(scalar);
   if (btf.form == BonnBtfForm::kFmf) {
@@ -605,10 +605,10 @@ BonnColorTransform BonnToRgb(const BonnBtfFile& btf) {
       t.to_rgb << 1, 1, -1, 1, 0, 1, 1, -1, -1;
       return t;
     default:
-      throw Error("DFMF colour model " + std::to_string(btf.color_model) + " (" +
+      throw core::Error("DFMF colour model " + std::to_string(btf.color_model) + " (" +
                   BonnColorModelName(btf.color_model) +
                   ") is not supported: mesocap reads the linear models 0 RGB, 1 YUV, 3 PCA and 4 YCoCg");
   }
 }
 
-}  // namespace mesocap
+}  // namespace mesocap::bonn

@@ -47,7 +47,7 @@
 
 #include "core/sampling_set.h"
 
-namespace mesocap {
+namespace mesocap::bonn {
 
 enum class BonnBtfForm { kFmf, kDfmf };
 
@@ -75,8 +75,8 @@ struct BonnDirection {
 // towards +Y, directions away from the surface), so the conversion is a
 // wrap of phi into [0, 2 pi) (mesocap) or (-pi, pi] (Bonn) and the float
 // rounding of the file (about 6e-8 rad).
-SphericalAngles AnglesFromBonn(const BonnDirection& d);
-BonnDirection BonnFromAngles(const SphericalAngles& a);
+core::SphericalAngles AnglesFromBonn(const BonnDirection& d);
+BonnDirection BonnFromAngles(const core::SphericalAngles& a);
 
 // A = U * SxV^T. Row-major as in the file.
 using BonnMatrix = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
@@ -149,4 +149,4 @@ BonnColorTransform BonnToRgb(const BonnBtfFile& btf);
 // "RGB", "YUV", "LAB", "PCA", "YCoCg", ... or "unknown".
 const char* BonnColorModelName(int model);
 
-}  // namespace mesocap
+}  // namespace mesocap::bonn

@@ -12,7 +12,7 @@
 #include "core/mdf.h"
 #include "core/version.h"
 
-namespace mesocap {
+namespace mesocap::bonn {
 namespace fs = std::filesystem;
 namespace {
 
@@ -24,8 +24,8 @@ double SecondsSince(std::chrono::steady_clock::time_point start) {
 }
 
 // The meta data a Bonn file takes from a package's description.
-void FillBonnMeta(const MaterialDescription& d, BonnBtfFile* b) {
-  b->measurement_setup = (std::string("mesocap ") + Version() + ": " + d.name).substr(0, 80);
+void FillBonnMeta(const formats::MaterialDescription& d, BonnBtfFile* b) {
+  b->measurement_setup = (std::string("mesocap ") + core::Version() + ": " + d.name).substr(0, 80);
   b->pixels_per_mm = static_cast<float>(d.width / d.physical_size_mm.x());
 }
 
@@ -52,24 +52,24 @@ BonnFactors MakeFactors(Eigen::Index rows, Eigen::Index columns, int rank) {
   return f;
 }
 
-SamplingSet BonnSet(const std::vector<BonnDirection>& dirs, const fs::path& file, const char* field) {
-  std::vector<SphericalAngles> angles;
+core::SamplingSet BonnSet(const std::vector<BonnDirection>& dirs, const fs::path& file, const char* field) {
+  std::vector<core::SphericalAngles> angles;
   for (const auto& d : dirs) angles.push_back(AnglesFromBonn(d));
   // Snap to a named set when the file holds its directions in its order
   // (the float angles are within ~1e-7 rad of them).
   for (const char* name : {"ubo2014", "ubo2003"}) {
-    const SamplingSet named = SamplingSet::Named(name);
+    const core::SamplingSet named = core::SamplingSet::Named(name);
     if (named.size() != static_cast<int>(angles.size())) continue;
     bool same = true;
     for (int i = 0; i < named.size() && same; ++i) {
-      same = named.direction(i).dot(DirectionFromAngles(angles[i].theta, angles[i].phi)) > std::cos(1e-5);
+      same = named.direction(i).dot(core::DirectionFromAngles(angles[i].theta, angles[i].phi)) > std::cos(1e-5);
     }
     if (same) return named;
   }
   try {
-    return SamplingSet::FromAngles("bonn_file", angles);
-  } catch (const Error& e) {
-    throw FormatError(file, field, e.what());
+    return core::SamplingSet::FromAngles("bonn_file", angles);
+  } catch (const core::Error& e) {
+    throw core::FormatError(file, field, e.what());
   }
 }
 
@@ -82,9 +82,9 @@ std::vector<double> CosineDivisors(const BonnBtfFile& btf) {
   return out;
 }
 
-MaterialDescription DescriptionFor(const std::string& name, int width, int height, double width_mm, double d_max_mm,
-                                   SamplingSet views, SamplingSet lights, std::string source) {
-  MaterialDescription d;
+formats::MaterialDescription DescriptionFor(const std::string& name, int width, int height, double width_mm, double d_max_mm,
+                                   core::SamplingSet views, core::SamplingSet lights, std::string source) {
+  formats::MaterialDescription d;
   d.name = name;
   d.width = width;
   d.height = height;
@@ -96,24 +96,24 @@ MaterialDescription DescriptionFor(const std::string& name, int width, int heigh
   return d;
 }
 
-void WriteFlatMdf(const MaterialDescription& d, MaterialPackageWriter* writer) {
-  Mdf mdf = MakeMdf(d.width, d.height, d.view_directions);
+void WriteFlatMdf(const formats::MaterialDescription& d, formats::MaterialPackageWriter* writer) {
+  core::Mdf mdf = core::MakeMdf(d.width, d.height, d.view_directions);
   std::fill(mdf.distance_mm.data(), mdf.distance_mm.data() + mdf.distance_mm.size(), 0.0f);
   writer->WriteMdf(mdf);
 }
 
 // The package's BTF in full, read or reconstructed from its factors.
-FullBtf FullBtfOfPackage(const fs::path& package, const MaterialManifest& manifest) {
-  if (manifest.full_btf) return ReadFullBtf(package, manifest);
-  const FactoredBtf factored = ReadFactoredBtf(package, manifest);
-  FullBtf full = MakeFullBtf(factored.width, factored.height, factored.views, factored.lights);
-  for (int v = 0; v < full.view_count(); ++v) full.view_images[v] = ReconstructBtfView(factored, v);
+core::FullBtf FullBtfOfPackage(const fs::path& package, const formats::MaterialManifest& manifest) {
+  if (manifest.full_btf) return formats::ReadFullBtf(package, manifest);
+  const core::FactoredBtf factored = formats::ReadFactoredBtf(package, manifest);
+  core::FullBtf full = core::MakeFullBtf(factored.width, factored.height, factored.views, factored.lights);
+  for (int v = 0; v < full.view_count(); ++v) full.view_images[v] = btf::ReconstructBtfView(factored, v);
   return full;
 }
 
 void ExpectNoTarget(const fs::path& out, bool replace) {
   std::error_code ec;
-  if (!replace && fs::exists(out, ec)) throw Error(out.string() + " already exists (use --replace to overwrite it)");
+  if (!replace && fs::exists(out, ec)) throw core::Error(out.string() + " already exists (use --replace to overwrite it)");
 }
 
 }  // namespace
@@ -127,13 +127,13 @@ const char* ToString(BonnForm form) {
   return "?";
 }
 
-CheckResult BonnExportOptions::Check() const {
+core::CheckResult BonnExportOptions::Check() const {
   if (!(std::isfinite(scale) && scale > 0.0)) return "scale " + std::to_string(scale) + " must be a positive number";
   if (scalar == BonnScalar::kDouble) return "mesocap writes half or float factors";
   return compression.Check();
 }
 
-CheckResult BonnImportOptions::Check() const {
+core::CheckResult BonnImportOptions::Check() const {
   if (!(std::isfinite(d_max_mm) && d_max_mm > 0.0)) {
     return "d_max_mm " + std::to_string(d_max_mm) + " must be a positive number (the Bonn forms carry no depth)";
   }
@@ -142,10 +142,10 @@ CheckResult BonnImportOptions::Check() const {
   return {};
 }
 
-BonnBtfFile BonnDfmfFromFactored(const FactoredBtf& btf) {
+BonnBtfFile BonnDfmfFromFactored(const core::FactoredBtf& btf) {
   btf.CheckShape();
-  if (btf.layout != BtfFactorLayout::kPerTexel) {
-    throw Error("DFMF export needs the per_texel layout (rows x, y; columns view, light), got " +
+  if (btf.layout != core::BtfFactorLayout::kPerTexel) {
+    throw core::Error("DFMF export needs the per_texel layout (rows x, y; columns view, light), got " +
                 std::string(ToString(btf.layout)));
   }
   BonnBtfFile b;
@@ -154,7 +154,7 @@ BonnBtfFile BonnDfmfFromFactored(const FactoredBtf& btf) {
   b.height = btf.height;
   for (int v = 0; v < btf.view_count(); ++v) b.views.push_back(BonnFromAngles(btf.views.angles(v)));
   for (int l = 0; l < btf.light_count(); ++l) b.lights.push_back(BonnFromAngles(btf.lights.angles(l)));
-  if (btf.color == BtfFactorColor::kYCbCr) {
+  if (btf.color == core::BtfFactorColor::kYCbCr) {
     // btflib's PCA model: rgb = M_file^T f + mean, so M_file = (M^-1)^T.
     b.color_model = kBonnColorPca;
     b.color_matrix = btf.rgb_to_factored.inverse().transpose().cast<float>();
@@ -176,23 +176,23 @@ BonnBtfFile BonnDfmfFromFactored(const FactoredBtf& btf) {
   return b;
 }
 
-BonnBtfFile BonnFmfFromFullBtf(const FullBtf& btf, const BtfCompressionOptions& options, BtfCompressionReport* report) {
+BonnBtfFile BonnFmfFromFullBtf(const core::FullBtf& btf, const btf::BtfCompressionOptions& options, btf::BtfCompressionReport* report) {
   const int w = btf.width, h = btf.height, nl = btf.light_count(), nv = btf.view_count();
   // The FMF matrix has rows (channel, x, y): stack the channels along y in
   // channel 0 of a BTF three times as tall, so that CompressBtf's per_texel
   // SVD of channel 0 is the SVD of that matrix (channels 1 and 2 stay zero,
   // which CompressBtf factors as zero).
-  FullBtf stacked = MakeFullBtf(w, 3 * h, btf.views, btf.lights);
+  core::FullBtf stacked = core::MakeFullBtf(w, 3 * h, btf.views, btf.lights);
   for (int v = 0; v < nv; ++v)
     for (int l = 0; l < nl; ++l)
       for (int c = 0; c < 3; ++c)
         for (int y = 0; y < h; ++y)
           for (int x = 0; x < w; ++x) stacked.view_images[v].pixel(x, l * 3 * h + c * h + y)[0] = btf.view_images[v].pixel(x, l * h + y)[c];
-  BtfCompressionOptions o = options;
-  o.layout = BtfFactorLayout::kPerTexel;
-  o.color = BtfFactorColor::kRgb;
-  const FactoredBtf factored = CompressBtf(stacked, o, report);
-  stacked = FullBtf{};
+  btf::BtfCompressionOptions o = options;
+  o.layout = core::BtfFactorLayout::kPerTexel;
+  o.color = core::BtfFactorColor::kRgb;
+  const core::FactoredBtf factored = btf::CompressBtf(stacked, o, report);
+  stacked = core::FullBtf{};
 
   BonnBtfFile b;
   b.form = BonnBtfForm::kFmf;
@@ -213,46 +213,46 @@ BonnBtfFile BonnFmfFromFullBtf(const FullBtf& btf, const BtfCompressionOptions& 
   return b;
 }
 
-SamplingSet BonnViewSet(const BonnBtfFile& btf, const fs::path& file) { return BonnSet(btf.views, file, "views"); }
-SamplingSet BonnLightSet(const BonnBtfFile& btf, const fs::path& file) { return BonnSet(btf.lights, file, "lights"); }
+core::SamplingSet BonnViewSet(const BonnBtfFile& btf, const fs::path& file) { return BonnSet(btf.views, file, "views"); }
+core::SamplingSet BonnLightSet(const BonnBtfFile& btf, const fs::path& file) { return BonnSet(btf.lights, file, "lights"); }
 
-FactoredBtf FactoredFromBonn(const BonnBtfFile& btf, const fs::path& file) {
+core::FactoredBtf FactoredFromBonn(const BonnBtfFile& btf, const fs::path& file) {
   if (btf.dynamic_range_reduction != 0) {
-    throw Error(file.string() + ": the FMF stores log values (dynamic_range_reduction " +
+    throw core::Error(file.string() + ": the FMF stores log values (dynamic_range_reduction " +
                 std::to_string(btf.dynamic_range_reduction) +
                 "), which no linear factorization reproduces; import it as a full BTF");
   }
   BonnColorTransform color;
   try {
     color = BonnToRgb(btf);
-  } catch (const Error& e) {
-    throw FormatError(file, "color_model", e.what());
+  } catch (const core::Error& e) {
+    throw core::FormatError(file, "color_model", e.what());
   }
   const bool has_offset = color.offset.squaredNorm() > 0.0;
   int rank = 0;
   for (const auto& f : btf.factors) rank = std::max(rank, f.rank());
   rank += has_offset ? 1 : 0;
-  if (rank > kMaxBtfRank) {
-    throw Error(file.string() + ": " + std::to_string(rank) + " components, more than a material package holds (" +
-                std::to_string(kMaxBtfRank) + "); import it as a full BTF (--btf full) and factor it with `mesocap compress`");
+  if (rank > core::kMaxBtfRank) {
+    throw core::Error(file.string() + ": " + std::to_string(rank) + " components, more than a material package holds (" +
+                std::to_string(core::kMaxBtfRank) + "); import it as a full BTF (--btf full) and factor it with `mesocap compress`");
   }
   const int w = btf.width, h = btf.height, nl = btf.light_count(), nv = btf.view_count();
-  FactoredBtf out;
+  core::FactoredBtf out;
   out.width = w;
   out.height = h;
   out.views = BonnViewSet(btf, file);
   out.lights = BonnLightSet(btf, file);
-  out.layout = BtfFactorLayout::kPerTexel;
+  out.layout = core::BtfFactorLayout::kPerTexel;
   if (btf.form == BonnBtfForm::kDfmf && btf.color_model != kBonnColorRgb) {
     const double det = color.to_rgb.determinant();
     if (!(std::abs(det) >= 1e-9 * std::pow(color.to_rgb.norm(), 3))) {
-      throw FormatError(file, "color_transformation_matrix", "expected an invertible colour matrix");
+      throw core::FormatError(file, "color_transformation_matrix", "expected an invertible colour matrix");
     }
-    out.color = BtfFactorColor::kYCbCr;
+    out.color = core::BtfFactorColor::kYCbCr;
     out.rgb_to_factored = color.to_rgb.inverse();
   }
-  out.rows.assign(rank, Image(w, h, 3));
-  out.columns = Image(nl * nv, rank, 3);
+  out.rows.assign(rank, core::Image(w, h, 3));
+  out.columns = core::Image(nl * nv, rank, 3);
   const std::vector<double> cosine = CosineDivisors(btf);
   const bool texel_rows = btf.row_space == BonnRowSpace::kTexels;
   // Column j = view * Nlight + light = btflib's direction index.
@@ -289,9 +289,9 @@ FactoredBtf FactoredFromBonn(const BonnBtfFile& btf, const fs::path& file) {
   return out;
 }
 
-Image BonnBtfView(const BonnBtfFile& btf, int view) {
+core::Image BonnBtfView(const BonnBtfFile& btf, int view) {
   const int w = btf.width, h = btf.height, nl = btf.light_count(), nv = btf.view_count();
-  if (view < 0 || view >= nv) throw Error("Bonn BTF view " + std::to_string(view) + " out of range");
+  if (view < 0 || view >= nv) throw core::Error("Bonn BTF view " + std::to_string(view) + " out of range");
   const BonnColorTransform color = BonnToRgb(btf);
   const std::vector<double> cosine = CosineDivisors(btf);
   const bool texel_rows = btf.row_space == BonnRowSpace::kTexels;
@@ -323,7 +323,7 @@ Image BonnBtfView(const BonnBtfFile& btf, int view) {
       f[c] = texel_side * direction_side.middleRows(static_cast<Eigen::Index>(nl) * view, nl).transpose();
     }
   }
-  Image out(w, h * nl, 3);
+  core::Image out(w, h * nl, 3);
   for (int l = 0; l < nl; ++l)
     for (int t = 0; t < texels; ++t) {
       Eigen::Vector3d rgb = color.to_rgb * Eigen::Vector3d(f[0](t, l), f[1](t, l), f[2](t, l)) + color.offset;
@@ -337,20 +337,20 @@ Image BonnBtfView(const BonnBtfFile& btf, int view) {
 
 BonnExportReport ExportBonn(const fs::path& package, const fs::path& out, const BonnExportOptions& options) {
   const auto start = std::chrono::steady_clock::now();
-  if (const auto problem = options.Check(); !problem.empty()) throw Error("export bonn: " + problem);
-  const MaterialManifest manifest = ReadMaterialManifest(package);
+  if (const auto problem = options.Check(); !problem.empty()) throw core::Error("export bonn: " + problem);
+  const formats::MaterialManifest manifest = formats::ReadMaterialManifest(package);
   if (!manifest.full_btf && !manifest.factored_btf) {
-    throw Error("export bonn: " + package.string() + " holds no BTF (manifest.json has no btf part)");
+    throw core::Error("export bonn: " + package.string() + " holds no BTF (manifest.json has no btf part)");
   }
-  const MaterialDescription& d = manifest.description;
+  const formats::MaterialDescription& d = manifest.description;
   BonnExportReport report;
   if (options.form == BonnForm::kUbo2003) {
     report.source = manifest.full_btf ? "full BTF" : "factored BTF, reconstructed";
-    std::optional<FactoredBtf> factored;
-    if (!manifest.full_btf) factored = ReadFactoredBtf(package, manifest);
-    AtomicDirectory folder(out, options.replace);
+    std::optional<core::FactoredBtf> factored;
+    if (!manifest.full_btf) factored = formats::ReadFactoredBtf(package, manifest);
+    core::AtomicDirectory folder(out, options.replace);
     for (int v = 0; v < d.view_directions.size(); ++v) {
-      const Image view = factored ? ReconstructBtfView(*factored, v) : ReadFullBtfView(package, manifest, v);
+      const core::Image view = factored ? btf::ReconstructBtfView(*factored, v) : formats::ReadFullBtfView(package, manifest, v);
       report.clipped_values += WriteUbo2003View(folder.temp_path(), d.view_directions, d.light_directions, v, view,
                                                 options.encoding, options.scale);
     }
@@ -365,20 +365,20 @@ BonnExportReport ExportBonn(const fs::path& package, const fs::path& out, const 
     ExpectNoTarget(out, options.replace);
     BonnBtfFile file;
     if (options.form == BonnForm::kDfmf) {
-      if (manifest.factored_btf && manifest.factored_btf->layout == BtfFactorLayout::kPerTexel) {
+      if (manifest.factored_btf && manifest.factored_btf->layout == core::BtfFactorLayout::kPerTexel) {
         report.source = "per_texel factored BTF";
-        file = BonnDfmfFromFactored(ReadFactoredBtf(package, manifest));
+        file = BonnDfmfFromFactored(formats::ReadFactoredBtf(package, manifest));
       } else {
         report.source = manifest.full_btf ? "full BTF, factored per_texel" : "paper-layout factors, refactored per_texel";
-        BtfCompressionOptions o = options.compression;
-        o.layout = BtfFactorLayout::kPerTexel;
-        BtfCompressionReport compression;
-        file = BonnDfmfFromFactored(CompressBtf(FullBtfOfPackage(package, manifest), o, &compression));
+        btf::BtfCompressionOptions o = options.compression;
+        o.layout = core::BtfFactorLayout::kPerTexel;
+        btf::BtfCompressionReport compression;
+        file = BonnDfmfFromFactored(btf::CompressBtf(FullBtfOfPackage(package, manifest), o, &compression));
         report.compression = compression;
       }
     } else {
       report.source = manifest.full_btf ? "full BTF, factored as one matrix" : "factored BTF, refactored as one matrix";
-      BtfCompressionReport compression;
+      btf::BtfCompressionReport compression;
       file = BonnFmfFromFullBtf(FullBtfOfPackage(package, manifest), options.compression, &compression);
       report.compression = compression;
     }
@@ -394,7 +394,7 @@ BonnExportReport ExportBonn(const fs::path& package, const fs::path& out, const 
 
 BonnImportReport ImportBonn(const fs::path& in, const fs::path& out, const BonnImportOptions& options) {
   const auto start = std::chrono::steady_clock::now();
-  if (const auto problem = options.Check(); !problem.empty()) throw Error("import bonn: " + problem);
+  if (const auto problem = options.Check(); !problem.empty()) throw core::Error("import bonn: " + problem);
   std::error_code ec;
   fs::path named = in;
   if (named.filename().empty()) named = named.parent_path();  // "folder/"
@@ -407,21 +407,21 @@ BonnImportReport ImportBonn(const fs::path& in, const fs::path& out, const BonnI
     report.form = BonnForm::kUbo2003;
     const BonnImportParts parts = options.parts.value_or(BonnImportParts::kFull);
     if (parts != BonnImportParts::kFull) {
-      throw Error("import bonn: " + in.string() + " is an image folder, which holds a full BTF only; import it with "
+      throw core::Error("import bonn: " + in.string() + " is an image folder, which holds a full BTF only; import it with "
                   "--btf full and factor it with `mesocap compress`");
     }
     if (!(options.width_mm > 0.0)) {
-      throw Error("import bonn: the images of " + in.string() + " carry no physical size; give --size-mm");
+      throw core::Error("import bonn: the images of " + in.string() + " carry no physical size; give --size-mm");
     }
     const Ubo2003ImageSet set = ScanUbo2003Folder(in);
-    const MaterialDescription d = DescriptionFor(name, set.width, set.height, options.width_mm, options.d_max_mm,
+    const formats::MaterialDescription d = DescriptionFor(name, set.width, set.height, options.width_mm, options.d_max_mm,
                                                  set.views, set.lights, "import bonn ubo2003 " + in.string());
-    MaterialPackageWriter writer(out, d, options.replace);
-    AmbientTerm ambient = MakeAmbientTerm(d.width, d.height, d.view_directions);
+    formats::MaterialPackageWriter writer(out, d, options.replace);
+    formats::AmbientTerm ambient = btf::MakeAmbientTerm(d.width, d.height, d.view_directions);
     for (int v = 0; v < d.view_directions.size(); ++v) {
-      const Image view = ReadUbo2003View(set, v, options.scale);
+      const core::Image view = ReadUbo2003View(set, v, options.scale);
       writer.WriteFullBtfView(v, view);
-      AddAmbientView(view, d.light_directions, v, &ambient);
+      btf::AddAmbientView(view, d.light_directions, v, &ambient);
     }
     writer.WriteAmbientTerm(ambient);
     if (options.flat_mdf) WriteFlatMdf(d, &writer);
@@ -436,7 +436,7 @@ BonnImportReport ImportBonn(const fs::path& in, const fs::path& out, const BonnI
     double width_mm = options.width_mm;
     if (!(width_mm > 0.0)) {
       if (!(btf.pixels_per_mm > 0.0f)) {
-        throw FormatError(in, "meta.pixels_per_mm",
+        throw core::FormatError(in, "meta.pixels_per_mm",
                           "is " + std::to_string(btf.pixels_per_mm) + ", so the physical size is unknown; give --size-mm");
       }
       width_mm = btf.width / static_cast<double>(btf.pixels_per_mm);
@@ -445,24 +445,24 @@ BonnImportReport ImportBonn(const fs::path& in, const fs::path& out, const BonnI
       spdlog::warn("{}: RGB scale factor ({}, {}, {}) is not applied (btflib does not apply it either)", in.string(),
                    btf.rgb_scale_factor[0], btf.rgb_scale_factor[1], btf.rgb_scale_factor[2]);
     }
-    std::optional<FactoredBtf> factored;
+    std::optional<core::FactoredBtf> factored;
     if (parts != BonnImportParts::kFull) factored = FactoredFromBonn(btf, in);
     try {
       BonnToRgb(btf);  // a full import needs a linear colour model too: fail before writing anything
-    } catch (const Error& e) {
-      throw FormatError(in, "color_model", e.what());
+    } catch (const core::Error& e) {
+      throw core::FormatError(in, "color_model", e.what());
     }
-    const MaterialDescription d =
+    const formats::MaterialDescription d =
         DescriptionFor(name, btf.width, btf.height, width_mm, options.d_max_mm, BonnViewSet(btf, in),
                        BonnLightSet(btf, in), std::string("import bonn ") + ToString(report.form) + " " + in.string());
-    MaterialPackageWriter writer(out, d, options.replace);
-    AmbientTerm ambient = MakeAmbientTerm(d.width, d.height, d.view_directions);
+    formats::MaterialPackageWriter writer(out, d, options.replace);
+    formats::AmbientTerm ambient = btf::MakeAmbientTerm(d.width, d.height, d.view_directions);
     for (int v = 0; v < d.view_directions.size(); ++v) {
       // With a full BTF the ambient term integrates the exact decode; else
       // the factored BTF, which equals it up to float rounding.
-      const Image view = parts != BonnImportParts::kFactored ? BonnBtfView(btf, v) : ReconstructBtfView(*factored, v);
+      const core::Image view = parts != BonnImportParts::kFactored ? BonnBtfView(btf, v) : btf::ReconstructBtfView(*factored, v);
       if (parts != BonnImportParts::kFactored) writer.WriteFullBtfView(v, view);
-      AddAmbientView(view, d.light_directions, v, &ambient);
+      btf::AddAmbientView(view, d.light_directions, v, &ambient);
     }
     if (factored) {
       writer.WriteFactoredBtf(*factored);
@@ -482,4 +482,4 @@ BonnImportReport ImportBonn(const fs::path& in, const fs::path& out, const BonnI
   return report;
 }
 
-}  // namespace mesocap
+}  // namespace mesocap::bonn

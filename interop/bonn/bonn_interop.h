@@ -37,7 +37,7 @@
 #include "interop/bonn/bonn_btf_file.h"
 #include "interop/bonn/bonn_ubo2003.h"
 
-namespace mesocap {
+namespace mesocap::bonn {
 
 enum class BonnForm { kUbo2003, kFmf, kDfmf };
 const char* ToString(BonnForm form);  // "ubo2003", "fmf", "dfmf"
@@ -53,16 +53,16 @@ struct BonnExportOptions {
   // fmf; for dfmf unless the package holds a per_texel factored BTF): rank
   // or error budget, and for dfmf the colour channels. The layout is
   // per_texel whatever is set.
-  BtfCompressionOptions compression;
+  btf::BtfCompressionOptions compression;
   bool replace = false;
 
-  CheckResult Check() const;
+  core::CheckResult Check() const;
 };
 
 struct BonnExportReport {
   std::string source;  // what was exported: "full BTF", "per_texel factored BTF", ...
   int rank = 0;        // components written (fmf, dfmf)
-  std::optional<BtfCompressionReport> compression;  // when factored here
+  std::optional<btf::BtfCompressionReport> compression;  // when factored here
   long long clipped_values = 0;                     // ubo2003 8-bit: values outside [0, 1] after scaling
   long long files = 0;
   double seconds = 0.0;
@@ -92,14 +92,14 @@ struct BonnImportOptions {
   std::string name;       // default: the input's file or folder name
   bool replace = false;
 
-  CheckResult Check() const;
+  core::CheckResult Check() const;
 };
 
 struct BonnImportReport {
   BonnForm form = BonnForm::kDfmf;
   std::string signature;  // binary forms
   int rank = 0;           // components of the factored BTF written (0 if none)
-  MaterialManifest manifest;
+  formats::MaterialManifest manifest;
   double seconds = 0.0;
 };
 
@@ -114,22 +114,22 @@ BonnImportReport ImportBonn(const std::filesystem::path& in, const std::filesyst
 // The conversions behind the above.
 //
 // A per_texel factored BTF as a DFMF (texel rows). Throws Error for the paper layout.
-BonnBtfFile BonnDfmfFromFactored(const FactoredBtf& btf);
+BonnBtfFile BonnDfmfFromFactored(const core::FactoredBtf& btf);
 // The FMF of a full BTF: the SVD of the (channel, x, y) x (view, light)
 // matrix by CompressBtf (per_texel, rgb) with `options`' rank or budget.
 // Needs the BTF three times over in memory (the stacked channels).
-BonnBtfFile BonnFmfFromFullBtf(const FullBtf& btf, const BtfCompressionOptions& options,
-                               BtfCompressionReport* report = nullptr);
+BonnBtfFile BonnFmfFromFullBtf(const core::FullBtf& btf, const btf::BtfCompressionOptions& options,
+                               btf::BtfCompressionReport* report = nullptr);
 // A Bonn file's direction lists as sampling sets, in the file's order;
 // named "ubo2014" or "ubo2003" when they are that set's directions (within
 // the file's float rounding), which are then used exactly.
-SamplingSet BonnViewSet(const BonnBtfFile& btf, const std::filesystem::path& file);
-SamplingSet BonnLightSet(const BonnBtfFile& btf, const std::filesystem::path& file);
+core::SamplingSet BonnViewSet(const BonnBtfFile& btf, const std::filesystem::path& file);
+core::SamplingSet BonnLightSet(const BonnBtfFile& btf, const std::filesystem::path& file);
 // The factored BTF a Bonn file holds (per_texel), exactly. Throws Error for
 // a dynamic-range-reduced FMF, a nonlinear colour model, or more than
 // kMaxBtfRank components.
-FactoredBtf FactoredFromBonn(const BonnBtfFile& btf, const std::filesystem::path& file);
+core::FactoredBtf FactoredFromBonn(const BonnBtfFile& btf, const std::filesystem::path& file);
 // View `view` decoded as btflib decodes it, as a full-BTF view image.
-Image BonnBtfView(const BonnBtfFile& btf, int view);
+core::Image BonnBtfView(const BonnBtfFile& btf, int view);
 
-}  // namespace mesocap
+}  // namespace mesocap::bonn

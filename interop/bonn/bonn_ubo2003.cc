@@ -14,7 +14,7 @@
 
 #include "core/error.h"
 
-namespace mesocap {
+namespace mesocap::bonn {
 namespace fs = std::filesystem;
 namespace {
 
@@ -80,29 +80,29 @@ NameAngles ParseName(const fs::path& file) {
     const auto parsed = std::from_chars(first, last, value, std::chars_format::fixed);
     const bool digits_only = std::all_of(first, last, [](char c) { return std::isdigit(static_cast<unsigned char>(c)) || c == '.'; });
     if (it == kTokens.end() || first == last || parsed.ec != std::errc() || parsed.ptr != last || !digits_only) {
-      throw FormatError(file, "name",
+      throw core::FormatError(file, "name",
                         "expected tl<deg>_pl<deg>_tv<deg>_pv<deg> (e.g. tl015_pl060_tv030_pv090), got part \"" + part +
                             "\"");
     }
     const int index = static_cast<int>(it - kTokens.begin());
-    if (seen[index]) throw FormatError(file, "name", std::string("angle ") + kTokens[index] + " given twice");
+    if (seen[index]) throw core::FormatError(file, "name", std::string("angle ") + kTokens[index] + " given twice");
     seen[index] = true;
     out.deg[index] = value;
     start = end + 1;
   }
   for (int i = 0; i < 4; ++i) {
-    if (!seen[i]) throw FormatError(file, "name", std::string("no ") + kTokens[i] + " angle (expected tl, pl, tv, pv)");
+    if (!seen[i]) throw core::FormatError(file, "name", std::string("no ") + kTokens[i] + " angle (expected tl, pl, tv, pv)");
   }
-  if (parts != 4) throw FormatError(file, "name", "expected exactly the four parts tl, pl, tv, pv");
+  if (parts != 4) throw core::FormatError(file, "name", "expected exactly the four parts tl, pl, tv, pv");
   for (int i : {0, 2}) {
     if (out.deg[i] >= 90.0) {
-      throw FormatError(file, "name", std::string(kTokens[i]) + " " + std::to_string(out.deg[i]) +
+      throw core::FormatError(file, "name", std::string(kTokens[i]) + " " + std::to_string(out.deg[i]) +
                                           " degrees is not a polar angle of the upper hemisphere [0, 90)");
     }
   }
   for (int i : {1, 3}) {
     if (out.deg[i] >= 360.0) {
-      throw FormatError(file, "name",
+      throw core::FormatError(file, "name",
                         std::string(kTokens[i]) + " " + std::to_string(out.deg[i]) + " degrees is outside [0, 360)");
     }
   }
@@ -114,10 +114,10 @@ NameAngles ParseName(const fs::path& file) {
 using DegreePair = std::pair<double, double>;
 DegreePair Key(double theta_deg, double phi_deg) { return {theta_deg, theta_deg == 0.0 ? 0.0 : phi_deg}; }
 
-SamplingSet SetOf(const fs::path& dir, const std::set<DegreePair>& keys, const char* what) {
-  std::vector<SphericalAngles> angles;
+core::SamplingSet SetOf(const fs::path& dir, const std::set<DegreePair>& keys, const char* what) {
+  std::vector<core::SphericalAngles> angles;
   for (const auto& [t, p] : keys) angles.push_back({t * kDegree, p * kDegree});
-  const SamplingSet named = SamplingSet::Named("ubo2003");
+  const core::SamplingSet named = core::SamplingSet::Named("ubo2003");
   if (named.size() == static_cast<int>(angles.size())) {
     bool same = true;
     for (int i = 0; i < named.size() && same; ++i) {
@@ -127,25 +127,25 @@ SamplingSet SetOf(const fs::path& dir, const std::set<DegreePair>& keys, const c
     if (same) return named;
   }
   try {
-    return SamplingSet::FromAngles("bonn_images", angles);
-  } catch (const Error& e) {
-    throw FormatError(dir, what, e.what());
+    return core::SamplingSet::FromAngles("bonn_images", angles);
+  } catch (const core::Error& e) {
+    throw core::FormatError(dir, what, e.what());
   }
 }
 
 }  // namespace
 
-std::string Ubo2003ImageName(const SphericalAngles& light, const SphericalAngles& view, Ubo2003Encoding encoding) {
+std::string Ubo2003ImageName(const core::SphericalAngles& light, const core::SphericalAngles& view, Ubo2003Encoding encoding) {
   return "tl" + AngleText(light.theta) + "_pl" + AngleText(light.phi) + "_tv" + AngleText(view.theta) + "_pv" +
          AngleText(view.phi) + Extension(encoding);
 }
 
 Ubo2003ImageSet ScanUbo2003Folder(const fs::path& dir) {
   std::error_code ec;
-  if (!fs::is_directory(dir, ec)) throw Error(dir.string() + ": not a folder of Bonn BTF images");
+  if (!fs::is_directory(dir, ec)) throw core::Error(dir.string() + ": not a folder of Bonn BTF images");
   std::vector<fs::path> candidates;
   for (auto it = fs::recursive_directory_iterator(dir, ec); it != fs::recursive_directory_iterator(); it.increment(ec)) {
-    if (ec) throw Error(dir.string() + ": cannot list: " + ec.message());
+    if (ec) throw core::Error(dir.string() + ": cannot list: " + ec.message());
     if (it.depth() >= 1) it.disable_recursion_pending();  // the folder and its direct subfolders
     if (!it->is_regular_file()) continue;
     const fs::path& p = it->path();
@@ -154,7 +154,7 @@ Ubo2003ImageSet ScanUbo2003Folder(const fs::path& dir) {
     candidates.push_back(p);
   }
   if (candidates.empty()) {
-    throw Error(dir.string() + ": no Bonn BTF images (tl<deg>_pl<deg>_tv<deg>_pv<deg>.png/.tif/.exr) found");
+    throw core::Error(dir.string() + ": no Bonn BTF images (tl<deg>_pl<deg>_tv<deg>_pv<deg>.png/.tif/.exr) found");
   }
   std::sort(candidates.begin(), candidates.end());
 
@@ -163,7 +163,7 @@ Ubo2003ImageSet ScanUbo2003Folder(const fs::path& dir) {
   std::set<DegreePair> view_keys, light_keys;
   for (const auto& file : candidates) {
     if (Lower(file.extension().string()) != extension) {
-      throw FormatError(file, "extension",
+      throw core::FormatError(file, "extension",
                         "expected every image in the same format as " + candidates.front().filename().string());
     }
     const NameAngles a = ParseName(file);
@@ -171,7 +171,7 @@ Ubo2003ImageSet ScanUbo2003Folder(const fs::path& dir) {
     const DegreePair view = Key(a.deg[2], a.deg[3]);
     const auto [it, inserted] = by_pair.emplace(std::make_pair(view, light), file);
     if (!inserted) {
-      throw FormatError(file, "name", "the same light and view directions as " + it->second.string());
+      throw core::FormatError(file, "name", "the same light and view directions as " + it->second.string());
     }
     view_keys.insert(view);
     light_keys.insert(light);
@@ -180,9 +180,9 @@ Ubo2003ImageSet ScanUbo2003Folder(const fs::path& dir) {
   Ubo2003ImageSet set;
   set.views = SetOf(dir, view_keys, "view directions");
   set.lights = SetOf(dir, light_keys, "light directions");
-  const ImageHeader first = ReadImageHeader(candidates.front());
+  const core::ImageHeader first = core::ReadImageHeader(candidates.front());
   if (first.channels != 3) {
-    throw FormatError(candidates.front(), "channels", "expected 3 (RGB), got " + std::to_string(first.channels));
+    throw core::FormatError(candidates.front(), "channels", "expected 3 (RGB), got " + std::to_string(first.channels));
   }
   set.width = first.width;
   set.height = first.height;
@@ -196,24 +196,24 @@ Ubo2003ImageSet ScanUbo2003Folder(const fs::path& dir) {
         const Ubo2003Encoding enc = extension == ".exr" ? Ubo2003Encoding::kHalfExr : Ubo2003Encoding::kSrgb8Png;
         fs::path expected = dir / Ubo2003ImageName(set.lights.angles(l), set.views.angles(v), enc);
         expected.replace_extension(extension);
-        throw FormatError(expected, "",
+        throw core::FormatError(expected, "",
                           "missing: every light must be imaged from every view (" + std::to_string(light_keys.size()) +
                               " lights x " + std::to_string(view_keys.size()) + " views seen); no image for light " +
                               std::to_string(l) + ", view " + std::to_string(v));
       }
-      const ImageHeader h = ReadImageHeader(it->second);
+      const core::ImageHeader h = core::ReadImageHeader(it->second);
       if (h.width != first.width || h.height != first.height) {
-        throw FormatError(it->second, h.width != first.width ? "width" : "height",
+        throw core::FormatError(it->second, h.width != first.width ? "width" : "height",
                           "expected " + std::to_string(first.width) + "x" + std::to_string(first.height) + " like " +
                               candidates.front().filename().string() + ", got " + std::to_string(h.width) + "x" +
                               std::to_string(h.height));
       }
       if (h.channels != 3) {
-        throw FormatError(it->second, "channels", "expected 3 (RGB), got " + std::to_string(h.channels));
+        throw core::FormatError(it->second, "channels", "expected 3 (RGB), got " + std::to_string(h.channels));
       }
-      if ((h.encoding == PixelEncoding::kFloat32 || h.encoding == PixelEncoding::kHalf) !=
-          (first.encoding == PixelEncoding::kFloat32 || first.encoding == PixelEncoding::kHalf)) {
-        throw FormatError(it->second, "pixel type",
+      if ((h.encoding == core::PixelEncoding::kFloat32 || h.encoding == core::PixelEncoding::kHalf) !=
+          (first.encoding == core::PixelEncoding::kFloat32 || first.encoding == core::PixelEncoding::kHalf)) {
+        throw core::FormatError(it->second, "pixel type",
                           std::string("expected ") + ToString(first.encoding) + " like " +
                               candidates.front().filename().string() + ", got " + ToString(h.encoding));
       }
@@ -225,27 +225,27 @@ Ubo2003ImageSet ScanUbo2003Folder(const fs::path& dir) {
   return set;
 }
 
-Image ReadUbo2003View(const Ubo2003ImageSet& set, int view, double scale) {
-  if (view < 0 || view >= set.views.size()) throw Error("Bonn image view " + std::to_string(view) + " out of range");
-  if (!(scale > 0.0) || !std::isfinite(scale)) throw Error("Bonn image scale must be a positive number");
+core::Image ReadUbo2003View(const Ubo2003ImageSet& set, int view, double scale) {
+  if (view < 0 || view >= set.views.size()) throw core::Error("Bonn image view " + std::to_string(view) + " out of range");
+  if (!(scale > 0.0) || !std::isfinite(scale)) throw core::Error("Bonn image scale must be a positive number");
   const int w = set.width, h = set.height;
-  Image out(w, h * set.lights.size(), 3);
-  ImageReadOptions options;
+  core::Image out(w, h * set.lights.size(), 3);
+  core::ImageReadOptions options;
   options.expected_width = w;
   options.expected_height = h;
   options.expected_channels = 3;
   for (int l = 0; l < set.lights.size(); ++l) {
     const fs::path& file = set.files[view][l];
-    const ImageHeader header = ReadImageHeader(file);
-    const bool srgb = header.encoding == PixelEncoding::kUInt8 || header.encoding == PixelEncoding::kUInt16;
-    const Image image = ReadImage(file, options);
+    const core::ImageHeader header = core::ReadImageHeader(file);
+    const bool srgb = header.encoding == core::PixelEncoding::kUInt8 || header.encoding == core::PixelEncoding::kUInt16;
+    const core::Image image = core::ReadImage(file, options);
     for (int y = 0; y < h; ++y) {
       const float* src = image.pixel(0, y);
       float* dst = out.pixel(0, l * h + y);
       for (int i = 0; i < w * 3; ++i) {
         const float v = srgb ? OIIO::sRGB_to_linear(src[i]) : src[i];
         if (!std::isfinite(v)) {
-          throw FormatError(file, "pixels", "value at x=" + std::to_string(i / 3) + ", y=" + std::to_string(y) +
+          throw core::FormatError(file, "pixels", "value at x=" + std::to_string(i / 3) + ", y=" + std::to_string(y) +
                                                 " is not finite");
         }
         dst[i] = static_cast<float>(v / scale);
@@ -255,18 +255,18 @@ Image ReadUbo2003View(const Ubo2003ImageSet& set, int view, double scale) {
   return out;
 }
 
-long long WriteUbo2003View(const fs::path& dir, const SamplingSet& views, const SamplingSet& lights, int view,
-                           const Image& values, Ubo2003Encoding encoding, double scale) {
-  if (!(scale > 0.0) || !std::isfinite(scale)) throw Error("Bonn image scale must be a positive number");
+long long WriteUbo2003View(const fs::path& dir, const core::SamplingSet& views, const core::SamplingSet& lights, int view,
+                           const core::Image& values, Ubo2003Encoding encoding, double scale) {
+  if (!(scale > 0.0) || !std::isfinite(scale)) throw core::Error("Bonn image scale must be a positive number");
   const int h = lights.size() > 0 ? values.height() / lights.size() : 0;
   if (values.channels() != 3 || h <= 0 || h * lights.size() != values.height()) {
-    throw Error("Bonn image export: view image " + std::to_string(values.width()) + "x" +
+    throw core::Error("Bonn image export: view image " + std::to_string(values.width()) + "x" +
                 std::to_string(values.height()) + " does not hold " + std::to_string(lights.size()) + " lights");
   }
   const int w = values.width();
   long long clipped = 0;
   for (int l = 0; l < lights.size(); ++l) {
-    Image image(w, h, 3);
+    core::Image image(w, h, 3);
     for (int y = 0; y < h; ++y) {
       const float* src = values.pixel(0, l * h + y);
       float* dst = image.pixel(0, y);
@@ -278,7 +278,7 @@ long long WriteUbo2003View(const fs::path& dir, const SamplingSet& views, const 
           dst[i] = OIIO::linear_to_sRGB(std::clamp(v, 0.0f, 1.0f));
         } else {
           if (!(std::abs(v) <= kHalfMax)) {
-            throw Error("Bonn image export: value " + std::to_string(v) + " (view " + std::to_string(view) +
+            throw core::Error("Bonn image export: value " + std::to_string(v) + " (view " + std::to_string(view) +
                         ", light " + std::to_string(l) + ") does not fit a half float (|v| <= 65504)");
           }
           dst[i] = v;
@@ -286,9 +286,9 @@ long long WriteUbo2003View(const fs::path& dir, const SamplingSet& views, const 
       }
     }
     const fs::path file = dir / Ubo2003ImageName(lights.angles(l), views.angles(view), encoding);
-    WriteImage(file, image, encoding == Ubo2003Encoding::kSrgb8Png ? PixelEncoding::kUInt8 : PixelEncoding::kHalf);
+    core::WriteImage(file, image, encoding == Ubo2003Encoding::kSrgb8Png ? core::PixelEncoding::kUInt8 : core::PixelEncoding::kHalf);
   }
   return clipped;
 }
 
-}  // namespace mesocap
+}  // namespace mesocap::bonn

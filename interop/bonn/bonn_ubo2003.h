@@ -37,19 +37,19 @@
 #include "core/image_io.h"
 #include "core/sampling_set.h"
 
-namespace mesocap {
+namespace mesocap::bonn {
 
 enum class Ubo2003Encoding { kSrgb8Png, kHalfExr };
 
 // "tl015_pl060_tv030_pv090.png" (angles in degrees as described above).
-std::string Ubo2003ImageName(const SphericalAngles& light, const SphericalAngles& view, Ubo2003Encoding encoding);
+std::string Ubo2003ImageName(const core::SphericalAngles& light, const core::SphericalAngles& view, Ubo2003Encoding encoding);
 
 // The images of a folder, validated from their names and headers only.
 struct Ubo2003ImageSet {
   int width = 0;
   int height = 0;
-  SamplingSet views;   // ring by ring from the pole, by increasing phi
-  SamplingSet lights;  // "ubo2003" when the directions are that set's
+  core::SamplingSet views;   // ring by ring from the pole, by increasing phi
+  core::SamplingSet lights;  // "ubo2003" when the directions are that set's
   // files[view][light]
   std::vector<std::vector<std::filesystem::path>> files;
 };
@@ -64,12 +64,12 @@ Ubo2003ImageSet ScanUbo2003Folder(const std::filesystem::path& dir);
 
 // View `view` as a full-BTF view image (3 channels, W x H * Nlight, light l
 // in rows [l*H, (l+1)*H)): linear, divided by `scale`.
-Image ReadUbo2003View(const Ubo2003ImageSet& set, int view, double scale);
+core::Image ReadUbo2003View(const Ubo2003ImageSet& set, int view, double scale);
 
 // Writes the Nlight images of view `view` (a full-BTF view image) into
 // `dir`. Returns how many values fell outside [0, 1] after scaling and were
 // clipped (8-bit form). Throws Error for a value that does not fit a half.
-long long WriteUbo2003View(const std::filesystem::path& dir, const SamplingSet& views, const SamplingSet& lights,
-                           int view, const Image& values, Ubo2003Encoding encoding, double scale);
+long long WriteUbo2003View(const std::filesystem::path& dir, const core::SamplingSet& views, const core::SamplingSet& lights,
+                           int view, const core::Image& values, Ubo2003Encoding encoding, double scale);
 
-}  // namespace mesocap
+}  // namespace mesocap::bonn

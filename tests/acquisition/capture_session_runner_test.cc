@@ -29,8 +29,8 @@ namespace fs = std::filesystem;
 // The tiny rig cut to one turntable angle, one arc angle and one laser
 // location with 8 frames: 2 calibration steps, 2 BTF image steps (one per
 // lamp), 1 sweep, each for both 128 x 96 cameras.
-drivers::RigDescription SmallPlanRig() {
-  drivers::RigDescription rig = sim::LoadRig("tiny");
+formats::RigDescription SmallPlanRig() {
+  formats::RigDescription rig = sim::LoadRig("tiny");
   rig.turntable.angles_rad = {0.6};
   rig.light_arc.angles_rad = {2.0};
   rig.laser.locations.resize(1);
@@ -51,7 +51,7 @@ sim::FaultRule Rule(sim::FaultKind kind, std::optional<double> rate, std::vector
 // One simulated capture of `weave` into `dir`, with the given faults.
 class SimulatedCapture {
  public:
-  SimulatedCapture(const drivers::RigDescription& rig, sim::FaultPlan faults)
+  SimulatedCapture(const formats::RigDescription& rig, sim::FaultPlan faults)
       : scene_(sim::MakeBuiltinScene("weave")),
         rig_description_(rig),
         renderer_(*scene_, rig_description_, {1}),
@@ -59,7 +59,7 @@ class SimulatedCapture {
         rig_(drivers::BuildRig(rig_description_, {{"sim", &backend_}})),
         operator_(backend_.shared_state()) {}
 
-  CaptureRunReport Run(const fs::path& dir, const Calibration* calibration = nullptr) {
+  CaptureRunReport Run(const fs::path& dir, const formats::Calibration* calibration = nullptr) {
     CaptureRunnerOptions options;
     options.show_progress = false;
     options.calibration = calibration;
@@ -70,34 +70,34 @@ class SimulatedCapture {
 
  private:
   std::unique_ptr<sim::MesostructureScene> scene_;
-  drivers::RigDescription rig_description_;
+  formats::RigDescription rig_description_;
   sim::CameraRenderer renderer_;
   sim::SimulatedRigBackend backend_;
   drivers::Rig rig_;
   sim::SimulatedOperator operator_;
 };
 
-void CreateSession(const fs::path& dir, const drivers::RigDescription& rig) {
-  SessionManifest manifest;
+void CreateSession(const fs::path& dir, const formats::RigDescription& rig) {
+  formats::SessionManifest manifest;
   manifest.rig = rig.json;
   manifest.plan = MakeCapturePlan(rig, {{"simulated_scene", "weave"}});
-  CreateCaptureSession(dir, manifest);
+  formats::CreateCaptureSession(dir, manifest);
 }
 
 // Every file of the session, decoded, by path.
 std::map<std::string, std::vector<float>> SessionPixels(const fs::path& dir) {
   std::map<std::string, std::vector<float>> out;
-  const SessionManifest manifest = ReadSessionManifest(dir);
-  for (const PlannedStep& step : manifest.plan) {
+  const formats::SessionManifest manifest = formats::ReadSessionManifest(dir);
+  for (const formats::PlannedStep& step : manifest.plan) {
     for (const auto& f : step.params.at("files")) {
       const std::string path = f.at("path").get<std::string>();
       std::vector<float>& values = out[path];
-      if (step.kind == StepKind::kLaserSweep) {
-        FrameSequenceReader reader(dir / path);
-        Image frame;
+      if (step.kind == formats::StepKind::kLaserSweep) {
+        formats::FrameSequenceReader reader(dir / path);
+        core::Image frame;
         while (reader.Next(&frame)) values.insert(values.end(), frame.data(), frame.data() + frame.size());
       } else {
-        const Image image = ReadImage(dir / path);
+        const core::Image image = core::ReadImage(dir / path);
         values.assign(image.data(), image.data() + image.size());
       }
     }
@@ -106,8 +106,8 @@ std::map<std::string, std::vector<float>> SessionPixels(const fs::path& dir) {
 }
 
 std::size_t JournaledSteps(const fs::path& dir) {
-  const SessionManifest manifest = ReadSessionManifest(dir);
-  return ReadCaptureJournal(dir / kSessionJournalName, &manifest).records.size();
+  const formats::SessionManifest manifest = formats::ReadSessionManifest(dir);
+  return formats::ReadCaptureJournal(dir / formats::kSessionJournalName, &manifest).records.size();
 }
 
 TEST(CaptureSessionRunner, RecordsEveryStepOfThePlan) {
@@ -174,16 +174,16 @@ TEST(CaptureSessionRunner, CurableFaultsDoNotChangeTheData) {
 // a plan before anything moves.
 TEST(CaptureSessionRunner, SweepsStoredAsAnalysesProcessToTheSameMdf) {
   testing::TemporaryDirectory dir;
-  drivers::RigDescription frames_rig = SmallPlanRig();
+  formats::RigDescription frames_rig = SmallPlanRig();
   frames_rig.laser.frames_per_sweep = 48;
-  drivers::RigDescription analysis_rig = frames_rig;
-  analysis_rig.laser.sweep_storage = drivers::LaserDescription::SweepStorage::kAnalysis;
-  const Calibration calibration = sim::TrueCalibration(frames_rig);
+  formats::RigDescription analysis_rig = frames_rig;
+  analysis_rig.laser.sweep_storage = formats::LaserDescription::SweepStorage::kAnalysis;
+  const formats::Calibration calibration = sim::TrueCalibration(frames_rig);
   CreateSession(dir / "frames", frames_rig);
   CreateSession(dir / "analysis", analysis_rig);
   SimulatedCapture(frames_rig, {}).Run(dir / "frames");
 
-  EXPECT_THROW(SimulatedCapture(analysis_rig, {}).Run(dir / "analysis"), Error);
+  EXPECT_THROW(SimulatedCapture(analysis_rig, {}).Run(dir / "analysis"), core::Error);
   EXPECT_EQ(JournaledSteps(dir / "analysis"), 0u);
   const CaptureRunReport report = SimulatedCapture(analysis_rig, {}).Run(dir / "analysis", &calibration);
   EXPECT_EQ(report.steps_run, 5u);
@@ -191,9 +191,9 @@ TEST(CaptureSessionRunner, SweepsStoredAsAnalysesProcessToTheSameMdf) {
   EXPECT_TRUE(fs::exists(dir / "analysis" / "laser" / "t0_loc0_cam1.sweep.json.exr"));
   EXPECT_FALSE(fs::exists(dir / "analysis" / "laser" / "t0_loc0_cam1.tif"));
 
-  auto compare = [&](const MdfProcessingOptions& options) {
-    const MdfProcessingResult a = ProcessMdfSession(dir / "frames", calibration, options, Progress::Style::kSilent);
-    const MdfProcessingResult b = ProcessMdfSession(dir / "analysis", calibration, options, Progress::Style::kSilent);
+  auto compare = [&](const mdf::MdfProcessingOptions& options) {
+    const mdf::MdfProcessingResult a = mdf::ProcessMdfSession(dir / "frames", calibration, options, core::Progress::Style::kSilent);
+    const mdf::MdfProcessingResult b = mdf::ProcessMdfSession(dir / "analysis", calibration, options, core::Progress::Style::kSilent);
     EXPECT_EQ(a.mdf.distance_mm.size(), b.mdf.distance_mm.size());
     std::size_t measured = 0, disagree = 0;
     double worst = 0.0;
@@ -210,7 +210,7 @@ TEST(CaptureSessionRunner, SweepsStoredAsAnalysesProcessToTheSameMdf) {
     EXPECT_EQ(disagree, 0u);
     return measured;
   };
-  MdfProcessingOptions options;
+  mdf::MdfProcessingOptions options;
   options.texture_size = 32;
   const std::size_t measured = compare(options);
   EXPECT_GT(measured, 200u);
@@ -236,7 +236,7 @@ TEST(CaptureSessionRunner, DisconnectStopsAndAResumeCompletes) {
     try {
       broken.Run(dir / "twice");
       FAIL() << "no error";
-    } catch (const Error& e) {
+    } catch (const core::Error& e) {
       const std::string what = e.what();
       EXPECT_NE(what.find("laser-sweep-t0_loc0"), std::string::npos) << what;
       EXPECT_NE(what.find("cam1"), std::string::npos) << what;
@@ -274,7 +274,7 @@ TEST(CaptureSessionRunner, FaultsRetriesCannotCureNameTheDevice) {
     try {
       capture.Run(dir / "s");
       ADD_FAILURE() << "no error for " << c.expected;
-    } catch (const Error& e) {
+    } catch (const core::Error& e) {
       EXPECT_NE(std::string(e.what()).find(c.expected), std::string::npos) << e.what();
     }
   }
@@ -284,13 +284,13 @@ TEST(CaptureSessionRunner, RefusesPlansItCannotRun) {
   const auto rig = SmallPlanRig();
   {
     testing::TemporaryDirectory dir;
-    SessionManifest manifest;
+    formats::SessionManifest manifest;
     manifest.rig = rig.json;
     manifest.plan = MakeCapturePlan(rig);
-    manifest.plan.push_back({"focus-by-hand", StepKind::kOther, {{"files", nlohmann::json::array()}}});
-    CreateCaptureSession(dir / "s", manifest);
+    manifest.plan.push_back({"focus-by-hand", formats::StepKind::kOther, {{"files", nlohmann::json::array()}}});
+    formats::CreateCaptureSession(dir / "s", manifest);
     SimulatedCapture capture(rig, {});
-    EXPECT_THROW(capture.Run(dir / "s"), Error);
+    EXPECT_THROW(capture.Run(dir / "s"), core::Error);
     EXPECT_EQ(JournaledSteps(dir / "s"), 0u);
   }
   {
@@ -303,7 +303,7 @@ TEST(CaptureSessionRunner, RefusesPlansItCannotRun) {
     try {
       capture.Run(dir / "s");
       FAIL() << "no error";
-    } catch (const Error& e) {
+    } catch (const core::Error& e) {
       EXPECT_NE(std::string(e.what()).find("\"cam9\""), std::string::npos) << e.what();
     }
   }

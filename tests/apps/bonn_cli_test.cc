@@ -22,17 +22,17 @@ using testing::CommandResult;
 using testing::Mesocap;
 
 // A 6 x 4 BTF (not square) on 8 views x 6 lights with distinct values in (0, 1).
-MaterialPackage SyntheticPackage() {
-  MaterialPackage p;
-  MaterialDescription& d = p.description;
+formats::MaterialPackage SyntheticPackage() {
+  formats::MaterialPackage p;
+  formats::MaterialDescription& d = p.description;
   d.name = "synthetic";
   d.width = 6;
   d.height = 4;
   d.physical_size_mm = {12.0, 8.0};
   d.d_max_mm = 1.0;
-  d.view_directions = SamplingSet::Named("grid4x2");
-  d.light_directions = SamplingSet::Named("grid3x2");
-  FullBtf btf = MakeFullBtf(d.width, d.height, d.view_directions, d.light_directions);
+  d.view_directions = core::SamplingSet::Named("grid4x2");
+  d.light_directions = core::SamplingSet::Named("grid3x2");
+  core::FullBtf btf = core::MakeFullBtf(d.width, d.height, d.view_directions, d.light_directions);
   for (int v = 0; v < btf.view_count(); ++v)
     for (std::size_t i = 0; i < btf.view_images[v].size(); ++i)
       btf.view_images[v].data()[i] = 0.02f + 0.9f * static_cast<float>(((i * 7 + v * 31) % 101) / 101.0);
@@ -40,7 +40,7 @@ MaterialPackage SyntheticPackage() {
   return p;
 }
 
-float MaxAbsDifference(const FullBtf& a, const FullBtf& b) {
+float MaxAbsDifference(const core::FullBtf& a, const core::FullBtf& b) {
   float worst = 0.0f;
   for (int v = 0; v < a.view_count(); ++v)
     for (std::size_t i = 0; i < a.view_images[v].size(); ++i)
@@ -50,8 +50,8 @@ float MaxAbsDifference(const FullBtf& a, const FullBtf& b) {
 
 TEST(BonnCli, RoundTripsThroughDfmfAndImages) {
   testing::TemporaryDirectory dir;
-  const MaterialPackage package = SyntheticPackage();
-  WriteMaterialPackage(dir / "in", package, false);
+  const formats::MaterialPackage package = SyntheticPackage();
+  formats::WriteMaterialPackage(dir / "in", package, false);
   const std::string in = (dir / "in").string();
 
   CommandResult r = Mesocap("export bonn --in " + in + " --out " + (dir / "a.btf").string() +
@@ -60,14 +60,14 @@ TEST(BonnCli, RoundTripsThroughDfmfAndImages) {
   r = Mesocap("import bonn --in " + (dir / "a.btf").string() + " --out " + (dir / "back").string() +
               " --d-max-mm 1 --btf both");
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  const MaterialManifest back = ReadMaterialManifest(dir / "back");
+  const formats::MaterialManifest back = formats::ReadMaterialManifest(dir / "back");
   EXPECT_TRUE(back.full_btf);
   ASSERT_TRUE(back.factored_btf.has_value());
   EXPECT_EQ(back.factored_btf->rank, 24);
   EXPECT_TRUE(back.ambient);
   EXPECT_NEAR(back.description.physical_size_mm.x(), 12.0, 1e-5);  // from the file's pixels per mm
   // Full rank, float factors: the values up to float rounding of 24-term sums.
-  EXPECT_LT(MaxAbsDifference(*package.full_btf, ReadFullBtf(dir / "back", back)), 1e-5f);
+  EXPECT_LT(MaxAbsDifference(*package.full_btf, formats::ReadFullBtf(dir / "back", back)), 1e-5f);
 
   r = Mesocap("export bonn --in " + in + " --out " + (dir / "images").string() + " --form ubo2003");
   ASSERT_EQ(r.exit_code, 0) << r.err;
@@ -75,16 +75,16 @@ TEST(BonnCli, RoundTripsThroughDfmfAndImages) {
   r = Mesocap("import bonn --in " + (dir / "images").string() + " --out " + (dir / "from_images").string() +
               " --d-max-mm 1 --size-mm 12 --flat-mdf");
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  const MaterialManifest images = ReadMaterialManifest(dir / "from_images");
+  const formats::MaterialManifest images = formats::ReadMaterialManifest(dir / "from_images");
   EXPECT_TRUE(images.mdf.has_value());
   // 8-bit sRGB: within half the largest linear step between two codes.
   const float half_step = 0.5f * (1.0f - OIIO::sRGB_to_linear(254.0f / 255.0f));
-  EXPECT_LE(MaxAbsDifference(*package.full_btf, ReadFullBtf(dir / "from_images", images)), half_step + 1e-6f);
+  EXPECT_LE(MaxAbsDifference(*package.full_btf, formats::ReadFullBtf(dir / "from_images", images)), half_step + 1e-6f);
 }
 
 TEST(BonnCli, BadInputFailsWithOneLineAndNoOutput) {
   testing::TemporaryDirectory dir;
-  WriteMaterialPackage(dir / "in", SyntheticPackage(), false);
+  formats::WriteMaterialPackage(dir / "in", SyntheticPackage(), false);
   CommandResult r = Mesocap("export bonn --in " + (dir / "in").string() + " --out " + (dir / "a.btf").string() +
                             " --form fmf --rank 10");
   ASSERT_EQ(r.exit_code, 0) << r.err;

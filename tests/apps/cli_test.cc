@@ -66,7 +66,7 @@ TEST(Cli, InfoOnRigDescriptionNamesItsWorstLaserCameraPair) {
 // non-zero exit and one line on stderr naming the file and the field.
 TEST(Cli, InfoOnHostileFileIsOneLineNamingFileAndField) {
   testing::TemporaryDirectory dir;
-  auto rig = ReadJsonFile(RigFile("tiny"));
+  auto rig = core::ReadJsonFile(RigFile("tiny"));
   rig["cameras"][0]["focal_px"] = -5;
   const auto file = dir / "hostile-rig.json";
   std::ofstream(file) << rig.dump();
@@ -132,7 +132,7 @@ TEST(Cli, GroundTruthRejectsUnknownSceneAndRigWithoutOutput) {
 // deep): `simulate` refuses it naming the field before it writes anything.
 TEST(Cli, SimulateRefusesABackingInsideTheSlabWithoutOutput) {
   testing::TemporaryDirectory dir;
-  nlohmann::json rig = ReadJsonFile(std::filesystem::path(MESOCAP_SOURCE_DIR) / "sim" / "rigs" / "tiny.json");
+  nlohmann::json rig = core::ReadJsonFile(std::filesystem::path(MESOCAP_SOURCE_DIR) / "sim" / "rigs" / "tiny.json");
   rig["sample"]["backing"]["depth_mm"] = 2.5;
   const std::filesystem::path rig_file = dir / "shallow.json";
   std::ofstream(rig_file) << rig.dump();
@@ -179,16 +179,16 @@ TEST(Cli, CompressFactorsAGroundTruthPackage) {
   ASSERT_EQ(Mesocap("-q groundtruth --scene flat --rig tiny --texture-size 8 --out " + gt).exit_code, 0);
   const CommandResult r = Mesocap("-q compress --in " + gt + " --out " + out + " --max-error 1e-4 --color ycbcr");
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  const MaterialManifest m = ReadMaterialManifest(out);
+  const formats::MaterialManifest m = formats::ReadMaterialManifest(out);
   ASSERT_TRUE(m.factored_btf.has_value());
   EXPECT_EQ(m.factored_btf->rank, 1);
-  EXPECT_EQ(m.factored_btf->color, BtfFactorColor::kYCbCr);
+  EXPECT_EQ(m.factored_btf->color, core::BtfFactorColor::kYCbCr);
   EXPECT_FALSE(m.full_btf);
   EXPECT_TRUE(m.mdf && m.ambient && m.calibration);
-  const auto report = ReadErrorReport(out, m)["btf_compression"];
+  const auto report = formats::ReadErrorReport(out, m)["btf_compression"];
   EXPECT_EQ(report["rank"], 1);
   EXPECT_LT(report["measured_relative_rms"].get<double>(), 1e-4);
-  EXPECT_NEAR(ReadFactoredBtf(out, m).Reconstruct(2, 3, 4, 5).x(), 0.5 / 3.14159265358979, 1e-5);
+  EXPECT_NEAR(formats::ReadFactoredBtf(out, m).Reconstruct(2, 3, 4, 5).x(), 0.5 / 3.14159265358979, 1e-5);
 
   // Both --rank and --max-error, or a package without a full BTF: refused,
   // nothing written.
@@ -211,7 +211,7 @@ TEST(Cli, EvalBtfPrintsTheErrorOfACompressedPackage) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j["rank"], 2);
-  const double measured = ReadErrorReport(out, ReadMaterialManifest(out))["btf_compression"]["measured_relative_rms"];
+  const double measured = formats::ReadErrorReport(out, formats::ReadMaterialManifest(out))["btf_compression"]["measured_relative_rms"];
   EXPECT_NEAR(j["overall"]["relative_rms"].get<double>(), measured, 1e-6 * measured);
   EXPECT_GT(j["overall"]["psnr_db"].get<double>(), 0.0);
   ASSERT_FALSE(j["by_polar_angle"].empty());
@@ -242,9 +242,9 @@ TEST(Cli, ProcessBtfTurnsASessionIntoAMaterial) {
   const CommandResult r = Mesocap("-q process btf --session " + session + " --out " + out +
                                   " --texture-size 8 --full --max-error 1e-3");
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  const MaterialManifest m = ReadMaterialManifest(out);
+  const formats::MaterialManifest m = formats::ReadMaterialManifest(out);
   EXPECT_TRUE(m.full_btf && m.factored_btf && m.ambient && m.calibration);
-  const auto report = ReadErrorReport(out, m);
+  const auto report = formats::ReadErrorReport(out, m);
   EXPECT_EQ(report["btf_assembly"]["measured_pairs"], 32);
   EXPECT_EQ(report["btf_assembly"]["interpolated_pairs"], 32);
   ASSERT_EQ(Mesocap("-q groundtruth --scene flat --rig tiny --texture-size 8 --out " + gt).exit_code, 0);
@@ -256,9 +256,9 @@ TEST(Cli, ProcessBtfTurnsASessionIntoAMaterial) {
   const std::string compact = (dir / "m-compact").string();
   ASSERT_EQ(Mesocap("-q process btf --session " + session + " --out " + compact +
                     " --texture-size 8 --max-error 1e-3").exit_code, 0);
-  const MaterialManifest mc = ReadMaterialManifest(compact);
+  const formats::MaterialManifest mc = formats::ReadMaterialManifest(compact);
   EXPECT_TRUE(!mc.full_btf && mc.factored_btf && mc.ambient);
-  const FactoredBtf with_full = ReadFactoredBtf(out, m), without = ReadFactoredBtf(compact, mc);
+  const core::FactoredBtf with_full = formats::ReadFactoredBtf(out, m), without = formats::ReadFactoredBtf(compact, mc);
   ASSERT_EQ(with_full.rank(), without.rank());
   for (int k = 0; k < with_full.rank(); ++k) {
     for (std::size_t i = 0; i < with_full.rows[k].size(); ++i) ASSERT_EQ(with_full.rows[k].data()[i], without.rows[k].data()[i]);

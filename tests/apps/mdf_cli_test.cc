@@ -51,9 +51,9 @@ TEST_F(MdfCliTest, ProcessAndEvaluate) {
   EXPECT_TRUE(fs::exists(material / "mdf8.tif"));
   // The per-texel confidence: 0 exactly where the MDF is unknown, in (0, 1]
   // where it is measured.
-  const MaterialManifest manifest = ReadMaterialManifest(material);
-  const Mdf mdf = ReadMdf(material, manifest);
-  const Image confidence = ReadMdfConfidence(material, manifest);
+  const formats::MaterialManifest manifest = formats::ReadMaterialManifest(material);
+  const core::Mdf mdf = formats::ReadMdf(material, manifest);
+  const core::Image confidence = formats::ReadMdfConfidence(material, manifest);
   long measured = 0;
   for (std::size_t i = 0; i < confidence.size(); ++i) {
     const float d = mdf.distance_mm.data()[i], c = confidence.data()[i];
@@ -70,7 +70,7 @@ TEST_F(MdfCliTest, ProcessAndEvaluate) {
               (out / "table.json").string());
   ASSERT_EQ(e.exit_code, 0) << e.err;
   const auto table = nlohmann::json::parse(e.out);
-  EXPECT_EQ(table, ReadJsonFile(out / "table.json"));
+  EXPECT_EQ(table, core::ReadJsonFile(out / "table.json"));
   for (const char* name : {"median_mm", "p95_mm", "median_texels", "p95_texels", "coverage", "false_no_hit_rate",
                            "false_hit_rate", "no_hit_coverage"}) {
     EXPECT_TRUE(table["overall"].contains(name)) << name;
@@ -101,7 +101,7 @@ TEST_F(MdfCliTest, ProcessAndEvaluate) {
 
 TEST_F(MdfCliTest, CalibrationMissingACameraWritesNothing) {
   testing::TemporaryDirectory out;
-  nlohmann::json calibration = ReadJsonFile(session_ / "calibration.json");
+  nlohmann::json calibration = core::ReadJsonFile(session_ / "calibration.json");
   calibration["cameras"].erase(1);
   std::ofstream(out / "calibration.json") << calibration.dump();
   const CommandResult p = Mesocap("process mdf --session " + session_.string() + " --calibration " +
@@ -113,7 +113,7 @@ TEST_F(MdfCliTest, CalibrationMissingACameraWritesNothing) {
 
 TEST_F(MdfCliTest, CalibrationOfAnotherRigWritesNothing) {
   testing::TemporaryDirectory out;
-  nlohmann::json calibration = ReadJsonFile(session_ / "calibration.json");
+  nlohmann::json calibration = core::ReadJsonFile(session_ / "calibration.json");
   for (auto& camera : calibration["cameras"]) camera["image_size"] = {320, 240};  // the small rig's
   std::ofstream(out / "calibration.json") << calibration.dump();
   const CommandResult p = Mesocap("process mdf --session " + session_.string() + " --calibration " +
@@ -131,8 +131,8 @@ TEST_F(MdfCliTest, SequenceWithWrongFrameSizeWritesNothingAndKeepsExistingOutput
   const fs::path bad = session / "laser" / "t3_loc2_cam0.tif";
   ASSERT_TRUE(fs::exists(bad));
   {
-    FrameSequenceWriter writer(bad, 64, 48, 1);
-    for (int f = 0; f < 64; ++f) writer.Append(Image(64, 48, 1, 0.1f));
+    formats::FrameSequenceWriter writer(bad, 64, 48, 1);
+    for (int f = 0; f < 64; ++f) writer.Append(core::Image(64, 48, 1, 0.1f));
     writer.Commit();
   }
   fs::create_directories(out / "m");

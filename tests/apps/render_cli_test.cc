@@ -21,15 +21,15 @@ using testing::Mesocap;
 // A package with the parts the renderer reads (the blocks geometry, a
 // rank-1 Lambertian BTF).
 void WritePackage(const std::filesystem::path& package) {
-  const RenderMaterial m = LambertianSimMaterial("blocks", 16);
-  MaterialDescription d;
+  const render::RenderMaterial m = LambertianSimMaterial("blocks", 16);
+  formats::MaterialDescription d;
   d.name = "blocks-lambertian";
   d.width = d.height = 16;
   d.physical_size_mm = {m.sample_size_mm, m.sample_size_mm};
   d.d_max_mm = m.d_max_mm;
   d.view_directions = m.mdf.views;
   d.light_directions = m.btf.lights;
-  MaterialPackageWriter writer(package, d, false);
+  formats::MaterialPackageWriter writer(package, d, false);
   writer.WriteMdf(m.mdf);
   writer.WriteFactoredBtf(m.btf);
   writer.WriteAmbientTerm(m.ambient);
@@ -52,7 +52,7 @@ TEST(RenderCli, RendersAFactoredPackageHeadless) {
   const auto out = dir / "torus.png";
   const testing::CommandResult r = Mesocap("render " + (dir / "scene.json").string() + " --size 64x48 --out " + out.string());
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  const Image image = ReadImage(out);
+  const core::Image image = core::ReadImage(out);
   EXPECT_EQ(image.width(), 64);
   EXPECT_EQ(image.height(), 48);
   // The torus covers the middle of the frame, lit from above: not black.
@@ -110,9 +110,9 @@ TEST(RenderCli, CompareReportsEveryModeAndWritesTheDifferences) {
     EXPECT_GT(m.at("psnr_db").get<double>(), 10.0);
     EXPECT_GT(m.at("frame_ms").get<double>(), 0.0);
     EXPECT_GE(m.at("passes").get<int>(), 1);
-    const Image shadow = ReadImage(dir / "images" / (std::string(mode) + "_shadow.png"));
-    const Image truth = ReadImage(dir / "images" / "reference_shadow.png");
-    const Image difference = ReadImage(dir / "images" / (std::string(mode) + "_shadow_difference.png"));
+    const core::Image shadow = core::ReadImage(dir / "images" / (std::string(mode) + "_shadow.png"));
+    const core::Image truth = core::ReadImage(dir / "images" / "reference_shadow.png");
+    const core::Image difference = core::ReadImage(dir / "images" / (std::string(mode) + "_shadow_difference.png"));
     long disagree = 0, marked = 0, either = 0;
     for (int y = 0; y < truth.height(); ++y) {
       for (int x = 0; x < truth.width(); ++x) {

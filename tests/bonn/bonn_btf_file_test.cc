@@ -14,7 +14,7 @@
 #include "core/error.h"
 #include "tests/common/temporary_directory.h"
 
-namespace mesocap {
+namespace mesocap::bonn {
 namespace {
 
 constexpr double kPi = std::numbers::pi;
@@ -60,10 +60,10 @@ BonnBtfFile SmallDfmf() {
 TEST(BonnDirections, AnalyticCases) {
   // btflib's sph2cart2: (sin t cos p, sin t sin p, cos t), the same formula
   // as mesocap's DirectionFromAngles, so only phi's range differs.
-  const SphericalAngles a = AnglesFromBonn({static_cast<float>(kPi / 4), static_cast<float>(-kPi / 2)});
+  const core::SphericalAngles a = AnglesFromBonn({static_cast<float>(kPi / 4), static_cast<float>(-kPi / 2)});
   EXPECT_NEAR(a.theta, kPi / 4, 1e-7);
   EXPECT_NEAR(a.phi, 3 * kPi / 2, 1e-7);
-  const Eigen::Vector3d d = DirectionFromAngles(a.theta, a.phi);
+  const Eigen::Vector3d d = core::DirectionFromAngles(a.theta, a.phi);
   EXPECT_NEAR(d.x(), 0.0, 1e-7);
   EXPECT_NEAR(d.y(), -std::sqrt(0.5), 1e-7);
   EXPECT_NEAR(d.z(), std::sqrt(0.5), 1e-7);
@@ -79,7 +79,7 @@ TEST(BonnDirections, AnalyticCases) {
   // Round trip through the file's floats: within float rounding (~1e-7 rad).
   for (double theta : {0.1, 0.7, 1.5})
     for (double phi : {0.0, 1.0, 3.0, 4.0, 6.2}) {
-      const SphericalAngles back = AnglesFromBonn(BonnFromAngles({theta, phi}));
+      const core::SphericalAngles back = AnglesFromBonn(BonnFromAngles({theta, phi}));
       EXPECT_NEAR(back.theta, theta, 1e-7);
       EXPECT_NEAR(std::remainder(back.phi - phi, 2 * kPi), 0.0, 1e-6);
     }
@@ -165,7 +165,7 @@ TEST(BonnBtfFile, AmbiguousCountsAreWrittenAsReadersTakeThem) {
   EXPECT_EQ(r.factors[1].u, b.factors[1].sxv);
   b.form = BonnBtfForm::kFmf;
   b.factors = {BonnFactors{Eigen::VectorXf::Ones(1), BonnMatrix::Random(18, 1), BonnMatrix::Random(6, 1)}};
-  EXPECT_THROW(WriteBonnBtfFile(dir / "b.btf", b, BonnScalar::kFloat), Error);
+  EXPECT_THROW(WriteBonnBtfFile(dir / "b.btf", b, BonnScalar::kFloat), core::Error);
   EXPECT_FALSE(std::filesystem::exists(dir / "b.btf"));
 }
 
@@ -176,7 +176,7 @@ TEST(BonnBtfFile, HalfOverflowIsRefusedAndNothingWritten) {
   try {
     WriteBonnBtfFile(dir / "a.btf", b, BonnScalar::kHalf);
     FAIL();
-  } catch (const Error& e) {
+  } catch (const core::Error& e) {
     EXPECT_NE(std::string(e.what()).find("65504"), std::string::npos) << e.what();
   }
   EXPECT_TRUE(std::filesystem::is_empty(dir.path()));
@@ -187,7 +187,7 @@ void ExpectBad(const std::filesystem::path& file, const std::string& field, cons
   try {
     ReadBonnBtfFile(file);
     FAIL() << "no error for " << field;
-  } catch (const FormatError& e) {
+  } catch (const core::FormatError& e) {
     EXPECT_EQ(e.file(), file);
     EXPECT_NE(e.field().find(field), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
@@ -254,12 +254,12 @@ TEST(BonnBtfFile, BadFilesNameTheFieldAndWhatWasExpected) {
     try {
       ReadBonnBtfFile(bad);
       FAIL() << "cut at " << cut;
-    } catch (const FormatError& e) {
+    } catch (const core::FormatError& e) {
       EXPECT_NE(std::string(e.what()).find("truncated"), std::string::npos) << cut << ": " << e.what();
       EXPECT_FALSE(e.field().empty());
     }
   }
-  EXPECT_THROW(ReadBonnBtfFile(dir / "missing.btf"), FormatError);
+  EXPECT_THROW(ReadBonnBtfFile(dir / "missing.btf"), core::FormatError);
 }
 
 TEST(BonnBtfFile, OlderFmfSignaturesAreRead) {
@@ -297,10 +297,10 @@ TEST(BonnColorModels, LinearModelsAndRefusals) {
   try {
     BonnToRgb(b);
     FAIL();
-  } catch (const Error& e) {
+  } catch (const core::Error& e) {
     EXPECT_NE(std::string(e.what()).find("Ylog_UV"), std::string::npos) << e.what();
   }
 }
 
 }  // namespace
-}  // namespace mesocap
+}  // namespace mesocap::bonn

@@ -23,26 +23,26 @@
 #include "sim/mesostructure_scene.h"
 #include "tests/common/temporary_directory.h"
 
-namespace mesocap {
+namespace mesocap::bonn {
 namespace {
 
 // The exact BTF of the `blocks` scene on a 6 x 4 texture (not square, so a
 // swapped x and y shows) with 8 views and 6 lights.
-const FullBtf& TrueBtf() {
-  static const FullBtf btf = [] {
+const core::FullBtf& TrueBtf() {
+  static const core::FullBtf btf = [] {
     sim::GroundTruthOptions gt;
     gt.texture_width = 6;
     gt.texture_height = 4;
     gt.sample_size_mm = 12.0;
-    gt.views = SamplingSet::Named("grid4x2");
-    gt.lights = SamplingSet::Named("grid3x2");
+    gt.views = core::SamplingSet::Named("grid4x2");
+    gt.lights = core::SamplingSet::Named("grid3x2");
     return sim::RenderTrueBtf(*sim::MakeBuiltinScene("blocks"), gt);
   }();
   return btf;
 }
 
-MaterialPackage PackageOf(const FullBtf& btf) {
-  MaterialPackage p;
+formats::MaterialPackage PackageOf(const core::FullBtf& btf) {
+  formats::MaterialPackage p;
   p.description.name = "blocks";
   p.description.width = btf.width;
   p.description.height = btf.height;
@@ -56,10 +56,10 @@ MaterialPackage PackageOf(const FullBtf& btf) {
 
 // Largest |a - b| / bound over every value, bound(x, y, v, l, c) given.
 template <typename Bound>
-double WorstRatio(const FullBtf& want, const std::function<Image(int)>& got_view, Bound bound) {
+double WorstRatio(const core::FullBtf& want, const std::function<core::Image(int)>& got_view, Bound bound) {
   double worst = 0.0;
   for (int v = 0; v < want.view_count(); ++v) {
-    const Image got = got_view(v);
+    const core::Image got = got_view(v);
     for (int l = 0; l < want.light_count(); ++l)
       for (int y = 0; y < want.height; ++y)
         for (int x = 0; x < want.width; ++x)
@@ -81,21 +81,21 @@ double TermSum(const BonnBtfFile& b, int x, int y, int v, int l, int c) {
 }
 
 TEST(BonnInterop, DfmfRoundTripFromPerTexelFactors) {
-  const FullBtf& truth = TrueBtf();
-  BtfCompressionOptions o;
-  o.layout = BtfFactorLayout::kPerTexel;
+  const core::FullBtf& truth = TrueBtf();
+  btf::BtfCompressionOptions o;
+  o.layout = core::BtfFactorLayout::kPerTexel;
   o.rank = 24;  // full rank (24 texels): the factors reproduce the BTF exactly
-  const FactoredBtf factored = CompressBtf(truth, o);
+  const core::FactoredBtf factored = btf::CompressBtf(truth, o);
   const BonnBtfFile written = BonnDfmfFromFactored(factored);
   testing::TemporaryDirectory dir;
   for (BonnScalar scalar : {BonnScalar::kFloat, BonnScalar::kHalf}) {
     WriteBonnBtfFile(dir / "a.btf", written, scalar);
     const BonnBtfFile read = ReadBonnBtfFile(dir / "a.btf");
-    const FactoredBtf back = FactoredFromBonn(read, dir / "a.btf");
-    EXPECT_EQ(back.layout, BtfFactorLayout::kPerTexel);
+    const core::FactoredBtf back = FactoredFromBonn(read, dir / "a.btf");
+    EXPECT_EQ(back.layout, core::BtfFactorLayout::kPerTexel);
     EXPECT_EQ(back.rank(), 24);
     const double relative = scalar == BonnScalar::kHalf ? 2 * std::ldexp(1.0, -11) + std::ldexp(1.0, -22) : 0.0;
-    const double ratio = WorstRatio(truth, [&](int v) { return ReconstructBtfView(back, v); },
+    const double ratio = WorstRatio(truth, [&](int v) { return btf::ReconstructBtfView(back, v); },
                                     [&](int x, int y, int v, int l, int c) {
                                       return (relative + 2e-6) * TermSum(written, x, y, v, l, c) + 1e-6;
                                     });
@@ -110,21 +110,21 @@ TEST(BonnInterop, DfmfRoundTripFromPerTexelFactors) {
 }
 
 TEST(BonnInterop, DfmfDecorrelatedChannelsAreThePcaModel) {
-  const FullBtf& truth = TrueBtf();
-  BtfCompressionOptions o;
-  o.layout = BtfFactorLayout::kPerTexel;
-  o.color = BtfFactorColor::kYCbCr;
+  const core::FullBtf& truth = TrueBtf();
+  btf::BtfCompressionOptions o;
+  o.layout = core::BtfFactorLayout::kPerTexel;
+  o.color = core::BtfFactorColor::kYCbCr;
   o.rank = 24;
-  const FactoredBtf factored = CompressBtf(truth, o);
+  const core::FactoredBtf factored = btf::CompressBtf(truth, o);
   const BonnBtfFile written = BonnDfmfFromFactored(factored);
   EXPECT_EQ(written.color_model, kBonnColorPca);
   testing::TemporaryDirectory dir;
   WriteBonnBtfFile(dir / "a.btf", written, BonnScalar::kFloat);
-  const FactoredBtf back = FactoredFromBonn(ReadBonnBtfFile(dir / "a.btf"), dir / "a.btf");
-  EXPECT_EQ(back.color, BtfFactorColor::kYCbCr);
+  const core::FactoredBtf back = FactoredFromBonn(ReadBonnBtfFile(dir / "a.btf"), dir / "a.btf");
+  EXPECT_EQ(back.color, core::BtfFactorColor::kYCbCr);
   EXPECT_TRUE(back.rgb_to_factored.isApprox(factored.rgb_to_factored, 1e-6));
   // The colour matrix passes through float: 1e-6 of the channel terms.
-  const double ratio = WorstRatio(truth, [&](int v) { return ReconstructBtfView(back, v); },
+  const double ratio = WorstRatio(truth, [&](int v) { return btf::ReconstructBtfView(back, v); },
                                   [&](int x, int y, int v, int l, int) {
                                     double s = 0;
                                     for (int c = 0; c < 3; ++c) s += TermSum(written, x, y, v, l, c);
@@ -134,10 +134,10 @@ TEST(BonnInterop, DfmfDecorrelatedChannelsAreThePcaModel) {
 }
 
 TEST(BonnInterop, FmfRoundTripOfAFullBtf) {
-  const FullBtf& truth = TrueBtf();
-  BtfCompressionOptions o;
+  const core::FullBtf& truth = TrueBtf();
+  btf::BtfCompressionOptions o;
   o.rank = 48;  // full rank: min(3 x 24 rows, 48 directions)
-  BtfCompressionReport report;
+  btf::BtfCompressionReport report;
   const BonnBtfFile written = BonnFmfFromFullBtf(truth, o, &report);
   EXPECT_EQ(report.rank, 48);
   EXPECT_LT(report.measured_relative_rms_error, 1e-5);
@@ -148,12 +148,12 @@ TEST(BonnInterop, FmfRoundTripOfAFullBtf) {
     WriteBonnBtfFile(dir / "a.btf", written, scalar);
     const BonnBtfFile read = ReadBonnBtfFile(dir / "a.btf");
     EXPECT_EQ(read.form, BonnBtfForm::kFmf);
-    const FactoredBtf back = FactoredFromBonn(read, dir / "a.btf");
+    const core::FactoredBtf back = FactoredFromBonn(read, dir / "a.btf");
     const double relative = scalar == BonnScalar::kHalf ? 2 * std::ldexp(1.0, -11) + std::ldexp(1.0, -22) : 0.0;
     auto bound = [&](int x, int y, int v, int l, int c) {
       return (relative + 1e-5) * TermSum(written, x, y, v, l, c) + 1e-6;
     };
-    EXPECT_LE(WorstRatio(truth, [&](int v) { return ReconstructBtfView(back, v); }, bound), 1.0);
+    EXPECT_LE(WorstRatio(truth, [&](int v) { return btf::ReconstructBtfView(back, v); }, bound), 1.0);
     EXPECT_LE(WorstRatio(truth, [&](int v) { return BonnBtfView(read, v); }, bound), 1.0);
   }
   // A lower rank: the error is the truncation the report states.
@@ -168,11 +168,11 @@ TEST(BonnInterop, FmfRoundTripOfAFullBtf) {
 // The same BTF as a file with the other orientation (U rows = directions),
 // the light cosine multiplied in, and a PCA mean: all decode to the same.
 TEST(BonnInterop, OrientationCosineAndMeanAreUndone) {
-  const FullBtf& truth = TrueBtf();
-  BtfCompressionOptions o;
-  o.layout = BtfFactorLayout::kPerTexel;
+  const core::FullBtf& truth = TrueBtf();
+  btf::BtfCompressionOptions o;
+  o.layout = core::BtfFactorLayout::kPerTexel;
   o.rank = 24;
-  const BonnBtfFile base = BonnDfmfFromFactored(CompressBtf(truth, o));
+  const BonnBtfFile base = BonnDfmfFromFactored(btf::CompressBtf(truth, o));
   const std::filesystem::path name = "test.btf";
 
   BonnBtfFile swapped = base;
@@ -198,10 +198,10 @@ TEST(BonnInterop, OrientationCosineAndMeanAreUndone) {
     f.sxv.col(k).setOnes();
     f.singular_values[k] = 0.0f;
   }
-  const FactoredBtf back = FactoredFromBonn(swapped, name);
+  const core::FactoredBtf back = FactoredFromBonn(swapped, name);
   EXPECT_EQ(back.rank(), 26);  // 25 stored + the mean
   auto bound = [&](int x, int y, int v, int l, int c) { return 1e-5 * TermSum(base, x, y, v, l, c) + 2e-6; };
-  EXPECT_LE(WorstRatio(truth, [&](int v) { return ReconstructBtfView(back, v); }, bound), 1.0);
+  EXPECT_LE(WorstRatio(truth, [&](int v) { return btf::ReconstructBtfView(back, v); }, bound), 1.0);
   EXPECT_LE(WorstRatio(truth, [&](int v) { return BonnBtfView(swapped, v); }, bound), 1.0);
 
   // Nonlinear decodes cannot be factored: a clear refusal naming the model.
@@ -210,7 +210,7 @@ TEST(BonnInterop, OrientationCosineAndMeanAreUndone) {
   try {
     FactoredFromBonn(log_model, name);
     FAIL();
-  } catch (const FormatError& e) {
+  } catch (const core::FormatError& e) {
     EXPECT_EQ(e.field(), "color_model");
     EXPECT_NE(std::string(e.what()).find("log RGB"), std::string::npos);
   }
@@ -218,9 +218,9 @@ TEST(BonnInterop, OrientationCosineAndMeanAreUndone) {
 
 TEST(BonnInterop, Ubo2014DomeIsRecognised) {
   BonnBtfFile b;
-  const SamplingSet dome = SamplingSet::Named("ubo2014");
+  const core::SamplingSet dome = core::SamplingSet::Named("ubo2014");
   for (int i = 0; i < dome.size(); ++i) b.views.push_back(BonnFromAngles(dome.angles(i)));
-  const SamplingSet set = BonnViewSet(b, "x.btf");
+  const core::SamplingSet set = BonnViewSet(b, "x.btf");
   EXPECT_EQ(set.name(), "ubo2014");
   EXPECT_EQ(set.angles(7).phi, dome.angles(7).phi);  // the named set's exact angles
   b.views[3].theta += 0.01f;
@@ -229,8 +229,8 @@ TEST(BonnInterop, Ubo2014DomeIsRecognised) {
 
 TEST(BonnInterop, PackageRoundTripsThroughEveryForm) {
   testing::TemporaryDirectory dir;
-  const FullBtf& truth = TrueBtf();
-  WriteMaterialPackage(dir / "in", PackageOf(truth), false);
+  const core::FullBtf& truth = TrueBtf();
+  formats::WriteMaterialPackage(dir / "in", PackageOf(truth), false);
 
   BonnImportOptions import;
   import.d_max_mm = 1.5;
@@ -248,7 +248,7 @@ TEST(BonnInterop, PackageRoundTripsThroughEveryForm) {
   EXPECT_TRUE(ir.manifest.ambient);
   EXPECT_TRUE(ir.manifest.mdf.has_value());
   EXPECT_NEAR(ir.manifest.description.physical_size_mm.y(), 8.0, 1e-12);
-  const FullBtf from_ubo = ReadFullBtf(dir / "from_ubo", ir.manifest);
+  const core::FullBtf from_ubo = formats::ReadFullBtf(dir / "from_ubo", ir.manifest);
   // The folder scan orders directions ring by ring; the grid sets are in that order.
   for (int v = 0; v < truth.view_count(); ++v) {
     EXPECT_NEAR(from_ubo.views.angles(v).theta, truth.views.angles(v).theta, 1e-9);
@@ -274,17 +274,17 @@ TEST(BonnInterop, PackageRoundTripsThroughEveryForm) {
   const BonnImportReport di = ImportBonn(dir / "a.dfmf", dir / "from_dfmf", import);
   EXPECT_EQ(di.rank, 24);
   EXPECT_NEAR(di.manifest.description.physical_size_mm.x(), 12.0, 1e-5);
-  const FactoredBtf from_dfmf = ReadFactoredBtf(dir / "from_dfmf", di.manifest);
+  const core::FactoredBtf from_dfmf = formats::ReadFactoredBtf(dir / "from_dfmf", di.manifest);
   const BonnBtfFile dfile = ReadBonnBtfFile(dir / "a.dfmf");
-  EXPECT_LE(WorstRatio(truth, [&](int v) { return ReconstructBtfView(from_dfmf, v); },
+  EXPECT_LE(WorstRatio(truth, [&](int v) { return btf::ReconstructBtfView(from_dfmf, v); },
                        [&](int x, int y, int v, int l, int c) {
                          return (2.1 * std::ldexp(1.0, -11) + 2e-6) * TermSum(dfile, x, y, v, l, c) + 1e-6;
                        }),
             1.0);
   // The ambient term is the truth's (processing/ambient_term.h) within the
   // quantization integrated over the lights: sum_l cos(theta_l) w_l <= pi.
-  const AmbientTerm ambient = ReadAmbientTerm(dir / "from_dfmf", di.manifest);
-  const AmbientTerm true_ambient = ComputeAmbientTerm(truth);
+  const formats::AmbientTerm ambient = formats::ReadAmbientTerm(dir / "from_dfmf", di.manifest);
+  const formats::AmbientTerm true_ambient = btf::ComputeAmbientTerm(truth);
   double largest_term_sum = 0.0;
   for (int v = 0; v < truth.view_count(); ++v)
     for (int l = 0; l < truth.light_count(); ++l)
@@ -307,7 +307,7 @@ TEST(BonnInterop, PackageRoundTripsThroughEveryForm) {
   const BonnImportReport fi = ImportBonn(dir / "a.fmf", dir / "from_fmf", import);
   EXPECT_TRUE(fi.manifest.full_btf);
   EXPECT_EQ(fi.rank, 48);
-  const FullBtf from_fmf = ReadFullBtf(dir / "from_fmf", fi.manifest);
+  const core::FullBtf from_fmf = formats::ReadFullBtf(dir / "from_fmf", fi.manifest);
   const BonnBtfFile ffile = ReadBonnBtfFile(dir / "a.fmf");
   EXPECT_LE(WorstRatio(truth, [&](int v) { return from_fmf.view_images[v]; },
                        [&](int x, int y, int v, int l, int c) { return 1e-5 * TermSum(ffile, x, y, v, l, c) + 1e-6; }),
@@ -316,47 +316,47 @@ TEST(BonnInterop, PackageRoundTripsThroughEveryForm) {
 
 TEST(BonnInterop, FailuresLeaveNothingBehind) {
   testing::TemporaryDirectory dir;
-  FullBtf big = TrueBtf();
+  core::FullBtf big = TrueBtf();
   big.view_images[2].at(1, 1, 0) = 1e6f;  // does not fit a half
-  WriteMaterialPackage(dir / "in", PackageOf(big), false);
+  formats::WriteMaterialPackage(dir / "in", PackageOf(big), false);
 
   BonnExportOptions exr;
   exr.form = BonnForm::kUbo2003;
   exr.encoding = Ubo2003Encoding::kHalfExr;
-  EXPECT_THROW(ExportBonn(dir / "in", dir / "ubo", exr), Error);
+  EXPECT_THROW(ExportBonn(dir / "in", dir / "ubo", exr), core::Error);
   EXPECT_FALSE(std::filesystem::exists(dir / "ubo"));
 
   BonnExportOptions dfmf;
   dfmf.form = BonnForm::kDfmf;
   dfmf.compression.rank = 24;
-  EXPECT_THROW(ExportBonn(dir / "in", dir / "a.dfmf", dfmf), Error);
+  EXPECT_THROW(ExportBonn(dir / "in", dir / "a.dfmf", dfmf), core::Error);
   EXPECT_FALSE(std::filesystem::exists(dir / "a.dfmf"));
 
   // An existing target is kept unless --replace.
   std::filesystem::create_directories(dir / "taken");
   BonnExportOptions png;
   png.form = BonnForm::kUbo2003;
-  EXPECT_THROW(ExportBonn(dir / "in", dir / "taken", png), Error);
+  EXPECT_THROW(ExportBonn(dir / "in", dir / "taken", png), core::Error);
   dfmf.scalar = BonnScalar::kFloat;
   ExportBonn(dir / "in", dir / "a.dfmf", dfmf);
-  EXPECT_THROW(ExportBonn(dir / "in", dir / "a.dfmf", dfmf), Error);
+  EXPECT_THROW(ExportBonn(dir / "in", dir / "a.dfmf", dfmf), core::Error);
 
   // Import of a truncated file: FormatError, no package.
   std::filesystem::resize_file(dir / "a.dfmf", std::filesystem::file_size(dir / "a.dfmf") - 7);
   BonnImportOptions import;
   import.d_max_mm = 1.0;
-  EXPECT_THROW(ImportBonn(dir / "a.dfmf", dir / "out", import), FormatError);
+  EXPECT_THROW(ImportBonn(dir / "a.dfmf", dir / "out", import), core::FormatError);
   EXPECT_FALSE(std::filesystem::exists(dir / "out"));
   // An image folder cannot be imported factored, nor without a size.
   ExportBonn(dir / "in", dir / "ubo", png);
   import.parts = BonnImportParts::kFactored;
   import.width_mm = 10;
-  EXPECT_THROW(ImportBonn(dir / "ubo", dir / "out", import), Error);
+  EXPECT_THROW(ImportBonn(dir / "ubo", dir / "out", import), core::Error);
   import.parts.reset();
   import.width_mm = 0;
-  EXPECT_THROW(ImportBonn(dir / "ubo", dir / "out", import), Error);
+  EXPECT_THROW(ImportBonn(dir / "ubo", dir / "out", import), core::Error);
   EXPECT_FALSE(std::filesystem::exists(dir / "out"));
 }
 
 }  // namespace
-}  // namespace mesocap
+}  // namespace mesocap::bonn

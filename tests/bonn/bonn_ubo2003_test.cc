@@ -13,34 +13,34 @@
 #include "core/error.h"
 #include "tests/common/temporary_directory.h"
 
-namespace mesocap {
+namespace mesocap::bonn {
 namespace {
 
 constexpr double kDeg = std::numbers::pi / 180.0;
 
-SamplingSet Set(const std::vector<std::pair<double, double>>& degrees) {
-  std::vector<SphericalAngles> a;
+core::SamplingSet Set(const std::vector<std::pair<double, double>>& degrees) {
+  std::vector<core::SphericalAngles> a;
   for (const auto& [t, p] : degrees) a.push_back({t * kDeg, p * kDeg});
-  return SamplingSet::FromAngles("test", a);
+  return core::SamplingSet::FromAngles("test", a);
 }
 
 // Views and lights in ring order (the order a folder scan gives back); one
 // light at a decimal angle.
-const SamplingSet& Views() {
-  static const SamplingSet s = Set({{0, 0}, {30, 0}, {30, 180}});
+const core::SamplingSet& Views() {
+  static const core::SamplingSet s = Set({{0, 0}, {30, 0}, {30, 180}});
   return s;
 }
-const SamplingSet& Lights() {
-  static const SamplingSet s = Set({{0, 0}, {15, 300}, {45, 90}, {67.5, 270}});
+const core::SamplingSet& Lights() {
+  static const core::SamplingSet s = Set({{0, 0}, {15, 300}, {45, 90}, {67.5, 270}});
   return s;
 }
 
 // Distinct values in (0, 1) for every x, y, view, light and channel, on a
 // 5 x 3 grid (not square, so a swapped x and y shows).
 constexpr int kW = 5, kH = 3;
-Image ViewImage(int v) {
+core::Image ViewImage(int v) {
   const int nl = Lights().size();
-  Image img(kW, kH * nl, 3);
+  core::Image img(kW, kH * nl, 3);
   for (int l = 0; l < nl; ++l)
     for (int y = 0; y < kH; ++y)
       for (int x = 0; x < kW; ++x)
@@ -76,8 +76,8 @@ TEST(Ubo2003Images, Srgb8RoundTripIsWithinHalfACodeStep) {
     EXPECT_NEAR(set.lights.angles(l).phi, Lights().angles(l).phi, 1e-12);
   }
   for (int v = 0; v < Views().size(); ++v) {
-    const Image got = ReadUbo2003View(set, v, 1.0);
-    const Image want = ViewImage(v);
+    const core::Image got = ReadUbo2003View(set, v, 1.0);
+    const core::Image want = ViewImage(v);
     for (std::size_t i = 0; i < want.size(); ++i) {
       // The code nearest to the sRGB encoding of the value, decoded: the
       // error is at most half the linear step between neighbouring codes.
@@ -95,8 +95,8 @@ TEST(Ubo2003Images, HalfExrRoundTripIsWithinHalfRoundingAndScaled) {
   WriteAll(dir.path(), Ubo2003Encoding::kHalfExr, 100.0);
   const Ubo2003ImageSet set = ScanUbo2003Folder(dir.path());
   for (int v = 0; v < Views().size(); ++v) {
-    const Image got = ReadUbo2003View(set, v, 100.0);
-    const Image want = ViewImage(v);
+    const core::Image got = ReadUbo2003View(set, v, 100.0);
+    const core::Image want = ViewImage(v);
     for (std::size_t i = 0; i < want.size(); ++i) {
       EXPECT_LE(std::abs(got.data()[i] - want.data()[i]), std::ldexp(1.0f, -11) * want.data()[i] * 1.0001f) << i;
     }
@@ -105,7 +105,7 @@ TEST(Ubo2003Images, HalfExrRoundTripIsWithinHalfRoundingAndScaled) {
 
 TEST(Ubo2003Images, EightBitClipsAndCounts) {
   testing::TemporaryDirectory dir;
-  Image img = ViewImage(0);
+  core::Image img = ViewImage(0);
   img.at(1, 1, 0) = 1.5f;
   img.at(2, 2, 1) = -0.1f;
   EXPECT_EQ(WriteUbo2003View(dir.path(), Views(), Lights(), 0, img, Ubo2003Encoding::kSrgb8Png, 1.0), 2);
@@ -115,7 +115,7 @@ void ExpectScanError(const std::filesystem::path& dir, const std::string& file_p
   try {
     ScanUbo2003Folder(dir);
     FAIL() << "no error";
-  } catch (const Error& e) {
+  } catch (const core::Error& e) {
     const std::string what = e.what();
     EXPECT_NE(what.find(file_part), std::string::npos) << what;
     EXPECT_NE(what.find(words), std::string::npos) << what;
@@ -132,24 +132,24 @@ TEST(Ubo2003Images, BadFoldersNameTheFile) {
   ExpectScanError(dir.path(), victim, "missing");
   std::filesystem::rename(dir / "keep.bin", dir / victim);
 
-  WriteImage(dir / victim, Image(kW + 1, kH, 3, 0.5f), PixelEncoding::kUInt8);
+  core::WriteImage(dir / victim, core::Image(kW + 1, kH, 3, 0.5f), core::PixelEncoding::kUInt8);
   ExpectScanError(dir.path(), victim, "field 'width'");
-  WriteImage(dir / victim, Image(kW, kH, 1, 0.5f), PixelEncoding::kUInt8);
+  core::WriteImage(dir / victim, core::Image(kW, kH, 1, 0.5f), core::PixelEncoding::kUInt8);
   ExpectScanError(dir.path(), victim, "channels");
-  WriteImage(dir / victim, Image(kW, kH, 3, 0.5f), PixelEncoding::kUInt8);
+  core::WriteImage(dir / victim, core::Image(kW, kH, 3, 0.5f), core::PixelEncoding::kUInt8);
   EXPECT_NO_THROW(ScanUbo2003Folder(dir.path()));
 
-  WriteImage(dir / "tl015_plxx_tv000_pv000.png", Image(kW, kH, 3), PixelEncoding::kUInt8);
+  core::WriteImage(dir / "tl015_plxx_tv000_pv000.png", core::Image(kW, kH, 3), core::PixelEncoding::kUInt8);
   ExpectScanError(dir.path(), "tl015_plxx_tv000_pv000.png", "expected tl<deg>_pl<deg>_tv<deg>_pv<deg>");
   std::filesystem::remove(dir / "tl015_plxx_tv000_pv000.png");
 
-  WriteImage(dir / "tl095_pl000_tv000_pv000.png", Image(kW, kH, 3), PixelEncoding::kUInt8);
+  core::WriteImage(dir / "tl095_pl000_tv000_pv000.png", core::Image(kW, kH, 3), core::PixelEncoding::kUInt8);
   ExpectScanError(dir.path(), "tl095_pl000_tv000_pv000.png", "upper hemisphere");
   std::filesystem::remove(dir / "tl095_pl000_tv000_pv000.png");
 
   // The same pair again, in a view subfolder and with the tokens reordered.
   std::filesystem::create_directories(dir / "tv030_pv180");
-  WriteImage(dir / "tv030_pv180" / "tv30_pv180_tl45_pl90.png", Image(kW, kH, 3), PixelEncoding::kUInt8);
+  core::WriteImage(dir / "tv030_pv180" / "tv30_pv180_tl45_pl90.png", core::Image(kW, kH, 3), core::PixelEncoding::kUInt8);
   ExpectScanError(dir.path(), "tv30_pv180_tl45_pl90.png", "the same light and view directions");
   std::filesystem::remove_all(dir / "tv030_pv180");
 
@@ -160,10 +160,10 @@ TEST(Ubo2003Images, BadFoldersNameTheFile) {
 TEST(Ubo2003Images, NamedSetIsRecognised) {
   // The 81 UBO2003 views under one light scan to the named set.
   testing::TemporaryDirectory dir;
-  const SamplingSet ubo = SamplingSet::Named("ubo2003");
-  const SamplingSet one_light = Set({{0, 0}});
+  const core::SamplingSet ubo = core::SamplingSet::Named("ubo2003");
+  const core::SamplingSet one_light = Set({{0, 0}});
   for (int v = 0; v < ubo.size(); ++v) {
-    WriteUbo2003View(dir.path(), ubo, one_light, v, Image(2, 2, 3, 0.25f), Ubo2003Encoding::kSrgb8Png, 1.0);
+    WriteUbo2003View(dir.path(), ubo, one_light, v, core::Image(2, 2, 3, 0.25f), Ubo2003Encoding::kSrgb8Png, 1.0);
   }
   const Ubo2003ImageSet set = ScanUbo2003Folder(dir.path());
   EXPECT_EQ(set.views.name(), "ubo2003");
@@ -172,4 +172,4 @@ TEST(Ubo2003Images, NamedSetIsRecognised) {
 }
 
 }  // namespace
-}  // namespace mesocap
+}  // namespace mesocap::bonn

@@ -25,7 +25,7 @@
 #include "sim/true_calibration.h"
 #include "tests/common/temporary_directory.h"
 
-namespace mesocap {
+namespace mesocap::btf {
 namespace {
 
 namespace fs = std::filesystem;
@@ -63,23 +63,23 @@ class BtfAssemblyTest : public ::testing::Test {
   }
 
   struct Assembled {
-    SessionManifest manifest;
-    Calibration calibration;
+    formats::SessionManifest manifest;
+    formats::Calibration calibration;
     std::vector<BtfCaptureImage> images;
     BtfAssemblyOptions options;
   };
   static Assembled Prepare(const fs::path& session, int texture_size) {
     Assembled a;
-    a.manifest = ReadSessionManifest(session);
-    a.calibration = ReadCalibration(session / *a.manifest.calibration);
+    a.manifest = formats::ReadSessionManifest(session);
+    a.calibration = formats::ReadCalibration(session / *a.manifest.calibration);
     a.images = SessionBtfImages(session, a.manifest, a.calibration);
-    const auto rig = drivers::ParseRigDescription(a.manifest.rig, session / kSessionManifestName);
+    const auto rig = formats::ParseRigDescription(a.manifest.rig, session / formats::kSessionManifestName);
     a.options.texture_width = a.options.texture_height = texture_size;
     a.options.sample_size_mm = rig.sample_size_mm;
     // The tiny rig's sets, also for the off-grid rig.
     const auto tiny = sim::LoadRig("tiny");
-    a.options.views = drivers::ViewDirections(tiny);
-    a.options.lights = drivers::LightDirections(tiny);
+    a.options.views = calibration::ViewDirections(tiny);
+    a.options.lights = calibration::LightDirections(tiny);
     for (const auto& c : rig.cameras) a.options.exposure_s.push_back(c.exposure_us * 1e-6);
     // The simulated session's calibration carries each camera's true gain.
     for (const auto& c : a.calibration.cameras) {
@@ -98,7 +98,7 @@ class BtfAssemblyTest : public ::testing::Test {
 // towards the lamp; where that hull leaves the square, the pocket wall hides
 // or shadows what the tiled truth shows. The border texel row is left out
 // too (the cameras' pixels there straddle the turntable).
-bool InsideSample(const FullBtf& truth, int x, int y, int v, int l, double d_max_mm, double size_mm) {
+bool InsideSample(const core::FullBtf& truth, int x, int y, int v, int l, double d_max_mm, double size_mm) {
   if (x == 0 || y == 0 || x == truth.width - 1 || y == truth.height - 1) return false;
   const Eigen::Vector2d p(-size_mm / 2 + (x + 0.5) * size_mm / truth.width,
                           -size_mm / 2 + (y + 0.5) * size_mm / truth.height);
@@ -118,7 +118,7 @@ struct MeasuredFigures {
 
 // PSNR of the measured (view, light) pairs with view theta <= 60 degrees
 // over the texels inside the sample, peak = the largest true value there.
-MeasuredFigures Measured(const FullBtf& estimate, const FullBtf& truth, const BtfAssemblyReport& report,
+MeasuredFigures Measured(const core::FullBtf& estimate, const core::FullBtf& truth, const BtfAssemblyReport& report,
                          double d_max_mm, double size_mm) {
   double error = 0, norm = 0, peak = 0;
   long long count = 0, all = 0;
@@ -149,7 +149,7 @@ MeasuredFigures Measured(const FullBtf& estimate, const FullBtf& truth, const Bt
 // does a coarse average: with 8 x 8 points per texel the weave's truth is
 // itself off by 43.6 dB PSNR from the converged one, which alone cost the
 // measured weave 1.5 dB; 32 x 32 is within 0.01 dB of 64 x 64.
-FullBtf Truth(const std::string& scene_name, const BtfAssemblyOptions& o, int supersample = 32) {
+core::FullBtf Truth(const std::string& scene_name, const BtfAssemblyOptions& o, int supersample = 32) {
   const auto scene = sim::MakeBuiltinScene(scene_name);
   sim::GroundTruthOptions gt;
   gt.texture_width = o.texture_width * supersample;
@@ -157,10 +157,10 @@ FullBtf Truth(const std::string& scene_name, const BtfAssemblyOptions& o, int su
   gt.sample_size_mm = o.sample_size_mm;
   gt.views = o.views;
   gt.lights = o.lights;
-  FullBtf btf = MakeFullBtf(o.texture_width, o.texture_height, o.views, o.lights);
+  core::FullBtf btf = core::MakeFullBtf(o.texture_width, o.texture_height, o.views, o.lights);
   const int w = o.texture_width, h = o.texture_height, fine_h = gt.texture_height;
   for (int v = 0; v < gt.views.size(); ++v) {
-    const Image fine = sim::RenderTrueBtfView(*scene, gt, v);
+    const core::Image fine = sim::RenderTrueBtfView(*scene, gt, v);
     for (int l = 0; l < gt.lights.size(); ++l)
       for (int y = 0; y < fine_h; ++y)
         for (int x = 0; x < gt.texture_width; ++x)
@@ -176,7 +176,7 @@ FullBtf Truth(const std::string& scene_name, const BtfAssemblyOptions& o, int su
 TEST_F(BtfAssemblyTest, FlatSampleMatchesTruthAndCountsPairs) {
   Assembled a = Prepare(Session("flat"), 8);
   BtfAssemblyReport report;
-  const FullBtf btf = AssembleBtf(a.images, a.calibration, a.options, &report);
+  const core::FullBtf btf = AssembleBtf(a.images, a.calibration, a.options, &report);
   EXPECT_EQ(report.images, 32);
   EXPECT_EQ(report.measured_pairs, 32);
   EXPECT_EQ(report.filled_pairs, 32) << "the tiny rig sees half of the light set per view";
@@ -200,7 +200,7 @@ TEST_F(BtfAssemblyTest, FlatSampleMatchesTruthAndCountsPairs) {
 TEST_F(BtfAssemblyTest, WeaveUpToSixtyDegrees) {
   Assembled a = Prepare(Session("weave"), 8);
   BtfAssemblyReport report;
-  const FullBtf btf = AssembleBtf(a.images, a.calibration, a.options, &report);
+  const core::FullBtf btf = AssembleBtf(a.images, a.calibration, a.options, &report);
   const MeasuredFigures f = Measured(btf, Truth("weave", a.options), report, 3.0, a.options.sample_size_mm);
   EXPECT_GE(f.psnr_db, 35.0) << "relative RMS " << f.relative_rms << " on " << f.texel_fraction << " of the texels";
   EXPECT_LT(f.relative_rms, 0.055);
@@ -216,24 +216,24 @@ TEST_F(BtfAssemblyTest, WeaveUpToSixtyDegrees) {
 // perspective's curvature over a texel, < 0.01 px here), and the footprint
 // width says when the grid is finer than the camera resolves.
 TEST(ReferencePlaneRectifierTest, ConstantsRampsAndFootprintOnTheTinyRig) {
-  const drivers::RigDescription rig = sim::LoadRig("tiny");
-  const Calibration calibration = sim::TrueCalibration(rig);
+  const formats::RigDescription rig = sim::LoadRig("tiny");
+  const formats::Calibration calibration = sim::TrueCalibration(rig);
   for (int cam = 0; cam < 2; ++cam) {
-    const CameraCalibration& camera = calibration.cameras[cam];
-    const CameraRays rays(camera);
+    const formats::CameraCalibration& camera = calibration.cameras[cam];
+    const calibration::CameraRays rays(camera);
     for (const double turntable_deg : {0.0, 90.0}) {
-      const RigidTransform world_from_sample =
-          WorldFromSample(calibration.turntable, turntable_deg * std::numbers::pi / 180);
+      const core::RigidTransform world_from_sample =
+          calibration::WorldFromSample(calibration.turntable, turntable_deg * std::numbers::pi / 180);
       for (const int size : {8, 16}) {
         const ReferencePlaneRectifier rectifier(camera, rays, world_from_sample, size, size, rig.sample_size_mm);
-        Image image(camera.width, camera.height, 3);
+        core::Image image(camera.width, camera.height, 3);
         for (int y = 0; y < camera.height; ++y)
           for (int x = 0; x < camera.width; ++x) {
             image.at(x, y, 0) = 0.25f;
             image.at(x, y, 1) = static_cast<float>(x);
             image.at(x, y, 2) = static_cast<float>(y);
           }
-        const Image texture = rectifier.Rectify(image);
+        const core::Image texture = rectifier.Rectify(image);
         double worst_constant = 0, worst_ramp = 0;
         for (int j = 0; j < size; ++j)
           for (int i = 0; i < size; ++i) {
@@ -257,10 +257,10 @@ TEST(ReferencePlaneRectifierTest, ConstantsRampsAndFootprintOnTheTinyRig) {
       // (bilinear interpolation would be off by up to 0.25).
       const ReferencePlaneRectifier point_sampler(camera, rays, world_from_sample, 32, 32, rig.sample_size_mm);
       EXPECT_EQ(point_sampler.samples_per_side_max(), 1);
-      Image quadratic(camera.width, camera.height, 1);
+      core::Image quadratic(camera.width, camera.height, 1);
       for (int y = 0; y < camera.height; ++y)
         for (int x = 0; x < camera.width; ++x) quadratic.at(x, y) = static_cast<float>(0.5 * x * x + 0.25 * x * y);
-      const Image texture = point_sampler.Rectify(quadratic);
+      const core::Image texture = point_sampler.Rectify(quadratic);
       double worst = 0;
       for (int j = 0; j < 32; ++j)
         for (int i = 0; i < 32; ++i) {
@@ -277,11 +277,11 @@ TEST(ReferencePlaneRectifierTest, ConstantsRampsAndFootprintOnTheTinyRig) {
 // grid blends each capture with weight 1: the same BTF as placing them.
 TEST_F(BtfAssemblyTest, ResamplingOnTheGridReproducesPlacing) {
   Assembled a = Prepare(Session("weave"), 8);
-  const FullBtf placed = AssembleBtf(a.images, a.calibration, a.options);
+  const core::FullBtf placed = AssembleBtf(a.images, a.calibration, a.options);
   a.options.resample = true;
   a.options.per_texel_directions = false;
   BtfAssemblyReport report;
-  const FullBtf resampled = AssembleBtf(a.images, a.calibration, a.options, &report);
+  const core::FullBtf resampled = AssembleBtf(a.images, a.calibration, a.options, &report);
   EXPECT_EQ(report.measured_pairs, 32);
   EXPECT_EQ(report.extrapolated_views, 0);
   EXPECT_EQ(report.extrapolated_lights, 0);
@@ -315,12 +315,12 @@ TEST_F(BtfAssemblyTest, OffGridRigIsResampledOntoTheSets) {
     try {
       AssembleBtf(a.images, a.calibration, a.options);
       ADD_FAILURE() << "off-grid images placed without resampling";
-    } catch (const Error& e) {
+    } catch (const core::Error& e) {
       EXPECT_NE(std::string(e.what()).find("--resample"), std::string::npos) << e.what();
     }
     a.options.resample = true;
     BtfAssemblyReport report;
-    const FullBtf btf = AssembleBtf(a.images, a.calibration, a.options, &report);
+    const core::FullBtf btf = AssembleBtf(a.images, a.calibration, a.options, &report);
     EXPECT_EQ(report.measured_pairs, 0);
     EXPECT_EQ(report.filled_pairs, 64);
     EXPECT_NEAR(report.max_view_offset_deg, 4.5, 0.1);
@@ -340,7 +340,7 @@ TEST_F(BtfAssemblyTest, MissingNanAndNegativeImagesAreErrorsNamingTheImage) {
     try {
       AssembleBtf(images, a.calibration, a.options);
       ADD_FAILURE() << "expected an error with " << needle;
-    } catch (const Error& e) {
+    } catch (const core::Error& e) {
       EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
     }
   };
@@ -348,14 +348,14 @@ TEST_F(BtfAssemblyTest, MissingNanAndNegativeImagesAreErrorsNamingTheImage) {
   images[3].file = dir / "gone.png";
   expect_error(images, "gone.png: missing BTF image");
 
-  Image bad = ReadImage(a.images[5].file);
+  core::Image bad = core::ReadImage(a.images[5].file);
   bad.at(40, 50, 1) = std::nanf("");
-  WriteImage(dir / "nan.exr", bad, PixelEncoding::kFloat32);
+  core::WriteImage(dir / "nan.exr", bad, core::PixelEncoding::kFloat32);
   images = a.images;
   images[5].file = dir / "nan.exr";
   expect_error(images, "nan.exr: pixel (40, 50) channel 1");
   bad.at(40, 50, 1) = -0.25f;
-  WriteImage(dir / "negative.exr", bad, PixelEncoding::kFloat32);
+  core::WriteImage(dir / "negative.exr", bad, core::PixelEncoding::kFloat32);
   images[5].file = dir / "negative.exr";
   expect_error(images, "negative.exr: pixel (40, 50) channel 1 is -0.25");
 
@@ -386,23 +386,23 @@ TEST_F(BtfAssemblyTest, EachCameraUsesItsOwnGain) {
     EXPECT_EQ(c.radiometry->signal_per_radiance_second, sim::kSignalPerRadianceSecond) << c.id;
   }
   BtfAssemblyReport report;
-  const FullBtf reference = AssembleBtf(a.images, a.calibration, a.options, &report);
+  const core::FullBtf reference = AssembleBtf(a.images, a.calibration, a.options, &report);
 
   constexpr float kScale = 0.4f;
   auto images = a.images;
   for (std::size_t i = 0; i < images.size(); ++i) {
     if (images[i].camera != 1) continue;
-    Image scaled = ReadImage(images[i].file);
+    core::Image scaled = core::ReadImage(images[i].file);
     for (std::size_t k = 0; k < scaled.size(); ++k) scaled.data()[k] *= kScale;
     images[i].file = dir / ("scaled" + std::to_string(i) + ".exr");
-    WriteImage(images[i].file, scaled, PixelEncoding::kFloat32);
+    core::WriteImage(images[i].file, scaled, core::PixelEncoding::kFloat32);
   }
   BtfAssemblyOptions own = a.options;
   own.signal_per_radiance_second[1] *= kScale;
-  const FullBtf btf = AssembleBtf(images, a.calibration, own);
+  const core::FullBtf btf = AssembleBtf(images, a.calibration, own);
   double worst = 0;
   for (int v = 0; v < reference.view_count(); ++v) {
-    const Image &r = reference.view_images[v], &e = btf.view_images[v];
+    const core::Image &r = reference.view_images[v], &e = btf.view_images[v];
     for (std::size_t k = 0; k < r.size(); ++k) {
       worst = std::max(worst, std::abs(double(e.data()[k]) - r.data()[k]) / (r.data()[k] + 1e-6));
     }
@@ -414,7 +414,7 @@ TEST_F(BtfAssemblyTest, EachCameraUsesItsOwnGain) {
   // Camera 0's gain for both: each view is either as it was (camera 0's) or
   // kScale times it (camera 1's), and the tiny rig's two cameras each give
   // half the views.
-  const FullBtf dark = AssembleBtf(images, a.calibration, a.options);
+  const core::FullBtf dark = AssembleBtf(images, a.calibration, a.options);
   int darkened = 0;
   for (int v = 0; v < reference.view_count(); ++v) {
     double sum_reference = 0, sum_dark = 0;
@@ -430,4 +430,4 @@ TEST_F(BtfAssemblyTest, EachCameraUsesItsOwnGain) {
 }
 
 }  // namespace
-}  // namespace mesocap
+}  // namespace mesocap::btf

@@ -17,13 +17,13 @@
 #include "sim/mesostructure_scene.h"
 #include "tests/common/temporary_directory.h"
 
-namespace mesocap {
+namespace mesocap::btf {
 namespace {
 
 using Fill = std::function<Eigen::Vector3f(int x, int y, int view, int light)>;
 
-FullBtf MakeBtf(int size, const SamplingSet& views, const SamplingSet& lights, const Fill& fill) {
-  FullBtf btf = MakeFullBtf(size, size, views, lights);
+core::FullBtf MakeBtf(int size, const core::SamplingSet& views, const core::SamplingSet& lights, const Fill& fill) {
+  core::FullBtf btf = core::MakeFullBtf(size, size, views, lights);
   for (int v = 0; v < btf.view_count(); ++v)
     for (int l = 0; l < btf.light_count(); ++l)
       for (int y = 0; y < size; ++y)
@@ -36,7 +36,7 @@ FullBtf MakeBtf(int size, const SamplingSet& views, const SamplingSet& lights, c
 }
 
 // Largest of f(x, y, view, light) over every value of a BTF of `shape`'s size.
-double MaxOverValues(const FactoredBtf& shape, const std::function<double(int, int, int, int)>& f) {
+double MaxOverValues(const core::FactoredBtf& shape, const std::function<double(int, int, int, int)>& f) {
   double worst = 0.0;
   for (int v = 0; v < shape.view_count(); ++v)
     for (int l = 0; l < shape.light_count(); ++l)
@@ -46,13 +46,13 @@ double MaxOverValues(const FactoredBtf& shape, const std::function<double(int, i
 }
 
 // Largest |reconstruction - input| over every value.
-double MaxAbsError(const FullBtf& btf, const FactoredBtf& f) {
+double MaxAbsError(const core::FullBtf& btf, const core::FactoredBtf& f) {
   return MaxOverValues(f, [&](int x, int y, int v, int l) {
     return static_cast<double>((f.Reconstruct(x, y, v, l) - btf.at(x, y, v, l)).cwiseAbs().maxCoeff());
   });
 }
 
-BtfCompressionOptions Options(BtfFactorLayout layout, BtfFactorColor color, int rank, double budget = 0.01) {
+BtfCompressionOptions Options(core::BtfFactorLayout layout, core::BtfFactorColor color, int rank, double budget = 0.01) {
   BtfCompressionOptions o;
   o.layout = layout;
   o.color = color;
@@ -93,13 +93,13 @@ TEST(BtfCompression, FlatLambertianGroundTruthIsRankOne) {
   sim::GroundTruthOptions gt;
   gt.texture_width = gt.texture_height = 8;
   gt.sample_size_mm = 6.0;
-  gt.views = SamplingSet::Named("grid6x3");
-  gt.lights = SamplingSet::Named("grid6x4");
-  const FullBtf btf = sim::RenderTrueBtf(*scene, gt);
-  for (auto layout : {BtfFactorLayout::kPaper, BtfFactorLayout::kPerTexel}) {
-    for (auto color : {BtfFactorColor::kRgb, BtfFactorColor::kYCbCr}) {
+  gt.views = core::SamplingSet::Named("grid6x3");
+  gt.lights = core::SamplingSet::Named("grid6x4");
+  const core::FullBtf btf = sim::RenderTrueBtf(*scene, gt);
+  for (auto layout : {core::BtfFactorLayout::kPaper, core::BtfFactorLayout::kPerTexel}) {
+    for (auto color : {core::BtfFactorColor::kRgb, core::BtfFactorColor::kYCbCr}) {
       BtfCompressionReport report;
-      const FactoredBtf f = CompressBtf(btf, Options(layout, color, 0, 1e-4), &report);
+      const core::FactoredBtf f = CompressBtf(btf, Options(layout, color, 0, 1e-4), &report);
       EXPECT_EQ(f.rank(), 1) << ToString(layout) << " " << ToString(color) << ": " << report.reason;
       EXPECT_EQ(report.rank, 1);
       EXPECT_LT(report.relative_rms_error[0], 1e-4);
@@ -111,10 +111,10 @@ TEST(BtfCompression, FlatLambertianGroundTruthIsRankOne) {
 
 TEST(BtfCompression, ExactlyRankDeficientDataHasZeroTailAndRankThreeIsExact) {
   // 12 views, 16 x 16 texels, 10 lights: paper matrix 2560 x 12 of rank 3.
-  const FullBtf btf = MakeBtf(16, SamplingSet::Named("grid6x2"), SamplingSet::Named("grid5x2"), IntegerRank3);
-  for (auto layout : {BtfFactorLayout::kPaper, BtfFactorLayout::kPerTexel}) {
+  const core::FullBtf btf = MakeBtf(16, core::SamplingSet::Named("grid6x2"), core::SamplingSet::Named("grid5x2"), IntegerRank3);
+  for (auto layout : {core::BtfFactorLayout::kPaper, core::BtfFactorLayout::kPerTexel}) {
     BtfCompressionReport report;
-    const FactoredBtf f = CompressBtf(btf, Options(layout, BtfFactorColor::kRgb, 0, 1e-6), &report);
+    const core::FactoredBtf f = CompressBtf(btf, Options(layout, core::BtfFactorColor::kRgb, 0, 1e-6), &report);
     for (int ch = 0; ch < 3; ++ch) {
       const Eigen::VectorXd& s = report.singular_values[ch];
       ASSERT_GE(s.size(), 4);
@@ -128,7 +128,7 @@ TEST(BtfCompression, ExactlyRankDeficientDataHasZeroTailAndRankThreeIsExact) {
     EXPECT_LT(MaxAbsError(btf, f), 2e-5);  // values up to ~40, float factors
     // A requested rank above the numerical rank still reconstructs exactly
     // (the extra components are rounding noise, not garbage).
-    const FactoredBtf f8 = CompressBtf(btf, Options(layout, BtfFactorColor::kRgb, 8));
+    const core::FactoredBtf f8 = CompressBtf(btf, Options(layout, core::BtfFactorColor::kRgb, 8));
     EXPECT_EQ(f8.rank(), 8);
     EXPECT_LT(MaxAbsError(btf, f8), 2e-5);
   }
@@ -137,37 +137,37 @@ TEST(BtfCompression, ExactlyRankDeficientDataHasZeroTailAndRankThreeIsExact) {
 TEST(BtfCompression, SpecularHighlightThousandTimesDiffuse) {
   // Diffuse 0.1 with a texture, plus a highlight 1000x brighter where the
   // view is the mirror of the light -- a few columns with huge values.
-  const SamplingSet views = SamplingSet::Named("grid8x3");
-  const SamplingSet lights = views;
-  const FullBtf btf = MakeBtf(8, views, lights, [&](int x, int y, int v, int l) {
+  const core::SamplingSet views = core::SamplingSet::Named("grid8x3");
+  const core::SamplingSet lights = views;
+  const core::FullBtf btf = MakeBtf(8, views, lights, [&](int x, int y, int v, int l) {
     const float albedo = 0.1f * (1.0f + 0.5f * std::sin(0.9f * x + 0.4f * y));
     const Eigen::Vector3d mirror(-lights.direction(l).x(), -lights.direction(l).y(), lights.direction(l).z());
     const bool highlight = (mirror - views.direction(v)).norm() < 1e-6 && (x + y) % 3 == 0;
     const float s = highlight ? 100.0f : 0.0f;  // 1000x the diffuse level
     return Eigen::Vector3f(albedo + s, 0.8f * albedo + s, 0.5f * albedo + s);
   });
-  for (auto layout : {BtfFactorLayout::kPaper, BtfFactorLayout::kPerTexel}) {
+  for (auto layout : {core::BtfFactorLayout::kPaper, core::BtfFactorLayout::kPerTexel}) {
     BtfCompressionReport report;
-    const FactoredBtf full = CompressBtf(btf, Options(layout, BtfFactorColor::kRgb, 24), &report);
+    const core::FactoredBtf full = CompressBtf(btf, Options(layout, core::BtfFactorColor::kRgb, 24), &report);
     ASSERT_EQ(report.rank, std::min(24, report.max_rank));
     // At the matrix's full rank (paper: 24 views) the factors reproduce the
     // diffuse level next to the highlight: float rounding of the ~100 values
     // is ~1e-5, far below the 0.1 diffuse level.
-    if (layout == BtfFactorLayout::kPaper) {
+    if (layout == core::BtfFactorLayout::kPaper) {
       EXPECT_LT(MaxAbsError(btf, full), 1e-4);
       EXPECT_NEAR(full.Reconstruct(1, 1, 5, 5).y(), btf.at(1, 1, 5, 5).y(), 1e-4);
     }
     // The spectrum's error at each rank is the measured error of the
     // truncated factors (Eckart-Young), within float storage of the factors.
     for (int k : {1, 2, 4, 8}) {
-      const FactoredBtf f = CompressBtf(btf, Options(layout, BtfFactorColor::kRgb, k));
+      const core::FactoredBtf f = CompressBtf(btf, Options(layout, core::BtfFactorColor::kRgb, k));
       const double measured = RelativeRmsError(btf, f);
       EXPECT_NEAR(measured, report.relative_rms_error[k - 1], 1e-4 * report.relative_rms_error[k - 1] + 1e-6)
           << ToString(layout) << " rank " << k;
     }
     // The budget picks the smallest rank that meets it, and says so.
     BtfCompressionReport chosen;
-    const FactoredBtf f = CompressBtf(btf, Options(layout, BtfFactorColor::kRgb, 0, 0.01), &chosen);
+    const core::FactoredBtf f = CompressBtf(btf, Options(layout, core::BtfFactorColor::kRgb, 0, 0.01), &chosen);
     EXPECT_LE(chosen.measured_relative_rms_error, 0.01);
     if (chosen.rank > 1) {
       EXPECT_GT(chosen.relative_rms_error[chosen.rank - 2], 0.01);
@@ -177,23 +177,23 @@ TEST(BtfCompression, SpecularHighlightThousandTimesDiffuse) {
 }
 
 TEST(BtfCompression, ConstantZeroChannelGivesZeroFactorsAndNoNaN) {
-  const SamplingSet views = SamplingSet::Named("grid5x2");
-  const SamplingSet lights = SamplingSet::Named("grid4x2");
-  const FullBtf btf = MakeBtf(4, views, lights, [](int x, int y, int v, int l) {
+  const core::SamplingSet views = core::SamplingSet::Named("grid5x2");
+  const core::SamplingSet lights = core::SamplingSet::Named("grid4x2");
+  const core::FullBtf btf = MakeBtf(4, views, lights, [](int x, int y, int v, int l) {
     const float r = IntegerRank3(x, y, v, l).x();
     return Eigen::Vector3f(r, 0.5f * r, 0.0f);
   });
   // paper: 128 x 10 (tall); per_texel: 16 x 80 (wide, factored through A^T).
-  for (auto layout : {BtfFactorLayout::kPaper, BtfFactorLayout::kPerTexel}) {
-    for (auto color : {BtfFactorColor::kRgb, BtfFactorColor::kYCbCr}) {
+  for (auto layout : {core::BtfFactorLayout::kPaper, core::BtfFactorLayout::kPerTexel}) {
+    for (auto color : {core::BtfFactorColor::kRgb, core::BtfFactorColor::kYCbCr}) {
       BtfCompressionReport report;
-      const FactoredBtf f = CompressBtf(btf, Options(layout, color, 6), &report);
-      for (const Image& r : f.rows)
+      const core::FactoredBtf f = CompressBtf(btf, Options(layout, color, 6), &report);
+      for (const core::Image& r : f.rows)
         for (std::size_t i = 0; i < r.size(); ++i) ASSERT_TRUE(std::isfinite(r.data()[i]));
       for (std::size_t i = 0; i < f.columns.size(); ++i) ASSERT_TRUE(std::isfinite(f.columns.data()[i]));
-      if (color == BtfFactorColor::kRgb) {
+      if (color == core::BtfFactorColor::kRgb) {
         EXPECT_EQ(report.singular_values[2].norm(), 0.0);
-        for (const Image& r : f.rows)
+        for (const core::Image& r : f.rows)
           for (int i = 0; i < r.width() * r.height(); ++i) ASSERT_EQ(r.data()[3 * i + 2], 0.0f);
       }
       EXPECT_LT(MaxAbsError(btf, f), 2e-5) << ToString(layout) << " " << ToString(color);
@@ -201,9 +201,9 @@ TEST(BtfCompression, ConstantZeroChannelGivesZeroFactorsAndNoNaN) {
     }
   }
   // All zero: every error is 0 and rank 1 is chosen.
-  const FullBtf zero = MakeBtf(4, views, lights, [](int, int, int, int) { return Eigen::Vector3f::Zero(); });
+  const core::FullBtf zero = MakeBtf(4, views, lights, [](int, int, int, int) { return Eigen::Vector3f::Zero(); });
   BtfCompressionReport report;
-  const FactoredBtf f = CompressBtf(zero, Options(BtfFactorLayout::kPaper, BtfFactorColor::kRgb, 0), &report);
+  const core::FactoredBtf f = CompressBtf(zero, Options(core::BtfFactorLayout::kPaper, core::BtfFactorColor::kRgb, 0), &report);
   EXPECT_EQ(f.rank(), 1);
   EXPECT_EQ(report.measured_relative_rms_error, 0.0);
 }
@@ -211,14 +211,14 @@ TEST(BtfCompression, ConstantZeroChannelGivesZeroFactorsAndNoNaN) {
 TEST(BtfCompression, LayoutsAgreeAtFullRank) {
   std::mt19937 rng(7);
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
-  const SamplingSet views = SamplingSet::Named("grid3x2");
-  const SamplingSet lights = SamplingSet::Named("grid5x1");
-  FullBtf btf = MakeBtf(4, views, lights, [&](int, int, int, int) {
+  const core::SamplingSet views = core::SamplingSet::Named("grid3x2");
+  const core::SamplingSet lights = core::SamplingSet::Named("grid5x1");
+  core::FullBtf btf = MakeBtf(4, views, lights, [&](int, int, int, int) {
     return Eigen::Vector3f(u(rng), u(rng), u(rng));
   });
   // paper: 80 x 6, full rank 6; per_texel: 16 x 30 (wide), full rank 16.
-  const FactoredBtf paper = CompressBtf(btf, Options(BtfFactorLayout::kPaper, BtfFactorColor::kRgb, 6));
-  const FactoredBtf texel = CompressBtf(btf, Options(BtfFactorLayout::kPerTexel, BtfFactorColor::kYCbCr, 16));
+  const core::FactoredBtf paper = CompressBtf(btf, Options(core::BtfFactorLayout::kPaper, core::BtfFactorColor::kRgb, 6));
+  const core::FactoredBtf texel = CompressBtf(btf, Options(core::BtfFactorLayout::kPerTexel, core::BtfFactorColor::kYCbCr, 16));
   for (int v = 0; v < 6; ++v)
     for (int l = 0; l < 5; ++l)
       for (int y = 0; y < 4; ++y)
@@ -233,15 +233,15 @@ TEST(BtfCompression, StreamedQrMatchesADirectSvdAcrossManyBlocks) {
   // parallel chunk of row blocks, so the chunk reduction is exercised.
   std::mt19937 rng(11);
   std::normal_distribution<float> g(0.0f, 1.0f);
-  const SamplingSet views = SamplingSet::Named("grid16x4");
-  const SamplingSet lights = SamplingSet::Named("grid9x4");
-  const FullBtf btf = MakeBtf(32, views, lights, [&](int x, int, int v, int) {
+  const core::SamplingSet views = core::SamplingSet::Named("grid16x4");
+  const core::SamplingSet lights = core::SamplingSet::Named("grid9x4");
+  const core::FullBtf btf = MakeBtf(32, views, lights, [&](int x, int, int v, int) {
     // A decaying spectrum: smooth part plus small noise.
     const float s = std::cos(0.1f * x * (v % 5 + 1));
     return Eigen::Vector3f(s + 0.01f * g(rng), 0.5f * s, 1e-3f * g(rng));
   });
   BtfCompressionReport report;
-  CompressBtf(btf, Options(BtfFactorLayout::kPaper, BtfFactorColor::kRgb, 10), &report);
+  CompressBtf(btf, Options(core::BtfFactorLayout::kPaper, core::BtfFactorColor::kRgb, 10), &report);
   for (int ch = 0; ch < 3; ++ch) {
     Eigen::MatrixXd a(32 * 32 * 36, 64);
     for (int v = 0; v < 64; ++v)
@@ -256,13 +256,13 @@ TEST(BtfCompression, StreamedQrMatchesADirectSvdAcrossManyBlocks) {
 }
 
 TEST(BtfCompression, RejectsNonFiniteValuesNamingTheView) {
-  FullBtf btf = MakeBtf(4, SamplingSet::Named("grid3x1"), SamplingSet::Named("grid2x1"),
+  core::FullBtf btf = MakeBtf(4, core::SamplingSet::Named("grid3x1"), core::SamplingSet::Named("grid2x1"),
                         [](int, int, int, int) { return Eigen::Vector3f(1, 1, 1); });
   btf.view_images[2].pixel(1, 4 + 3)[1] = std::nanf("");
   try {
     CompressBtf(btf, BtfCompressionOptions{});
     FAIL() << "expected an error";
-  } catch (const Error& e) {
+  } catch (const core::Error& e) {
     EXPECT_NE(std::string(e.what()).find("view 2"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("texel (1, 3), light 1"), std::string::npos) << e.what();
   }
@@ -270,13 +270,13 @@ TEST(BtfCompression, RejectsNonFiniteValuesNamingTheView) {
 
 
 // Largest |a - b| of the two factorizations' reconstructions over every value.
-double MaxAbsDifference(const FactoredBtf& a, const FactoredBtf& b) {
+double MaxAbsDifference(const core::FactoredBtf& a, const core::FactoredBtf& b) {
   return MaxOverValues(a, [&](int x, int y, int v, int l) {
     return static_cast<double>((a.Reconstruct(x, y, v, l) - b.Reconstruct(x, y, v, l)).cwiseAbs().maxCoeff());
   });
 }
 
-FullBtf RandomSmoothBtf(int size, const SamplingSet& views, const SamplingSet& lights, unsigned seed) {
+core::FullBtf RandomSmoothBtf(int size, const core::SamplingSet& views, const core::SamplingSet& lights, unsigned seed) {
   std::mt19937 rng(seed);
   std::normal_distribution<float> g(0.0f, 1.0f);
   return MakeBtf(size, views, lights, [&](int x, int y, int v, int l) {
@@ -291,14 +291,14 @@ TEST(BtfCompression, BandsOfAnySizeGiveTheSameFactors) {
   // and in bands of one texture line or one column: the same spectrum and
   // reconstruction up to rounding.
   for (const int size : {8, 4}) {
-    const FullBtf btf = RandomSmoothBtf(size, SamplingSet::Named("grid3x2"), SamplingSet::Named("grid3x2"), 5);
-    for (const BtfFactorLayout layout : {BtfFactorLayout::kPaper, BtfFactorLayout::kPerTexel}) {
-      BtfCompressionOptions whole = Options(layout, BtfFactorColor::kYCbCr, 5);
+    const core::FullBtf btf = RandomSmoothBtf(size, core::SamplingSet::Named("grid3x2"), core::SamplingSet::Named("grid3x2"), 5);
+    for (const core::BtfFactorLayout layout : {core::BtfFactorLayout::kPaper, core::BtfFactorLayout::kPerTexel}) {
+      BtfCompressionOptions whole = Options(layout, core::BtfFactorColor::kYCbCr, 5);
       BtfCompressionOptions banded = whole;
       banded.band_bytes = 1;
       BtfCompressionReport rw, rb;
-      const FactoredBtf fw = CompressBtf(btf, whole, &rw);
-      const FactoredBtf fb = CompressBtf(btf, banded, &rb);
+      const core::FactoredBtf fw = CompressBtf(btf, whole, &rw);
+      const core::FactoredBtf fb = CompressBtf(btf, banded, &rb);
       for (int ch = 0; ch < 3; ++ch) {
         ASSERT_EQ(rw.singular_values[ch].size(), rb.singular_values[ch].size());
         for (long long k = 0; k < rw.singular_values[ch].size(); ++k) {
@@ -314,10 +314,10 @@ TEST(BtfCompression, BandsOfAnySizeGiveTheSameFactors) {
 
 TEST(BtfCompression, StreamsAPackagesViewFilesWithoutReadingThemWhole) {
   testing::TemporaryDirectory dir;
-  const SamplingSet views = SamplingSet::Named("grid3x2");
-  const SamplingSet lights = SamplingSet::Named("grid3x1");
-  const FullBtf btf = RandomSmoothBtf(8, views, lights, 9);
-  MaterialDescription d;
+  const core::SamplingSet views = core::SamplingSet::Named("grid3x2");
+  const core::SamplingSet lights = core::SamplingSet::Named("grid3x1");
+  const core::FullBtf btf = RandomSmoothBtf(8, views, lights, 9);
+  formats::MaterialDescription d;
   d.name = "streamed";
   d.width = d.height = 8;
   d.physical_size_mm = {4.0, 4.0};
@@ -325,38 +325,38 @@ TEST(BtfCompression, StreamsAPackagesViewFilesWithoutReadingThemWhole) {
   d.view_directions = views;
   d.light_directions = lights;
   {
-    MaterialPackageWriter writer(dir / "pkg", d, false);
+    formats::MaterialPackageWriter writer(dir / "pkg", d, false);
     for (int v = 0; v < btf.view_count(); ++v) writer.WriteFullBtfView(v, btf.view_images[v]);
     writer.Commit();
   }
-  BtfCompressionOptions o = Options(BtfFactorLayout::kPaper, BtfFactorColor::kRgb, 4);
-  const FactoredBtf in_memory = CompressBtf(btf, o);
+  BtfCompressionOptions o = Options(core::BtfFactorLayout::kPaper, core::BtfFactorColor::kRgb, 4);
+  const core::FactoredBtf in_memory = CompressBtf(btf, o);
   o.band_bytes = 1;  // one texture line of every view file at a time
-  PackageFullBtfReader reader(dir / "pkg", ReadMaterialManifest(dir / "pkg"));
+  formats::PackageFullBtfReader reader(dir / "pkg", formats::ReadMaterialManifest(dir / "pkg"));
   BtfCompressionReport report;
-  const FactoredBtf streamed = CompressBtf(reader, o, &report);
+  const core::FactoredBtf streamed = CompressBtf(reader, o, &report);
   EXPECT_LT(MaxAbsDifference(in_memory, streamed), 1e-5);
   EXPECT_NEAR(report.measured_relative_rms_error, RelativeRmsError(btf, in_memory), 1e-9);
 
   // Compressing the package as it now is fails with an error naming every part.
   auto expect_error_naming = [&](std::initializer_list<std::string> parts) {
-    PackageFullBtfReader reader(dir / "pkg", ReadMaterialManifest(dir / "pkg"));
+    formats::PackageFullBtfReader reader(dir / "pkg", formats::ReadMaterialManifest(dir / "pkg"));
     try {
       CompressBtf(reader, o);
       FAIL() << "expected an error";
-    } catch (const Error& e) {
+    } catch (const core::Error& e) {
       for (const std::string& part : parts) EXPECT_NE(std::string(e.what()).find(part), std::string::npos) << e.what();
     }
   };
   // A non-finite value in a view file: the error names the file, texel and light.
-  Image bad = btf.view_images[4];
+  core::Image bad = btf.view_images[4];
   bad.pixel(2, 8 * 1 + 5)[2] = std::numeric_limits<float>::infinity();
-  WriteImage(dir / "pkg" / FullBtfViewFile(4), bad);
+  core::WriteImage(dir / "pkg" / formats::FullBtfViewFile(4), bad);
   expect_error_naming({"view_0004.exr", "texel (2, 5), light 1, channel 2"});
   // A view file of another size: named before any value is used.
-  WriteImage(dir / "pkg" / FullBtfViewFile(2), Image(8, 8, 3));
+  core::WriteImage(dir / "pkg" / formats::FullBtfViewFile(2), core::Image(8, 8, 3));
   expect_error_naming({"view_0002.exr", "height"});
 }
 
 }  // namespace
-}  // namespace mesocap
+}  // namespace mesocap::btf

@@ -7,17 +7,17 @@
 
 #include "core/error.h"
 
-namespace mesocap {
+namespace mesocap::btf {
 namespace {
 
 TEST(BtfEvaluation, RelativeRmsAndPsnrByPolarAngle) {
   // grid2x2: views at theta 22.5 and 67.5 degrees.
-  const SamplingSet views = SamplingSet::Named("grid2x2");
+  const core::SamplingSet views = core::SamplingSet::Named("grid2x2");
   BtfErrorAccumulator errors(views);
-  const Image truth(4, 4, 3, 1.0f);
+  const core::Image truth(4, 4, 3, 1.0f);
   for (int v = 0; v < 4; ++v) {
     // Views 0, 1 (22.5 deg) off by 1%, views 2, 3 (67.5 deg) by 10%.
-    errors.Add(v, truth, Image(4, 4, 3, v < 2 ? 1.01f : 1.1f));
+    errors.Add(v, truth, core::Image(4, 4, 3, v < 2 ? 1.01f : 1.1f));
   }
   const auto bands = errors.ByPolarAngle();
   ASSERT_EQ(bands.size(), 2u);
@@ -39,13 +39,13 @@ TEST(BtfEvaluation, RelativeRmsAndPsnrByPolarAngle) {
 }
 
 TEST(BtfEvaluation, ExactEstimateHasInfinitePsnrAndNullInJson) {
-  BtfErrorAccumulator errors(SamplingSet::Named("grid1x1"));
-  errors.Add(0, Image(2, 2, 3, 0.5f), Image(2, 2, 3, 0.5f));
+  BtfErrorAccumulator errors(core::SamplingSet::Named("grid1x1"));
+  errors.Add(0, core::Image(2, 2, 3, 0.5f), core::Image(2, 2, 3, 0.5f));
   EXPECT_TRUE(std::isinf(errors.Overall().psnr_db));
   EXPECT_EQ(errors.Overall().relative_rms, 0.0);
   EXPECT_TRUE(ToJson(errors, 1)["overall"]["psnr_db"].is_null());
-  EXPECT_THROW(errors.Add(0, Image(2, 2, 3), Image(2, 3, 3)), Error);
+  EXPECT_THROW(errors.Add(0, core::Image(2, 2, 3), core::Image(2, 3, 3)), core::Error);
 }
 
 }  // namespace
-}  // namespace mesocap
+}  // namespace mesocap::btf

@@ -9,7 +9,7 @@
 #include "core/json_field_reader.h"
 #include "tests/common/temporary_directory.h"
 
-namespace mesocap {
+namespace mesocap::core {
 namespace {
 
 std::string Slurp(const std::filesystem::path& p) {
@@ -92,4 +92,4 @@ TEST(AtomicDirectory, RefusesToReplaceUnlessAsked) {
 }
 
 }  // namespace
-}  // namespace mesocap
+}  // namespace mesocap::core

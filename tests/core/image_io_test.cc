@@ -10,7 +10,7 @@
 #include "core/image_io.h"
 #include "tests/common/temporary_directory.h"
 
-namespace mesocap {
+namespace mesocap::core {
 namespace {
 
 Image Gradient(int w, int h, int c) {
@@ -190,4 +190,4 @@ TEST(ImageIo, OverwriteIsAtomicAndKeepsOldFileOnFailure) {
 }
 
 }  // namespace
-}  // namespace mesocap
+}  // namespace mesocap::core

@@ -7,7 +7,7 @@
 #include "core/error.h"
 #include "tests/common/temporary_directory.h"
 
-namespace mesocap {
+namespace mesocap::core {
 namespace {
 
 using nlohmann::json;
@@ -88,4 +88,4 @@ TEST(JsonFieldReader, UnknownMembersAreNamed) {
 }
 
 }  // namespace
-}  // namespace mesocap
+}  // namespace mesocap::core

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-namespace mesocap {
+namespace mesocap::core {
 namespace {
 
 std::vector<std::string> Lines(std::FILE* f) {
@@ -62,4 +62,4 @@ TEST(Progress, AutoIsJsonWhenNotATerminal) {
 }
 
 }  // namespace
-}  // namespace mesocap
+}  // namespace mesocap::core

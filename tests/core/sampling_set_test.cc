@@ -10,7 +10,7 @@
 
 #include "core/error.h"
 
-namespace mesocap {
+namespace mesocap::core {
 namespace {
 
 using nlohmann::json;
@@ -522,4 +522,4 @@ TEST(SamplingSetJson, RejectsBadListsAndNames) {
 }
 
 }  // namespace
-}  // namespace mesocap
+}  // namespace mesocap::core

@@ -11,7 +11,7 @@
 #include "core/json_field_reader.h"
 #include "tests/common/temporary_directory.h"
 
-namespace mesocap {
+namespace mesocap::formats {
 namespace {
 
 namespace fs = std::filesystem;
@@ -34,9 +34,9 @@ int CountEntries(const fs::path& dir) {
   return n;
 }
 
-RigidTransform Pose(const std::string& parent, const std::string& child, double angle,
+core::RigidTransform Pose(const std::string& parent, const std::string& child, double angle,
                     const Eigen::Vector3d& axis, const Eigen::Vector3d& t) {
-  RigidTransform p;
+  core::RigidTransform p;
   p.parent_frame = parent;
   p.child_frame = child;
   p.rotation = Eigen::AngleAxisd(angle, axis.normalized()).toRotationMatrix();
@@ -209,7 +209,7 @@ void ExpectSame(const Calibration& a, const Calibration& b) {
 std::string FormatErrorOf(const fs::path& file) {
   try {
     ReadCalibration(file);
-  } catch (const FormatError& e) {
+  } catch (const core::FormatError& e) {
     EXPECT_NE(std::string(e.what()).find(file.string()), std::string::npos) << e.what();
     return e.what();
   } catch (const std::exception& e) {
@@ -518,7 +518,7 @@ TEST(CalibrationFuzz, MutatedBytesAreReadOrRejectedNeverCrash) {
     try {
       ReadCalibration(file);
       ++accepted;
-    } catch (const Error& e) {
+    } catch (const core::Error& e) {
       ++rejected;
       EXPECT_NE(std::string(e.what()).find(file.string()), std::string::npos) << e.what();
     } catch (const std::exception& e) {
@@ -538,19 +538,19 @@ TEST(Calibration, FailedWriteLeavesExistingFileIntact) {
   // Invalid content: refused before anything is written.
   Calibration bad = ExampleCalibration();
   bad.lamps[1].id = bad.lamps[0].id;
-  EXPECT_THROW(WriteCalibration(file, bad), FormatError);
+  EXPECT_THROW(WriteCalibration(file, bad), core::FormatError);
   bad = ExampleCalibration();
   bad.cameras[0].intrinsics.uncertainty.fx = -1;
-  EXPECT_THROW(WriteCalibration(file, bad), FormatError);
+  EXPECT_THROW(WriteCalibration(file, bad), core::FormatError);
   bad = ExampleCalibration();
   bad.cameras[0].pose.transform.child_frame = "camera:other";
-  EXPECT_THROW(WriteCalibration(file, bad), FormatError);
+  EXPECT_THROW(WriteCalibration(file, bad), core::FormatError);
   EXPECT_EQ(Slurp(file), before);
   EXPECT_EQ(CountEntries(dir.path()), 1);
 
   // A failure while replacing: the target is a folder, so the rename fails.
   fs::create_directories(dir / "occupied.json" / "inside");
-  EXPECT_THROW(WriteCalibration(dir / "occupied.json", ExampleCalibration()), Error);
+  EXPECT_THROW(WriteCalibration(dir / "occupied.json", ExampleCalibration()), core::Error);
   EXPECT_TRUE(fs::is_directory(dir / "occupied.json" / "inside"));
   EXPECT_EQ(CountEntries(dir.path()), 2);  // no temporary file left behind
   EXPECT_EQ(Slurp(file), before);
@@ -569,4 +569,4 @@ TEST(Calibration, IdsAreSafeInFrameAndFileNames) {
 }
 
 }  // namespace
-}  // namespace mesocap
+}  // namespace mesocap::formats

@@ -11,7 +11,7 @@
 #include "formats/capture_journal.h"
 #include "tests/common/temporary_directory.h"
 
-namespace mesocap {
+namespace mesocap::formats {
 namespace {
 
 namespace fs = std::filesystem;
@@ -61,7 +61,7 @@ void ExpectSame(const SessionManifest& a, const SessionManifest& b) {
 }
 
 // The message of the Error `f` throws (type E or derived), naming `file`.
-template <typename E = FormatError, typename F>
+template <typename E = core::FormatError, typename F>
 std::string ErrorOf(F&& f, const fs::path& file) {
   try {
     f();
@@ -98,7 +98,7 @@ TEST(CaptureSession, CreateFillsVersionAndTime) {
   m.calibration.reset();
   CreateCaptureSession(dir / "s", m);
   const SessionManifest read = ReadSessionManifest(dir / "s");
-  EXPECT_EQ(read.software_version, Version());
+  EXPECT_EQ(read.software_version, core::Version());
   EXPECT_TRUE(IsUtcTimestamp(read.created_utc)) << read.created_utc;
   EXPECT_FALSE(read.calibration.has_value());
 }
@@ -110,18 +110,18 @@ TEST(CaptureSession, CreateRefusesAFolderThatHoldsAnything) {
 
   fs::create_directories(dir / "used");
   Spit(dir / "used" / "keep.txt", "precious");
-  EXPECT_THROW(CreateCaptureSession(dir / "used", ExampleManifest()), Error);
+  EXPECT_THROW(CreateCaptureSession(dir / "used", ExampleManifest()), core::Error);
   EXPECT_EQ(Slurp(dir / "used" / "keep.txt"), "precious");
   EXPECT_FALSE(fs::exists(dir / "used" / kSessionManifestName));
 
   const std::string before = Slurp(dir / "empty" / kSessionManifestName);
   SessionManifest other = ExampleManifest();
   other.rig["name"] = "another rig";
-  EXPECT_THROW(CreateCaptureSession(dir / "empty", other), Error);  // an existing session
+  EXPECT_THROW(CreateCaptureSession(dir / "empty", other), core::Error);  // an existing session
   EXPECT_EQ(Slurp(dir / "empty" / kSessionManifestName), before);
 
   Spit(dir / "file", "x");
-  EXPECT_THROW(CreateCaptureSession(dir / "file", ExampleManifest()), Error);
+  EXPECT_THROW(CreateCaptureSession(dir / "file", ExampleManifest()), core::Error);
 }
 
 TEST(CaptureSession, InvalidManifestIsRefusedBeforeTouchingTheDisk) {
@@ -141,7 +141,7 @@ TEST(CaptureSession, InvalidManifestIsRefusedBeforeTouchingTheDisk) {
     SCOPED_TRACE(i);
     SessionManifest m = ExampleManifest();
     edits[i](m);
-    EXPECT_THROW(CreateCaptureSession(dir / "s", m), Error);
+    EXPECT_THROW(CreateCaptureSession(dir / "s", m), core::Error);
     EXPECT_FALSE(fs::exists(dir / "s" / kSessionManifestName));
   }
 }
@@ -257,7 +257,7 @@ TEST(CaptureSessionFuzz, TruncatedAndMutatedManifests) {
     Spit(file, mutated);
     try {
       ReadSessionManifest(dir / "s");
-    } catch (const Error& e) {
+    } catch (const core::Error& e) {
       ++rejected;
       EXPECT_NE(std::string(e.what()).find(file.string()), std::string::npos) << e.what();
     } catch (const std::exception& e) {
@@ -385,7 +385,7 @@ TEST(CaptureJournal, AppendRefusesBadRecordsAndLeavesTheFileAsItWas) {
   };
   for (std::size_t i = 0; i < bad.size(); ++i) {
     SCOPED_TRACE(i);
-    const std::string message = ErrorOf<Error>([&] { journal.Append(bad[i]); }, s.journal);
+    const std::string message = ErrorOf<core::Error>([&] { journal.Append(bad[i]); }, s.journal);
     EXPECT_EQ(Slurp(s.journal), before);
   }
   journal.Append(Record(1, "laser-cal-m0", {{"laser.json", 2}}));
@@ -395,7 +395,7 @@ TEST(CaptureJournal, AppendRefusesBadRecordsAndLeavesTheFileAsItWas) {
 TEST(CaptureJournal, OneWriterAtATime) {
   ExampleSession s;
   CaptureJournal first(s.journal);
-  EXPECT_NE(ErrorOf<Error>([&] { CaptureJournal second(s.journal); }, s.journal).find("another"),
+  EXPECT_NE(ErrorOf<core::Error>([&] { CaptureJournal second(s.journal); }, s.journal).find("another"),
             std::string::npos);
 }
 
@@ -580,7 +580,7 @@ TEST(CaptureJournalFuzz, MutatedBytesAreReadOrRejectedNeverCrash) {
       EXPECT_LE(c.records.size(), 3u);
       EXPECT_EQ(c.intact_bytes + c.dropped_bytes, mutated.size());
       ++read;
-    } catch (const Error& e) {
+    } catch (const core::Error& e) {
       ++rejected;
       EXPECT_NE(std::string(e.what()).find(s.journal.string()), std::string::npos) << e.what();
     } catch (const std::exception& e) {
@@ -592,4 +592,4 @@ TEST(CaptureJournalFuzz, MutatedBytesAreReadOrRejectedNeverCrash) {
 }
 
 }  // namespace
-}  // namespace mesocap
+}  // namespace mesocap::formats

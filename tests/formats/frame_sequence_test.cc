@@ -9,13 +9,13 @@
 #include "core/image_io.h"
 #include "tests/common/temporary_directory.h"
 
-namespace mesocap {
+namespace mesocap::formats {
 namespace {
 
 namespace fs = std::filesystem;
 
-Image Frame(int w, int h, int c, int index) {
-  Image image(w, h, c);
+core::Image Frame(int w, int h, int c, int index) {
+  core::Image image(w, h, c);
   for (int y = 0; y < h; ++y) {
     for (int x = 0; x < w; ++x) {
       for (int k = 0; k < c; ++k) image.at(x, y, k) = static_cast<float>(((x + 3 * y + 7 * k + 11 * index) % 97) / 96.0);
@@ -38,12 +38,12 @@ TEST(FrameSequenceTest, RoundTripsFramesOneByOneWithinHalfACode) {
   EXPECT_EQ(reader.header().width, 13);
   EXPECT_EQ(reader.header().height, 7);
   EXPECT_EQ(reader.header().channels, 1);
-  EXPECT_EQ(reader.header().encoding, PixelEncoding::kUInt16);
+  EXPECT_EQ(reader.header().encoding, core::PixelEncoding::kUInt16);
   EXPECT_EQ(reader.header().frame_count, kFrames);
-  Image frame;
+  core::Image frame;
   int f = 0;
   while (reader.Next(&frame)) {
-    const Image expected = Frame(13, 7, 1, f);
+    const core::Image expected = Frame(13, 7, 1, f);
     for (std::size_t i = 0; i < expected.size(); ++i) {
       ASSERT_NEAR(frame.data()[i], expected.data()[i], 0.5 / 65535 + 1e-7) << "frame " << f << " value " << i;
     }
@@ -52,20 +52,20 @@ TEST(FrameSequenceTest, RoundTripsFramesOneByOneWithinHalfACode) {
   EXPECT_EQ(f, kFrames);
   EXPECT_EQ(ReadFrameSequenceHeader(file).frame_count, kFrames);
   // An ordinary TIFF reader sees frame 0.
-  EXPECT_NEAR(ReadImage(file).at(4, 2), Frame(13, 7, 1, 0).at(4, 2), 1e-4);
+  EXPECT_NEAR(core::ReadImage(file).at(4, 2), Frame(13, 7, 1, 0).at(4, 2), 1e-4);
 }
 
 TEST(FrameSequenceTest, FloatFramesAreExact) {
   testing::TemporaryDirectory dir;
   const fs::path file = dir / "sweep.tiff";
   {
-    FrameSequenceWriter writer(file, 4, 3, 3, PixelEncoding::kFloat32);
+    FrameSequenceWriter writer(file, 4, 3, 3, core::PixelEncoding::kFloat32);
     for (int f = 0; f < 3; ++f) writer.Append(Frame(4, 3, 3, f));
     writer.Commit();
   }
   FrameSequenceReader reader(file);
-  EXPECT_EQ(reader.header().encoding, PixelEncoding::kFloat32);
-  Image frame;
+  EXPECT_EQ(reader.header().encoding, core::PixelEncoding::kFloat32);
+  core::Image frame;
   for (int f = 0; f < 3; ++f) {
     ASSERT_TRUE(reader.Next(&frame));
     EXPECT_EQ(frame.at(3, 2, 2), Frame(4, 3, 3, f).at(3, 2, 2));
@@ -85,22 +85,22 @@ TEST(FrameSequenceTest, WithoutCommitLeavesNothing) {
 TEST(FrameSequenceTest, RejectsMismatchedFramesAndEmptySequences) {
   testing::TemporaryDirectory dir;
   FrameSequenceWriter writer(dir / "sweep.tif", 4, 4, 1);
-  EXPECT_THROW(writer.Append(Frame(4, 5, 1, 0)), Error);
-  EXPECT_THROW(writer.Append(Frame(4, 4, 2, 0)), Error);
-  EXPECT_THROW(writer.Commit(), Error);
-  EXPECT_THROW(FrameSequenceWriter(dir / "sweep.png", 4, 4, 1), Error);
-  EXPECT_THROW(FrameSequenceWriter(dir / "sweep.tif", 4, 4, 1, PixelEncoding::kHalf), Error);
+  EXPECT_THROW(writer.Append(Frame(4, 5, 1, 0)), core::Error);
+  EXPECT_THROW(writer.Append(Frame(4, 4, 2, 0)), core::Error);
+  EXPECT_THROW(writer.Commit(), core::Error);
+  EXPECT_THROW(FrameSequenceWriter(dir / "sweep.png", 4, 4, 1), core::Error);
+  EXPECT_THROW(FrameSequenceWriter(dir / "sweep.tif", 4, 4, 1, core::PixelEncoding::kHalf), core::Error);
 }
 
 TEST(FrameSequenceTest, ReaderNamesTheFileAndTheField) {
   testing::TemporaryDirectory dir;
-  EXPECT_THROW(FrameSequenceReader(dir / "missing.tif"), FormatError);
+  EXPECT_THROW(FrameSequenceReader(dir / "missing.tif"), core::FormatError);
   const fs::path garbage = dir / "garbage.tif";
-  WriteTextFileAtomically(garbage, "not a tiff");
+  core::WriteTextFileAtomically(garbage, "not a tiff");
   try {
     FrameSequenceReader reader(garbage);
     FAIL() << "accepted garbage";
-  } catch (const FormatError& e) {
+  } catch (const core::FormatError& e) {
     EXPECT_EQ(e.file(), garbage);
   }
   const fs::path many = dir / "many.tif";
@@ -112,11 +112,11 @@ TEST(FrameSequenceTest, ReaderNamesTheFileAndTheField) {
   try {
     FrameSequenceReader reader(many, 3);
     FAIL() << "accepted more frames than the limit";
-  } catch (const FormatError& e) {
+  } catch (const core::FormatError& e) {
     EXPECT_EQ(e.field(), "frames");
   }
-  EXPECT_THROW(FrameSequenceReader(many, 10, 15), FormatError);
+  EXPECT_THROW(FrameSequenceReader(many, 10, 15), core::FormatError);
 }
 
 }  // namespace
-}  // namespace mesocap
+}  // namespace mesocap::formats

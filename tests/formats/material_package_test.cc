@@ -52,7 +52,7 @@ void operator delete(void* p, const std::nothrow_t&) noexcept { std::free(p); }
 void operator delete[](void* p, const std::nothrow_t&) noexcept { std::free(p); }
 #pragma GCC diagnostic pop
 
-namespace mesocap {
+namespace mesocap::formats {
 namespace {
 namespace fs = std::filesystem;
 
@@ -64,11 +64,11 @@ constexpr std::size_t kAllocationCeiling = 256u << 20;
 constexpr int kW = 5;
 constexpr int kH = 4;
 
-SamplingSet TestViews() {
-  return SamplingSet::FromAngles("test-views", {{0.0, 0.0}, {0.5, 0.0}, {0.5, 2.0}});
+core::SamplingSet TestViews() {
+  return core::SamplingSet::FromAngles("test-views", {{0.0, 0.0}, {0.5, 0.0}, {0.5, 2.0}});
 }
-SamplingSet TestLights() {
-  return SamplingSet::FromAngles("test-lights", {{0.2, 1.0}, {0.7, 0.0}, {0.7, 2.0}, {0.7, 4.0}});
+core::SamplingSet TestLights() {
+  return core::SamplingSet::FromAngles("test-lights", {{0.2, 1.0}, {0.7, 0.0}, {0.7, 2.0}, {0.7, 4.0}});
 }
 
 MaterialDescription TestDescription() {
@@ -84,14 +84,14 @@ MaterialDescription TestDescription() {
   return d;
 }
 
-Mdf TestMdf() {
-  Mdf mdf = MakeMdf(kW, kH, TestViews());
+core::Mdf TestMdf() {
+  core::Mdf mdf = core::MakeMdf(kW, kH, TestViews());
   for (int v = 0; v < mdf.view_count(); ++v)
     for (int y = 0; y < kH; ++y)
       for (int x = 0; x < kW; ++x) mdf.at(x, y, v) = 0.0137f * (x + 2 * y + 3 * v) + 0.001f * x * y;
-  mdf.at(0, 0, 1) = MdfNoHit();
-  mdf.at(4, 3, 2) = MdfNoHit();
-  mdf.at(2, 1, 0) = MdfUnknown();
+  mdf.at(0, 0, 1) = core::MdfNoHit();
+  mdf.at(4, 3, 2) = core::MdfNoHit();
+  mdf.at(2, 1, 0) = core::MdfUnknown();
   mdf.at(3, 3, 2) = 0.0f;
   return mdf;
 }
@@ -101,8 +101,8 @@ float Dyadic(int a, int b, int c, int d) {
   return static_cast<float>((a + 3 * b + 5 * c + 7 * d) % 64) / 64.0f;
 }
 
-FullBtf TestFullBtf() {
-  FullBtf btf = MakeFullBtf(kW, kH, TestViews(), TestLights());
+core::FullBtf TestFullBtf() {
+  core::FullBtf btf = core::MakeFullBtf(kW, kH, TestViews(), TestLights());
   for (int v = 0; v < btf.view_count(); ++v)
     for (int l = 0; l < btf.light_count(); ++l)
       for (int y = 0; y < kH; ++y)
@@ -112,23 +112,23 @@ FullBtf TestFullBtf() {
 }
 
 // A factored BTF with arbitrary (dyadic) factors.
-FactoredBtf TestFactoredBtf(BtfFactorLayout layout, BtfFactorColor color, int rank) {
-  FactoredBtf btf;
+core::FactoredBtf TestFactoredBtf(core::BtfFactorLayout layout, core::BtfFactorColor color, int rank) {
+  core::FactoredBtf btf;
   btf.width = kW;
   btf.height = kH;
   btf.views = TestViews();
   btf.lights = TestLights();
   btf.layout = layout;
   btf.color = color;
-  if (color == BtfFactorColor::kYCbCr) btf.rgb_to_factored = YCbCrFromLinearRgbBt601();
+  if (color == core::BtfFactorColor::kYCbCr) btf.rgb_to_factored = core::YCbCrFromLinearRgbBt601();
   for (int k = 0; k < rank; ++k) {
-    Image rows(kW, btf.row_image_height(), 3);
+    core::Image rows(kW, btf.row_image_height(), 3);
     for (int y = 0; y < rows.height(); ++y)
       for (int x = 0; x < kW; ++x)
         for (int c = 0; c < 3; ++c) rows.at(x, y, c) = Dyadic(x, y, c, k) - 0.25f;
     btf.rows.push_back(rows);
   }
-  btf.columns = Image(btf.column_count(), rank, 3);
+  btf.columns = core::Image(btf.column_count(), rank, 3);
   for (int k = 0; k < rank; ++k)
     for (int i = 0; i < btf.column_count(); ++i)
       for (int c = 0; c < 3; ++c) btf.columns.at(i, k, c) = Dyadic(i, k, c, 1) + 0.5f;
@@ -140,7 +140,7 @@ AmbientTerm TestAmbient() {
   a.width = kW;
   a.height = kH;
   a.views = TestViews();
-  a.values = Image(kW, kH * 3, 3);
+  a.values = core::Image(kW, kH * 3, 3);
   for (int y = 0; y < kH * 3; ++y)
     for (int x = 0; x < kW; ++x)
       for (int c = 0; c < 3; ++c) a.values.at(x, y, c) = 0.1f * x + 0.01f * y + 0.3f * c;
@@ -152,7 +152,7 @@ MaterialPackage FullTestPackage() {
   p.description = TestDescription();
   p.mdf = TestMdf();
   p.full_btf = TestFullBtf();
-  p.factored_btf = TestFactoredBtf(BtfFactorLayout::kPaper, BtfFactorColor::kYCbCr, 2);
+  p.factored_btf = TestFactoredBtf(core::BtfFactorLayout::kPaper, core::BtfFactorColor::kYCbCr, 2);
   p.ambient = TestAmbient();
   p.error_report = nlohmann::json{{"mdf_rms_error_mm", 0.012}, {"btf_psnr_db", 41.5}};
   return p;
@@ -160,18 +160,18 @@ MaterialPackage FullTestPackage() {
 
 // Same distance, or the same special value.
 bool SameMdfValue(float a, float b) {
-  if (IsUnknown(a) || IsUnknown(b)) return IsUnknown(a) && IsUnknown(b);
+  if (core::IsUnknown(a) || core::IsUnknown(b)) return core::IsUnknown(a) && core::IsUnknown(b);
   return a == b;
 }
 
-void ExpectSameImage(const Image& a, const Image& b) {
+void ExpectSameImage(const core::Image& a, const core::Image& b) {
   ASSERT_EQ(a.width(), b.width());
   ASSERT_EQ(a.height(), b.height());
   ASSERT_EQ(a.channels(), b.channels());
   for (std::size_t i = 0; i < a.size(); ++i) ASSERT_EQ(a.data()[i], b.data()[i]) << "value " << i;
 }
 
-void ExpectSameDirections(const SamplingSet& a, const SamplingSet& b) {
+void ExpectSameDirections(const core::SamplingSet& a, const core::SamplingSet& b) {
   ASSERT_EQ(a.size(), b.size());
   for (int i = 0; i < a.size(); ++i) EXPECT_LT((a.direction(i) - b.direction(i)).norm(), 1e-12);
 }
@@ -207,36 +207,36 @@ void ReadEverything(const fs::path& dir) {
 // The MDF and its 8-bit form
 
 TEST(Mdf, SpecialValuesAreDistinctAndNeverDistances) {
-  EXPECT_TRUE(IsNoHit(MdfNoHit()));
-  EXPECT_FALSE(IsUnknown(MdfNoHit()));
-  EXPECT_TRUE(IsUnknown(MdfUnknown()));
-  EXPECT_FALSE(IsNoHit(MdfUnknown()));
+  EXPECT_TRUE(core::IsNoHit(core::MdfNoHit()));
+  EXPECT_FALSE(core::IsUnknown(core::MdfNoHit()));
+  EXPECT_TRUE(core::IsUnknown(core::MdfUnknown()));
+  EXPECT_FALSE(core::IsNoHit(core::MdfUnknown()));
   for (float d : {0.0f, 1.0f, 1e30f}) {
-    EXPECT_FALSE(IsNoHit(d));
-    EXPECT_FALSE(IsUnknown(d));
-    EXPECT_TRUE(IsValidMdfValue(d));
+    EXPECT_FALSE(core::IsNoHit(d));
+    EXPECT_FALSE(core::IsUnknown(d));
+    EXPECT_TRUE(core::IsValidMdfValue(d));
   }
-  EXPECT_FALSE(IsValidMdfValue(-0.5f));
-  EXPECT_FALSE(IsValidMdfValue(-std::numeric_limits<float>::infinity()));
-  EXPECT_TRUE(IsUnknown(MakeMdf(2, 2, TestViews()).at(1, 1, 2)));
+  EXPECT_FALSE(core::IsValidMdfValue(-0.5f));
+  EXPECT_FALSE(core::IsValidMdfValue(-std::numeric_limits<float>::infinity()));
+  EXPECT_TRUE(core::IsUnknown(core::MakeMdf(2, 2, TestViews()).at(1, 1, 2)));
 }
 
 TEST(Mdf, QuantizationErrorIsAtMostHalfAStep) {
   std::mt19937 rng(7);
   std::uniform_real_distribution<float> distance(0.0f, 2.5f);
-  Mdf mdf = MakeMdf(32, 16, TestViews());
+  core::Mdf mdf = core::MakeMdf(32, 16, TestViews());
   for (std::size_t i = 0; i < mdf.distance_mm.size(); ++i) mdf.distance_mm.data()[i] = distance(rng);
-  mdf.at(3, 4, 0) = MdfNoHit();
-  mdf.at(5, 6, 1) = MdfUnknown();
-  const QuantizedMdf q = QuantizeMdf(mdf, 1.5);
+  mdf.at(3, 4, 0) = core::MdfNoHit();
+  mdf.at(5, 6, 1) = core::MdfUnknown();
+  const core::QuantizedMdf q = core::QuantizeMdf(mdf, 1.5);
   float largest = 0;
   for (std::size_t i = 0; i < mdf.distance_mm.size(); ++i) {
     if (std::isfinite(mdf.distance_mm.data()[i])) largest = std::max(largest, mdf.distance_mm.data()[i]);
   }
   EXPECT_DOUBLE_EQ(q.scale_mm, largest / 253.0);
-  EXPECT_EQ(q.at(3, 4, 0), QuantizedMdf::kNoHitCode);
-  EXPECT_EQ(q.at(5, 6, 1), QuantizedMdf::kUnknownCode);
-  const Mdf back = DequantizeMdf(q);
+  EXPECT_EQ(q.at(3, 4, 0), core::QuantizedMdf::kNoHitCode);
+  EXPECT_EQ(q.at(5, 6, 1), core::QuantizedMdf::kUnknownCode);
+  const core::Mdf back = core::DequantizeMdf(q);
   for (std::size_t i = 0; i < mdf.distance_mm.size(); ++i) {
     const float d = mdf.distance_mm.data()[i];
     const float e = back.distance_mm.data()[i];
@@ -250,20 +250,20 @@ TEST(Mdf, QuantizationErrorIsAtMostHalfAStep) {
 }
 
 TEST(Mdf, ScaleFallsBackToDmaxWithoutDistances) {
-  Mdf mdf = MakeMdf(2, 2, TestViews());
-  mdf.at(0, 0, 0) = MdfNoHit();
-  EXPECT_DOUBLE_EQ(MdfQuantizationScale(mdf, 1.5), 1.5 / 253);
+  core::Mdf mdf = core::MakeMdf(2, 2, TestViews());
+  mdf.at(0, 0, 0) = core::MdfNoHit();
+  EXPECT_DOUBLE_EQ(core::MdfQuantizationScale(mdf, 1.5), 1.5 / 253);
   mdf.at(1, 0, 0) = 0.0f;
-  EXPECT_DOUBLE_EQ(MdfQuantizationScale(mdf, 1.5), 1.5 / 253);
-  EXPECT_THROW(MdfQuantizationScale(mdf, 0.0), Error);
+  EXPECT_DOUBLE_EQ(core::MdfQuantizationScale(mdf, 1.5), 1.5 / 253);
+  EXPECT_THROW(core::MdfQuantizationScale(mdf, 0.0), core::Error);
 }
 
 TEST(Mdf, QuantizeRejectsInvalidValues) {
-  Mdf mdf = MakeMdf(2, 2, TestViews());
+  core::Mdf mdf = core::MakeMdf(2, 2, TestViews());
   mdf.at(1, 1, 1) = -0.25f;
-  EXPECT_THROW(QuantizeMdf(mdf, 1.0), Error);
+  EXPECT_THROW(core::QuantizeMdf(mdf, 1.0), core::Error);
   mdf.at(1, 1, 1) = -std::numeric_limits<float>::infinity();
-  EXPECT_THROW(QuantizeMdf(mdf, 1.0), Error);
+  EXPECT_THROW(core::QuantizeMdf(mdf, 1.0), core::Error);
 }
 
 TEST(Mdf, EveryCodeSurvivesTheEightBitFile) {
@@ -271,24 +271,24 @@ TEST(Mdf, EveryCodeSurvivesTheEightBitFile) {
   MaterialDescription d = TestDescription();
   d.width = 16;
   d.height = 16;
-  d.view_directions = SamplingSet::FromAngles("one", {{0.0, 0.0}});
-  Mdf mdf = MakeMdf(16, 16, d.view_directions);
+  d.view_directions = core::SamplingSet::FromAngles("one", {{0.0, 0.0}});
+  core::Mdf mdf = core::MakeMdf(16, 16, d.view_directions);
   const double scale = 0.01;
   for (int i = 0; i < 256; ++i) {
     float& v = mdf.at(i % 16, i / 16, 0);
-    v = i <= 253 ? static_cast<float>(i * scale) : (i == 254 ? MdfNoHit() : MdfUnknown());
+    v = i <= 253 ? static_cast<float>(i * scale) : (i == 254 ? core::MdfNoHit() : core::MdfUnknown());
   }
   MaterialPackageWriter writer(dir / "pkg", d, false);
   writer.WriteMdf(mdf, MdfForms{.float32 = false, .uint8 = true});
   const MaterialManifest m = writer.Commit();
   EXPECT_NEAR(m.mdf->scale_mm, scale, 1e-9);
   EXPECT_FALSE(fs::exists(dir / "pkg" / "mdf.exr"));
-  const QuantizedMdf q = ReadQuantizedMdf(dir / "pkg", m);
+  const core::QuantizedMdf q = ReadQuantizedMdf(dir / "pkg", m);
   for (int i = 0; i < 256; ++i) EXPECT_EQ(q.at(i % 16, i / 16, 0), i);
   // Without the float form, ReadMdf decodes the 8-bit one.
-  const Mdf back = ReadMdf(dir / "pkg", m);
-  EXPECT_TRUE(IsNoHit(back.at(14, 15, 0)));
-  EXPECT_TRUE(IsUnknown(back.at(15, 15, 0)));
+  const core::Mdf back = ReadMdf(dir / "pkg", m);
+  EXPECT_TRUE(core::IsNoHit(back.at(14, 15, 0)));
+  EXPECT_TRUE(core::IsUnknown(back.at(15, 15, 0)));
   EXPECT_NEAR(back.at(13, 15, 0), 253 * scale, 1e-6);
 }
 
@@ -298,22 +298,22 @@ TEST(Mdf, EveryCodeSurvivesTheEightBitFile) {
 // T = r_0 c_0^T + r_1 c_1^T built by hand in each layout; the package must
 // reconstruct it exactly (dyadic values make every product exact).
 TEST(FactoredBtf, ReconstructsAKnownRankTwoBtfExactly) {
-  for (BtfFactorLayout layout : {BtfFactorLayout::kPaper, BtfFactorLayout::kPerTexel}) {
+  for (core::BtfFactorLayout layout : {core::BtfFactorLayout::kPaper, core::BtfFactorLayout::kPerTexel}) {
     SCOPED_TRACE(ToString(layout));
-    const FactoredBtf btf = TestFactoredBtf(layout, BtfFactorColor::kRgb, 2);
+    const core::FactoredBtf btf = TestFactoredBtf(layout, core::BtfFactorColor::kRgb, 2);
     testing::TemporaryDirectory dir;
     MaterialPackage p;
     p.description = TestDescription();
     p.factored_btf = btf;
     WriteMaterialPackage(dir / "pkg", p, false);
-    const FactoredBtf back = ReadFactoredBtf(dir / "pkg", ReadMaterialManifest(dir / "pkg"));
+    const core::FactoredBtf back = ReadFactoredBtf(dir / "pkg", ReadMaterialManifest(dir / "pkg"));
     ASSERT_EQ(back.rank(), 2);
     for (int v = 0; v < 3; ++v)
       for (int l = 0; l < 4; ++l)
         for (int y = 0; y < kH; ++y)
           for (int x = 0; x < kW; ++x) {
-            const int row = layout == BtfFactorLayout::kPaper ? l * kH + y : y;
-            const int column = layout == BtfFactorLayout::kPaper ? v : v * 4 + l;
+            const int row = layout == core::BtfFactorLayout::kPaper ? l * kH + y : y;
+            const int column = layout == core::BtfFactorLayout::kPaper ? v : v * 4 + l;
             const Eigen::Vector3f got = back.Reconstruct(x, y, v, l);
             for (int c = 0; c < 3; ++c) {
               const float expected = btf.rows[0].at(x, row, c) * btf.columns.at(column, 0, c) +
@@ -326,24 +326,24 @@ TEST(FactoredBtf, ReconstructsAKnownRankTwoBtfExactly) {
 
 // The layouts as the format documents them: factor the BTF matrix with an
 // SVD, store the full-rank factors, and get the BTF back.
-FactoredBtf FactorBySvd(const FullBtf& full, BtfFactorLayout layout, BtfFactorColor color) {
-  FactoredBtf btf;
+core::FactoredBtf FactorBySvd(const core::FullBtf& full, core::BtfFactorLayout layout, core::BtfFactorColor color) {
+  core::FactoredBtf btf;
   btf.width = full.width;
   btf.height = full.height;
   btf.views = full.views;
   btf.lights = full.lights;
   btf.layout = layout;
   btf.color = color;
-  if (color == BtfFactorColor::kYCbCr) btf.rgb_to_factored = YCbCrFromLinearRgbBt601();
+  if (color == core::BtfFactorColor::kYCbCr) btf.rgb_to_factored = core::YCbCrFromLinearRgbBt601();
   const int W = full.width, H = full.height, V = full.view_count(), L = full.light_count();
-  const bool paper = layout == BtfFactorLayout::kPaper;
+  const bool paper = layout == core::BtfFactorLayout::kPaper;
   const int rows = paper ? W * H * L : W * H;
   const int columns = paper ? V : V * L;
   const int rank = std::min(rows, columns);
   auto row_of = [&](int x, int y, int l) { return paper ? (l * H + y) * W + x : y * W + x; };
   auto column_of = [&](int v, int l) { return paper ? v : v * L + l; };
   for (int k = 0; k < rank; ++k) btf.rows.emplace_back(W, btf.row_image_height(), 3);
-  btf.columns = Image(columns, rank, 3);
+  btf.columns = core::Image(columns, rank, 3);
   for (int c = 0; c < 3; ++c) {
     Eigen::MatrixXd a(rows, columns);
     for (int v = 0; v < V; ++v)
@@ -367,9 +367,9 @@ FactoredBtf FactorBySvd(const FullBtf& full, BtfFactorLayout layout, BtfFactorCo
 }
 
 TEST(FactoredBtf, SvdFactorsInEachLayoutAndColourReconstructTheBtf) {
-  const FullBtf full = TestFullBtf();
-  for (BtfFactorLayout layout : {BtfFactorLayout::kPaper, BtfFactorLayout::kPerTexel}) {
-    for (BtfFactorColor color : {BtfFactorColor::kRgb, BtfFactorColor::kYCbCr}) {
+  const core::FullBtf full = TestFullBtf();
+  for (core::BtfFactorLayout layout : {core::BtfFactorLayout::kPaper, core::BtfFactorLayout::kPerTexel}) {
+    for (core::BtfFactorColor color : {core::BtfFactorColor::kRgb, core::BtfFactorColor::kYCbCr}) {
       SCOPED_TRACE(std::string(ToString(layout)) + " " + ToString(color));
       testing::TemporaryDirectory dir;
       MaterialPackage p;
@@ -381,7 +381,7 @@ TEST(FactoredBtf, SvdFactorsInEachLayoutAndColourReconstructTheBtf) {
       EXPECT_EQ(m.factored_btf->layout, layout);
       EXPECT_EQ(m.factored_btf->color, color);
       EXPECT_TRUE(m.factored_btf->rgb_to_factored.isApprox(p.factored_btf->rgb_to_factored, 1e-15));
-      const FactoredBtf back = ReadFactoredBtf(dir / "pkg", m);
+      const core::FactoredBtf back = ReadFactoredBtf(dir / "pkg", m);
       float worst = 0;
       for (int v = 0; v < 3; ++v)
         for (int l = 0; l < 4; ++l)
@@ -396,20 +396,20 @@ TEST(FactoredBtf, SvdFactorsInEachLayoutAndColourReconstructTheBtf) {
 }
 
 TEST(FactoredBtf, CheckShapeRejectsInconsistentFactors) {
-  FactoredBtf btf = TestFactoredBtf(BtfFactorLayout::kPaper, BtfFactorColor::kRgb, 2);
+  core::FactoredBtf btf = TestFactoredBtf(core::BtfFactorLayout::kPaper, core::BtfFactorColor::kRgb, 2);
   EXPECT_NO_THROW(btf.CheckShape());
-  FactoredBtf wrong = btf;
-  wrong.columns = Image(4, 2, 3);  // paper: one column per view (3)
-  EXPECT_THROW(wrong.CheckShape(), Error);
+  core::FactoredBtf wrong = btf;
+  wrong.columns = core::Image(4, 2, 3);  // paper: one column per view (3)
+  EXPECT_THROW(wrong.CheckShape(), core::Error);
   wrong = btf;
-  wrong.rows[1] = Image(kW, kH, 3);  // paper rows are H * Nlight tall
-  EXPECT_THROW(wrong.CheckShape(), Error);
+  wrong.rows[1] = core::Image(kW, kH, 3);  // paper rows are H * Nlight tall
+  EXPECT_THROW(wrong.CheckShape(), core::Error);
   wrong = btf;
-  wrong.color = BtfFactorColor::kYCbCr;
+  wrong.color = core::BtfFactorColor::kYCbCr;
   wrong.rgb_to_factored = Eigen::Matrix3d::Ones();
-  EXPECT_THROW(wrong.CheckShape(), Error);
-  wrong = TestFactoredBtf(BtfFactorLayout::kPaper, BtfFactorColor::kRgb, 4);  // rank 4 > 3 columns
-  EXPECT_THROW(wrong.CheckShape(), Error);
+  EXPECT_THROW(wrong.CheckShape(), core::Error);
+  wrong = TestFactoredBtf(core::BtfFactorLayout::kPaper, core::BtfFactorColor::kRgb, 4);  // rank 4 > 3 columns
+  EXPECT_THROW(wrong.CheckShape(), core::Error);
 }
 
 // ---------------------------------------------------------------------------
@@ -430,7 +430,7 @@ TEST(MaterialPackage, EveryPartRoundTrips) {
   EXPECT_EQ(d.d_max_mm, 1.5);
   ExpectSameDirections(d.view_directions, TestViews());
   ExpectSameDirections(d.light_directions, TestLights());
-  EXPECT_EQ(d.provenance.software_version, Version());
+  EXPECT_EQ(d.provenance.software_version, core::Version());
   EXPECT_EQ(d.provenance.created_utc.size(), 20u) << d.provenance.created_utc;  // 2025-01-31T18:04:05Z
   EXPECT_EQ(d.provenance.source, "groundtruth scene=weave rig=small");
   ASSERT_TRUE(m.mdf);
@@ -444,12 +444,12 @@ TEST(MaterialPackage, EveryPartRoundTrips) {
   for (int v = 0; v < 3; ++v)
     for (int y = 0; y < kH; ++y)
       for (int x = 0; x < kW; ++x) EXPECT_TRUE(SameMdfValue(back.mdf->at(x, y, v), p.mdf->at(x, y, v)));
-  EXPECT_TRUE(IsNoHit(back.mdf->at(0, 0, 1)));
-  EXPECT_TRUE(IsUnknown(back.mdf->at(2, 1, 0)));
+  EXPECT_TRUE(core::IsNoHit(back.mdf->at(0, 0, 1)));
+  EXPECT_TRUE(core::IsUnknown(back.mdf->at(2, 1, 0)));
   // MDF, 8-bit form: within scale/2, specials kept.
-  const QuantizedMdf q = ReadQuantizedMdf(dir / "pkg", m);
-  EXPECT_DOUBLE_EQ(q.scale_mm, MdfQuantizationScale(*p.mdf, 1.5));
-  const Mdf decoded = DequantizeMdf(q);
+  const core::QuantizedMdf q = ReadQuantizedMdf(dir / "pkg", m);
+  EXPECT_DOUBLE_EQ(q.scale_mm, core::MdfQuantizationScale(*p.mdf, 1.5));
+  const core::Mdf decoded = core::DequantizeMdf(q);
   for (int v = 0; v < 3; ++v)
     for (int y = 0; y < kH; ++y)
       for (int x = 0; x < kW; ++x) {
@@ -460,14 +460,14 @@ TEST(MaterialPackage, EveryPartRoundTrips) {
           EXPECT_TRUE(SameMdfValue(a, b));
         }
       }
-  EXPECT_EQ(q.at(4, 3, 2), QuantizedMdf::kNoHitCode);
-  EXPECT_EQ(q.at(2, 1, 0), QuantizedMdf::kUnknownCode);
+  EXPECT_EQ(q.at(4, 3, 2), core::QuantizedMdf::kNoHitCode);
+  EXPECT_EQ(q.at(2, 1, 0), core::QuantizedMdf::kUnknownCode);
   // BTF, both forms; ambient; error report.
   ASSERT_TRUE(back.full_btf);
   for (int v = 0; v < 3; ++v) ExpectSameImage(back.full_btf->view_images[v], p.full_btf->view_images[v]);
   ASSERT_TRUE(back.factored_btf);
-  EXPECT_EQ(back.factored_btf->layout, BtfFactorLayout::kPaper);
-  EXPECT_EQ(back.factored_btf->color, BtfFactorColor::kYCbCr);
+  EXPECT_EQ(back.factored_btf->layout, core::BtfFactorLayout::kPaper);
+  EXPECT_EQ(back.factored_btf->color, core::BtfFactorColor::kYCbCr);
   ExpectSameImage(back.factored_btf->columns, p.factored_btf->columns);
   for (int k = 0; k < 2; ++k) ExpectSameImage(back.factored_btf->rows[k], p.factored_btf->rows[k]);
   ASSERT_TRUE(back.ambient);
@@ -484,9 +484,9 @@ TEST(MaterialPackage, AnySubsetOfPartsIsAPackage) {
   WriteMaterialPackage(dir / "empty", p, false);
   const MaterialManifest empty = ReadMaterialManifest(dir / "empty");
   EXPECT_FALSE(empty.mdf || empty.full_btf || empty.factored_btf || empty.ambient || empty.error_report);
-  EXPECT_THROW(ReadMdf(dir / "empty", empty), FormatError);
-  EXPECT_THROW(ReadFullBtfView(dir / "empty", empty, 0), FormatError);
-  EXPECT_THROW(ReadAmbientTerm(dir / "empty", empty), FormatError);
+  EXPECT_THROW(ReadMdf(dir / "empty", empty), core::FormatError);
+  EXPECT_THROW(ReadFullBtfView(dir / "empty", empty, 0), core::FormatError);
+  EXPECT_THROW(ReadAmbientTerm(dir / "empty", empty), core::FormatError);
 
   p.mdf = TestMdf();  // the ground-truth MDF-only package
   p.mdf_forms.uint8 = false;
@@ -495,8 +495,8 @@ TEST(MaterialPackage, AnySubsetOfPartsIsAPackage) {
   ASSERT_TRUE(m.mdf);
   EXPECT_FALSE(m.mdf->forms.uint8);
   EXPECT_FALSE(fs::exists(dir / "mdf-only" / "mdf8.tif"));
-  EXPECT_THROW(ReadQuantizedMdf(dir / "mdf-only", m), FormatError);
-  EXPECT_TRUE(SameMdfValue(ReadMdf(dir / "mdf-only", m).at(2, 1, 0), MdfUnknown()));
+  EXPECT_THROW(ReadQuantizedMdf(dir / "mdf-only", m), core::FormatError);
+  EXPECT_TRUE(SameMdfValue(ReadMdf(dir / "mdf-only", m).at(2, 1, 0), core::MdfUnknown()));
 }
 
 // A measured MDF's per-texel confidence: stored exactly beside the MDF, only
@@ -505,19 +505,19 @@ TEST(MaterialPackage, AnySubsetOfPartsIsAPackage) {
 TEST(MaterialPackage, MdfConfidenceRoundTripsAndIsChecked) {
   testing::TemporaryDirectory dir;
   const MaterialDescription d = TestDescription();
-  const Mdf mdf = TestMdf();
-  Image confidence(mdf.distance_mm.width(), mdf.distance_mm.height(), 1, 0.0f);
+  const core::Mdf mdf = TestMdf();
+  core::Image confidence(mdf.distance_mm.width(), mdf.distance_mm.height(), 1, 0.0f);
   for (std::size_t i = 0; i < confidence.size(); ++i) confidence.data()[i] = static_cast<float>(i % 7) / 6.0f;
   {
     MaterialPackageWriter writer(dir / "pkg", d, false);
-    EXPECT_THROW(writer.WriteMdfConfidence(confidence), Error) << "before the MDF";
+    EXPECT_THROW(writer.WriteMdfConfidence(confidence), core::Error) << "before the MDF";
     writer.WriteMdf(mdf);
-    Image bad = confidence;
+    core::Image bad = confidence;
     bad.data()[5] = 1.5f;
-    EXPECT_THROW(writer.WriteMdfConfidence(bad), Error);
+    EXPECT_THROW(writer.WriteMdfConfidence(bad), core::Error);
     bad.data()[5] = std::nanf("");
-    EXPECT_THROW(writer.WriteMdfConfidence(bad), Error);
-    EXPECT_THROW(writer.WriteMdfConfidence(Image(kW, kH, 1)), Error) << "one view's size";
+    EXPECT_THROW(writer.WriteMdfConfidence(bad), core::Error);
+    EXPECT_THROW(writer.WriteMdfConfidence(core::Image(kW, kH, 1)), core::Error) << "one view's size";
     writer.WriteMdfConfidence(confidence);
     writer.Commit();
   }
@@ -526,39 +526,39 @@ TEST(MaterialPackage, MdfConfidenceRoundTripsAndIsChecked) {
   EXPECT_TRUE(m.mdf->confidence);
   ExpectSameImage(ReadMdfConfidence(dir / "pkg", m), confidence);
 
-  Image mutated = confidence;
+  core::Image mutated = confidence;
   mutated.at(1, kH + 2) = 2.0f;  // view 1, texel (1, 2)
-  WriteImage(dir / "pkg" / "mdf_confidence.exr", mutated, PixelEncoding::kFloat32);
+  core::WriteImage(dir / "pkg" / "mdf_confidence.exr", mutated, core::PixelEncoding::kFloat32);
   try {
     ReadMdfConfidence(dir / "pkg", m);
     ADD_FAILURE() << "expected a FormatError";
-  } catch (const FormatError& e) {
+  } catch (const core::FormatError& e) {
     const std::string what = e.what();
     EXPECT_NE(what.find("mdf_confidence.exr"), std::string::npos) << what;
     EXPECT_NE(what.find("view 1, texel (1, 2)"), std::string::npos) << what;
   }
   fs::remove(dir / "pkg" / "mdf_confidence.exr");
-  EXPECT_THROW(ReadMaterialManifest(dir / "pkg"), FormatError) << "the manifest names a missing file";
+  EXPECT_THROW(ReadMaterialManifest(dir / "pkg"), core::FormatError) << "the manifest names a missing file";
 }
 
 TEST(MaterialPackage, FullBtfIsWrittenAndReadViewByView) {
   testing::TemporaryDirectory dir;
-  const FullBtf full = TestFullBtf();
+  const core::FullBtf full = TestFullBtf();
   MaterialPackageWriter writer(dir / "pkg", TestDescription(), false);
   for (int v = 2; v >= 0; --v) writer.WriteFullBtfView(v, full.view_images[v]);
-  EXPECT_THROW(writer.WriteFullBtfView(1, full.view_images[1]), Error);  // twice
-  EXPECT_THROW(writer.WriteFullBtfView(3, full.view_images[0]), Error);  // no such view
+  EXPECT_THROW(writer.WriteFullBtfView(1, full.view_images[1]), core::Error);  // twice
+  EXPECT_THROW(writer.WriteFullBtfView(3, full.view_images[0]), core::Error);  // no such view
   EXPECT_FALSE(fs::exists(dir / "pkg")) << "visible before Commit";
   const MaterialManifest m = writer.Commit();
-  EXPECT_THROW(writer.WriteAmbientTerm(TestAmbient()), Error);  // after Commit
+  EXPECT_THROW(writer.WriteAmbientTerm(TestAmbient()), core::Error);  // after Commit
   ASSERT_TRUE(m.full_btf);
   for (int v = 0; v < 3; ++v) {
-    const Image view = ReadFullBtfView(dir / "pkg", m, v);
+    const core::Image view = ReadFullBtfView(dir / "pkg", m, v);
     EXPECT_EQ(view.width(), kW);
     EXPECT_EQ(view.height(), kH * 4);
     ExpectSameImage(view, full.view_images[v]);
   }
-  EXPECT_THROW(ReadFullBtfView(dir / "pkg", m, 3), Error);
+  EXPECT_THROW(ReadFullBtfView(dir / "pkg", m, 3), core::Error);
   EXPECT_EQ(fs::path(FullBtfViewFile(7)).generic_string(), "btf/view_0007.exr");
   EXPECT_EQ(fs::path(BtfRowFactorFile(3)).generic_string(), "btf/rows_03.exr");
 }
@@ -568,7 +568,7 @@ TEST(MaterialPackage, CommitRefusesAnIncompleteFullBtf) {
   {
     MaterialPackageWriter writer(dir / "pkg", TestDescription(), false);
     writer.WriteFullBtfView(0, TestFullBtf().view_images[0]);
-    EXPECT_THROW(writer.Commit(), Error);
+    EXPECT_THROW(writer.Commit(), core::Error);
   }
   EXPECT_EQ(CountEntries(dir.path()), 0);
 }
@@ -576,37 +576,37 @@ TEST(MaterialPackage, CommitRefusesAnIncompleteFullBtf) {
 TEST(MaterialPackage, WriterRejectsPartsThatDoNotMatchTheDescription) {
   testing::TemporaryDirectory dir;
   MaterialPackageWriter writer(dir / "pkg", TestDescription(), false);
-  Mdf mdf = MakeMdf(kW + 1, kH, TestViews());
-  EXPECT_THROW(writer.WriteMdf(mdf), Error);
-  mdf = MakeMdf(kW, kH, TestLights());
-  EXPECT_THROW(writer.WriteMdf(mdf), Error);
+  core::Mdf mdf = core::MakeMdf(kW + 1, kH, TestViews());
+  EXPECT_THROW(writer.WriteMdf(mdf), core::Error);
+  mdf = core::MakeMdf(kW, kH, TestLights());
+  EXPECT_THROW(writer.WriteMdf(mdf), core::Error);
   mdf = TestMdf();
   mdf.at(1, 1, 1) = -1.0f;
-  EXPECT_THROW(writer.WriteMdf(mdf), Error);
-  EXPECT_THROW(writer.WriteMdf(TestMdf(), MdfForms{.float32 = false, .uint8 = false}), Error);
-  Image view = TestFullBtf().view_images[0];
+  EXPECT_THROW(writer.WriteMdf(mdf), core::Error);
+  EXPECT_THROW(writer.WriteMdf(TestMdf(), MdfForms{.float32 = false, .uint8 = false}), core::Error);
+  core::Image view = TestFullBtf().view_images[0];
   view.at(0, 0, 1) = std::numeric_limits<float>::quiet_NaN();
-  EXPECT_THROW(writer.WriteFullBtfView(0, view), Error);
-  EXPECT_THROW(writer.WriteFullBtfView(0, Image(kW, kH, 3)), Error);
-  FactoredBtf factored = TestFactoredBtf(BtfFactorLayout::kPerTexel, BtfFactorColor::kRgb, 2);
+  EXPECT_THROW(writer.WriteFullBtfView(0, view), core::Error);
+  EXPECT_THROW(writer.WriteFullBtfView(0, core::Image(kW, kH, 3)), core::Error);
+  core::FactoredBtf factored = TestFactoredBtf(core::BtfFactorLayout::kPerTexel, core::BtfFactorColor::kRgb, 2);
   factored.lights = TestViews();
-  EXPECT_THROW(writer.WriteFactoredBtf(factored), Error);
+  EXPECT_THROW(writer.WriteFactoredBtf(factored), core::Error);
   AmbientTerm ambient = TestAmbient();
-  ambient.values = Image(kW, kH * 3, 1);
-  EXPECT_THROW(writer.WriteAmbientTerm(ambient), Error);
-  EXPECT_THROW(writer.WriteErrorReport(nlohmann::json::array()), Error);
+  ambient.values = core::Image(kW, kH * 3, 1);
+  EXPECT_THROW(writer.WriteAmbientTerm(ambient), core::Error);
+  EXPECT_THROW(writer.WriteErrorReport(nlohmann::json::array()), core::Error);
   // The good parts still go in.
   writer.WriteMdf(TestMdf());
-  EXPECT_THROW(writer.WriteMdf(TestMdf()), Error);
+  EXPECT_THROW(writer.WriteMdf(TestMdf()), core::Error);
   writer.Commit();
   EXPECT_TRUE(ReadMaterialManifest(dir / "pkg").mdf);
 
   MaterialDescription bad = TestDescription();
   bad.d_max_mm = 0;
-  EXPECT_THROW(MaterialPackageWriter(dir / "bad", bad, false), Error);
+  EXPECT_THROW(MaterialPackageWriter(dir / "bad", bad, false), core::Error);
   bad = TestDescription();
   bad.width = kMaxTextureSize + 1;
-  EXPECT_THROW(MaterialPackageWriter(dir / "bad", bad, false), Error);
+  EXPECT_THROW(MaterialPackageWriter(dir / "bad", bad, false), core::Error);
   EXPECT_FALSE(fs::exists(dir / "bad"));
 }
 
@@ -621,7 +621,7 @@ TEST(MaterialPackage, ReplacesAnExistingPackageOnlyWhenAsked) {
   b.description = TestDescription();
   b.description.name = "replacement";
   b.mdf = TestMdf();
-  EXPECT_THROW(WriteMaterialPackage(dir / "pkg", b, false), Error);
+  EXPECT_THROW(WriteMaterialPackage(dir / "pkg", b, false), core::Error);
   EXPECT_EQ(ReadMaterialManifest(dir / "pkg").description.name, "weave");
   WriteMaterialPackage(dir / "pkg", b, true);
   const MaterialManifest m = ReadMaterialManifest(dir / "pkg");
@@ -638,7 +638,7 @@ TEST(MaterialPackage, FailedWriteKeepsTheOldPackage) {
   MaterialPackage bad = FullTestPackage();
   bad.description.name = "broken";
   bad.ambient->values.at(2, 2, 2) = std::numeric_limits<float>::infinity();  // fails after MDF and BTF
-  EXPECT_THROW(WriteMaterialPackage(dir / "pkg", bad, true), Error);
+  EXPECT_THROW(WriteMaterialPackage(dir / "pkg", bad, true), core::Error);
   EXPECT_EQ(Slurp(dir / "pkg" / "manifest.json"), manifest_before);
   EXPECT_NO_THROW(ReadEverything(dir / "pkg"));
   EXPECT_EQ(CountEntries(dir.path()), 1) << "partial output left behind";
@@ -664,7 +664,7 @@ class HostilePackage : public ::testing::Test {
     std::string message;
     try {
       ReadEverything(pkg_);
-    } catch (const Error& e) {
+    } catch (const core::Error& e) {
       message = e.what();
       EXPECT_NE(message.find(pkg_.string()), std::string::npos) << "no file named: " << message;
     }
@@ -686,7 +686,7 @@ class HostilePackage : public ::testing::Test {
     try {
       ReadEverything(pkg_);
       ADD_FAILURE() << "accepted; expected an error on " << file << " field " << field;
-    } catch (const FormatError& e) {
+    } catch (const core::FormatError& e) {
       EXPECT_EQ(e.file(), pkg_ / file) << e.what();
       EXPECT_EQ(e.field(), field) << e.what();
     } catch (const std::exception& e) {
@@ -812,8 +812,8 @@ TEST_F(HostilePackage, AbsurdImpliedSizesAreRefusedBeforeReading) {
   // 16384^2 texels x 96 views x 96 lights x RGB: 29 TiB.
   auto m = manifest_;
   m["texture_size"] = {16384, 16384};
-  m["view_directions"] = ToJson(SamplingSet::RegularGrid(12, 8));
-  m["light_directions"] = ToJson(SamplingSet::RegularGrid(12, 8));
+  m["view_directions"] = ToJson(core::SamplingSet::RegularGrid(12, 8));
+  m["light_directions"] = ToJson(core::SamplingSet::RegularGrid(12, 8));
   m.erase("mdf");
   m.erase("ambient");
   ExpectManifestRejected(m, "btf");
@@ -822,7 +822,7 @@ TEST_F(HostilePackage, AbsurdImpliedSizesAreRefusedBeforeReading) {
   m["texture_size"] = {16384, 16384};
   m.erase("btf");
   m.erase("ambient");
-  m["view_directions"] = ToJson(SamplingSet::RegularGrid(60, 60));
+  m["view_directions"] = ToJson(core::SamplingSet::RegularGrid(60, 60));
   ExpectManifestRejected(m, "mdf");
   // Plausible sizes that the files do not have: refused on the first image
   // header, before any pixel is allocated.
@@ -914,7 +914,7 @@ TEST_F(HostilePackage, MissingFiles) {
     try {
       ReadMaterialManifest(pkg_);
       ADD_FAILURE() << "missing file accepted";
-    } catch (const FormatError& e) {
+    } catch (const core::FormatError& e) {
       EXPECT_EQ(e.field(), field);
       EXPECT_NE(std::string(e.what()).find(file), std::string::npos) << e.what();
     }
@@ -925,44 +925,44 @@ TEST_F(HostilePackage, MissingFiles) {
 }
 
 TEST_F(HostilePackage, ImagesThatDisagreeWithTheManifest) {
-  WriteImage(pkg_ / "mdf.exr", Image(kW, kH, 1));  // one view's worth
+  core::WriteImage(pkg_ / "mdf.exr", core::Image(kW, kH, 1));  // one view's worth
   ExpectRejected("height", "mdf.exr");
-  WriteImage(pkg_ / "mdf.exr", Image(kW, kH * 3, 1), PixelEncoding::kHalf);
+  core::WriteImage(pkg_ / "mdf.exr", core::Image(kW, kH * 3, 1), core::PixelEncoding::kHalf);
   ExpectRejected("pixel type", "mdf.exr");
-  WriteImage(pkg_ / "mdf.exr", TestMdf().distance_mm);
-  WriteImage(pkg_ / "mdf8.tif", Image(kW, kH * 3, 1), PixelEncoding::kFloat32);
+  core::WriteImage(pkg_ / "mdf.exr", TestMdf().distance_mm);
+  core::WriteImage(pkg_ / "mdf8.tif", core::Image(kW, kH * 3, 1), core::PixelEncoding::kFloat32);
   ExpectRejected("pixel type", "mdf8.tif");
-  WriteImage(pkg_ / "mdf8.tif", Image(kW, kH * 3, 1), PixelEncoding::kUInt8);
-  WriteImage(pkg_ / "ambient.exr", Image(kW, kH * 3, 1));
+  core::WriteImage(pkg_ / "mdf8.tif", core::Image(kW, kH * 3, 1), core::PixelEncoding::kUInt8);
+  core::WriteImage(pkg_ / "ambient.exr", core::Image(kW, kH * 3, 1));
   ExpectRejected("channels", "ambient.exr");
-  WriteImage(pkg_ / "ambient.exr", Image(kW, kH * 3, 3));
-  WriteImage(pkg_ / "btf/view_0001.exr", Image(kW + 1, kH * 4, 3));
+  core::WriteImage(pkg_ / "ambient.exr", core::Image(kW, kH * 3, 3));
+  core::WriteImage(pkg_ / "btf/view_0001.exr", core::Image(kW + 1, kH * 4, 3));
   ExpectRejected("width", "btf/view_0001.exr");
-  WriteImage(pkg_ / "btf/view_0001.exr", Image(kW, kH * 4, 3));
-  WriteImage(pkg_ / "btf/rows_00.exr", Image(kW, kH, 3));  // per_texel-sized rows in a paper package
+  core::WriteImage(pkg_ / "btf/view_0001.exr", core::Image(kW, kH * 4, 3));
+  core::WriteImage(pkg_ / "btf/rows_00.exr", core::Image(kW, kH, 3));  // per_texel-sized rows in a paper package
   ExpectRejected("height", "btf/rows_00.exr");
   EXPECT_NO_THROW(ReadMaterialManifest(pkg_)) << "the manifest reader must not look at pixels";
 }
 
 TEST_F(HostilePackage, InvalidValuesInImages) {
-  Mdf mdf = TestMdf();
+  core::Mdf mdf = TestMdf();
   mdf.at(1, 2, 2) = -0.5f;
-  WriteImage(pkg_ / "mdf.exr", mdf.distance_mm);
+  core::WriteImage(pkg_ / "mdf.exr", mdf.distance_mm);
   ExpectRejected("pixels", "mdf.exr");
   mdf.at(1, 2, 2) = -std::numeric_limits<float>::infinity();
-  WriteImage(pkg_ / "mdf.exr", mdf.distance_mm);
+  core::WriteImage(pkg_ / "mdf.exr", mdf.distance_mm);
   ExpectRejected("pixels", "mdf.exr");
-  WriteImage(pkg_ / "mdf.exr", TestMdf().distance_mm);
+  core::WriteImage(pkg_ / "mdf.exr", TestMdf().distance_mm);
   AmbientTerm ambient = TestAmbient();
   ambient.values.at(0, 5, 1) = std::numeric_limits<float>::quiet_NaN();
-  WriteImage(pkg_ / "ambient.exr", ambient.values);
+  core::WriteImage(pkg_ / "ambient.exr", ambient.values);
   ExpectRejected("pixels", "ambient.exr");
-  WriteImage(pkg_ / "ambient.exr", TestAmbient().values);
-  Image columns(3, 2, 3);
+  core::WriteImage(pkg_ / "ambient.exr", TestAmbient().values);
+  core::Image columns(3, 2, 3);
   columns.at(2, 1, 0) = std::numeric_limits<float>::infinity();
-  WriteImage(pkg_ / "btf/columns.exr", columns);
+  core::WriteImage(pkg_ / "btf/columns.exr", columns);
   ExpectRejected("pixels", "btf/columns.exr");
-  WriteImage(pkg_ / "btf/columns.exr", Image(3, 2, 3));
+  core::WriteImage(pkg_ / "btf/columns.exr", core::Image(3, 2, 3));
   WriteBytes(pkg_ / "error_report.json", "[1, 2]");
   ExpectRejected("", "error_report.json");
   WriteBytes(pkg_ / "error_report.json", "{\"rms\": ");
@@ -978,7 +978,7 @@ TEST_F(HostilePackage, TruncatedImages) {
       try {
         ReadEverything(pkg_);
         ADD_FAILURE() << "truncated to " << keep << " accepted";
-      } catch (const FormatError& e) {
+      } catch (const core::FormatError& e) {
         EXPECT_EQ(e.file(), pkg_ / name) << e.what();
       }
     }
@@ -987,4 +987,4 @@ TEST_F(HostilePackage, TruncatedImages) {
 }
 
 }  // namespace
-}  // namespace mesocap
+}  // namespace mesocap::formats

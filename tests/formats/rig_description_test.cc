@@ -11,7 +11,7 @@
 #include "drivers/device_error.h"
 #include "drivers/rig.h"
 
-namespace mesocap::drivers {
+namespace mesocap::formats {
 namespace {
 
 std::filesystem::path RigFile(const std::string& name) {
@@ -38,11 +38,11 @@ TEST(RigDescription, ShippedRigsHaveThePapersSampling) {
 TEST(RigDescription, DevicePositionsLieAtTheirDistances) {
   const RigDescription rig = ReadRigDescription(RigFile("small"));
   for (const auto& c : rig.cameras) {
-    EXPECT_NEAR(CameraCentre(c).norm(), c.distance_mm, 1e-9);
-    EXPECT_NEAR(std::asin(CameraCentre(c).z() / c.distance_mm), c.elevation_rad, 1e-12);
+    EXPECT_NEAR(calibration::CameraCentre(c).norm(), c.distance_mm, 1e-9);
+    EXPECT_NEAR(std::asin(calibration::CameraCentre(c).z() / c.distance_mm), c.elevation_rad, 1e-12);
   }
-  EXPECT_NEAR(LampPosition(rig.lamps, 1, 0.7).norm(), rig.lamps.distance_mm, 1e-9);
-  const Eigen::Vector3d lamp = LampPosition(rig.lamps, 0, 0.7);
+  EXPECT_NEAR(calibration::LampPosition(rig.lamps, 1, 0.7).norm(), rig.lamps.distance_mm, 1e-9);
+  const Eigen::Vector3d lamp = calibration::LampPosition(rig.lamps, 0, 0.7);
   EXPECT_NEAR(std::atan2(lamp.y(), lamp.x()), 0.7, 1e-12);
 }
 
@@ -55,10 +55,10 @@ TEST(RigDescription, LaserRaySineIsTheAngleBetweenTheCameraRayAndTheLaserPlane) 
       const double e = rig.laser.mount_elevations_rad[rig.laser.locations[l].mount];
       const double a = rig.laser.locations[l].arc_angle_rad - rig.cameras[c].azimuth_rad;
       const double expected = std::abs(std::sin(ce) * std::cos(e) - std::cos(ce) * std::sin(e) * std::cos(a));
-      EXPECT_NEAR(LaserRaySine(rig, c, l), expected, 1e-12) << "camera " << c << " location " << l;
+      EXPECT_NEAR(calibration::LaserRaySine(rig, c, l), expected, 1e-12) << "camera " << c << " location " << l;
       // Cameras up to 60 degrees from the normal: nothing near-coplanar.
       if (ce >= std::numbers::pi / 6) {
-        EXPECT_GT(LaserRaySine(rig, c, l), 0.09) << "camera " << c << " location " << l;
+        EXPECT_GT(calibration::LaserRaySine(rig, c, l), 0.09) << "camera " << c << " location " << l;
       }
     }
   }
@@ -66,16 +66,16 @@ TEST(RigDescription, LaserRaySineIsTheAngleBetweenTheCameraRayAndTheLaserPlane) 
   rig.laser.mount_elevations_rad.push_back(rig.cameras[1].elevation_rad);
   rig.laser.locations.push_back({static_cast<int>(rig.laser.mount_elevations_rad.size()) - 1,
                                  rig.cameras[1].azimuth_rad});
-  EXPECT_LT(LaserRaySine(rig, 1, static_cast<int>(rig.laser.locations.size()) - 1), 1e-12);
+  EXPECT_LT(calibration::LaserRaySine(rig, 1, static_cast<int>(rig.laser.locations.size()) - 1), 1e-12);
 }
 
 TEST(RigDescription, LaserTiltMovesTheStripeByTheOffset) {
   const RigDescription rig = ReadRigDescription(RigFile("paper"));
   for (int mount = 0; mount < static_cast<int>(rig.laser.mount_elevations_rad.size()); ++mount) {
     const LaserLocation loc{mount, 0.3};
-    const Eigen::Vector3d s = LaserSource(rig.laser, loc);
+    const Eigen::Vector3d s = calibration::LaserSource(rig.laser, loc);
     for (double offset : {-20.0, -1.0, 0.0, 5.0, 26.0}) {
-      const double tilt = LaserTiltForOffset(rig.laser, mount, offset);
+      const double tilt = calibration::LaserTiltForOffset(rig.laser, mount, offset);
       // The ray from the source, in the vertical plane, tilted from the
       // direction to the origin, meets z = 0 at the offset beyond the origin.
       const double r = std::hypot(s.x(), s.y());
@@ -86,12 +86,12 @@ TEST(RigDescription, LaserTiltMovesTheStripeByTheOffset) {
   }
 }
 
-nlohmann::json TinyJson() { return ReadJsonFile(RigFile("tiny")); }
+nlohmann::json TinyJson() { return core::ReadJsonFile(RigFile("tiny")); }
 
 std::string ErrorOf(const nlohmann::json& j) {
   try {
     ParseRigDescription(j, "rig.json");
-  } catch (const FormatError& e) {
+  } catch (const core::FormatError& e) {
     return e.field() + " | " + e.what();
   }
   return "no error";
@@ -142,18 +142,18 @@ TEST(RigDescription, BackingIsOptional) {
 TEST(Rig, MissingBackendIsNamed) {
   const RigDescription rig = ReadRigDescription(RigFile("tiny"));
   try {
-    BuildRig(rig, {});
+    drivers::BuildRig(rig, {});
     FAIL();
-  } catch (const Error& e) {
+  } catch (const core::Error& e) {
     EXPECT_NE(std::string(e.what()).find("camera cam0: backend \"sim\" is not available"), std::string::npos)
         << e.what();
   }
   // A backend that makes nothing says what it cannot drive.
-  struct Empty : RigBackend {
+  struct Empty : drivers::RigBackend {
     std::string name() const override { return "empty"; }
   } empty;
-  EXPECT_THROW(BuildRig(rig, {{"sim", &empty}}), DeviceError);
+  EXPECT_THROW(drivers::BuildRig(rig, {{"sim", &empty}}), drivers::DeviceError);
 }
 
 }  // namespace
-}  // namespace mesocap::drivers
+}  // namespace mesocap::formats

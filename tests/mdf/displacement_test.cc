@@ -11,7 +11,7 @@
 #include "mdf/displacement_image.h"
 #include "mdf/displacement_merge.h"
 
-namespace mesocap {
+namespace mesocap::mdf {
 namespace {
 
 constexpr double kBackingMm = 8.0;
@@ -47,13 +47,13 @@ TEST(DisplacementImageTest, PointsOnTheBackingAreNoHitAndTheRimStaysUnknown) {
       // Texel centres lie 0.625 mm + k 1.25 mm from the axes, pixel rows
       // every 0.25 mm: more than a pixel from the rim (3 mm) either side.
       if (inside < 2.5) {
-        EXPECT_TRUE(IsNoHit(d)) << i << " " << j << " " << d;
+        EXPECT_TRUE(core::IsNoHit(d)) << i << " " << j << " " << d;
       } else if (inside > 3.5) {
         EXPECT_NEAR(d, 0.5, 1e-5) << i << " " << j;
       }
-      no_hit += IsNoHit(d);
+      no_hit += core::IsNoHit(d);
       surface += std::isfinite(d);
-      unknown += IsUnknown(d);
+      unknown += core::IsUnknown(d);
     }
   }
   EXPECT_EQ(no_hit, 16);           // the 4 x 4 texels inside the hole
@@ -77,7 +77,7 @@ TEST(DisplacementImageTest, TexelsBetweenTheRimAndTheBoardAreNotFilled) {
   options.backing_depth_mm = kBackingMm;
   const DisplacementImage image =
       ResampleToTexture({HoleyPlane(side, 0.6), {}, {}}, side, side, Eigen::Vector3d::UnitZ(), grid, options);
-  EXPECT_TRUE(IsUnknown(image.at(8, 8))) << image.at(8, 8);
+  EXPECT_TRUE(core::IsUnknown(image.at(8, 8))) << image.at(8, 8);
   EXPECT_NEAR(image.at(10, 10), 0.5, 1e-5);
 }
 
@@ -120,7 +120,7 @@ TEST(DisplacementImageTest, ALoneUnknownPixelLeavesOnlyItsDiamondUnknown) {
       // Texels inside the measured pixels' span: the outermost half pixel has no triangle.
       if (std::abs(x) > 9.75 || std::abs(y) > 9.75) continue;
       if (dx + dy < 0.5 - 1e-9) {
-        EXPECT_TRUE(IsUnknown(image.at(i, j))) << i << " " << j << " " << image.at(i, j);
+        EXPECT_TRUE(core::IsUnknown(image.at(i, j))) << i << " " << j << " " << image.at(i, j);
         ++diamond;
       } else {
         EXPECT_NEAR(image.at(i, j), depth(x, y), 1e-5) << i << " " << j;
@@ -232,7 +232,7 @@ DisplacementImage OneTexel(float d) {
 }
 
 TEST(DisplacementMergeTest, NoHitNeedsMoreThanHalfTheWeight) {
-  const float inf = MdfNoHit(), nan = MdfUnknown();
+  const float inf = core::MdfNoHit(), nan = core::MdfUnknown();
   const MergeOptions options;
   auto merge = [&](std::vector<float> values, std::vector<double> weights) {
     std::vector<DisplacementImage> images;
@@ -241,7 +241,7 @@ TEST(DisplacementMergeTest, NoHitNeedsMoreThanHalfTheWeight) {
     return std::pair{m.image.distance_mm[0], m.confidence[0]};
   };
   auto [d, c] = merge({inf, inf, 1.0f}, {1, 1, 1});
-  EXPECT_TRUE(IsNoHit(d));
+  EXPECT_TRUE(core::IsNoHit(d));
   EXPECT_NEAR(c, 2.0 / 3, 1e-6);
   std::tie(d, c) = merge({inf, 1.0f, 1.1f}, {1, 1, 1});
   EXPECT_NEAR(d, 1.05f, 1e-6);  // the no-hit vote is an outlier of the distance
@@ -249,12 +249,12 @@ TEST(DisplacementMergeTest, NoHitNeedsMoreThanHalfTheWeight) {
   std::tie(d, c) = merge({inf, 1.0f}, {1, 1});
   EXPECT_NEAR(d, 1.0f, 1e-6) << "a tie goes to the distance";
   std::tie(d, c) = merge({inf, 1.0f, nan}, {3, 1, 5});
-  EXPECT_TRUE(IsNoHit(d));
+  EXPECT_TRUE(core::IsNoHit(d));
   EXPECT_NEAR(c, 3.0 / 9, 1e-6);  // of the view's whole weight, the unknown scan's included
   std::tie(d, c) = merge({nan, nan}, {1, 1});
-  EXPECT_TRUE(IsUnknown(d));
+  EXPECT_TRUE(core::IsUnknown(d));
   EXPECT_EQ(c, 0.0f);
 }
 
 }  // namespace
-}  // namespace mesocap
+}  // namespace mesocap::mdf

@@ -22,7 +22,7 @@
 #include "sim/shipped_rigs.h"
 #include "sim/true_calibration.h"
 
-namespace mesocap {
+namespace mesocap::mdf {
 namespace {
 
 class LaserGeometryTest : public ::testing::Test {
@@ -33,20 +33,20 @@ class LaserGeometryTest : public ::testing::Test {
         calibration_(sim::TrueCalibration(rig_)),
         renderer_(*scene_, rig_) {}
 
-  Image Sense(const Image& signal, int cam, std::uint64_t k) const {
+  core::Image Sense(const core::Image& signal, int cam, std::uint64_t k) const {
     std::mt19937_64 rng = sim::ImageNoiseGenerator(11, {k});
     return sim::ApplySensor(signal, rig_.cameras[cam], rng, true);
   }
 
   std::unique_ptr<sim::MesostructureScene> scene_;
-  drivers::RigDescription rig_;
-  Calibration calibration_;
+  formats::RigDescription rig_;
+  formats::Calibration calibration_;
   sim::CameraRenderer renderer_;
 };
 
 // Distance (mm) of the true plane's trace on z = height from a detected
 // line, at the line's point and 10 mm along it.
-double TraceError(const sim::LaserPlane& truth, const ReferenceLine& line) {
+double TraceError(const sim::LaserPlane& truth, const calibration::ReferenceLine& line) {
   double worst = 0;
   for (double s : {-10.0, 0.0, 10.0}) {
     const Eigen::Vector3d p(line.point.x() + s * line.direction.x(), line.point.y() + s * line.direction.y(),
@@ -58,18 +58,18 @@ double TraceError(const sim::LaserPlane& truth, const ReferenceLine& line) {
 
 TEST_F(LaserGeometryTest, DetectsTheStripeOnTheReferencePlaneToSubPixel) {
   const int cam = 1;
-  const CameraRays rays(calibration_.cameras[cam]);
-  const RigidTransform world_from_sample = WorldFromSample(calibration_.turntable, 0.0);
-  const PixelMask region = ReferenceRegion(rays, world_from_sample, rig_.sample_size_mm, 1.0, 30.0);
+  const calibration::CameraRays rays(calibration_.cameras[cam]);
+  const core::RigidTransform world_from_sample = calibration::WorldFromSample(calibration_.turntable, 0.0);
+  const calibration::PixelMask region = ReferenceRegion(rays, world_from_sample, rig_.sample_size_mm, 1.0, 30.0);
   const sim::CameraView view = renderer_.TraceSample(cam, 0.0);
   for (int li : {0, 4, 6}) {
     const auto& loc = rig_.laser.locations[li];
     const sim::LaserSweepRenderer sweep(renderer_, view, loc.mount, loc.arc_angle_rad);
-    const LaserMountPose pose = MountInWorld(calibration_, loc.mount, loc.arc_angle_rad, 0.0);
+    const calibration::LaserMountPose pose = calibration::MountInWorld(calibration_, loc.mount, loc.arc_angle_rad, 0.0);
     for (double offset : {-12.0, 0.0, 9.0}) {
-      const double tilt = drivers::LaserTiltForOffset(rig_.laser, loc.mount, offset);
-      const ReferenceLine line =
-          DetectLaserLine(Sense(sweep.Frame(tilt), cam, li * 100 + static_cast<int>(offset + 50)), region, rays,
+      const double tilt = calibration::LaserTiltForOffset(rig_.laser, loc.mount, offset);
+      const calibration::ReferenceLine line =
+          calibration::DetectLaserLine(Sense(sweep.Frame(tilt), cam, li * 100 + static_cast<int>(offset + 50)), region, rays,
                           0.0, pose.normal.head<2>().normalized(), {});
       ASSERT_TRUE(line.valid) << li << " " << offset;
       // A pixel covers ~0.25 mm here; the line is good to a few hundredths.
@@ -82,58 +82,58 @@ TEST_F(LaserGeometryTest, DetectsTheStripeOnTheReferencePlaneToSubPixel) {
 
 TEST_F(LaserGeometryTest, NoStripeInTheReferenceRegionGivesNoLine) {
   const int cam = 0;
-  const CameraRays rays(calibration_.cameras[cam]);
-  const PixelMask region =
-      ReferenceRegion(rays, WorldFromSample(calibration_.turntable, 0.0), rig_.sample_size_mm, 1.0, 30.0);
-  const Image dark = Sense(Image(rays.width(), rays.height(), 1, 0.0f), cam, 1);
-  EXPECT_FALSE(DetectLaserLine(dark, region, rays, 0.0, {1, 0}, {}).valid);
+  const calibration::CameraRays rays(calibration_.cameras[cam]);
+  const calibration::PixelMask region =
+      ReferenceRegion(rays, calibration::WorldFromSample(calibration_.turntable, 0.0), rig_.sample_size_mm, 1.0, 30.0);
+  const core::Image dark = Sense(core::Image(rays.width(), rays.height(), 1, 0.0f), cam, 1);
+  EXPECT_FALSE(calibration::DetectLaserLine(dark, region, rays, 0.0, {1, 0}, {}).valid);
 }
 
 TEST_F(LaserGeometryTest, TwoHeightCalibrationRecoversThePlaneAngle) {
   for (int li : {0, 4, 7}) {  // one per mount (45, 67.5, 84.375 degrees)
     const auto& loc = rig_.laser.locations[li];
     const int cam = 2;
-    const CameraRays rays(calibration_.cameras[cam]);
-    Image plates[2];
+    const calibration::CameraRays rays(calibration_.cameras[cam]);
+    core::Image plates[2];
     for (int h = 0; h < 2; ++h) {
       const sim::CameraView plate = renderer_.TracePlate(cam, rig_.laser.calibration_heights_mm[h]);
       plates[h] = Sense(sim::LaserSweepRenderer(renderer_, plate, loc.mount, loc.arc_angle_rad).Frame(0.0), cam,
                         500 + 2 * li + h);
     }
-    const LaserMountPose pose = MountInWorld(calibration_, loc.mount, loc.arc_angle_rad, 0.0);
-    const Plane plane = CalibrateLaserPlane(plates[0], rig_.laser.calibration_heights_mm[0], plates[1],
+    const calibration::LaserMountPose pose = calibration::MountInWorld(calibration_, loc.mount, loc.arc_angle_rad, 0.0);
+    const core::Plane plane = calibration::CalibrateLaserPlane(plates[0], rig_.laser.calibration_heights_mm[0], plates[1],
                                             rig_.laser.calibration_heights_mm[1], rays,
                                             pose.normal.head<2>().normalized(), 30.0, {}, "test");
     const sim::LaserPlane truth = renderer_.LaserPlaneAt(loc.mount, loc.arc_angle_rad, 0.0);
     // Sec. 3.2's angle between laser plane and reference plane.
     const double true_angle = std::acos(std::abs(truth.normal.z()));
-    EXPECT_NEAR(AngleToReferencePlane(plane), true_angle, 0.1 * std::numbers::pi / 180) << "location " << li;
+    EXPECT_NEAR(calibration::AngleToReferencePlane(plane), true_angle, 0.1 * std::numbers::pi / 180) << "location " << li;
     EXPECT_GT(std::abs(plane.normal.dot(truth.normal)), std::cos(0.1 * std::numbers::pi / 180));
     EXPECT_LT(std::abs(plane.SignedDistance(truth.source)), 2.0);  // 700 mm away, 0.1 degree ~ 1.2 mm
   }
   // A stripe missing from one plate is an error naming the location.
-  const CameraRays rays(calibration_.cameras[0]);
-  const Image dark(rays.width(), rays.height(), 1, 0.0f);
-  EXPECT_THROW(CalibrateLaserPlane(dark, 0.0, dark, 10.0, rays, {1, 0}, 30.0, {}, "location 0"), Error);
+  const calibration::CameraRays rays(calibration_.cameras[0]);
+  const core::Image dark(rays.width(), rays.height(), 1, 0.0f);
+  EXPECT_THROW(calibration::CalibrateLaserPlane(dark, 0.0, dark, 10.0, rays, {1, 0}, 30.0, {}, "location 0"), core::Error);
 }
 
 TEST_F(LaserGeometryTest, FramePlaneFollowsTheTilt) {
   const auto& loc = rig_.laser.locations[3];
-  const LaserMountPose pose = MountInWorld(calibration_, loc.mount, loc.arc_angle_rad, 0.0);
+  const calibration::LaserMountPose pose = calibration::MountInWorld(calibration_, loc.mount, loc.arc_angle_rad, 0.0);
   const sim::LaserPlane at_zero = renderer_.LaserPlaneAt(loc.mount, loc.arc_angle_rad, 0.0);
-  Plane calibrated{at_zero.normal, at_zero.normal.dot(at_zero.source)};
-  const double tilt = drivers::LaserTiltForOffset(rig_.laser, loc.mount, 12.0);
+  core::Plane calibrated{at_zero.normal, at_zero.normal.dot(at_zero.source)};
+  const double tilt = calibration::LaserTiltForOffset(rig_.laser, loc.mount, 12.0);
   const sim::LaserPlane truth = renderer_.LaserPlaneAt(loc.mount, loc.arc_angle_rad, tilt);
   // The exact trace of the tilted plane on z = 0.
   const Eigen::Vector3d along = truth.normal.cross(Eigen::Vector3d::UnitZ()).normalized();
   const Eigen::Vector3d foot = (truth.normal.dot(truth.source) / truth.normal.head<2>().squaredNorm()) *
                                Eigen::Vector3d(truth.normal.x(), truth.normal.y(), 0);
-  ReferenceLine line{true, 0.0, {foot.x(), foot.y()}, {along.x(), along.y()}, 100, 100, 0.0};
+  calibration::ReferenceLine line{true, 0.0, {foot.x(), foot.y()}, {along.x(), along.y()}, 100, 100, 0.0};
   ASSERT_NEAR(truth.normal.dot(Eigen::Vector3d(foot.x(), foot.y(), 0) - truth.source), 0.0, 1e-9);
-  const Plane plane = FramePlane(line, calibrated, pose.tilt_axis, tilt);
+  const core::Plane plane = FramePlane(line, calibrated, pose.tilt_axis, tilt);
   EXPECT_GT(plane.normal.dot(truth.normal), 1 - 1e-12);
   // The paper's parallel-plane approximation (delta 0) is off by the tilt:
-  const Plane parallel = FramePlane(line, calibrated, pose.tilt_axis, 0.0);
+  const core::Plane parallel = FramePlane(line, calibrated, pose.tilt_axis, 0.0);
   EXPECT_NEAR(std::acos(std::min(1.0, parallel.normal.dot(truth.normal))), std::abs(tilt), 1e-6);
   // 2 mm below the reference plane that is ~2 tan(tilt) mm of error.
   const Eigen::Vector3d deep(foot.x(), foot.y(), -2.0);
@@ -143,10 +143,10 @@ TEST_F(LaserGeometryTest, FramePlaneFollowsTheTilt) {
 TEST_F(LaserGeometryTest, IllConditionedTriangulationIsRejectedNotWild) {
   // One camera pixel, planes at every frame that nearly contain its ray:
   // the intersection's error grows as 1 / |ray . n|.
-  const CameraRays rays(calibration_.cameras[1]);
+  const calibration::CameraRays rays(calibration_.cameras[1]);
   const int x = rays.width() / 2, y = rays.height() / 2;
   const Eigen::Vector3d ray = rays.Ray(x, y);
-  SweepAnalysis a;
+  formats::SweepAnalysis a;
   a.width = rays.width();
   a.height = rays.height();
   a.frame_count = 2;
@@ -159,9 +159,9 @@ TEST_F(LaserGeometryTest, IllConditionedTriangulationIsRejectedNotWild) {
     // A normal at angle asin(sine) from the plane containing the ray.
     const Eigen::Vector3d perpendicular = ray.cross(Eigen::Vector3d::UnitZ()).normalized();
     const Eigen::Vector3d n = (std::sqrt(1 - sine * sine) * perpendicular + sine * ray).normalized();
-    return Plane{n, n.dot(on_ray)};
+    return core::Plane{n, n.dot(on_ray)};
   };
-  const RigidTransform identity = WorldFromSample(calibration_.turntable, 0.0);
+  const core::RigidTransform identity = calibration::WorldFromSample(calibration_.turntable, 0.0);
   TriangulationOptions options;
   const double limit = options.min_ray_plane_sine;
   for (double sine : {0.5, 0.2, 1.3 * limit}) {
@@ -179,9 +179,9 @@ TEST_F(LaserGeometryTest, IllConditionedTriangulationIsRejectedNotWild) {
 }
 
 TEST(PlaneAtTimeTest, BlendsAndBridgesDroppedFrames) {
-  std::vector<Plane> planes(6);
-  for (int i = 0; i < 6; ++i) planes[i] = Plane{Eigen::Vector3d(1, 0, 0), 2.0 * i};
-  planes[3] = Plane{};  // dropped
+  std::vector<core::Plane> planes(6);
+  for (int i = 0; i < 6; ++i) planes[i] = core::Plane{Eigen::Vector3d(1, 0, 0), 2.0 * i};
+  planes[3] = core::Plane{};  // dropped
   EXPECT_NEAR(PlaneAtTime(planes, 1.25).offset, 2.5, 1e-12);
   EXPECT_NEAR(PlaneAtTime(planes, 2.5).offset, 5.0, 1e-12);  // bridged over frame 3
   EXPECT_NEAR(PlaneAtTime(planes, 3.0).offset, 6.0, 1e-12);
@@ -192,15 +192,15 @@ TEST(PlaneAtTimeTest, BlendsAndBridgesDroppedFrames) {
 
 TEST(ScanWeightTest, TetrahedronVanishesWhenTheCameraIsInTheLaserPlane) {
   const Eigen::Vector3d source(400, 0, 400);
-  const Plane plane{Eigen::Vector3d(1, 0, 1).normalized(), Eigen::Vector3d(1, 0, 1).normalized().dot(source)};
+  const core::Plane plane{Eigen::Vector3d(1, 0, 1).normalized(), Eigen::Vector3d(1, 0, 1).normalized().dot(source)};
   // Its trace shifted through the origin is the y axis; a camera in the
   // plane through it and the source (x = z) sees the stripe edge-on.
   EXPECT_NEAR(ScanWeight(source, Eigen::Vector3d(300, 50, 300), plane, 10.0), 0.0, 1e-6);
   const double across = ScanWeight(source, Eigen::Vector3d(0, 0, 400), plane, 10.0);
   // |(s - a) . ((c - a) x (b - a))| / 6 with a, b = (0, -+10, 0): 20 * 400 * 400 / 6.
   EXPECT_NEAR(across, 20.0 * 400 * 400 / 6, 1e-6);
-  EXPECT_EQ(ScanWeight(source, Eigen::Vector3d(0, 0, 400), Plane{}, 10.0), 0.0);
+  EXPECT_EQ(ScanWeight(source, Eigen::Vector3d(0, 0, 400), core::Plane{}, 10.0), 0.0);
 }
 
 }  // namespace
-}  // namespace mesocap
+}  // namespace mesocap::mdf

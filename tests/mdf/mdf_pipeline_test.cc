@@ -28,7 +28,7 @@
 #include "tests/common/temporary_directory.h"
 #include "tests/mdf/simulated_scan.h"
 
-namespace mesocap::test {
+namespace mesocap::mdf {
 namespace {
 
 // The sim renders ~50 frames/s here; under the sanitizers it is ~20x slower,
@@ -175,8 +175,8 @@ TEST(MdfPipelineTest, InterreflectionGhostPeaks) {
   // A ghost: 40 % of the stripe's own signal 10 frames late (light bounced
   // off a neighbouring surface lights points the stripe has left).
   ScanSetup s = SmallRig("blocks", {1}, kFourLocations);
-  auto history = std::make_shared<std::map<int, Image>>();
-  s.tamper = [history](int f, Image* signal) {
+  auto history = std::make_shared<std::map<int, core::Image>>();
+  s.tamper = [history](int f, core::Image* signal) {
     (*history)[f] = *signal;
     if (const auto it = history->find(f - 10); it != history->end()) {
       for (std::size_t i = 0; i < signal->size(); ++i) signal->data()[i] += 0.4f * it->second.data()[i];
@@ -232,4 +232,4 @@ TEST(MdfPipelineTest, SpongeThroughHoles) {
 }
 
 }  // namespace
-}  // namespace mesocap::test
+}  // namespace mesocap::mdf

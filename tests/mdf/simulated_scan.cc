@@ -17,7 +17,7 @@
 #include "sim/shipped_rigs.h"
 #include "sim/true_calibration.h"
 
-namespace mesocap::test {
+namespace mesocap::mdf {
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -34,10 +34,10 @@ std::vector<int> AllOr(const std::vector<int>& chosen, int count) {
 
 ScanResult RunSimulatedScan(const ScanSetup& setup) {
   const auto scene = sim::MakeBuiltinScene(setup.scene);
-  const drivers::RigDescription rig = sim::LoadRig(setup.rig);
-  const Calibration calibration = sim::TrueCalibration(rig);
+  const formats::RigDescription rig = sim::LoadRig(setup.rig);
+  const formats::Calibration calibration = sim::TrueCalibration(rig);
   const sim::CameraRenderer renderer(*scene, rig);
-  const SamplingSet views = drivers::ViewDirections(rig);
+  const core::SamplingSet views = calibration::ViewDirections(rig);
   const auto& laser = rig.laser;
 
   sim::GroundTruthOptions gt;
@@ -53,7 +53,7 @@ ScanResult RunSimulatedScan(const ScanSetup& setup) {
   triangulation.backing_depth_mm = rig.backing.depth_mm;
   MdfAssembler assembler(grid, views, triangulation, setup.merge);
   const double outer_mm = 1.5 * rig.sample_size_mm;
-  auto sense = [&](Image signal, int cam, std::uint64_t a, std::uint64_t b, std::uint64_t c) {
+  auto sense = [&](core::Image signal, int cam, std::uint64_t a, std::uint64_t b, std::uint64_t c) {
     if (setup.signal_gain != 1.0) {
       for (std::size_t i = 0; i < signal.size(); ++i) signal.data()[i] *= static_cast<float>(setup.signal_gain);
     }
@@ -63,21 +63,21 @@ ScanResult RunSimulatedScan(const ScanSetup& setup) {
 
   const std::vector<int> cameras = AllOr(setup.cameras, static_cast<int>(rig.cameras.size()));
   const std::vector<int> locations = AllOr(setup.locations, static_cast<int>(laser.locations.size()));
-  std::vector<CameraRays> rays;
+  std::vector<calibration::CameraRays> rays;
   for (const auto& camera : calibration.cameras) rays.emplace_back(camera);
   // Laser-plane calibration per location and camera (Sec. 3.2).
-  std::vector<std::vector<Plane>> calibrated(laser.locations.size(), std::vector<Plane>(rig.cameras.size()));
+  std::vector<std::vector<core::Plane>> calibrated(laser.locations.size(), std::vector<core::Plane>(rig.cameras.size()));
   for (int li : locations) {
     const auto& loc = laser.locations[li];
-    const LaserMountPose pose = MountInWorld(calibration, loc.mount, loc.arc_angle_rad, 0.0);
+    const calibration::LaserMountPose pose = calibration::MountInWorld(calibration, loc.mount, loc.arc_angle_rad, 0.0);
     for (int cam : cameras) {
-      Image plates[2];
+      core::Image plates[2];
       for (int hi = 0; hi < 2; ++hi) {
         const sim::CameraView plate = renderer.TracePlate(cam, laser.calibration_heights_mm[hi]);
         plates[hi] = sense(sim::LaserSweepRenderer(renderer, plate, loc.mount, loc.arc_angle_rad).Frame(0.0), cam,
                            1000 + li, cam, hi);
       }
-      calibrated[li][cam] = CalibrateLaserPlane(plates[0], laser.calibration_heights_mm[0], plates[1],
+      calibrated[li][cam] = calibration::CalibrateLaserPlane(plates[0], laser.calibration_heights_mm[0], plates[1],
                                                 laser.calibration_heights_mm[1], rays[cam],
                                                 pose.normal.head<2>().normalized(), outer_mm, setup.line, "test");
     }
@@ -85,17 +85,17 @@ ScanResult RunSimulatedScan(const ScanSetup& setup) {
   std::vector<bool> processed(views.size(), false);
   for (int ti : AllOr(setup.turntable_indices, static_cast<int>(rig.turntable.angles_rad.size()))) {
     const double tt = rig.turntable.angles_rad[ti];
-    const RigidTransform world_from_sample = WorldFromSample(calibration.turntable, tt);
+    const core::RigidTransform world_from_sample = calibration::WorldFromSample(calibration.turntable, tt);
     for (int cam : cameras) {
       const sim::CameraView view = renderer.TraceSample(cam, tt);
       const Eigen::Vector3d to_camera =
           world_from_sample.Inverse().rotation * (rays[cam].centre() - world_from_sample.translation);
       const int view_index = views.Nearest(to_camera.normalized());
       processed[view_index] = true;
-      const PixelMask region = ReferenceRegion(rays[cam], world_from_sample, rig.sample_size_mm, 1.0, outer_mm);
+      const calibration::PixelMask region = ReferenceRegion(rays[cam], world_from_sample, rig.sample_size_mm, 1.0, outer_mm);
       for (int li : locations) {
         const auto& loc = laser.locations[li];
-        const LaserMountPose pose = MountInWorld(calibration, loc.mount, loc.arc_angle_rad, 0.0);
+        const calibration::LaserMountPose pose = calibration::MountInWorld(calibration, loc.mount, loc.arc_angle_rad, 0.0);
         SweepGeometry geometry;
         geometry.reference_region = region;
         geometry.calibrated_plane = calibrated[li][cam];
@@ -104,16 +104,16 @@ ScanResult RunSimulatedScan(const ScanSetup& setup) {
         for (int f = 0; f < laser.frames_per_sweep; ++f) {
           const double offset =
               laser.sweep_min_mm + (laser.sweep_max_mm - laser.sweep_min_mm) * f / (laser.frames_per_sweep - 1);
-          tilts.push_back(drivers::LaserTiltForOffset(laser, loc.mount, offset));
+          tilts.push_back(calibration::LaserTiltForOffset(laser, loc.mount, offset));
         }
         geometry.delta_tilt_rad = tilts;
         LaserSweepProcessor processor(rays[cam], geometry, setup.line, setup.space_time);
         const sim::LaserSweepRenderer sweep(renderer, view, loc.mount, loc.arc_angle_rad);
         for (int f = 0; f < laser.frames_per_sweep; ++f) {
           if (setup.dropped_frames.count(f)) continue;
-          Image signal = sweep.Frame(tilts[f]);
+          core::Image signal = sweep.Frame(tilts[f]);
           if (setup.tamper) setup.tamper(f, &signal);
-          const Image frame = sense(std::move(signal), cam, ti * 100 + li, cam, f);
+          const core::Image frame = sense(std::move(signal), cam, ti * 100 + li, cam, f);
           const auto start = Clock::now();
           processor.AddFrame(f, frame);
           result.processing_seconds += Seconds(Clock::now() - start);
@@ -132,10 +132,10 @@ ScanResult RunSimulatedScan(const ScanSetup& setup) {
   for (int v = 0; v < views.size(); ++v) {
     if (processed[v]) continue;
     for (int j = 0; j < result.truth.height; ++j) {
-      for (int i = 0; i < result.truth.width; ++i) result.truth.at(i, j, v) = MdfUnknown();
+      for (int i = 0; i < result.truth.width; ++i) result.truth.at(i, j, v) = core::MdfUnknown();
     }
   }
   return result;
 }
 
-}  // namespace mesocap::test
+}  // namespace mesocap::mdf

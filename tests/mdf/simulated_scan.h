@@ -14,7 +14,7 @@
 #include "mdf/displacement_merge.h"
 #include "mdf/space_time_analyzer.h"
 
-namespace mesocap::test {
+namespace mesocap::mdf {
 
 struct ScanSetup {
   std::string scene = "blocks";
@@ -27,17 +27,17 @@ struct ScanSetup {
   double signal_gain = 1.0;            // multiplies the stripe before the sensor (saturation)
   std::set<int> dropped_frames;        // frame indices never delivered
   // Changes a frame's signal before the sensor: (frame index, signal).
-  std::function<void(int, Image*)> tamper;
-  LaserLineOptions line;
+  std::function<void(int, core::Image*)> tamper;
+  calibration::LaserLineOptions line;
   SpaceTimeOptions space_time;
   TriangulationOptions triangulation;
   MergeOptions merge;
 };
 
 struct ScanResult {
-  Mdf truth;
-  Mdf estimate;
-  Image confidence;
+  core::Mdf truth;
+  core::Mdf estimate;
+  core::Image confidence;
   double texel_mm = 0;
   // Time spent in the processing code (line detection, space-time analysis,
   // triangulation, resampling, merging), without rendering.
@@ -46,4 +46,4 @@ struct ScanResult {
 
 ScanResult RunSimulatedScan(const ScanSetup& setup);
 
-}  // namespace mesocap::test
+}  // namespace mesocap::mdf

@@ -14,7 +14,7 @@
 #include "formats/sweep_analysis.h"
 #include "tests/common/temporary_directory.h"
 
-namespace mesocap {
+namespace mesocap::mdf {
 namespace {
 
 constexpr int kW = 16, kH = 8, kFrames = 40;
@@ -22,9 +22,9 @@ constexpr int kW = 16, kH = 8, kFrames = 40;
 // Pixel p's true peak time: spread over [8, 30] with sub-frame offsets.
 double TruePeak(int p) { return 8.0 + 22.0 * p / (kW * kH - 1); }
 
-Image PulseFrame(int f, double amplitude, double sigma_frames, std::mt19937_64* rng, double noise) {
+core::Image PulseFrame(int f, double amplitude, double sigma_frames, std::mt19937_64* rng, double noise) {
   std::normal_distribution<float> gauss(0.0f, static_cast<float>(noise));
-  Image frame(kW, kH, 1);
+  core::Image frame(kW, kH, 1);
   for (int p = 0; p < kW * kH; ++p) {
     const double d = f - TruePeak(p);
     float v = static_cast<float>(amplitude * std::exp(-d * d / (2 * sigma_frames * sigma_frames)));
@@ -34,7 +34,7 @@ Image PulseFrame(int f, double amplitude, double sigma_frames, std::mt19937_64* 
   return frame;
 }
 
-double MaxTimeError(const SweepAnalysis& a) {
+double MaxTimeError(const formats::SweepAnalysis& a) {
   double worst = 0;
   for (int p = 0; p < kW * kH; ++p) worst = std::max(worst, std::abs(a.peak_time[p] - TruePeak(p)));
   return worst;
@@ -42,11 +42,11 @@ double MaxTimeError(const SweepAnalysis& a) {
 
 TEST(InterpolatePeakTest, ExactForGaussianSamplesAndUnevenSpacing) {
   auto g = [](double t) { return std::exp(-(t - 5.3) * (t - 5.3) / 2.0); };
-  EXPECT_NEAR(InterpolatePeak(4, g(4), 5, g(5), 6, g(6)), 5.3, 1e-12);
+  EXPECT_NEAR(calibration::InterpolatePeak(4, g(4), 5, g(5), 6, g(6)), 5.3, 1e-12);
   // Frame 6 dropped: neighbours 4 and 7.
-  EXPECT_NEAR(InterpolatePeak(4, g(4), 5, g(5), 7, g(7)), 5.3, 1e-12);
+  EXPECT_NEAR(calibration::InterpolatePeak(4, g(4), 5, g(5), 7, g(7)), 5.3, 1e-12);
   // A plateau has no vertex: the middle sample.
-  EXPECT_EQ(InterpolatePeak(4, 1.0, 5, 1.0, 6, 1.0), 5.0);
+  EXPECT_EQ(calibration::InterpolatePeak(4, 1.0, 5, 1.0, 6, 1.0), 5.0);
 }
 
 // The streaming analyzer against the same rule applied to whole stored
@@ -82,11 +82,11 @@ TEST(SpaceTimeAnalyzerTest, StreamingMatchesTheWholeSequenceRule) {
   }();
   SpaceTimeAnalyzer analyzer(kWidth, kHeight, kCount, options);
   for (int f : delivered) {
-    Image frame(kWidth, kHeight, 1);
+    core::Image frame(kWidth, kHeight, 1);
     for (int p = 0; p < kPixels; ++p) frame.data()[p] = values[p][f];
     analyzer.AddFrame(f, frame);
   }
-  const SweepAnalysis a = analyzer.Result();
+  const formats::SweepAnalysis a = analyzer.Result();
   for (int p = 0; p < kPixels; ++p) {
     std::size_t k_best = 0;
     for (std::size_t k = 1; k < delivered.size(); ++k) {
@@ -112,7 +112,7 @@ TEST(SpaceTimeAnalyzerTest, StreamingMatchesTheWholeSequenceRule) {
       expected = 0.5 * (delivered[run_first] + delivered[run_last]);
     } else if (k_best > 0 && k_best + 1 < delivered.size()) {
       const int b = delivered[k_best - 1], m = delivered[k_best], n = delivered[k_best + 1];
-      expected = InterpolatePeak(b, values[p][b], m, values[p][m], n, values[p][n]);
+      expected = calibration::InterpolatePeak(b, values[p][b], m, values[p][m], n, values[p][n]);
     }
     EXPECT_NEAR(a.peak_time[p], expected, 1e-5) << "pixel " << p;
     EXPECT_EQ(a.peak_value[p], best) << "pixel " << p;
@@ -134,7 +134,7 @@ TEST(SpaceTimeAnalyzerTest, BelowThresholdIsUnknown) {
   std::mt19937_64 rng(2);
   SpaceTimeAnalyzer analyzer(kW, kH, kFrames, {.threshold = 0.1f});
   for (int f = 0; f < kFrames; ++f) analyzer.AddFrame(f, PulseFrame(f, 0.08, 1.2, &rng, 0.005));
-  const SweepAnalysis a = analyzer.Result();
+  const formats::SweepAnalysis a = analyzer.Result();
   for (int p = 0; p < kW * kH; ++p) EXPECT_TRUE(std::isnan(a.peak_time[p])) << p;
 }
 
@@ -165,7 +165,7 @@ TEST(SpaceTimeAnalyzerTest, SecondPeakOfAPixelSeeingTwoSurfaces) {
     const double gap = merged ? 3.0 : 12.0;
     for (int f = 0; f < kFrames; ++f) {
       if (f == 13 || f == 24) continue;
-      Image frame(kW, kH, 1);
+      core::Image frame(kW, kH, 1);
       for (int p = 0; p < kPixels; ++p) {
         const bool single = p % 7 == 0;
         const double bright = p % 2 == 0 ? 0.6 : 0.2, dim = p % 2 == 0 ? 0.2 : 0.6;
@@ -174,7 +174,7 @@ TEST(SpaceTimeAnalyzerTest, SecondPeakOfAPixelSeeingTwoSurfaces) {
       }
       analyzer.AddFrame(f, frame);
     }
-    const SweepAnalysis a = analyzer.Result();
+    const formats::SweepAnalysis a = analyzer.Result();
     int seconds = 0;
     for (int p = 0; p < kPixels; ++p) {
       const double t1 = first_time(p), t2 = t1 + gap;
@@ -212,13 +212,13 @@ TEST(SpaceTimeAnalyzerTest, WeakerGhostPeakIsIgnored) {
   std::mt19937_64 rng(4);
   SpaceTimeAnalyzer analyzer(kW, kH, kFrames);
   for (int f = 0; f < kFrames; ++f) {
-    Image frame = PulseFrame(f, 0.6, 1.2, &rng, 0.0);
+    core::Image frame = PulseFrame(f, 0.6, 1.2, &rng, 0.0);
     // An interreflection: a second, weaker pulse 6 frames later.
-    const Image ghost = PulseFrame(f - 6, 0.3, 1.2, &rng, 0.0);
+    const core::Image ghost = PulseFrame(f - 6, 0.3, 1.2, &rng, 0.0);
     for (std::size_t i = 0; i < frame.size(); ++i) frame.data()[i] += ghost.data()[i];
     analyzer.AddFrame(f, frame);
   }
-  const SweepAnalysis a = analyzer.Result();
+  const formats::SweepAnalysis a = analyzer.Result();
   EXPECT_LT(MaxTimeError(a), 0.02);  // the ghost's tail barely shifts the vertex
   // It is kept as the second peak, for resampling to judge.
   for (int p = 0; p < kW * kH; ++p) EXPECT_NEAR(a.second_time[p], TruePeak(p) + 6, 0.3) << p;
@@ -239,27 +239,27 @@ TEST(SpaceTimeAnalyzerTest, DroppedFramesAreInterpolatedOverTheRealGap) {
 
 TEST(SpaceTimeAnalyzerTest, RejectsBadFrames) {
   SpaceTimeAnalyzer analyzer(kW, kH, kFrames);
-  EXPECT_THROW(analyzer.AddFrame(0, Image(kW + 1, kH, 1)), Error);
-  EXPECT_THROW(analyzer.AddFrame(0, Image(kW, kH, 3)), Error);
-  analyzer.AddFrame(3, Image(kW, kH, 1));
-  EXPECT_THROW(analyzer.AddFrame(3, Image(kW, kH, 1)), Error);   // not increasing
-  EXPECT_THROW(analyzer.AddFrame(kFrames, Image(kW, kH, 1)), Error);  // beyond the sweep
-  EXPECT_THROW(SpaceTimeAnalyzer(0, kH, kFrames), Error);
-  EXPECT_THROW(SpaceTimeAnalyzer(kW, kH, kFrames, {.threshold = 0.0f}), Error);
+  EXPECT_THROW(analyzer.AddFrame(0, core::Image(kW + 1, kH, 1)), core::Error);
+  EXPECT_THROW(analyzer.AddFrame(0, core::Image(kW, kH, 3)), core::Error);
+  analyzer.AddFrame(3, core::Image(kW, kH, 1));
+  EXPECT_THROW(analyzer.AddFrame(3, core::Image(kW, kH, 1)), core::Error);   // not increasing
+  EXPECT_THROW(analyzer.AddFrame(kFrames, core::Image(kW, kH, 1)), core::Error);  // beyond the sweep
+  EXPECT_THROW(SpaceTimeAnalyzer(0, kH, kFrames), core::Error);
+  EXPECT_THROW(SpaceTimeAnalyzer(kW, kH, kFrames, {.threshold = 0.0f}), core::Error);
 }
 
 TEST(SweepAnalysisFileTest, RoundTripAndHostileInput) {
   std::mt19937_64 rng(6);
   SpaceTimeAnalyzer analyzer(kW, kH, kFrames);
   for (int f = 0; f < kFrames; ++f) analyzer.AddFrame(f, PulseFrame(f, 0.6, 1.2, &rng, 0.0));
-  SweepAnalysis a = analyzer.Result();
+  formats::SweepAnalysis a = analyzer.Result();
   a.peak_time[3] = std::nanf("");
   a.planes[2].normal = Eigen::Vector3d(0, 0.6, 0.8);
   a.planes[2].offset = -1.5;
   testing::TemporaryDirectory dir;
   const auto file = dir.path() / "sweep.json";
-  WriteSweepAnalysis(file, a);
-  const SweepAnalysis b = ReadSweepAnalysis(file);
+  formats::WriteSweepAnalysis(file, a);
+  const formats::SweepAnalysis b = formats::ReadSweepAnalysis(file);
   ASSERT_EQ(b.width, kW);
   ASSERT_EQ(b.frame_count, kFrames);
   EXPECT_TRUE(std::isnan(b.peak_time[3]));
@@ -270,22 +270,22 @@ TEST(SweepAnalysisFileTest, RoundTripAndHostileInput) {
   EXPECT_NEAR(b.planes[2].offset, -1.5, 1e-12);
   a.second_time[5] = 17.25f;
   a.second_value[5] = 0.125f;
-  WriteSweepAnalysis(file, a);
-  const SweepAnalysis c = ReadSweepAnalysis(file);
+  formats::WriteSweepAnalysis(file, a);
+  const formats::SweepAnalysis c = formats::ReadSweepAnalysis(file);
   EXPECT_EQ(c.second_time[5], 17.25f);
   EXPECT_EQ(c.second_value[5], 0.125f);
   EXPECT_TRUE(std::isnan(c.second_time[6]));
 
   // Version 1 (no second peaks: 2 channels) still reads, with none.
-  Image v1(kW, kH, 2, 0.0f);
+  core::Image v1(kW, kH, 2, 0.0f);
   v1.data()[2 * 10] = 4.5f;
   v1.data()[2 * 10 + 1] = 0.5f;
   v1.data()[2 * 11] = std::nanf("");
-  WriteImage(dir.path() / "old.json.exr", v1, PixelEncoding::kFloat32);
+  core::WriteImage(dir.path() / "old.json.exr", v1, core::PixelEncoding::kFloat32);
   std::ofstream(dir.path() / "old.json") << R"({"format": "mesocap.sweep_analysis", "version": 1, "width": 16,
     "height": 8, "frame_count": 8, "image": "old.json.exr",
     "planes": [null, null, null, null, null, null, null, null]})";
-  const SweepAnalysis old = ReadSweepAnalysis(dir.path() / "old.json");
+  const formats::SweepAnalysis old = formats::ReadSweepAnalysis(dir.path() / "old.json");
   EXPECT_EQ(old.peak_time[10], 4.5f);
   EXPECT_EQ(old.peak_value[10], 0.5f);
   ASSERT_EQ(old.second_time.size(), old.peak_time.size());
@@ -294,15 +294,15 @@ TEST(SweepAnalysisFileTest, RoundTripAndHostileInput) {
   std::ofstream(dir.path() / "short.json") << R"({"format": "mesocap.sweep_analysis", "version": 2, "width": 16,
     "height": 8, "frame_count": 8, "image": "old.json.exr",
     "planes": [null, null, null, null, null, null, null, null]})";
-  EXPECT_THROW(ReadSweepAnalysis(dir.path() / "short.json"), FormatError);
+  EXPECT_THROW(formats::ReadSweepAnalysis(dir.path() / "short.json"), core::FormatError);
 
   std::ofstream(dir.path() / "bad.json") << R"({"format": "mesocap.sweep_analysis", "version": 1, "width": 16,
     "height": 8, "frame_count": 2, "image": "bad.json.exr", "planes": [null]})";
-  EXPECT_THROW(ReadSweepAnalysis(dir.path() / "bad.json"), FormatError);
+  EXPECT_THROW(formats::ReadSweepAnalysis(dir.path() / "bad.json"), core::FormatError);
   std::ofstream(dir.path() / "bad2.json") << R"({"format": "mesocap.sweep_analysis", "version": 1, "width": 16,
     "height": 8, "frame_count": 1, "image": "x", "planes": [{"normal": [0, 0, 2], "offset_mm": 0}]})";
-  EXPECT_THROW(ReadSweepAnalysis(dir.path() / "bad2.json"), FormatError);
+  EXPECT_THROW(formats::ReadSweepAnalysis(dir.path() / "bad2.json"), core::FormatError);
 }
 
 }  // namespace
-}  // namespace mesocap
+}  // namespace mesocap::mdf

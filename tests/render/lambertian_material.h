@@ -28,12 +28,12 @@ inline RenderMaterial LambertianSimMaterial(const std::string& scene_name, int t
   m.btf.height = h;
   m.btf.views = options.views;
   m.btf.lights = options.lights;
-  m.btf.rows = {Image(w, h * options.lights.size(), 3, 0.5f / std::numbers::pi_v<float>)};
-  m.btf.columns = Image(options.views.size(), 1, 3, 1.0f);
+  m.btf.rows = {core::Image(w, h * options.lights.size(), 3, 0.5f / std::numbers::pi_v<float>)};
+  m.btf.columns = core::Image(options.views.size(), 1, 3, 1.0f);
   m.ambient.width = w;
   m.ambient.height = h;
   m.ambient.views = options.views;
-  m.ambient.values = Image(w, h * options.views.size(), 3, 0.5f);
+  m.ambient.values = core::Image(w, h * options.views.size(), 3, 0.5f);
   m.geometry = sim::BuiltinTileGeometry(scene_name);
   return m;
 }

@@ -48,12 +48,12 @@ Comparison Compare(const RenderScene& scene, int width, int height) {
     c.passes[mode] = r.passes;
     if (const char* out = std::getenv("MESOCAP_RENDER_TEST_OUT")) {  // images for a person to look at
       const std::string base = std::string(out) + "/" + ToString(o.mode);
-      WriteImage(base + "_color.png", r.color, PixelEncoding::kUInt8);
-      WriteImage(base + "_shadow.png", r.shadow, PixelEncoding::kUInt8);
-      WriteImage(base + "_coverage.png", r.coverage, PixelEncoding::kUInt8);
-      WriteImage(std::string(out) + "/reference_color.png", truth.color, PixelEncoding::kUInt8);
-      WriteImage(std::string(out) + "/reference_shadow.png", truth.shadow, PixelEncoding::kUInt8);
-      WriteImage(std::string(out) + "/reference_coverage.png", truth.coverage, PixelEncoding::kUInt8);
+      core::WriteImage(base + "_color.png", r.color, core::PixelEncoding::kUInt8);
+      core::WriteImage(base + "_shadow.png", r.shadow, core::PixelEncoding::kUInt8);
+      core::WriteImage(base + "_coverage.png", r.coverage, core::PixelEncoding::kUInt8);
+      core::WriteImage(std::string(out) + "/reference_color.png", truth.color, core::PixelEncoding::kUInt8);
+      core::WriteImage(std::string(out) + "/reference_shadow.png", truth.shadow, core::PixelEncoding::kUInt8);
+      core::WriteImage(std::string(out) + "/reference_coverage.png", truth.coverage, core::PixelEncoding::kUInt8);
     }
     std::printf("%s: coverage IoU %.4f shadow IoU %.4f passes %d/%d PSNR %.2f dB\n", ToString(o.mode),
                 c.coverage_iou[mode], c.shadow_iou[mode], r.passes, r.shadow_passes, Psnr(r.color, truth.color));

@@ -108,7 +108,7 @@ TEST(RenderMesh, ObjWithoutTextureCoordinatesNamesTheFile) {
   try {
     LoadObjRenderMesh(dir / "bare.obj", 1.0, {1, 1});
     FAIL() << "no error";
-  } catch (const FormatError& e) {
+  } catch (const core::FormatError& e) {
     EXPECT_NE(std::string(e.what()).find("bare.obj"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("texture coordinate"), std::string::npos) << e.what();
   }

@@ -37,7 +37,7 @@ TEST(CameraModelTest, UndistortInvertsTheForwardModelToAThousandthOfAPixel) {
     const auto scene = MakeBuiltinScene("flat");
     const CameraRenderer renderer(*scene, rig);
     for (std::size_t c = 0; c < rig.cameras.size(); ++c) {
-      const CameraCalibration& cam = renderer.calibration().cameras[c];
+      const formats::CameraCalibration& cam = renderer.calibration().cameras[c];
       double worst = 0.0;
       for (int j = 0; j <= 8; ++j) {
         for (int i = 0; i <= 8; ++i) {
@@ -55,7 +55,7 @@ TEST(CameraModelTest, UndistortInvertsTheForwardModelToAThousandthOfAPixel) {
 
 // Where the row (or column) `line` of the image crosses the projected
 // segment a-b (sample frame points on z = 0), by bisection on the segment.
-std::optional<double> PredictedCrossing(const CameraCalibration& cam, const Eigen::Vector3d& a,
+std::optional<double> PredictedCrossing(const formats::CameraCalibration& cam, const Eigen::Vector3d& a,
                                         const Eigen::Vector3d& b, double turntable_rad, bool along_rows,
                                         double line) {
   const int axis = along_rows ? 1 : 0;
@@ -89,8 +89,8 @@ TEST(CameraRendererTest, SampleEdgesAppearWhereTheTrueCalibrationProjectsThem) {
   const double h = rig.sample_size_mm / 2;
   const Eigen::Vector3d corners[4] = {{-h, -h, 0}, {h, -h, 0}, {h, h, 0}, {-h, h, 0}};
   for (int c = 0; c < static_cast<int>(rig.cameras.size()); ++c) {
-    const CameraCalibration& cam = renderer.calibration().cameras[c];
-    const Image image = renderer.RenderLamps(renderer.TraceSample(c, tt), 0.0, {true, false});
+    const formats::CameraCalibration& cam = renderer.calibration().cameras[c];
+    const core::Image image = renderer.RenderLamps(renderer.TraceSample(c, tt), 0.0, {true, false});
     int checked = 0;
     double worst = 0.0;
     for (int e = 0; e < 4; ++e) {
@@ -146,7 +146,7 @@ struct StripeCheck {
 // sees, or nullopt), are skipped: a depth step or a shadow edge inside the
 // profile.
 template <typename BackProject, typename Face>
-StripeCheck CheckStripe(const Image& frame, const LaserPlane& plane, const BackProject& back_project,
+StripeCheck CheckStripe(const core::Image& frame, const LaserPlane& plane, const BackProject& back_project,
                         const Face& face) {
   StripeCheck out;
   float max_value = 0.0f;
@@ -205,7 +205,7 @@ TEST(CameraRendererTest, StripePeaksLieOnTheTrueLaserPlane) {
           return s0.point.z();
         };
         for (const double offset : {-4.0, 0.0, 2.5}) {
-          const double tilt = drivers::LaserTiltForOffset(rig.laser, loc.mount, offset);
+          const double tilt = calibration::LaserTiltForOffset(rig.laser, loc.mount, offset);
           const StripeCheck check =
               CheckStripe(sweep.Frame(tilt), renderer.LaserPlaneAt(loc.mount, loc.arc_angle_rad, tilt), on_sample, face);
           EXPECT_GT(check.peaks, 40) << "camera " << c << " offset " << offset;
@@ -240,12 +240,12 @@ TEST(CameraRendererTest, StripePeaksLieOnTheTrueLaserPlane) {
 // its footprint, 1 / side of a pixel on each axis (camera_renderer.h), here
 // by central differences of pinhole rays met with the sample's tangent
 // plane; NaN where that plane is within kMinFootprintCosine of edge-on.
-double FootprintVarianceByDifferences(const CameraCalibration& c, const ViewSample& s, const Eigen::Vector3d& normal,
+double FootprintVarianceByDifferences(const formats::CameraCalibration& c, const ViewSample& s, const Eigen::Vector3d& normal,
                                       int side) {
   const Eigen::Vector3d centre = c.pose.transform.translation;
   const Eigen::Matrix3d& rotation = c.pose.transform.rotation;
   const Eigen::Vector3d local = rotation.transpose() * (s.point - centre);
-  const Intrinsics& k = c.intrinsics;
+  const formats::Intrinsics& k = c.intrinsics;
   const double u = k.fx * local.x() / local.z() + k.cx, v = k.fy * local.y() / local.z() + k.cy;
   if (std::abs(s.normal.dot((s.point - centre).normalized())) < kMinFootprintCosine) return std::nan("");
   auto hit = [&](double du, double dv) {
@@ -270,15 +270,15 @@ TEST(CameraRendererTest, SweepFramesEqualTheSumOverEveryLitSample) {
   const Eigen::Vector3d centre = renderer.CameraCentre(camera);
   const double gain = rig.cameras[camera].exposure_us * 1e-6 * kSignalPerRadianceSecond * renderer.LaserPeakIrradiance();
   const double sigma = rig.laser.stripe_sigma_mm;
-  const CameraCalibration& calibration = renderer.calibration().cameras.at(camera);
+  const formats::CameraCalibration& calibration = renderer.calibration().cameras.at(camera);
   const Eigen::Vector3d plane_at_zero = renderer.LaserPlaneAt(loc.mount, loc.arc_angle_rad, 0.0).normal;
   std::vector<double> tilts;
-  for (const double offset : {-7.0, -2.0, 0.0, 0.3, 4.0, 7.0}) tilts.push_back(drivers::LaserTiltForOffset(rig.laser, loc.mount, offset));
+  for (const double offset : {-7.0, -2.0, 0.0, 0.3, 4.0, 7.0}) tilts.push_back(calibration::LaserTiltForOffset(rig.laser, loc.mount, offset));
   for (const double t : {-3.14159, -1.2, 0.9, 3.1415926}) tilts.push_back(t);
   int lit_pixels = 0, edge_on_pixels = 0, widened_pixels = 0;
   for (const double tilt : tilts) {
     const LaserPlane plane = renderer.LaserPlaneAt(loc.mount, loc.arc_angle_rad, tilt);
-    const Image frame = sweep.Frame(tilt);
+    const core::Image frame = sweep.Frame(tilt);
     for (int y = 0; y < view.height; ++y) {
       for (int x = 0; x < view.width; ++x) {
         double expected = 0.0;
@@ -335,7 +335,7 @@ TEST(CameraRendererTest, StripeNarrowerThanAPixelFootprintDoesNotAlias) {
   for (const int side : {1, 5}) {
     const CameraRenderer renderer(*scene, rig, {side});
     const CameraView plate = renderer.TracePlate(camera, 10.0);
-    const Image frame = LaserSweepRenderer(renderer, plate, loc.mount, loc.arc_angle_rad).Frame(0.0);
+    const core::Image frame = LaserSweepRenderer(renderer, plate, loc.mount, loc.arc_angle_rad).Frame(0.0);
     std::vector<float>& peaks = column_peaks[side == 1 ? 0 : 1];
     for (int x = 0; x < frame.width(); ++x) {
       float peak = 0.0f;
@@ -365,7 +365,7 @@ TEST(CameraRendererTest, InterreflectionAddsGhostLightOnlyWhereSurfacesSeeEachOt
   const auto& loc = rig.laser.locations[1];
   std::vector<double> tilts;
   for (int f = 0; f < 64; ++f) {
-    tilts.push_back(drivers::LaserTiltForOffset(rig.laser, loc.mount, -6.0 + 12.0 * f / 63));
+    tilts.push_back(calibration::LaserTiltForOffset(rig.laser, loc.mount, -6.0 + 12.0 * f / 63));
   }
   auto sweep = [&](const MesostructureScene& scene, int rays) {
     CameraRendererOptions options;
@@ -374,7 +374,7 @@ TEST(CameraRendererTest, InterreflectionAddsGhostLightOnlyWhereSurfacesSeeEachOt
     const CameraRenderer renderer(scene, rig, options);
     const CameraView view = renderer.TraceSample(0, 0.3);
     const LaserSweepRenderer laser(renderer, view, loc.mount, loc.arc_angle_rad);
-    std::vector<Image> frames;
+    std::vector<core::Image> frames;
     for (double t : tilts) frames.push_back(laser.Frame(t));
     return frames;
   };
@@ -393,7 +393,7 @@ TEST(CameraRendererTest, InterreflectionAddsGhostLightOnlyWhereSurfacesSeeEachOt
   const int pixels = direct[0].width() * direct[0].height();
   for (int p = 0; p < pixels; ++p) {
     float peak = 0.0f;
-    for (const Image& frame : direct) peak = std::max(peak, frame.data()[p]);
+    for (const core::Image& frame : direct) peak = std::max(peak, frame.data()[p]);
     bool ghost = false;
     for (std::size_t f = 0; f < tilts.size(); ++f) {
       const float d = direct[f].data()[p], b = bounced[f].data()[p];
@@ -421,9 +421,9 @@ TEST(CameraRendererTest, LaserPlanesFollowTheRigConventions) {
     const Eigen::Vector3d away(-std::cos(loc.arc_angle_rad), -std::sin(loc.arc_angle_rad), 0.0);
     for (const double offset : {-13.0, 0.0, 5.0, 13.0}) {
       const LaserPlane plane =
-          renderer.LaserPlaneAt(loc.mount, loc.arc_angle_rad, drivers::LaserTiltForOffset(rig.laser, loc.mount, offset));
+          renderer.LaserPlaneAt(loc.mount, loc.arc_angle_rad, calibration::LaserTiltForOffset(rig.laser, loc.mount, offset));
       EXPECT_NEAR(plane.normal.dot(offset * away - plane.source), 0.0, 1e-9) << offset;
-      EXPECT_NEAR((plane.source - drivers::LaserSource(rig.laser, loc)).norm(), 0.0, 1e-9);
+      EXPECT_NEAR((plane.source - calibration::LaserSource(rig.laser, loc)).norm(), 0.0, 1e-9);
     }
   }
 }
@@ -471,13 +471,13 @@ TEST(CameraRendererTest, RaysThroughHolesMeetTheBackingBoard) {
   try {
     CameraRenderer(*scene, shallow);
     ADD_FAILURE() << "a backing 0.5 mm below the sponge was accepted";
-  } catch (const Error& e) {
+  } catch (const core::Error& e) {
     EXPECT_NE(std::string(e.what()).find("sample.backing.depth_mm"), std::string::npos) << e.what();
   }
 }
 
-drivers::CameraDescription TestCamera(double read_noise) {
-  drivers::CameraDescription camera;
+formats::CameraDescription TestCamera(double read_noise) {
+  formats::CameraDescription camera;
   camera.bit_depth = 12;
   camera.full_well_electrons = 20000;
   camera.read_noise_electrons = read_noise;
@@ -489,10 +489,10 @@ drivers::CameraDescription TestCamera(double read_noise) {
 // (+ the 1/12 code^2 of quantization) within 10 %.
 TEST(CameraSensorTest, QuantizesToHalfACodeAndSaturates) {
   const auto camera = TestCamera(5.0);
-  Image signal(97, 31, 3);
+  core::Image signal(97, 31, 3);
   for (std::size_t i = 0; i < signal.size(); ++i) signal.data()[i] = static_cast<float>(1.3 * i / signal.size());
   std::mt19937_64 rng(7);
-  const Image out = ApplySensor(signal, camera, rng, false);
+  const core::Image out = ApplySensor(signal, camera, rng, false);
   const double max_code = MaxCode(camera);
   EXPECT_EQ(max_code, 4095.0);
   for (std::size_t i = 0; i < signal.size(); ++i) {
@@ -510,9 +510,9 @@ TEST(CameraSensorTest, QuantizesToHalfACodeAndSaturates) {
 TEST(CameraSensorTest, FlatFieldVarianceIsShotPlusReadNoise) {
   for (const auto& [level, read_noise] : {std::pair{0.3, 5.0}, std::pair{0.005, 50.0}, std::pair{0.8, 8.0}}) {
     const auto camera = TestCamera(read_noise);
-    const Image signal(256, 256, 1, static_cast<float>(level));
+    const core::Image signal(256, 256, 1, static_cast<float>(level));
     std::mt19937_64 rng(11);
-    const Image out = ApplySensor(signal, camera, rng, true);
+    const core::Image out = ApplySensor(signal, camera, rng, true);
     const double codes_per_electron = MaxCode(camera) / camera.full_well_electrons;
     double sum = 0, sum2 = 0;
     for (std::size_t i = 0; i < out.size(); ++i) {
@@ -543,9 +543,9 @@ TEST(CameraSensorTest, DarkPixelsReadTheRoundedClampedReadNoise) {
     const auto camera = TestCamera(read_noise);
     const double sigma = read_noise * MaxCode(camera) / camera.full_well_electrons;  // in codes
     auto histogram = [&](float level) {
-      const Image signal(512, 512, 1, level);
+      const core::Image signal(512, 512, 1, level);
       std::mt19937_64 rng(13);
-      const Image out = ApplySensor(signal, camera, rng, true);
+      const core::Image out = ApplySensor(signal, camera, rng, true);
       std::vector<double> h(80, 0.0);
       for (std::size_t i = 0; i < out.size(); ++i) {
         const double code = out.data()[i] * MaxCode(camera);
@@ -571,12 +571,12 @@ TEST(CameraSensorTest, DarkPixelsReadTheRoundedClampedReadNoise) {
 // electron per code and no read noise reads the electron count itself, and
 // the histogram matches the Poisson probabilities within 5 standard errors.
 TEST(CameraSensorTest, ShotNoiseIsPoisson) {
-  drivers::CameraDescription camera = TestCamera(0.0);
+  formats::CameraDescription camera = TestCamera(0.0);
   camera.full_well_electrons = MaxCode(camera);  // one electron a code
   for (const double mean : {0.02, 3.0, 11.5, 30.0}) {
-    const Image signal(512, 256, 1, static_cast<float>(mean / camera.full_well_electrons));
+    const core::Image signal(512, 256, 1, static_cast<float>(mean / camera.full_well_electrons));
     std::mt19937_64 rng(17);
-    const Image out = ApplySensor(signal, camera, rng, true);
+    const core::Image out = ApplySensor(signal, camera, rng, true);
     std::vector<double> histogram(100, 0.0);
     for (std::size_t i = 0; i < out.size(); ++i) {
       histogram[std::min<long>(99, std::lround(out.data()[i] * MaxCode(camera)))] += 1.0 / out.size();
@@ -593,12 +593,12 @@ TEST(CameraSensorTest, ShotNoiseIsPoisson) {
 // noise; rendering is deterministic whatever the threads do.
 TEST(CameraSensorTest, NoiseIsDeterministicForASeed) {
   const auto camera = TestCamera(5.0);
-  const Image signal(64, 32, 3, 0.4f);
+  const core::Image signal(64, 32, 3, 0.4f);
   auto noisy = [&](std::uint64_t seed, std::uint64_t frame) {
     std::mt19937_64 rng = ImageNoiseGenerator(seed, {3, 1, frame});
     return ApplySensor(signal, camera, rng, true);
   };
-  const Image a = noisy(42, 0), b = noisy(42, 0), c = noisy(43, 0), d = noisy(42, 1);
+  const core::Image a = noisy(42, 0), b = noisy(42, 0), c = noisy(43, 0), d = noisy(42, 1);
   EXPECT_TRUE(std::equal(a.data(), a.data() + a.size(), b.data()));
   EXPECT_FALSE(std::equal(a.data(), a.data() + a.size(), c.data()));
   EXPECT_FALSE(std::equal(a.data(), a.data() + a.size(), d.data()));
@@ -615,24 +615,24 @@ TEST(CameraRendererTest, RenderingIsDeterministic) {
   state.laser_on = true;
   state.laser_mount = 1;
   state.laser_tilt_rad = 0.002;
-  const Image a = renderer.Render(state, 1, 3), b = renderer.Render(state, 1, 3);
+  const core::Image a = renderer.Render(state, 1, 3), b = renderer.Render(state, 1, 3);
   ASSERT_EQ(a.channels(), 3);
   EXPECT_TRUE(std::equal(a.data(), a.data() + a.size(), b.data()));
   // A mono readout is the mean of the RGB signal (lamps and laser on here;
   // the laser alone takes a shortcut, checked below).
-  const Image mono = renderer.Render(state, 1, 1);
+  const core::Image mono = renderer.Render(state, 1, 1);
   ASSERT_EQ(mono.channels(), 1);
-  const Image mean = ChannelMean(a);
+  const core::Image mean = core::ChannelMean(a);
   for (std::size_t i = 0; i < mono.size(); ++i) ASSERT_NEAR(mono.data()[i], mean.data()[i], 1e-6f) << i;
   state.lamps_on = {false, false};
-  const Image laser_rgb = renderer.Render(state, 1, 3), laser_mono = renderer.Render(state, 1, 1);
+  const core::Image laser_rgb = renderer.Render(state, 1, 3), laser_mono = renderer.Render(state, 1, 1);
   double lit = 0;
   for (std::size_t p = 0; p < laser_mono.size(); ++p) {
     ASSERT_EQ(laser_mono.data()[p], laser_rgb.data()[3 * p]) << p;  // the stripe is grey
     lit += laser_mono.data()[p];
   }
   EXPECT_GT(lit, 0.0);
-  EXPECT_THROW(renderer.Render(state, 1, 2), Error);
+  EXPECT_THROW(renderer.Render(state, 1, 2), core::Error);
   float max_value = 0;
   for (std::size_t i = 0; i < a.size(); ++i) max_value = std::max(max_value, a.data()[i]);
   EXPECT_GT(max_value, 0.2f) << "signal scale: typical signals at 0.2-0.8 of full scale";
@@ -646,11 +646,11 @@ TEST(CameraRendererTest, SignalsLandInTheSensorsRange) {
     const auto scene = MakeBuiltinScene("flat");
     const CameraRenderer renderer(*scene, rig, {1});
     // Analytic: the flat sample (albedo 0.5) at the origin.
-    const Eigen::Vector3d lamp = LampPosition(rig.lamps, 0, 0.0);
+    const Eigen::Vector3d lamp = calibration::LampPosition(rig.lamps, 0, 0.0);
     const double gain = rig.cameras[0].exposure_us * 1e-6 * kSignalPerRadianceSecond;
     const double lamp_signal = 0.5 / std::numbers::pi * rig.lamps.intensity.mean() / lamp.squaredNorm() *
                                lamp.normalized().z() * gain;
-    const Eigen::Vector3d source = drivers::LaserSource(rig.laser, rig.laser.locations[0]);
+    const Eigen::Vector3d source = calibration::LaserSource(rig.laser, rig.laser.locations[0]);
     const double laser_signal =
         0.5 / std::numbers::pi * renderer.LaserPeakIrradiance() * source.normalized().z() * gain;
     EXPECT_GT(lamp_signal, 0.1) << name;
@@ -669,8 +669,8 @@ TEST(SimulateCommandTest, TinySessionIsCompleteAndReadable) {
   const std::string cmd = std::string(MESOCAP_BINARY) + " -q simulate --scene flat --rig tiny --seed 3 --samples-per-pixel-side 1 --out " +
                           session.string() + " 2>" + (dir / "err").string();
   ASSERT_EQ(std::system(cmd.c_str()), 0);
-  const SessionManifest manifest = ReadSessionManifest(session);
-  const JournalContents journal = ReadCaptureJournal(session / kSessionJournalName, &manifest);
+  const formats::SessionManifest manifest = formats::ReadSessionManifest(session);
+  const formats::JournalContents journal = formats::ReadCaptureJournal(session / formats::kSessionJournalName, &manifest);
   const auto rig = LoadRig("tiny");
   EXPECT_EQ(manifest.rig, rig.json);
   ASSERT_TRUE(manifest.calibration);
@@ -693,23 +693,23 @@ TEST(SimulateCommandTest, TinySessionIsCompleteAndReadable) {
     for (const auto& f : step.params.at("files")) {
       const fs::path file = session / f.at("path").get<std::string>();
       ASSERT_TRUE(fs::exists(file)) << file;
-      if (step.kind == StepKind::kLaserSweep) {
-        const auto header = ReadFrameSequenceHeader(file);
+      if (step.kind == formats::StepKind::kLaserSweep) {
+        const auto header = formats::ReadFrameSequenceHeader(file);
         EXPECT_EQ(header.frame_count, rig.laser.frames_per_sweep);
         EXPECT_EQ(step.params.at("tilt_deg").size(), static_cast<std::size_t>(rig.laser.frames_per_sweep));
         EXPECT_EQ(header.width, 128);
-        EXPECT_EQ(header.encoding, PixelEncoding::kUInt16);
+        EXPECT_EQ(header.encoding, core::PixelEncoding::kUInt16);
       } else {
-        const auto header = ReadImageHeader(file);
-        EXPECT_EQ(header.encoding, PixelEncoding::kUInt16);
-        EXPECT_EQ(header.channels, step.kind == StepKind::kBtfImage ? 3 : 1);
+        const auto header = core::ReadImageHeader(file);
+        EXPECT_EQ(header.encoding, core::PixelEncoding::kUInt16);
+        EXPECT_EQ(header.channels, step.kind == formats::StepKind::kBtfImage ? 3 : 1);
       }
     }
   }
   // A second run refuses the existing session; --resume finds nothing to do.
   EXPECT_NE(std::system(cmd.c_str()), 0);
   ASSERT_EQ(std::system((cmd + " --resume").c_str()), 0);
-  EXPECT_EQ(ReadCaptureJournal(session / kSessionJournalName, &manifest).records.size(), expected_steps);
+  EXPECT_EQ(formats::ReadCaptureJournal(session / formats::kSessionJournalName, &manifest).records.size(), expected_steps);
 }
 
 }  // namespace

@@ -14,10 +14,10 @@ namespace {
 
 constexpr double kPi = std::numbers::pi;
 
-SamplingSet Directions(std::vector<std::pair<double, double>> deg) {
-  std::vector<SphericalAngles> a;
+core::SamplingSet Directions(std::vector<std::pair<double, double>> deg) {
+  std::vector<core::SphericalAngles> a;
   for (const auto& [t, p] : deg) a.push_back({t * kPi / 180, p * kPi / 180});
-  return SamplingSet::FromAngles("test", a);
+  return core::SamplingSet::FromAngles("test", a);
 }
 
 TEST(GroundTruth, FlatSampleHasZeroMdfAndAlbedoOverPiBtf) {
@@ -25,15 +25,15 @@ TEST(GroundTruth, FlatSampleHasZeroMdfAndAlbedoOverPiBtf) {
   GroundTruthOptions o;
   o.texture_width = o.texture_height = 12;
   o.sample_size_mm = 7.0;
-  o.views = SamplingSet::Named("paper12x8");
-  o.lights = SamplingSet::Named("paper12x5");
-  const Mdf mdf = ComputeTrueMdf(*scene, o);
+  o.views = core::SamplingSet::Named("paper12x8");
+  o.lights = core::SamplingSet::Named("paper12x5");
+  const core::Mdf mdf = ComputeTrueMdf(*scene, o);
   for (int v = 0; v < o.views.size(); ++v)
     for (int j = 0; j < 12; ++j)
       for (int i = 0; i < 12; ++i) ASSERT_NEAR(mdf.at(i, j, v), 0.0, 1e-9);
   // Flat Lambertian, albedo 0.5: T = albedo / pi for every direction pair.
   for (int v : {0, 50, 95}) {
-    const Image view = RenderTrueBtfView(*scene, o, v);
+    const core::Image view = RenderTrueBtfView(*scene, o, v);
     for (int l = 0; l < o.lights.size(); ++l)
       for (int c = 0; c < 3; ++c) ASSERT_NEAR(view.at(5, l * 12 + 7, c), 0.5 / kPi, 1e-6) << "v " << v << " l " << l;
   }
@@ -43,9 +43,9 @@ TEST(GroundTruth, AmbientTermIsTheLightQuadratureOfTheBtf) {
   const auto scene = MakeBuiltinScene("flat");
   GroundTruthOptions o;
   o.texture_width = o.texture_height = 4;
-  o.views = SamplingSet::Named("grid4x2");
-  o.lights = SamplingSet::Named("grid24x12");
-  AmbientTerm ambient{4, 4, o.views, Image(4, 4 * o.views.size(), 3)};
+  o.views = core::SamplingSet::Named("grid4x2");
+  o.lights = core::SamplingSet::Named("grid24x12");
+  formats::AmbientTerm ambient{4, 4, o.views, core::Image(4, 4 * o.views.size(), 3)};
   for (int v = 0; v < o.views.size(); ++v) AccumulateAmbientTerm(RenderTrueBtfView(*scene, o, v), o.lights, v, &ambient);
   double quadrature = 0;  // sum of cos(theta_l) w_l ~ integral of cos over the hemisphere = pi
   for (int l = 0; l < o.lights.size(); ++l) quadrature += o.lights.direction(l).z() * o.lights.weight(l);
@@ -93,8 +93,8 @@ TEST(GroundTruth, BoxMdfMatchesTheAnalyticAnswerEverywhere) {
   GroundTruthOptions o;
   o.texture_width = o.texture_height = 40;
   o.sample_size_mm = 13.0;  // not a multiple of the tile: texels fall everywhere in it
-  o.views = SamplingSet::Named("paper12x8");  // up to 84.4 degrees
-  const Mdf mdf = ComputeTrueMdf(*scene, o);
+  o.views = core::SamplingSet::Named("paper12x8");  // up to 84.4 degrees
+  const core::Mdf mdf = ComputeTrueMdf(*scene, o);
   int beside_box = 0;
   for (int v = 0; v < o.views.size(); ++v) {
     const auto a = o.views.angles(v);
@@ -118,7 +118,7 @@ TEST(GroundTruth, BoxShadowsTheBaseAtGrazingLight) {
   // Towards the box copy at [1.5, 3.5]^2: at 75 degrees the light ray meets
   // the box side below its top; at 45 degrees it clears z = 0 before the box.
   o.lights = Directions({{75, 45}, {45, 45}});
-  const Image view = RenderTrueBtfView(*scene, o, 0);
+  const core::Image view = RenderTrueBtfView(*scene, o, 0);
   for (int c = 0; c < 3; ++c) EXPECT_EQ(view.at(0, 0, c), 0.0f) << "shadowed";
   EXPECT_NEAR(view.at(0, 1, 0), 0.45 / kPi, 1e-6);
   EXPECT_NEAR(view.at(0, 1, 1), 0.42 / kPi, 1e-6);
@@ -131,17 +131,17 @@ TEST(GroundTruth, SpongeThroughHolesAreNoHit) {
   o.texture_width = o.texture_height = 48;
   o.sample_size_mm = 8.0;
   o.views = Directions({{0, 0}, {70, 30}});
-  const Mdf mdf = ComputeTrueMdf(*scene, o);
+  const core::Mdf mdf = ComputeTrueMdf(*scene, o);
   int no_hit_vertical = 0, no_hit_grazing = 0;
   for (int j = 0; j < 48; ++j) {
     for (int i = 0; i < 48; ++i) {
-      no_hit_vertical += IsNoHit(mdf.at(i, j, 0));
-      no_hit_grazing += IsNoHit(mdf.at(i, j, 1));
+      no_hit_vertical += core::IsNoHit(mdf.at(i, j, 0));
+      no_hit_grazing += core::IsNoHit(mdf.at(i, j, 1));
       for (int v = 0; v < 2; ++v) {
         const float d = mdf.at(i, j, v);
         // Never "unknown", and a distance always lies within the slab.
-        ASSERT_FALSE(IsUnknown(d));
-        if (!IsNoHit(d)) {
+        ASSERT_FALSE(core::IsUnknown(d));
+        if (!core::IsNoHit(d)) {
           ASSERT_LE(d * std::cos(o.views.angles(v).theta), scene->d_max_mm() + 1e-6);
         }
       }

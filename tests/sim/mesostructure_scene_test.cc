@@ -645,7 +645,7 @@ TEST(BuiltinScenes, UnknownNameListsTheKnownOnes) {
   try {
     MakeBuiltinScene("marble");
     FAIL();
-  } catch (const Error& e) {
+  } catch (const core::Error& e) {
     EXPECT_THAT(e.what(), HasSubstr("marble"));
     EXPECT_THAT(e.what(), HasSubstr("weave"));
   }
@@ -703,7 +703,7 @@ TEST_P(ObjRejects, NamingTheFile) {
   try {
     LoadObjScene(file, 1.0);
     FAIL() << "accepted";
-  } catch (const FormatError& e) {
+  } catch (const core::FormatError& e) {
     EXPECT_EQ(e.file(), file);
     EXPECT_THAT(e.what(), HasSubstr(file.string()));
     EXPECT_THAT(e.what(), HasSubstr(GetParam().expected));
@@ -732,14 +732,14 @@ INSTANTIATE_TEST_SUITE_P(
 
 TEST(ObjScene, RejectsAMissingFileAndABadScale) {
   testing::TemporaryDirectory dir;
-  EXPECT_THROW(LoadObjScene(dir / "missing.obj", 1.0), FormatError);
-  EXPECT_THROW(LoadObjScene(dir.path(), 1.0), FormatError);
+  EXPECT_THROW(LoadObjScene(dir / "missing.obj", 1.0), core::FormatError);
+  EXPECT_THROW(LoadObjScene(dir.path(), 1.0), core::FormatError);
   WriteText(dir / "box.obj", kBoxObj);
   for (const double scale : {0.0, -1.0, std::nan("")}) {
     try {
       LoadObjScene(dir / "box.obj", scale);
       FAIL() << scale;
-    } catch (const Error& e) {
+    } catch (const core::Error& e) {
       EXPECT_THAT(e.what(), HasSubstr("box.obj"));
     }
   }
@@ -749,12 +749,12 @@ TEST(ObjScene, RejectsAMissingFileAndABadScale) {
 
 TEST(HeightMapScene, PixelCentresAreAtTheirHeights) {
   testing::TemporaryDirectory dir;
-  Image image(4, 3, 1);
+  core::Image image(4, 3, 1);
   for (int y = 0; y < 3; ++y) {
     for (int x = 0; x < 4; ++x) image.at(x, y) = static_cast<float>((37 * (x + 4 * y) % 256) / 255.0);
   }
   image.at(2, 1) = 1.0f;
-  WriteImage(dir / "h.png", image, PixelEncoding::kUInt8);
+  core::WriteImage(dir / "h.png", image, core::PixelEncoding::kUInt8);
   const auto scene = LoadHeightMapScene(dir / "h.png", 4.0, 0.8);
   EXPECT_EQ(scene->tile_size_mm(), 4.0);
   EXPECT_EQ(scene->d_max_mm(), 0.8);
@@ -775,9 +775,9 @@ TEST(HeightMapScene, PixelCentresAreAtTheirHeights) {
 
 TEST(HeightMapScene, ColourImagesUseLuminance) {
   testing::TemporaryDirectory dir;
-  Image image(2, 2, 3, 0.0f);
+  core::Image image(2, 2, 3, 0.0f);
   image.at(0, 0, 0) = 1.0f;  // pure red: luminance 0.2126
-  WriteImage(dir / "rgb.exr", image);
+  core::WriteImage(dir / "rgb.exr", image);
   const auto scene = LoadHeightMapScene(dir / "rgb.exr", 2.0, 1.0);
   EXPECT_NEAR(*Distance(*scene, Vec(0.5, 0.5, 0.0), Vec(0, 0, -1)), 1.0 - 0.2126, 1e-6);
   EXPECT_NEAR(*Distance(*scene, Vec(1.5, 1.5, 0.0), Vec(0, 0, -1)), 1.0, 1e-6);
@@ -790,25 +790,25 @@ TEST(HeightMapScene, RejectsHostileInputsNamingTheFile) {
     try {
       LoadHeightMapScene(file, tile, depth);
       FAIL() << "accepted " << file;
-    } catch (const Error& e) {
+    } catch (const core::Error& e) {
       EXPECT_THAT(e.what(), HasSubstr(file.string()));
       EXPECT_THAT(e.what(), HasSubstr(expected));
     }
   };
-  Image too_high(3, 3, 1, 0.5f);
+  core::Image too_high(3, 3, 1, 0.5f);
   too_high.at(1, 2) = 1.5f;
-  WriteImage(dir / "high.exr", too_high);
+  core::WriteImage(dir / "high.exr", too_high);
   expect_rejected(dir / "high.exr", 4.0, 1.0, "pixel (1, 2)");
-  Image not_a_number(3, 3, 1, 0.5f);
+  core::Image not_a_number(3, 3, 1, 0.5f);
   not_a_number.at(2, 0) = std::nanf("");
-  WriteImage(dir / "nan.exr", not_a_number);
+  core::WriteImage(dir / "nan.exr", not_a_number);
   expect_rejected(dir / "nan.exr", 4.0, 1.0, "pixel (2, 0)");
   expect_rejected(dir / "missing.png", 4.0, 1.0, "not found");
   WriteText(dir / "text.png", "not an image");
   expect_rejected(dir / "text.png", 4.0, 1.0, "");
-  WriteImage(dir / "big.png", Image(1100, 1000, 1, 0.5f), PixelEncoding::kUInt8);
+  core::WriteImage(dir / "big.png", core::Image(1100, 1000, 1, 0.5f), core::PixelEncoding::kUInt8);
   expect_rejected(dir / "big.png", 4.0, 1.0, "at most");
-  WriteImage(dir / "ok.png", Image(2, 2, 1, 0.5f), PixelEncoding::kUInt8);
+  core::WriteImage(dir / "ok.png", core::Image(2, 2, 1, 0.5f), core::PixelEncoding::kUInt8);
   expect_rejected(dir / "ok.png", 0.0, 1.0, "positive");
   expect_rejected(dir / "ok.png", 4.0, -1.0, "positive");
   expect_rejected(dir / "ok.png", std::nan(""), 1.0, "positive");

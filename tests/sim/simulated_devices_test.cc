@@ -23,10 +23,10 @@ std::filesystem::path RigFile(const std::string& name) {
   return std::filesystem::path(MESOCAP_SOURCE_DIR) / "sim" / "rigs" / (name + ".json");
 }
 
-drivers::RigDescription Tiny() { return drivers::ReadRigDescription(RigFile("tiny")); }
+formats::RigDescription Tiny() { return formats::ReadRigDescription(RigFile("tiny")); }
 
 // Tiny with 8 x 8 sensors, for tests that grab thousands of frames.
-drivers::RigDescription TinyWithSmallSensors() {
+formats::RigDescription TinyWithSmallSensors() {
   auto rig = Tiny();
   for (auto& c : rig.cameras) c.width = c.height = 8;
   return rig;
@@ -38,12 +38,12 @@ drivers::RigDescription TinyWithSmallSensors() {
 // readout gets their mean.
 class StateEchoRenderer : public FrameRenderer {
  public:
-  Image Render(const SimulatedRigState& state, int camera, int channels) override {
+  core::Image Render(const SimulatedRigState& state, int camera, int channels) override {
     ++renders;
     last_camera = camera;
     last_clock_s = state.clock_s;
     const auto& c = rig.cameras.at(camera);
-    Image image(c.width, c.height, 3);
+    core::Image image(c.width, c.height, 3);
     int lamps = 0;
     for (bool on : state.lamps_on) lamps += on ? 1 : 0;
     for (int y = 0; y < c.height; ++y) {
@@ -53,10 +53,10 @@ class StateEchoRenderer : public FrameRenderer {
         image.at(x, y, 2) = base + static_cast<float>(x) / 1000.0f;
       }
     }
-    return channels == 1 ? ChannelMean(image) : image;
+    return channels == 1 ? core::ChannelMean(image) : image;
   }
 
-  drivers::RigDescription rig;
+  formats::RigDescription rig;
   float base = 0.0f;
   int renders = 0;
   int last_camera = -1;
@@ -81,7 +81,7 @@ FaultPlan RatePlan(FaultKind kind, double rate, std::string device = "") {
 
 // One simulated rig: the backend, its renderer and the devices of `rig`.
 struct SimRig {
-  explicit SimRig(drivers::RigDescription description, FaultPlan faults = {}, std::uint64_t seed = 1)
+  explicit SimRig(formats::RigDescription description, FaultPlan faults = {}, std::uint64_t seed = 1)
       : backend(renderer, std::move(faults), seed, SensorModel::kIdeal), rig(drivers::BuildRig(description, {{"sim", &backend}})) {
     renderer.rig = std::move(description);
   }
@@ -593,7 +593,7 @@ TEST(SimulatedRigBackend, BuildsTheWholeTinyRig) {
     // The backend goes out of scope; the devices share its state.
     SimulatedRigBackend backend(renderer, {}, 9);
     EXPECT_EQ(backend.name(), "sim");
-    return drivers::BuildRig(drivers::ReadRigDescription(RigFile("tiny")), {{"sim", &backend}});
+    return drivers::BuildRig(formats::ReadRigDescription(RigFile("tiny")), {{"sim", &backend}});
   }();
   ASSERT_EQ(rig.cameras.size(), 2u);
   EXPECT_EQ(rig.cameras[0]->info().id, "cam0");
@@ -631,14 +631,14 @@ TEST(SimulatedRigBackend, RejectsFaultsForDevicesTheRigLacks) {
   StateEchoRenderer renderer;
   const auto tiny = Tiny();
   SimulatedRigBackend no_camera(renderer, Plan(FaultKind::kCameraTimeout, {1}, "cam7"));
-  EXPECT_THROW(drivers::BuildRig(tiny, {{"sim", &no_camera}}), Error);
+  EXPECT_THROW(drivers::BuildRig(tiny, {{"sim", &no_camera}}), core::Error);
   SimulatedRigBackend no_lamp(renderer, Plan(FaultKind::kLampFailure, {1}, LampDeviceId(2)));
-  EXPECT_THROW(drivers::BuildRig(tiny, {{"sim", &no_lamp}}), Error);
+  EXPECT_THROW(drivers::BuildRig(tiny, {{"sim", &no_lamp}}), core::Error);
   FaultPlan both;
   both.rules.push_back(FaultRule{FaultKind::kLampFailure, "", 0.5, {3}});
-  EXPECT_THROW({ SimulatedRigBackend bad(renderer, both); }, Error);
+  EXPECT_THROW({ SimulatedRigBackend bad(renderer, both); }, core::Error);
   EXPECT_NE(both.Check().find("lamp_failure"), std::string::npos) << both.Check();
-  EXPECT_THROW({ SimulatedRigBackend bad(renderer, RatePlan(FaultKind::kStageStall, 1.5)); }, Error);
+  EXPECT_THROW({ SimulatedRigBackend bad(renderer, RatePlan(FaultKind::kStageStall, 1.5)); }, core::Error);
 }
 
 // ---------------------------------------------------------------- the JSON form
@@ -646,7 +646,7 @@ TEST(SimulatedRigBackend, RejectsFaultsForDevicesTheRigLacks) {
 std::string FieldOf(const nlohmann::json& faults) {
   try {
     ParseFaultPlan(faults, "rig.json", "faults");
-  } catch (const FormatError& e) {
+  } catch (const core::FormatError& e) {
     return e.field();
   }
   return "no error";
@@ -685,9 +685,9 @@ TEST(FaultPlanJson, ParsesRulesAndNamesTheFieldItRejects) {
 }
 
 TEST(FaultPlanJson, LivesInARigDescriptionOrAFileOfItsOwn) {
-  auto json = ReadJsonFile(RigFile("tiny"));
+  auto json = core::ReadJsonFile(RigFile("tiny"));
   json["faults"] = nlohmann::json::parse(R"({"camera_disconnect": {"device": "cam0", "at": [2]}})");
-  const auto rig = drivers::ParseRigDescription(json, "tiny-faulty.json");
+  const auto rig = formats::ParseRigDescription(json, "tiny-faulty.json");
   const FaultPlan plan = FaultPlanOfRig(rig);
   ASSERT_EQ(plan.rules.size(), 1u);
   EXPECT_EQ(plan.rules[0].kind, FaultKind::kCameraDisconnect);
@@ -712,7 +712,7 @@ TEST(FaultPlanJson, LivesInARigDescriptionOrAFileOfItsOwn) {
     std::ofstream out(file);
     out << R"({"stage_timeout": {"rate": 0.25}})";
   }
-  EXPECT_THROW(ReadFaultPlan(file), FormatError);
+  EXPECT_THROW(ReadFaultPlan(file), core::FormatError);
   std::filesystem::remove(file);
 }
 
