@@ -1,5 +1,5 @@
-// MDF error against the number of laser locations (issue 4, 7a) and against
-// camera noise and resolution (7b): the small
+// MDF error against the number of laser locations and against camera noise
+// and resolution: the small
 // rig, scene blocks, camera 1 (33.75 degrees), turntable angle 0, default
 // sensor noise, 1 to all 8 locations (spread over sides and mounts in the
 // order 4 7 1 2 5 0 6 3). Frames are rendered by the simulated rig and fed
@@ -54,7 +54,7 @@ void ErrorAgainstLocations(benchmark::State& state) {
 BENCHMARK(ErrorAgainstLocations)->Arg(1)->Arg(2)->Arg(4)->Arg(8)->Iterations(1)->UseManualTime()->Unit(
     benchmark::kMillisecond);
 
-// Error against camera noise and resolution (issue 4, 7b): all 8 locations,
+// Error against camera noise and resolution: all 8 locations,
 // the same camera; noise off / on (the rig's default: 20000 e- full well,
 // 5 e- read noise, 12 bit), and the small rig's cameras at half, full and
 // double resolution (image size and focal length scaled together, so the
@@ -92,7 +92,7 @@ BENCHMARK(ErrorAgainstNoiseAndResolution)
     ->UseManualTime()
     ->Unit(benchmark::kMillisecond);
 
-// The acceptance figures of issue 4 on the whole small-rig session: every
+// The MDF acceptance figures on the whole small-rig session: every
 // view up to 60 degrees (6 turntable angles x cameras 0-2), all 8
 // locations; Arg 0 is blocks, 1 weave. ~2 minutes a scene (18,432 frames
 // rendered); the acceptance tests use turntable angle 0 only.

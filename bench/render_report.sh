@@ -1,6 +1,5 @@
 #!/usr/bin/env bash
-# Speed against error of the depth-peeling renderer (issue 6, deliverable 8;
-# the paper's Table 2): `mesocap compare` on every shipped scene with its
+# Speed against error of the depth-peeling renderer (the paper's Table 2): `mesocap compare` on every shipped scene with its
 # sim: material (ground truth factored at rank 8, built and cached on first
 # use). Per mode: coverage IoU (silhouettes) and shadow-mask IoU against the
 # CPU reference, PSNR, the median frame time of --repeat frames (shadow map +

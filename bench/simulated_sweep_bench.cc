@@ -1,6 +1,6 @@
 // What one laser-sweep frame of the `paper` rig costs the simulated rig
-// (issue 3, deliverable 7: the paper-session simulate time is mostly its
-// 958,464 sweep frames): the stripe's signal (LaserSweepRenderer::Frame, at
+// (the paper-session simulate time is mostly its 958,464 sweep frames): the
+// stripe's signal (LaserSweepRenderer::Frame, at
 // 1 and 3 x 3 rays per pixel), the sensor (shot and read noise, 12-bit
 // codes) on the camera's RGB frame, and both through CameraRenderer::Render
 // as a simulated camera calls it. `weave` on camera 3 (50.6 degrees

@@ -1,4 +1,4 @@
-// Streaming space-time analysis throughput (issue 4, 7c): pixel-frames per
+// Streaming space-time analysis throughput: pixel-frames per
 // second per core on 1024x768 frames (the paper's cameras), against a plain
 // copy of the same frames measured in the same run. Frames hold a Gaussian
 // stripe sweeping across the image once in 64 frames, kept in memory so

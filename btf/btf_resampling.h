@@ -1,9 +1,8 @@
-// Resampling of captured BTF directions onto a session's direction sets
-// (issue 5, deliverable 3: "resampling when the rig's directions are off the
-// grid"). A capture i was taken from a direction d_i(x) that depends on the
-// texel x (a lamp at 450 mm or a camera at 300 mm is seen ~1-2 degrees
-// differently across a 12 mm sample) and, on a real or off-grid rig, is not a
-// direction of the target set.
+// Resampling of captured BTF directions onto a session's direction sets, for
+// a rig whose directions are off the set's grid. A capture i was taken from a
+// direction d_i(x) that depends on the texel x (a lamp at 450 mm or a camera
+// at 300 mm is seen ~1-2 degrees differently across a 12 mm sample) and, on a
+// real or off-grid rig, is not a direction of the target set.
 //
 // The captures' directions at the sample centre, d_i(0), are grouped into
 // rings (thetas within ring_tolerance share their mean: a calibrated,

@@ -1,6 +1,5 @@
 // SamplingSet::Interpolate tabulated over the hemisphere, so that the
-// fragment shader blends neighbouring view and light directions (issue 6,
-// deliverable 2) with exactly the CPU's weights instead of a second
+// fragment shader blends neighbouring view and light directions with exactly the CPU's weights instead of a second
 // implementation of the ring search. The table is indexed by (phi, theta) cell;
 // a lookup takes the blend of the cell's centre, so directions are quantized
 // to the cell size (2.8 x 1.4 degrees at the default size).

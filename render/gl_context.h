@@ -1,5 +1,5 @@
 // An OpenGL 4.5 core context, headless or in a window, behind one interface
-// so that the renderer has a single code path (issue 6, deliverable 1): the
+// so that the renderer has a single code path: the
 // renderer always draws into its own framebuffer objects; a window only
 // shows the result.
 //

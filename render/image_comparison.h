@@ -1,4 +1,4 @@
-// Error of a rendering against the CPU reference (issue 6, deliverables 7-8):
+// Error of a rendering against the CPU reference (the paper's Table 2 figures):
 // intersection over union of masks (coverage: mesostructure silhouettes;
 // shadow: shadow silhouettes) and PSNR of the images.
 #pragma once

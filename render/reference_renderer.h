@@ -1,4 +1,4 @@
-// The CPU reference renderer (issue 6, deliverable 5): the true image of a
+// The CPU reference renderer: the true image of a
 // scene, ray traced with Embree through the real displaced geometry. The
 // mesostructure tiles of each object's material are mapped onto its mesh
 // through the same texture coordinates the GL renderer uses: the mesh is the

@@ -1,4 +1,4 @@
-// A scene for the renderers (issue 6, deliverable 6): camera, point light,
+// A scene for the renderers: camera, point light,
 // objects (the paper's shapes or an OBJ mesh) with a material or a plain
 // diffuse albedo. JSON form in docs/FORMATS.md "Render scene"; the shipped
 // scenes live in render/scenes/.

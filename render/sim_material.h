@@ -1,5 +1,5 @@
 // How the built-in simulated materials of the scenes ("sim:brick") are made
-// from ground truth (issue 6, deliverable 6): the sample square holds a whole
+// from ground truth: the sample square holds a whole
 // number of tiles (at least 12 mm), so the texture repeats without seams on a
 // mesh, and the directions reach close to grazing, where silhouettes are
 // decided.

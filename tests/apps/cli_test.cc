@@ -51,7 +51,7 @@ TEST(Cli, InfoOnRigDescriptionPrintsJson) {
 }
 
 TEST(Cli, InfoOnRigDescriptionNamesItsWorstLaserCameraPair) {
-  // The small rig's worst pair (docs/BENCHMARKS.md, eleventh session): the
+  // The small rig's worst pair (docs/BENCHMARKS.md): the
   // top mount (84.375 degrees) at arc 0 with camera 0 at 78.75 degrees
   // elevation, 5.625 degrees below it on the same side.
   const auto j = nlohmann::json::parse(Mesocap("info --json " + RigFile("small")).out);

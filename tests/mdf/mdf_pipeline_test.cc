@@ -85,9 +85,8 @@ const std::vector<int> kAcceptanceCameras = {0, 1, 2};
 TEST(MdfPipelineTest, AcceptanceBlocksSmallRig) {
   const ScanResult r = RunSimulatedScan(SmallRig("blocks", kAcceptanceCameras, {}));
   const MdfErrorRow row = Row(r, 60);
-  // Issue 4 acceptance; measured median 0.022, p95 0.32, coverage 0.996
-  // (0.016, 0.31, 0.996 with the earlier laser layout; 0.40 before pixels
-  // straddling an edge took their second peak).
+  // The MDF acceptance on the small rig; the measured figures are in
+  // docs/BENCHMARKS.md ("MDF from laser scans").
   EXPECT_LE(row.median_texels, 0.25);
   EXPECT_LE(row.p95_texels, 1.0);
   EXPECT_GE(row.coverage, 0.98);
@@ -101,13 +100,8 @@ TEST(MdfPipelineTest, AcceptanceWeaveSmallRig) {
   ScanSetup s = SmallRig("weave", kAcceptanceCameras, {});
   s.turntable_indices = {};
   const MdfErrorRow row = Row(RunSimulatedScan(s), 60);
-  // Issue 4 acceptance; measured median 0.039, p95 0.90, coverage 0.9803
-  // (p95 1.01 with edges placed midway between the pixels across an
-  // occluding edge; TriangulationOptions::edge_shift_weight). Per
-  // orientation (docs/BENCHMARKS.md, twelfth session): at turntable angle 0
-  // p95 0.86 and coverage 0.993, at 60 degrees p95 0.94 and coverage 0.974.
-  // There, 233 of the 270 texels missing in the 33.75-degree view are lit
-  // by none of the eight locations.
+  // The MDF acceptance over the whole session; the figures per orientation
+  // and the texels no location lights are in docs/BENCHMARKS.md.
   EXPECT_LE(row.median_texels, 0.25);
   EXPECT_LE(row.p95_texels, 1.0);
   EXPECT_GE(row.coverage, 0.98);

@@ -1,5 +1,5 @@
 // The peeling renderer against the CPU reference on the shipped cylinder and
-// torus scenes (issue 6 acceptance), on Mesa llvmpipe at small sizes, with
+// torus scenes (the renderer's acceptance), on Mesa llvmpipe at small sizes, with
 // the scenes' sim: materials replaced by LambertianSimMaterial (true MDF,
 // hand-made rank-1 BTF).
 #include "render/peeling_renderer.h"
