@@ -336,7 +336,9 @@ DisplacementImage ResampleToTexture(const SweepPoints& points, int pixel_width, 
   PixelSurfaces surfaces(pixel_width, pixel_height, view, grid, options);
   surfaces.ProjectFirstPoints(points.first);
   if (!points.second.empty()) surfaces.AddEdgeStraddlingPixels(points.second);
-  if (options.edge_shift_weight > 0 && points.brightness.size() == n) surfaces.ShiftEdgesByBrightness(points.brightness);
+  if (options.edge_shift_weight > 0 && points.brightness.size() == n) {
+    surfaces.ShiftEdgesByBrightness(points.brightness);
+  }
   surfaces.RasterizeAndFill(&out.distance_mm);
   return out;
 }
