@@ -105,7 +105,8 @@ Eigen::Vector3d LampInWorld(const formats::Calibration& calibration, const BtfCa
 // T = L / E per texel (header: radiometry) of one rectified image.
 core::Image RadiometricTexture(const core::Image& rectified, const BtfCaptureImage& image, const formats::Calibration& calibration,
                          const core::RigidTransform& world_from_sample, const BtfAssemblyOptions& o) {
-  const int w = o.texture_width, h = o.texture_height;
+  const calibration::TexelGrid grid = o.texel_grid();
+  const int w = grid.width, h = grid.height;
   const Eigen::Vector3d normal = world_from_sample.rotation.col(2);
   const Eigen::Vector3d lamp = LampInWorld(calibration, image);
   const Eigen::Vector3d intensity = calibration.lamps[image.lamp].intensity;
@@ -113,7 +114,7 @@ core::Image RadiometricTexture(const core::Image& rectified, const BtfCaptureIma
   core::Image out(w, h, 3);
   for (int j = 0; j < h; ++j) {
     for (int i = 0; i < w; ++i) {
-      const Eigen::Vector3d p = world_from_sample.Apply(ReferencePlaneRectifier::TexelCentre(i, j, w, h, o.sample_size_mm));
+      const Eigen::Vector3d p = world_from_sample.Apply(grid.TexelCentre(i, j));
       const Eigen::Vector3d to_lamp = lamp - p;
       const double r2 = to_lamp.squaredNorm();
       const double cos_l = normal.dot(to_lamp) / std::sqrt(r2);
@@ -134,13 +135,14 @@ core::Image RadiometricTexture(const core::Image& rectified, const BtfCaptureIma
 // point to `target` (world), in the sample frame, minus `nominal`.
 std::vector<Eigen::Vector3d> TexelOffsets(const Eigen::Vector3d& target, const Eigen::Vector3d& nominal,
                                           const core::RigidTransform& world_from_sample, const BtfAssemblyOptions& o) {
-  const int w = o.texture_width, h = o.texture_height;
+  const calibration::TexelGrid grid = o.texel_grid();
+  const int w = grid.width, h = grid.height;
   const Eigen::Matrix3d to_sample = world_from_sample.rotation.transpose();
   std::vector<Eigen::Vector3d> out;
   out.reserve(static_cast<std::size_t>(w) * h);
   for (int j = 0; j < h; ++j) {
     for (int i = 0; i < w; ++i) {
-      const Eigen::Vector3d p = world_from_sample.Apply(ReferencePlaneRectifier::TexelCentre(i, j, w, h, o.sample_size_mm));
+      const Eigen::Vector3d p = world_from_sample.Apply(grid.TexelCentre(i, j));
       out.push_back((to_sample * (target - p)).normalized() - nominal);
     }
   }
@@ -194,8 +196,8 @@ void AssembleOnGrid(const std::vector<BtfCaptureImage>& images, const formats::C
   tbb::parallel_for(0, o.views.size(), [&](int v) {
     const int cam = view_camera[v];
     const core::RigidTransform world_from_sample = calibration::WorldFromSample(calibration.turntable, view_turntable[v]);
-    const ReferencePlaneRectifier rectifier(calibration.cameras[cam], camera_rays[cam], world_from_sample, w, h,
-                                            o.sample_size_mm, o.max_samples_per_side);
+    const ReferencePlaneRectifier rectifier(calibration.cameras[cam], camera_rays[cam], world_from_sample, o.texel_grid(),
+                                            o.max_samples_per_side);
     core::Image out(w, h * o.lights.size(), 3);
     for (const Placed& placed : by_view[v]) {
       const BtfCaptureImage& image = images[placed.image];
@@ -276,7 +278,7 @@ void AssembleResampled(const std::vector<BtfCaptureImage>& images, const formats
     const CapturedView& view = captured[c];
     const core::RigidTransform world_from_sample = calibration::WorldFromSample(calibration.turntable, view.turntable_rad);
     const ReferencePlaneRectifier rectifier(calibration.cameras[view.camera], camera_rays[view.camera],
-                                            world_from_sample, w, h, o.sample_size_mm, o.max_samples_per_side);
+                                            world_from_sample, o.texel_grid(), o.max_samples_per_side);
     std::vector<Eigen::Vector3d> light_centres;
     for (int k : view.images) light_centres.push_back(directions[k].light);
     const CapturedDirections lights = MakeCapturedDirections(

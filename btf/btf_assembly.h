@@ -36,6 +36,7 @@
 #include <string>
 #include <vector>
 
+#include "calibration/texel_grid.h"
 #include "core/btf.h"
 #include "core/error.h"
 #include "core/image.h"
@@ -74,6 +75,8 @@ struct BtfAssemblyOptions {
   // Captured polar angles within this share a ring when resampling.
   double ring_tolerance_deg = 0.5;
 
+  // The texels of the rectified images.
+  calibration::TexelGrid texel_grid() const { return {texture_width, texture_height, sample_size_mm}; }
   core::CheckResult Check() const;
 };
 

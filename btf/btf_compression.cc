@@ -254,6 +254,98 @@ std::string Percent(double relative) {
   return s.str();
 }
 
+// The rank of the factorization: as requested (at most the matrix's), or the
+// smallest whose spectrum error meets the budget; says why in report->reason.
+int ChooseRank(const BtfCompressionOptions& options, long long m, long long n, BtfCompressionReport* report) {
+  BtfCompressionReport& r = *report;
+  const std::string space = options.color == core::BtfFactorColor::kRgb ? "" : " (in Y, Cb, Cr)";
+  int rank = 0;
+  if (options.rank > 0) {
+    rank = std::min(options.rank, r.max_rank);
+    r.reason = rank == options.rank
+                   ? "rank " + std::to_string(rank) + " as requested"
+                   : "rank " + std::to_string(options.rank) + " requested, but the " + std::to_string(m) + " x " +
+                         std::to_string(n) + " matrix has at most rank " + std::to_string(rank);
+  } else {
+    rank = r.max_rank;
+    for (int k = 1; k <= r.max_rank; ++k) {
+      if (r.relative_rms_error[k - 1] <= options.max_relative_error) {
+        rank = k;
+        break;
+      }
+    }
+    r.reason = r.relative_rms_error[rank - 1] <= options.max_relative_error
+                   ? "smallest rank with relative RMS error" + space + " " + Percent(r.relative_rms_error[rank - 1]) +
+                         " <= budget " + Percent(options.max_relative_error) +
+                         (rank > 1 ? " (rank " + std::to_string(rank - 1) + ": " +
+                                         Percent(r.relative_rms_error[rank - 2]) + ")"
+                                   : "")
+                   : "budget " + Percent(options.max_relative_error) + " not reachable: the largest rank " +
+                         std::to_string(rank) + " leaves " + Percent(r.relative_rms_error[rank - 1]);
+  }
+  return rank;
+}
+
+// The factors of rank k from the channel SVDs: one pass over the BTF for the
+// factor the SVD of R does not give.
+struct FactorsFromSvd {
+  const StreamedMatrix& s;
+  const ChannelWeights& weights;
+  const std::array<ChannelSvd, 3>& svd;
+  bool tall = true;
+  long long m = 0;
+  long long n = 0;
+  long long small = 0;
+
+  void Build(int k, core::FactoredBtf* factored) const {
+    core::FactoredBtf& out = *factored;
+    out.rows.assign(k, core::Image(out.width, out.row_image_height(), 3));
+    out.columns = core::Image(static_cast<int>(n), k, 3);
+    std::array<MatrixXd, 3> right;
+    std::array<int, 3> usable{};
+    for (int ch = 0; ch < 3; ++ch) {
+      const ChannelSvd& c = svd[ch];
+      usable[ch] = static_cast<int>(std::min<long long>(k, c.sigma.size()));
+      right[ch] = c.right.leftCols(usable[ch]);
+    }
+    // Numerically zero components (exactly rank-deficient data, a zero
+    // channel): their share of A is rounding noise.
+    const auto zero = [&](int ch, int j) {
+      const VectorXd& sigma = svd[ch].sigma;
+      return !(sigma[j] > static_cast<double>(small) * std::numeric_limits<double>::epsilon() * sigma[0]);
+    };
+    if (tall) {
+      for (int ch = 0; ch < 3; ++ch)
+        for (int j = 0; j < usable[ch]; ++j)
+          for (long long c = 0; c < n; ++c) out.columns.pixel(static_cast<int>(c), j)[ch] = static_cast<float>(right[ch](c, j));
+      // r_k = A v_k, from the data (see the header).
+      ForEachProduct(s, weights, right, [&](int ch, long long first, const MatrixXd& rv) {
+        for (int j = 0; j < usable[ch]; ++j) {
+          float* dst = out.rows[j].data() + 3 * first + ch;
+          for (long long i = 0; i < rv.rows(); ++i) dst[3 * i] = static_cast<float>(rv(i, j));
+        }
+      });
+    } else {
+      for (int ch = 0; ch < 3; ++ch) {
+        for (int j = 0; j < usable[ch]; ++j) {
+          if (zero(ch, j)) continue;
+          float* dst = out.rows[j].data() + ch;
+          for (long long i = 0; i < m; ++i) dst[3 * i] = static_cast<float>(svd[ch].sigma[j] * right[ch](i, j));
+        }
+      }
+      // c_k = A^T u_k / sigma_k.
+      ForEachProduct(s, weights, right, [&](int ch, long long first, const MatrixXd& au) {
+        for (int j = 0; j < usable[ch]; ++j) {
+          if (zero(ch, j)) continue;
+          for (long long i = 0; i < au.rows(); ++i) {
+            out.columns.pixel(static_cast<int>(first + i), j)[ch] = static_cast<float>(au(i, j) / svd[ch].sigma[j]);
+          }
+        }
+      });
+    }
+  }
+};
+
 }  // namespace
 
 core::CheckResult BtfCompressionOptions::Check() const {
@@ -302,88 +394,15 @@ core::FactoredBtf CompressBtf(core::FullBtfReader& btf, const BtfCompressionOpti
   r.matrix_columns = n;
   r.relative_rms_error = SpectrumErrors(r.singular_values, r.max_rank);
 
-  const std::string space = options.color == core::BtfFactorColor::kRgb ? "" : " (in Y, Cb, Cr)";
-  int rank = 0;
-  if (options.rank > 0) {
-    rank = std::min(options.rank, r.max_rank);
-    r.reason = rank == options.rank
-                   ? "rank " + std::to_string(rank) + " as requested"
-                   : "rank " + std::to_string(options.rank) + " requested, but the " + std::to_string(m) + " x " +
-                         std::to_string(n) + " matrix has at most rank " + std::to_string(rank);
-  } else {
-    rank = r.max_rank;
-    for (int k = 1; k <= r.max_rank; ++k) {
-      if (r.relative_rms_error[k - 1] <= options.max_relative_error) {
-        rank = k;
-        break;
-      }
-    }
-    r.reason = r.relative_rms_error[rank - 1] <= options.max_relative_error
-                   ? "smallest rank with relative RMS error" + space + " " + Percent(r.relative_rms_error[rank - 1]) +
-                         " <= budget " + Percent(options.max_relative_error) +
-                         (rank > 1 ? " (rank " + std::to_string(rank - 1) + ": " +
-                                         Percent(r.relative_rms_error[rank - 2]) + ")"
-                                   : "")
-                   : "budget " + Percent(options.max_relative_error) + " not reachable: the largest rank " +
-                         std::to_string(rank) + " leaves " + Percent(r.relative_rms_error[rank - 1]);
-  }
-
-  // Builds the factors of rank k from the channel SVDs: one pass over the
-  // BTF for the factor the SVD of R does not give.
-  const auto build = [&](int k) {
-    out.rows.assign(k, core::Image(out.width, out.row_image_height(), 3));
-    out.columns = core::Image(static_cast<int>(n), k, 3);
-    std::array<MatrixXd, 3> right;
-    std::array<int, 3> usable{};
-    for (int ch = 0; ch < 3; ++ch) {
-      const ChannelSvd& c = svd[ch];
-      usable[ch] = static_cast<int>(std::min<long long>(k, c.sigma.size()));
-      right[ch] = c.right.leftCols(usable[ch]);
-    }
-    // Numerically zero components (exactly rank-deficient data, a zero
-    // channel): their share of A is rounding noise.
-    const auto zero = [&](int ch, int j) {
-      const VectorXd& sigma = svd[ch].sigma;
-      return !(sigma[j] > static_cast<double>(small) * std::numeric_limits<double>::epsilon() * sigma[0]);
-    };
-    if (tall) {
-      for (int ch = 0; ch < 3; ++ch)
-        for (int j = 0; j < usable[ch]; ++j)
-          for (long long c = 0; c < n; ++c) out.columns.pixel(static_cast<int>(c), j)[ch] = static_cast<float>(right[ch](c, j));
-      // r_k = A v_k, from the data (see the header).
-      ForEachProduct(s, weights, right, [&](int ch, long long first, const MatrixXd& rv) {
-        for (int j = 0; j < usable[ch]; ++j) {
-          float* dst = out.rows[j].data() + 3 * first + ch;
-          for (long long i = 0; i < rv.rows(); ++i) dst[3 * i] = static_cast<float>(rv(i, j));
-        }
-      });
-    } else {
-      for (int ch = 0; ch < 3; ++ch) {
-        for (int j = 0; j < usable[ch]; ++j) {
-          if (zero(ch, j)) continue;
-          float* dst = out.rows[j].data() + ch;
-          for (long long i = 0; i < m; ++i) dst[3 * i] = static_cast<float>(svd[ch].sigma[j] * right[ch](i, j));
-        }
-      }
-      // c_k = A^T u_k / sigma_k.
-      ForEachProduct(s, weights, right, [&](int ch, long long first, const MatrixXd& au) {
-        for (int j = 0; j < usable[ch]; ++j) {
-          if (zero(ch, j)) continue;
-          for (long long i = 0; i < au.rows(); ++i) {
-            out.columns.pixel(static_cast<int>(first + i), j)[ch] = static_cast<float>(au(i, j) / svd[ch].sigma[j]);
-          }
-        }
-      });
-    }
-  };
-
-  build(rank);
+  int rank = ChooseRank(options, m, n, &r);
+  const FactorsFromSvd factors{s, weights, svd, tall, m, n, small};
+  factors.Build(rank, &out);
   r.measured_relative_rms_error = RelativeRmsError(btf, out, options.band_bytes);
   // The budget is on RGB values; for ycbcr the spectrum measures the error in
   // the factored space, so the rank grows until the measured RGB error fits.
   if (options.rank == 0 && options.color == core::BtfFactorColor::kYCbCr) {
     while (r.measured_relative_rms_error > options.max_relative_error && rank < r.max_rank) {
-      build(++rank);
+      factors.Build(++rank, &out);
       r.measured_relative_rms_error = RelativeRmsError(btf, out, options.band_bytes);
       r.reason = "rank " + std::to_string(rank) + ": smallest rank whose measured RGB error " +
                  Percent(r.measured_relative_rms_error) + " meets the budget " +

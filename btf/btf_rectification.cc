@@ -20,29 +20,23 @@ std::array<double, 4> CatmullRomWeights(double t) {
 
 }  // namespace
 
-Eigen::Vector3d ReferencePlaneRectifier::TexelCentre(int i, int j, int width, int height, double s) {
-  return {-s / 2 + (i + 0.5) * s / width, -s / 2 + (j + 0.5) * s / height, 0.0};
-}
-
 ReferencePlaneRectifier::ReferencePlaneRectifier(const formats::CameraCalibration& camera, const calibration::CameraRays& rays,
-                                                 const core::RigidTransform& world_from_sample, int width, int height,
-                                                 double sample_size_mm, int max_samples_per_side)
-    : width_(width), height_(height), image_width_(camera.width), image_height_(camera.height) {
-  if (width < 1 || height < 1 || !(sample_size_mm > 0) || max_samples_per_side < 1) {
-    throw core::Error("rectification: invalid texture grid");
-  }
-  const double dx = sample_size_mm / width, dy = sample_size_mm / height;
+                                                 const core::RigidTransform& world_from_sample,
+                                                 const calibration::TexelGrid& grid, int max_samples_per_side)
+    : width_(grid.width), height_(grid.height), image_width_(camera.width), image_height_(camera.height) {
+  if (!grid.Check().empty() || max_samples_per_side < 1) throw core::Error("rectification: invalid texture grid");
+  const double dx = grid.texel_width_mm(), dy = grid.texel_height_mm();
   const auto project = [&](const Eigen::Vector3d& sample_point) {
     const Eigen::Vector2d pixel = rays.Project(world_from_sample.Apply(sample_point));
     if (!pixel.allFinite()) throw core::Error("rectification: the sample is behind camera " + camera.id);
     return pixel;
   };
-  first_tap_.reserve(static_cast<std::size_t>(width) * height + 1);
+  first_tap_.reserve(static_cast<std::size_t>(width_) * height_ + 1);
   min_pixels_per_texel_ = std::numeric_limits<double>::infinity();
   std::vector<Tap> texel_taps;
-  for (int j = 0; j < height; ++j) {
-    for (int i = 0; i < width; ++i) {
-      const Eigen::Vector3d p = TexelCentre(i, j, width, height, sample_size_mm);
+  for (int j = 0; j < height_; ++j) {
+    for (int i = 0; i < width_; ++i) {
+      const Eigen::Vector3d p = grid.TexelCentre(i, j);
       // Footprint: the images of the texel's edges' midpoints.
       const Eigen::Vector2d du = project(p + Eigen::Vector3d(dx / 2, 0, 0)) - project(p - Eigen::Vector3d(dx / 2, 0, 0));
       const Eigen::Vector2d dv = project(p + Eigen::Vector3d(0, dy / 2, 0)) - project(p - Eigen::Vector3d(0, dy / 2, 0));

@@ -1,11 +1,10 @@
 // Rectification of a captured image into texture space (Wang et al. 2005
 // Sec. 3.1: "the captured images are rectified and then clipped to form the
-// output BTF data"): texel (i, j) of a W x H grid over the clipped square
-// sample of side S is the reference-plane point p = (-S/2 + (i + 0.5) S / W,
-// -S/2 + (j + 0.5) S / H, 0) in the sample frame (docs/FORMATS.md "Texture
-// grid"), projected into the camera with its calibrated pose, pinhole and
-// Brown-Conrady distortion. The camera ray through p is the ray the true BTF
-// is defined on (sim/ground_truth.h: the first hit along -view from p).
+// output BTF data"): the centre p of texel (i, j) of the texel grid
+// (calibration/texel_grid.h) is projected into the camera with its
+// calibrated pose, pinhole and Brown-Conrady distortion. The camera ray
+// through p is the ray the true BTF is defined on (sim/ground_truth.h: the
+// first hit along -view from p).
 //
 // Filtering: the texel averages n x n samples over its footprint (a box
 // prefilter, n = the footprint's extent in pixels, rounded up, at most
@@ -33,6 +32,7 @@
 #include <vector>
 
 #include "calibration/camera_rays.h"
+#include "calibration/texel_grid.h"
 #include "core/image.h"
 #include "formats/calibration.h"
 
@@ -44,14 +44,11 @@ class ReferencePlaneRectifier {
   // image or lies behind the camera.
   // Projects with the camera's CameraRays (cv::projectPoints).
   ReferencePlaneRectifier(const formats::CameraCalibration& camera, const calibration::CameraRays& rays,
-                          const core::RigidTransform& world_from_sample, int width, int height, double sample_size_mm,
+                          const core::RigidTransform& world_from_sample, const calibration::TexelGrid& grid,
                           int max_samples_per_side = 8);
 
   // The camera image (any channel count) in texture space, W x H.
   core::Image Rectify(const core::Image& camera_image) const;
-
-  // Reference-plane point of texel (i, j) in the sample frame.
-  static Eigen::Vector3d TexelCentre(int i, int j, int width, int height, double sample_size_mm);
 
   int samples_per_side_max() const { return samples_per_side_max_; }
   // Smallest footprint width in pixels over all texels and texture

@@ -13,12 +13,6 @@
 
 namespace mesocap::mdf {
 
-core::CheckResult TextureGrid::Check() const {
-  if (width < 1 || height < 1 || width > 16384 || height > 16384) return "texture size must be in 1..16384";
-  if (!(sample_size_mm > 0 && std::isfinite(sample_size_mm))) return "sample_size_mm must be positive";
-  return {};
-}
-
 core::CheckResult TriangulationOptions::Check() const {
   if (!(min_ray_plane_sine > 0 && min_ray_plane_sine < 1)) return "min_ray_plane_sine must be in (0, 1)";
   if (!(max_height_mm >= 0)) return "max_height_mm must be >= 0";
@@ -81,7 +75,7 @@ struct Vertex {
 // interpolated one (triangles across a depth discontinuity: the edge lies
 // somewhere between the vertices, so each texel takes the surface of the
 // closest measurement).
-void Rasterize(const Vertex& a, const Vertex& b, const Vertex& c, const TextureGrid& grid, bool nearest,
+void Rasterize(const Vertex& a, const Vertex& b, const Vertex& c, const calibration::TexelGrid& grid, bool nearest,
                std::vector<float>* distance) {
   const double area = (b.u - a.u) * (c.v - a.v) - (c.u - a.u) * (b.v - a.v);
   if (std::abs(area) < 1e-12) return;
@@ -116,10 +110,218 @@ void Rasterize(const Vertex& a, const Vertex& b, const Vertex& c, const TextureG
   }
 }
 
+// One sweep's pixels as vertices on the texel grid: each measured point
+// projected along the view to the reference plane (p = q + D view, Sec. 3.2's
+// displacement from the reference plane along the view), with the
+// continuity tests that decide which neighbouring pixels show one surface.
+// `near` holds each pixel's first point; `far` the second surface of pixels
+// straddling an occluding edge (empty when there are none).
+class PixelSurfaces {
+ public:
+  PixelSurfaces(int pixel_width, int pixel_height, const Eigen::Vector3d& view, const calibration::TexelGrid& grid,
+                const TriangulationOptions& options)
+      : width_(pixel_width),
+        height_(pixel_height),
+        n_(static_cast<std::size_t>(pixel_width) * pixel_height),
+        grid_(grid),
+        options_(options),
+        view_(view.normalized()),
+        texel_(std::min(grid.texel_width_mm(), grid.texel_height_mm())) {}
+
+  // The first points' vertices; a pixel without a point is unknown.
+  void ProjectFirstPoints(const std::vector<Eigen::Vector3f>& first) {
+    near_.resize(n_);
+    valid_.assign(n_, false);
+    for (std::size_t p = 0; p < n_; ++p) valid_[p] = Project(first[p], &near_[p]);
+  }
+
+  // Pixels straddling an occluding edge: the second point continues the
+  // surface of a 4-neighbour whose first point is across a discontinuity
+  // from this pixel's first. Such a pixel is a vertex of both surfaces: of
+  // the near one in `near_`, of the far one in `far_`. The tests read the
+  // first points only (`near_` changes after them), so the result does
+  // not depend on the scan order.
+  void AddEdgeStraddlingPixels(const std::vector<Eigen::Vector3f>& second) {
+    for (int y = 0; y < height_; ++y) {
+      for (int x = 0; x < width_; ++x) {
+        const std::size_t p = static_cast<std::size_t>(y) * width_ + x;
+        Vertex second_vertex;
+        if (!valid_[p] || std::isinf(near_[p].d) || !Project(second[p], &second_vertex) ||
+            std::isinf(second_vertex.d)) {
+          continue;
+        }
+        bool edge = false;
+        for (const auto& [dx, dy] : kNeighbours) {
+          const std::size_t q = SurfacePixel(x + dx, y + dy);
+          if (q == kNone) continue;
+          edge = edge || (ContinuousPair(second_vertex, near_[q]) && !ContinuousPair(near_[p], near_[q]));
+        }
+        if (!edge) continue;
+        if (far_.empty()) {
+          far_ = near_;
+          straddles_.assign(n_, false);
+        }
+        straddles_[p] = true;
+        far_[p] = second_vertex;
+      }
+    }
+    for (std::size_t p = 0; p < straddles_.size(); ++p) {
+      if (straddles_[p] && far_[p].d < near_[p].d) std::swap(near_[p], far_[p]);
+    }
+  }
+
+  // Near-side edge pixels without a second point (see edge_shift_weight):
+  // with near share f of the footprint, the edge lies f - 1/2 pixels past
+  // the pixel's centre rather than 1/2. Penalizing the pixel's vertex by
+  // 2 w (1 - f) pixels in the nearest-vertex fill moves the fill's boundary
+  // with the far neighbour by w (1 - f) pixels towards it.
+  void ShiftEdgesByBrightness(const std::vector<float>& brightness) {
+    for (int y = 0; y < height_; ++y) {
+      for (int x = 0; x < width_; ++x) {
+        const std::size_t p = static_cast<std::size_t>(y) * width_ + x;
+        if (!valid_[p] || std::isinf(near_[p].d) || (!straddles_.empty() && straddles_[p])) continue;
+        for (const auto& [dx, dy] : kNeighbours) {
+          const std::size_t far_side = SurfacePixel(x + dx, y + dy);
+          const std::size_t same_side = SurfacePixel(x - dx, y - dy);
+          if (far_side == kNone || same_side == kNone || !(brightness[same_side] > 0)) continue;
+          Vertex& near = near_[p];
+          const Vertex& beyond = near_[far_side];
+          const Vertex& before = near_[same_side];
+          if (!(beyond.d > near.d) || ContinuousPair(near, beyond) || !ContinuousPair(near, before)) continue;
+          const double share = std::clamp(brightness[p] / brightness[same_side], 0.0f, 1.0f);
+          const double pixel = std::hypot(near.u - before.u, near.v - before.v);
+          near.fill_penalty = std::max(near.fill_penalty, 2.0 * options_.edge_shift_weight * (1.0 - share) * pixel);
+        }
+      }
+    }
+  }
+
+  // Pass 1 interpolates across continuous triangles; pass 2 fills texels
+  // still unknown from triangles across a discontinuity, nearest vertex
+  // first, so an edge is placed to within half a pixel instead of leaving a
+  // pixel-wide strip unknown along every edge.
+  void RasterizeAndFill(std::vector<float>* distance) const {
+    std::vector<float> edges(distance->size(), std::numeric_limits<float>::quiet_NaN());
+    RasterizeSurface(near_, false, distance, &edges);
+    if (!far_.empty()) RasterizeSurface(far_, true, distance, &edges);
+    for (std::size_t t = 0; t < edges.size(); ++t) {
+      if (std::isnan((*distance)[t])) (*distance)[t] = edges[t];
+    }
+  }
+
+ private:
+  // A pixel's 4-neighbours.
+  static constexpr std::array<std::pair<int, int>, 4> kNeighbours = {{{-1, 0}, {1, 0}, {0, -1}, {0, 1}}};
+  static constexpr std::size_t kNone = std::numeric_limits<std::size_t>::max();
+
+  // A point's vertex; false where the point is unknown.
+  bool Project(const Eigen::Vector3f& point, Vertex* vertex) const {
+    if (!point.allFinite()) return false;
+    const Eigen::Vector3d q = point.cast<double>();
+    // p_ref = q + D v on z = 0; D >= 0 (a point a hair above the plane is 0).
+    const double d = std::max(0.0, -q.z() / view_.z());
+    const Eigen::Vector3d ref = q + d * view_;
+    const bool on_backing = options_.backing_depth_mm > 0 && q.z() < -options_.backing_depth_mm + kBackingMarginMm;
+    const Eigen::Vector2d uv = grid_.TexelCoordinates(ref.x(), ref.y());
+    *vertex = {uv.x(), uv.y(), on_backing ? std::numeric_limits<double>::infinity() : d};
+    return true;
+  }
+
+  double StepLimit(double extent_texels) const {
+    return options_.max_depth_step_ratio * texel_ * extent_texels + options_.max_depth_step_texels * texel_;
+  }
+  bool ContinuousPair(const Vertex& a, const Vertex& b) const {
+    return std::abs(a.d - b.d) <= StepLimit(std::hypot(a.u - b.u, a.v - b.v));
+  }
+  bool Continuous(const Vertex& a, const Vertex& b, const Vertex& c) const {
+    const double extent = std::max({std::hypot(a.u - b.u, a.v - b.v), std::hypot(b.u - c.u, b.v - c.v),
+                                    std::hypot(c.u - a.u, c.v - a.v)});
+    const double spread = std::max({a.d, b.d, c.d}) - std::min({a.d, b.d, c.d});
+    return spread <= StepLimit(extent);
+  }
+
+  // A pixel's neighbour, where it lies in the image with a point off the
+  // board (kNone otherwise).
+  std::size_t SurfacePixel(int x, int y) const {
+    if (x < 0 || y < 0 || x >= width_ || y >= height_) return kNone;
+    const std::size_t q = static_cast<std::size_t>(y) * width_ + x;
+    return valid_[q] && !std::isinf(near_[q].d) ? q : kNone;
+  }
+
+  // One surface's triangles; with only_straddling, those of quads with a
+  // corner that straddles an edge (the other quads are the same in both).
+  void RasterizeSurface(const std::vector<Vertex>& surface, bool only_straddling, std::vector<float>* distance,
+                        std::vector<float>* edges) const {
+    for (int y = 0; y + 1 < height_; ++y) {
+      for (int x = 0; x + 1 < width_; ++x) {
+        const std::size_t p00 = static_cast<std::size_t>(y) * width_ + x;
+        const std::size_t p10 = p00 + 1, p01 = p00 + width_, p11 = p01 + 1;
+        if (only_straddling && !(straddles_[p00] || straddles_[p10] || straddles_[p01] || straddles_[p11])) continue;
+        // A quad with one unknown corner (a pixel in the laser's shadow, or
+        // too dim, next to measured ones) still has the triangle of its other
+        // three corners, so a single unknown pixel does not open a hole a
+        // pixel wide around itself. That triangle is used only where it is
+        // continuous and off the board: its missing corner may have been the
+        // far side of an edge or a hole's rim, so it never places either.
+        const int unknown = !valid_[p00] + !valid_[p10] + !valid_[p01] + !valid_[p11];
+        if (unknown > 1) continue;
+        const bool fallback = unknown == 1;
+        std::array<std::array<std::size_t, 3>, 2> triangles = {std::array{p00, p10, p11},
+                                                               std::array{p00, p11, p01}};
+        if (fallback) {
+          int corner = 0;
+          for (const std::size_t p : {p00, p10, p11, p01}) {
+            if (valid_[p]) triangles[0][corner++] = p;
+          }
+        }
+        for (int k = 0; k < (fallback ? 1 : 2); ++k) {
+          RasterizeTriangle(surface[triangles[k][0]], surface[triangles[k][1]], surface[triangles[k][2]], fallback,
+                            only_straddling, distance, edges);
+        }
+      }
+    }
+  }
+
+  void RasterizeTriangle(const Vertex& a, const Vertex& b, const Vertex& c, bool fallback, bool only_straddling,
+                         std::vector<float>* distance, std::vector<float>* edges) const {
+    const int on_board = std::isinf(a.d) + std::isinf(b.d) + std::isinf(c.d);
+    if (fallback && on_board > 0) return;
+    if (on_board == 3) {
+      // All three saw the board: the texels between them look through
+      // the hole too (no hit, each its nearest vertex's), unless a
+      // surface covers them.
+      Rasterize(a, b, c, grid_, true, distance);
+      return;
+    }
+    // Across a hole's rim (a surface and the board) nothing is filled:
+    // a texel there is no hit or a surface to within a pixel, and a
+    // false hit would close the hole (sponge: false hits 0.052 -> 0.072).
+    if (on_board > 0) return;
+    const bool smooth = Continuous(a, b, c);
+    // Edges are placed from the near surface only: where a pixel
+    // straddles one, the far surface's continuous triangles cover
+    // the texels beyond its centre first.
+    if (smooth || (options_.fill_discontinuities && !fallback && !only_straddling)) {
+      Rasterize(a, b, c, grid_, !smooth, smooth ? distance : edges);
+    }
+  }
+
+  int width_, height_;
+  std::size_t n_;
+  const calibration::TexelGrid& grid_;
+  const TriangulationOptions& options_;
+  Eigen::Vector3d view_;  // unit, towards the camera
+  double texel_;          // the smaller texel side (mm): the unit of the depth-step limit
+  std::vector<Vertex> near_;
+  std::vector<bool> valid_;
+  std::vector<Vertex> far_;
+  std::vector<bool> straddles_;
+};
+
 }  // namespace
 
 DisplacementImage ResampleToTexture(const SweepPoints& points, int pixel_width, int pixel_height,
-                                    const Eigen::Vector3d& view, const TextureGrid& grid,
+                                    const Eigen::Vector3d& view, const calibration::TexelGrid& grid,
                                     const TriangulationOptions& options) {
   const std::size_t n = static_cast<std::size_t>(pixel_width) * pixel_height;
   if (points.first.size() != n || (!points.second.empty() && points.second.size() != n)) {
@@ -131,170 +333,13 @@ DisplacementImage ResampleToTexture(const SweepPoints& points, int pixel_width, 
   out.height = grid.height;
   out.distance_mm.assign(static_cast<std::size_t>(grid.width) * grid.height,
                          std::numeric_limits<float>::quiet_NaN());
-  const Eigen::Vector3d v = view.normalized();
-  const double texel_u = grid.sample_size_mm / grid.width;
-  const double texel_v = grid.sample_size_mm / grid.height;
-  // A point's vertex; false where the point is unknown.
-  auto project = [&](const Eigen::Vector3f& point, Vertex* vertex) {
-    if (!point.allFinite()) return false;
-    const Eigen::Vector3d q = point.cast<double>();
-    // p_ref = q + D v on z = 0; D >= 0 (a point a hair above the plane is 0).
-    const double d = std::max(0.0, -q.z() / v.z());
-    const Eigen::Vector3d ref = q + d * v;
-    const bool on_backing = options.backing_depth_mm > 0 && q.z() < -options.backing_depth_mm + kBackingMarginMm;
-    *vertex = {(ref.x() + 0.5 * grid.sample_size_mm) / texel_u - 0.5,
-               (ref.y() + 0.5 * grid.sample_size_mm) / texel_v - 0.5,
-               on_backing ? std::numeric_limits<double>::infinity() : d};
-    return true;
-  };
-  std::vector<Vertex> vertices(n);
-  std::vector<bool> valid(n, false);
-  for (std::size_t p = 0; p < n; ++p) valid[p] = project(points.first[p], &vertices[p]);
-  const double texel = std::min(texel_u, texel_v);
-  auto step_limit = [&](double extent_texels) {
-    return options.max_depth_step_ratio * texel * extent_texels + options.max_depth_step_texels * texel;
-  };
-  auto continuous_pair = [&](const Vertex& a, const Vertex& b) {
-    return std::abs(a.d - b.d) <= step_limit(std::hypot(a.u - b.u, a.v - b.v));
-  };
-  auto continuous = [&](const Vertex& a, const Vertex& b, const Vertex& c) {
-    const double extent = std::max({std::hypot(a.u - b.u, a.v - b.v), std::hypot(b.u - c.u, b.v - c.v),
-                                    std::hypot(c.u - a.u, c.v - a.v)});
-    const double spread = std::max({a.d, b.d, c.d}) - std::min({a.d, b.d, c.d});
-    return spread <= step_limit(extent);
-  };
-  // Pixels straddling an occluding edge: the second point continues the
-  // surface of a 4-neighbour whose first point is across a discontinuity
-  // from this pixel's first. Such a pixel is a vertex of both surfaces: of
-  // the near one in `vertices`, of the far one in `far`. The tests read the
-  // first points only (`vertices` changes after them), so the result does
-  // not depend on the scan order.
-  // A pixel's 4-neighbour, where it lies in the image with a point off the
-  // board (kNone otherwise).
-  constexpr std::array<std::pair<int, int>, 4> kNeighbours = {{{-1, 0}, {1, 0}, {0, -1}, {0, 1}}};
-  constexpr std::size_t kNone = std::numeric_limits<std::size_t>::max();
-  auto surface_pixel = [&](int x, int y) {
-    if (x < 0 || y < 0 || x >= pixel_width || y >= pixel_height) return kNone;
-    const std::size_t q = static_cast<std::size_t>(y) * pixel_width + x;
-    return valid[q] && !std::isinf(vertices[q].d) ? q : kNone;
-  };
-  std::vector<Vertex> far;
-  std::vector<bool> straddles;
-  if (!points.second.empty()) {
-    for (int y = 0; y < pixel_height; ++y) {
-      for (int x = 0; x < pixel_width; ++x) {
-        const std::size_t p = static_cast<std::size_t>(y) * pixel_width + x;
-        Vertex second;
-        if (!valid[p] || std::isinf(vertices[p].d) || !project(points.second[p], &second) || std::isinf(second.d)) {
-          continue;
-        }
-        bool edge = false;
-        for (const auto& [dx, dy] : kNeighbours) {
-          const std::size_t q = surface_pixel(x + dx, y + dy);
-          if (q == kNone) continue;
-          edge = edge || (continuous_pair(second, vertices[q]) && !continuous_pair(vertices[p], vertices[q]));
-        }
-        if (!edge) continue;
-        if (far.empty()) {
-          far = vertices;
-          straddles.assign(n, false);
-        }
-        straddles[p] = true;
-        far[p] = second;
-      }
-    }
-    for (std::size_t p = 0; p < straddles.size(); ++p) {
-      if (straddles[p] && far[p].d < vertices[p].d) std::swap(vertices[p], far[p]);
-    }
-  }
-  // Near-side edge pixels without a second point (see edge_shift_weight):
-  // with near share f of the footprint, the edge lies f - 1/2 pixels past
-  // the pixel's centre rather than 1/2. Penalizing the pixel's vertex by
-  // 2 w (1 - f) pixels in the nearest-vertex fill moves the fill's boundary
-  // with the far neighbour by w (1 - f) pixels towards it.
+  PixelSurfaces surfaces(pixel_width, pixel_height, view, grid, options);
+  surfaces.ProjectFirstPoints(points.first);
+  if (!points.second.empty()) surfaces.AddEdgeStraddlingPixels(points.second);
   if (options.edge_shift_weight > 0 && points.brightness.size() == n) {
-    for (int y = 0; y < pixel_height; ++y) {
-      for (int x = 0; x < pixel_width; ++x) {
-        const std::size_t p = static_cast<std::size_t>(y) * pixel_width + x;
-        if (!valid[p] || std::isinf(vertices[p].d) || (!straddles.empty() && straddles[p])) continue;
-        for (const auto& [dx, dy] : kNeighbours) {
-          const std::size_t far_side = surface_pixel(x + dx, y + dy);
-          const std::size_t same_side = surface_pixel(x - dx, y - dy);
-          if (far_side == kNone || same_side == kNone || !(points.brightness[same_side] > 0)) continue;
-          Vertex& near = vertices[p];
-          const Vertex& beyond = vertices[far_side];
-          const Vertex& before = vertices[same_side];
-          if (!(beyond.d > near.d) || continuous_pair(near, beyond) || !continuous_pair(near, before)) continue;
-          const double share = std::clamp(points.brightness[p] / points.brightness[same_side], 0.0f, 1.0f);
-          const double pixel = std::hypot(near.u - before.u, near.v - before.v);
-          near.fill_penalty = std::max(near.fill_penalty, 2.0 * options.edge_shift_weight * (1.0 - share) * pixel);
-        }
-      }
-    }
+    surfaces.ShiftEdgesByBrightness(points.brightness);
   }
-  // Pass 1 interpolates across continuous triangles; pass 2 fills texels
-  // still unknown from triangles across a discontinuity, nearest vertex
-  // first, so an edge is placed to within half a pixel instead of leaving a
-  // pixel-wide strip unknown along every edge.
-  std::vector<float> edges(out.distance_mm.size(), std::numeric_limits<float>::quiet_NaN());
-  // One surface's triangles; with only_straddling, those of quads with a
-  // corner that straddles an edge (the other quads are the same in both).
-  auto rasterize_surface = [&](const std::vector<Vertex>& surface, bool only_straddling) {
-    for (int y = 0; y + 1 < pixel_height; ++y) {
-      for (int x = 0; x + 1 < pixel_width; ++x) {
-        const std::size_t p00 = static_cast<std::size_t>(y) * pixel_width + x;
-        const std::size_t p10 = p00 + 1, p01 = p00 + pixel_width, p11 = p01 + 1;
-        if (only_straddling && !(straddles[p00] || straddles[p10] || straddles[p01] || straddles[p11])) continue;
-        // A quad with one unknown corner (a pixel in the laser's shadow, or
-        // too dim, next to measured ones) still has the triangle of its other
-        // three corners, so a single unknown pixel does not open a hole a
-        // pixel wide around itself. That triangle is used only where it is
-        // continuous and off the board: its missing corner may have been the
-        // far side of an edge or a hole's rim, so it never places either.
-        const int unknown = !valid[p00] + !valid[p10] + !valid[p01] + !valid[p11];
-        if (unknown > 1) continue;
-        const bool fallback = unknown == 1;
-        std::array<std::array<std::size_t, 3>, 2> triangles = {std::array{p00, p10, p11},
-                                                               std::array{p00, p11, p01}};
-        if (fallback) {
-          int corner = 0;
-          for (const std::size_t p : {p00, p10, p11, p01}) {
-            if (valid[p]) triangles[0][corner++] = p;
-          }
-        }
-        for (int k = 0; k < (fallback ? 1 : 2); ++k) {
-          const Vertex& a = surface[triangles[k][0]];
-          const Vertex& b = surface[triangles[k][1]];
-          const Vertex& c = surface[triangles[k][2]];
-          const int on_board = std::isinf(a.d) + std::isinf(b.d) + std::isinf(c.d);
-          if (fallback && on_board > 0) continue;
-          if (on_board == 3) {
-            // All three saw the board: the texels between them look through
-            // the hole too (no hit, each its nearest vertex's), unless a
-            // surface covers them.
-            Rasterize(a, b, c, grid, true, &out.distance_mm);
-            continue;
-          }
-          // Across a hole's rim (a surface and the board) nothing is filled:
-          // a texel there is no hit or a surface to within a pixel, and a
-          // false hit would close the hole (sponge: false hits 0.052 -> 0.072).
-          if (on_board > 0) continue;
-          const bool smooth = continuous(a, b, c);
-          // Edges are placed from the near surface only: where a pixel
-          // straddles one, the far surface's continuous triangles cover
-          // the texels beyond its centre first.
-          if (smooth || (options.fill_discontinuities && !fallback && !only_straddling)) {
-            Rasterize(a, b, c, grid, !smooth, smooth ? &out.distance_mm : &edges);
-          }
-        }
-      }
-    }
-  };
-  rasterize_surface(vertices, false);
-  if (!far.empty()) rasterize_surface(far, true);
-  for (std::size_t t = 0; t < edges.size(); ++t) {
-    if (std::isnan(out.distance_mm[t])) out.distance_mm[t] = edges[t];
-  }
+  surfaces.RasterizeAndFill(&out.distance_mm);
   return out;
 }
 

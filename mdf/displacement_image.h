@@ -7,23 +7,13 @@
 #include <vector>
 
 #include "calibration/camera_rays.h"
+#include "calibration/texel_grid.h"
 #include "core/error.h"
 #include "core/rigid_transform.h"
 #include "formats/sweep_analysis.h"
 #include "mdf/space_time_analyzer.h"
 
 namespace mesocap::mdf {
-
-// The W x H texel grid of sim/ground_truth.h: texel (i, j) centred at
-// (-S/2 + (i + 0.5) S / W, -S/2 + (j + 0.5) S / H, 0) in the sample frame.
-struct TextureGrid {
-  int width = 64;
-  int height = 64;
-  double sample_size_mm = 20.0;
-
-  double texel_mm() const { return sample_size_mm / width; }
-  core::CheckResult Check() const;
-};
 
 struct TriangulationOptions {
   // Ill-conditioning (Sec. 3.2 cites the error analysis of shadow scanning):
@@ -117,7 +107,7 @@ struct DisplacementImage {
 // such second point moves the edge by its brightness instead
 // (TriangulationOptions::edge_shift_weight).
 DisplacementImage ResampleToTexture(const SweepPoints& points, int pixel_width, int pixel_height,
-                                    const Eigen::Vector3d& view, const TextureGrid& grid,
+                                    const Eigen::Vector3d& view, const calibration::TexelGrid& grid,
                                     const TriangulationOptions& options);
 
 }  // namespace mesocap::mdf

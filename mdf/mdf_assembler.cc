@@ -4,7 +4,7 @@
 
 namespace mesocap::mdf {
 
-MdfAssembler::MdfAssembler(TextureGrid grid, core::SamplingSet views, TriangulationOptions triangulation, MergeOptions merge)
+MdfAssembler::MdfAssembler(calibration::TexelGrid grid, core::SamplingSet views, TriangulationOptions triangulation, MergeOptions merge)
     : grid_(grid), views_(std::move(views)), triangulation_(triangulation), merge_(merge) {
   for (const auto& problem : {grid_.Check(), triangulation_.Check(), merge_.Check()}) {
     if (!problem.empty()) throw core::Error("MDF assembly: " + problem);
@@ -39,7 +39,7 @@ core::Mdf MdfAssembler::Finish(core::Image* confidence) const {
   if (confidence) *confidence = core::Image(grid_.width, grid_.height * views_.size(), 1, 0.0f);
   for (int v = 0; v < views_.size(); ++v) {
     if (images_[v].empty()) continue;
-    const MergedDisplacement merged = MergeDisplacementImages(images_[v], weights_[v], grid_.texel_mm(), merge_);
+    const MergedDisplacement merged = MergeDisplacementImages(images_[v], weights_[v], grid_.texel_width_mm(), merge_);
     for (int j = 0; j < grid_.height; ++j) {
       for (int i = 0; i < grid_.width; ++i) {
         const std::size_t p = static_cast<std::size_t>(j) * grid_.width + i;

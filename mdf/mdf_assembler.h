@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "calibration/camera_rays.h"
+#include "calibration/texel_grid.h"
 #include "core/image.h"
 #include "core/mdf.h"
 #include "core/rigid_transform.h"
@@ -21,7 +22,7 @@ namespace mesocap::mdf {
 class MdfAssembler {
  public:
   // Throws Error on bad options or an empty view set.
-  MdfAssembler(TextureGrid grid, core::SamplingSet views, TriangulationOptions triangulation, MergeOptions merge);
+  MdfAssembler(calibration::TexelGrid grid, core::SamplingSet views, TriangulationOptions triangulation, MergeOptions merge);
 
   // One sweep seen in `view` (an index into the view set) with scan weight
   // `weight` (> 0, ScanWeight). Sweeps may come in any order.
@@ -34,11 +35,11 @@ class MdfAssembler {
   // per-texel confidence in the same layout (1 channel).
   core::Mdf Finish(core::Image* confidence = nullptr) const;
 
-  const TextureGrid& grid() const { return grid_; }
+  const calibration::TexelGrid& grid() const { return grid_; }
   const core::SamplingSet& views() const { return views_; }
 
  private:
-  TextureGrid grid_;
+  calibration::TexelGrid grid_;
   core::SamplingSet views_;
   TriangulationOptions triangulation_;
   MergeOptions merge_;

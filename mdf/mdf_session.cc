@@ -105,7 +105,7 @@ MdfProcessingResult ProcessMdfSession(const fs::path& session, const formats::Ca
 
   const double sample_size = rig.sample_size_mm;
   const core::SamplingSet views = calibration::ViewDirections(rig);
-  TextureGrid grid{options.texture_size, options.texture_size, sample_size};
+  calibration::TexelGrid grid{options.texture_size, options.texture_size, sample_size};
   TriangulationOptions triangulation = options.triangulation;
   triangulation.backing_depth_mm = rig.backing.depth_mm;  // "no hit" evidence, if the rig has a backing
   MdfAssembler assembler(grid, views, triangulation, options.merge);

@@ -29,19 +29,15 @@ core::CheckResult GroundTruthOptions::Check() const {
   return {};
 }
 
-Eigen::Vector3d TexelCentre(const GroundTruthOptions& o, int i, int j) {
-  const double s = o.sample_size_mm;
-  return {-s / 2 + (i + 0.5) * s / o.texture_width, -s / 2 + (j + 0.5) * s / o.texture_height, 0.0};
-}
-
 core::Mdf ComputeTrueMdf(const MesostructureScene& scene, const GroundTruthOptions& o) {
   core::Mdf mdf = core::MakeMdf(o.texture_width, o.texture_height, o.views);
+  const calibration::TexelGrid grid = o.texel_grid();
   tbb::parallel_for(0, o.views.size() * o.texture_height, [&](int row) {
     const int v = row / o.texture_height;
     const int j = row % o.texture_height;
     const Eigen::Vector3d& view = o.views.direction(v);
     for (int i = 0; i < o.texture_width; ++i) {
-      const auto hit = FirstHitBelow(scene, TexelCentre(o, i, j), view);
+      const auto hit = FirstHitBelow(scene, grid.TexelCentre(i, j), view);
       mdf.at(i, j, v) = hit ? static_cast<float>(hit->distance) : core::MdfNoHit();
     }
   });
@@ -59,9 +55,10 @@ core::Image RenderTrueBtfView(const MesostructureScene& scene, const GroundTruth
   const int h = o.texture_height;
   core::Image out(w, h * o.lights.size(), 3);
   const Eigen::Vector3d& view = o.views.direction(v);
+  const calibration::TexelGrid grid = o.texel_grid();
   tbb::parallel_for(0, h, [&](int j) {
     for (int i = 0; i < w; ++i) {
-      const auto hit = FirstHitBelow(scene, TexelCentre(o, i, j), view);
+      const auto hit = FirstHitBelow(scene, grid.TexelCentre(i, j), view);
       if (!hit) continue;  // black backing under holes
       for (int l = 0; l < o.lights.size(); ++l) {
         const Eigen::Vector3d& light = o.lights.direction(l);

@@ -3,15 +3,14 @@
 // plane, the BTF under distant lights with mesoscale shadows, and the ambient
 // term. Everything a measured material is compared against.
 //
-// Texel (i, j) of a W x H grid covers the clipped square sample of side S
-// centred on the sample-frame origin; its centre is the reference-plane point
-// p = (-S/2 + (i + 0.5) S / W, -S/2 + (j + 0.5) S / H, 0): column i along +X,
-// row j along +Y.
+// The rays start at the texel centres of the texel grid
+// (calibration/texel_grid.h): column i along +X, row j along +Y.
 #pragma once
 
 #include <Eigen/Core>
 #include <filesystem>
 
+#include "calibration/texel_grid.h"
 #include "core/btf.h"
 #include "core/error.h"
 #include "core/image.h"
@@ -30,11 +29,10 @@ struct GroundTruthOptions {
   core::SamplingSet views = core::SamplingSet::Named("paper12x8");
   core::SamplingSet lights = core::SamplingSet::Named("paper12x8");
 
+  // The texels the truth is computed at.
+  calibration::TexelGrid texel_grid() const { return {texture_width, texture_height, sample_size_mm}; }
   core::CheckResult Check() const;
 };
-
-// Reference-plane point at the centre of texel (i, j).
-Eigen::Vector3d TexelCentre(const GroundTruthOptions& options, int i, int j);
 
 // D(x, y, v) = distance from p(x, y) along -v to the first hit; MdfNoHit()
 // where the ray leaves the slab (through-holes).

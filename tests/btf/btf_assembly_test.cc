@@ -225,7 +225,8 @@ TEST(ReferencePlaneRectifierTest, ConstantsRampsAndFootprintOnTheTinyRig) {
       const core::RigidTransform world_from_sample =
           calibration::WorldFromSample(calibration.turntable, turntable_deg * std::numbers::pi / 180);
       for (const int size : {8, 16}) {
-        const ReferencePlaneRectifier rectifier(camera, rays, world_from_sample, size, size, rig.sample_size_mm);
+        const calibration::TexelGrid grid{size, size, rig.sample_size_mm};
+        const ReferencePlaneRectifier rectifier(camera, rays, world_from_sample, grid);
         core::Image image(camera.width, camera.height, 3);
         for (int y = 0; y < camera.height; ++y)
           for (int x = 0; x < camera.width; ++x) {
@@ -237,9 +238,7 @@ TEST(ReferencePlaneRectifierTest, ConstantsRampsAndFootprintOnTheTinyRig) {
         double worst_constant = 0, worst_ramp = 0;
         for (int j = 0; j < size; ++j)
           for (int i = 0; i < size; ++i) {
-            const Eigen::Vector2d centre = sim::ProjectToPixel(
-                camera, world_from_sample.Apply(ReferencePlaneRectifier::TexelCentre(i, j, size, size,
-                                                                                     rig.sample_size_mm)));
+            const Eigen::Vector2d centre = sim::ProjectToPixel(camera, world_from_sample.Apply(grid.TexelCentre(i, j)));
             worst_constant = std::max(worst_constant, std::abs(texture.at(i, j, 0) - 0.25));
             worst_ramp = std::max({worst_ramp, std::abs(texture.at(i, j, 1) - centre.x()),
                                    std::abs(texture.at(i, j, 2) - centre.y())});
@@ -255,7 +254,8 @@ TEST(ReferencePlaneRectifierTest, ConstantsRampsAndFootprintOnTheTinyRig) {
       // At 32 x 32 texels every footprint is under a pixel: one sample at
       // the texel centre, where Catmull-Rom reproduces a quadratic exactly
       // (bilinear interpolation would be off by up to 0.25).
-      const ReferencePlaneRectifier point_sampler(camera, rays, world_from_sample, 32, 32, rig.sample_size_mm);
+      const calibration::TexelGrid fine_grid{32, 32, rig.sample_size_mm};
+      const ReferencePlaneRectifier point_sampler(camera, rays, world_from_sample, fine_grid);
       EXPECT_EQ(point_sampler.samples_per_side_max(), 1);
       core::Image quadratic(camera.width, camera.height, 1);
       for (int y = 0; y < camera.height; ++y)
@@ -264,8 +264,7 @@ TEST(ReferencePlaneRectifierTest, ConstantsRampsAndFootprintOnTheTinyRig) {
       double worst = 0;
       for (int j = 0; j < 32; ++j)
         for (int i = 0; i < 32; ++i) {
-          const Eigen::Vector2d c = sim::ProjectToPixel(
-              camera, world_from_sample.Apply(ReferencePlaneRectifier::TexelCentre(i, j, 32, 32, rig.sample_size_mm)));
+          const Eigen::Vector2d c = sim::ProjectToPixel(camera, world_from_sample.Apply(fine_grid.TexelCentre(i, j)));
           worst = std::max(worst, std::abs(texture.at(i, j) - (0.5 * c.x() * c.x() + 0.25 * c.x() * c.y())));
         }
       EXPECT_LT(worst, 0.01) << "camera " << cam;

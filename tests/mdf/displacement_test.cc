@@ -33,7 +33,7 @@ std::vector<Eigen::Vector3f> HoleyPlane(int side, double hole_half_mm) {
 
 TEST(DisplacementImageTest, PointsOnTheBackingAreNoHitAndTheRimStaysUnknown) {
   const int side = 80;
-  const TextureGrid grid{16, 16, 20.0};  // 1.25 mm texels
+  const calibration::TexelGrid grid{16, 16, 20.0};  // 1.25 mm texels
   TriangulationOptions options;
   options.backing_depth_mm = kBackingMm;
   const auto points = HoleyPlane(side, 3.0);
@@ -41,7 +41,7 @@ TEST(DisplacementImageTest, PointsOnTheBackingAreNoHitAndTheRimStaysUnknown) {
   int no_hit = 0, surface = 0, unknown = 0;
   for (int j = 0; j < grid.height; ++j) {
     for (int i = 0; i < grid.width; ++i) {
-      const double x = -10.0 + (i + 0.5) * grid.texel_mm(), y = -10.0 + (j + 0.5) * grid.texel_mm();
+      const double x = -10.0 + (i + 0.5) * grid.texel_width_mm(), y = -10.0 + (j + 0.5) * grid.texel_width_mm();
       const float d = image.at(i, j);
       const double inside = std::max(std::abs(x), std::abs(y));
       // Texel centres lie 0.625 mm + k 1.25 mm from the axes, pixel rows
@@ -72,7 +72,7 @@ TEST(DisplacementImageTest, TexelsBetweenTheRimAndTheBoardAreNotFilled) {
   // within a pixel, so it stays unknown rather than becoming a distance that
   // would close the hole.
   const int side = 160;
-  const TextureGrid grid{16, 16, 20.0};
+  const calibration::TexelGrid grid{16, 16, 20.0};
   TriangulationOptions options;
   options.backing_depth_mm = kBackingMm;
   const DisplacementImage image =
@@ -105,7 +105,7 @@ TEST(DisplacementImageTest, ALoneUnknownPixelLeavesOnlyItsDiamondUnknown) {
   // measured pixels covers and which stays unknown. Before the fallback the
   // whole square was unknown.
   const int side = 40;
-  const TextureGrid grid{64, 64, 20.0};
+  const calibration::TexelGrid grid{64, 64, 20.0};
   auto depth = [](double x, double y) { return 1.0 + 0.05 * x + 0.02 * y; };
   std::vector<Eigen::Vector3f> points = SeenStraightDown(side, depth);
   const float nan = std::numeric_limits<float>::quiet_NaN();
@@ -115,7 +115,7 @@ TEST(DisplacementImageTest, ALoneUnknownPixelLeavesOnlyItsDiamondUnknown) {
   int square = 0, diamond = 0;
   for (int j = 0; j < grid.height; ++j) {
     for (int i = 0; i < grid.width; ++i) {
-      const double x = -10.0 + (i + 0.5) * grid.texel_mm(), y = -10.0 + (j + 0.5) * grid.texel_mm();
+      const double x = -10.0 + (i + 0.5) * grid.texel_width_mm(), y = -10.0 + (j + 0.5) * grid.texel_width_mm();
       const double dx = std::abs(x - 0.25), dy = std::abs(y - 0.25);
       // Texels inside the measured pixels' span: the outermost half pixel has no triangle.
       if (std::abs(x) > 9.75 || std::abs(y) > 9.75) continue;
@@ -144,14 +144,14 @@ TEST(DisplacementImageTest, ALoneUnknownPixelLeavesOnlyItsDiamondUnknown) {
 // change nothing.
 TEST(DisplacementImageTest, APixelStraddlingAnEdgeIsAVertexOfBothSurfaces) {
   const int side = 40;
-  const TextureGrid grid{64, 64, 20.0};
+  const calibration::TexelGrid grid{64, 64, 20.0};
   // Column 20 is x in [0, 0.5]: its first points are near.
   SweepPoints points;
   points.first = SeenStraightDown(side, [](double x, double) { return x < 0.5 ? 1.0 : 3.0; });
   points.second.assign(points.first.size(), Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN()));
   const TriangulationOptions options;
   auto texel = [&](const DisplacementImage& image, double x) {
-    return image.at(static_cast<int>(std::floor((x + 10.0) / grid.texel_mm())), 32);
+    return image.at(static_cast<int>(std::floor((x + 10.0) / grid.texel_width_mm())), 32);
   };
   const DisplacementImage without = ResampleToTexture(points, side, side, Eigen::Vector3d::UnitZ(), grid, options);
   EXPECT_NEAR(texel(without, 0.469), 1.0, 1e-6);
@@ -191,11 +191,11 @@ TEST(DisplacementImageTest, APixelStraddlingAnEdgeIsAVertexOfBothSurfaces) {
 // A dim pixel on the far side, or a full-bright edge pixel, moves nothing.
 TEST(DisplacementImageTest, ADimNearSidePixelMovesTheEdgeTowardsItsCentre) {
   const int side = 40;
-  const TextureGrid grid{64, 64, 20.0};
+  const calibration::TexelGrid grid{64, 64, 20.0};
   SweepPoints points;
   points.first = SeenStraightDown(side, [](double x, double) { return x < 0.5 ? 1.0 : 3.0; });
   auto texel = [&](const DisplacementImage& image, double x) {
-    return image.at(static_cast<int>(std::floor((x + 10.0) / grid.texel_mm())), 32);
+    return image.at(static_cast<int>(std::floor((x + 10.0) / grid.texel_width_mm())), 32);
   };
   auto resample = [&](int dim_column, float brightness, double weight) {
     points.brightness.assign(points.first.size(), 0.8f);

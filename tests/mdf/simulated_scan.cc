@@ -47,8 +47,8 @@ ScanResult RunSimulatedScan(const ScanSetup& setup) {
   ScanResult result;
   result.truth = sim::ComputeTrueMdf(*scene, gt);
 
-  TextureGrid grid{setup.texture_size, setup.texture_size, rig.sample_size_mm};
-  result.texel_mm = grid.texel_mm();
+  calibration::TexelGrid grid{setup.texture_size, setup.texture_size, rig.sample_size_mm};
+  result.texel_mm = grid.texel_width_mm();
   TriangulationOptions triangulation = setup.triangulation;
   triangulation.backing_depth_mm = rig.backing.depth_mm;
   MdfAssembler assembler(grid, views, triangulation, setup.merge);

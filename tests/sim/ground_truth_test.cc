@@ -100,7 +100,7 @@ TEST(GroundTruth, BoxMdfMatchesTheAnalyticAnswerEverywhere) {
     const auto a = o.views.angles(v);
     for (int j = 0; j < 40; ++j) {
       for (int i = 0; i < 40; ++i) {
-        const Eigen::Vector3d p = TexelCentre(o, i, j);
+        const Eigen::Vector3d p = o.texel_grid().TexelCentre(i, j);
         const double expected = BoxMdf(p.x(), p.y(), a.theta, a.phi);
         ASSERT_NEAR(mdf.at(i, j, v), expected, 1e-5 * expected + 1e-6) << "texel " << i << "," << j << " view " << v;
         beside_box += std::abs(expected - 1.0 / std::cos(a.theta)) < 1e-12;
