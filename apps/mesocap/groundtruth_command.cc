@@ -11,8 +11,9 @@ namespace mesocap {
 
 void RegisterGroundTruthCommand(CLI::App& app) {
   auto o = std::make_shared<pipelines::GroundTruthOptions>();
-  CLI::App* sub = app.add_subcommand(
-      "groundtruth", "Write the exact material package (MDF, BTF, ambient term, true calibration) of a simulated scene");
+  CLI::App* sub = app.add_subcommand("groundtruth",
+                                     "Write the exact material package (MDF, BTF, ambient term, true calibration) of "
+                                     "a simulated scene");
   AddSceneOptions(sub, &o->scene);
   sub->add_option("--rig", o->rig, "shipped rig (tiny, small, paper) or a rig description file")
       ->capture_default_str();

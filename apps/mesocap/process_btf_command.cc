@@ -20,7 +20,9 @@ void RegisterProcessBtfCommand(CLI::App& app) {
   sub->add_option("--calibration", o->calibration, "calibration file (default: the one the session names)")
       ->check(CLI::ExistingFile);
   sub->add_option("--out", o->out, "material package folder to write")->required();
-  sub->add_option("--texture-size", o->texture_size, "texels per side")->check(CLI::Range(1, 4096))->capture_default_str();
+  sub->add_option("--texture-size", o->texture_size, "texels per side")
+      ->check(CLI::Range(1, 4096))
+      ->capture_default_str();
   auto* rank = sub->add_option("--rank", o->compression.rank, "number of SVD terms, 1..100")
                    ->check(CLI::Range(1, core::kMaxBtfRank));
   sub->add_option("--max-error", o->compression.max_relative_error,
