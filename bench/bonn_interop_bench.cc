@@ -1,5 +1,5 @@
 // Export and import through the Bonn BTF database forms, time beside the
-// round-trip error (processing/bonn_interop.h):
+// round-trip error (pipelines/export_bonn.h, pipelines/import_bonn.h):
 //  - Export/<form>, Import/<form> for ubo2003 (8-bit sRGB PNG), ubo2003_exr
 //    (half), dfmf and fmf (half factors, rank chosen by the default 1%
 //    budget), on the exact BTF of `weave` (sim ground truth, 32 x 32 texels,
@@ -17,7 +17,8 @@
 #include <filesystem>
 #include <map>
 
-#include "interop/bonn/bonn_interop.h"
+#include "pipelines/export_bonn.h"
+#include "pipelines/import_bonn.h"
 #include "sim/ground_truth.h"
 #include "sim/mesostructure_scene.h"
 
@@ -50,9 +51,21 @@ const core::FullBtf& Truth() {
 }
 
 struct Form {
-  bonn::BonnExportOptions options;
+  pipelines::ExportBonnOptions options;  // in and out are set where it is run
   std::string out;
 };
+
+pipelines::ExportBonnReport ExportBonn(const fs::path& in, const fs::path& out, pipelines::ExportBonnOptions options) {
+  options.in = in;
+  options.out = out;
+  return pipelines::RunExportBonn(options);
+}
+
+void ImportBonn(const fs::path& in, const fs::path& out, pipelines::ImportBonnOptions options) {
+  options.in = in;
+  options.out = out;
+  pipelines::RunImportBonn(options);
+}
 
 // The 8-bit images hold [0, 1]: scale the brightest value (weave has
 // highlights above 1) to 1 so that the error is quantization, not clipping.
@@ -86,7 +99,7 @@ void Export(benchmark::State& state, const std::string& name) {
   Truth();
   const Form form = Forms().at(name);
   for (auto _ : state) {
-    const bonn::BonnExportReport r = bonn::ExportBonn(WorkDir() / "weave", form.out, form.options);
+    const pipelines::ExportBonnReport r = ExportBonn(WorkDir() / "weave", form.out, form.options);
     if (r.compression) {
       truncation[name] = r.compression->measured_relative_rms_error;
       state.counters["rank"] = r.rank;
@@ -97,15 +110,15 @@ void Export(benchmark::State& state, const std::string& name) {
 void Import(benchmark::State& state, const std::string& name) {
   const core::FullBtf& truth = Truth();
   const Form form = Forms().at(name);
-  if (!fs::exists(form.out)) bonn::ExportBonn(WorkDir() / "weave", form.out, form.options);
-  bonn::BonnImportOptions o;
+  if (!fs::exists(form.out)) ExportBonn(WorkDir() / "weave", form.out, form.options);
+  pipelines::ImportBonnOptions o;
   o.d_max_mm = 3.0;
   o.width_mm = 12.0;
   o.replace = true;
-  o.parts = bonn::BonnImportParts::kFull;
+  o.parts = pipelines::BonnImportParts::kFull;
   o.scale = form.options.scale;
   const fs::path out = WorkDir() / (name + ".imported");
-  for (auto _ : state) bonn::ImportBonn(form.out, out, o);
+  for (auto _ : state) ImportBonn(form.out, out, o);
   const core::FullBtf got = formats::ReadFullBtf(out, formats::ReadMaterialManifest(out));
   // ||a - b|| / ||truth||, and the largest |a - b|.
   auto compare = [&](const core::FullBtf& a, const core::FullBtf& b, double* worst) {
@@ -126,11 +139,11 @@ void Import(benchmark::State& state, const std::string& name) {
   if (truncation.count(name)) state.counters["truncation_rel_rms"] = truncation[name];
   if (form.options.form != bonn::BonnForm::kUbo2003) {
     // The same factors written as float: the difference is the half quantization.
-    bonn::BonnExportOptions f = form.options;
+    pipelines::ExportBonnOptions f = form.options;
     f.scalar = bonn::BonnScalar::kFloat;
     const fs::path float_file = WorkDir() / (name + ".float");
-    bonn::ExportBonn(WorkDir() / "weave", float_file, f);
-    bonn::ImportBonn(float_file, WorkDir() / (name + ".float.imported"), o);
+    ExportBonn(WorkDir() / "weave", float_file, f);
+    ImportBonn(float_file, WorkDir() / (name + ".float.imported"), o);
     const fs::path float_out = WorkDir() / (name + ".float.imported");
     double q_worst = 0.0;
     state.counters["half_vs_float_rel_rms"] = compare(got, formats::ReadFullBtf(float_out, formats::ReadMaterialManifest(float_out)), &q_worst);

@@ -28,8 +28,7 @@ constexpr double kSnap = 1e-10;
 constexpr std::int64_t kMaxGridDirections = 100'000;
 constexpr std::size_t kMaxFileDirections = 100'000;
 
-const char* const kValidNames =
-    "\"paper12x5\", \"paper12x8\", \"ubo2003\", \"ubo2014\", \"grid<A>x<P>\" (e.g. \"grid24x6\")";
+const char* const kValidNames = "\"paper12x5\", \"paper12x8\", \"grid<A>x<P>\" (e.g. \"grid24x6\")";
 
 double WrapPhi(double phi) {
   double p = std::fmod(phi, kTwoPi);
@@ -48,23 +47,6 @@ std::string Degrees(double radians) {
   s.precision(12);
   s << radians / kDegree;
   return s.str();
-}
-
-// A ring of `count` directions at `theta_deg`, azimuths offset + 360 k / count.
-struct RingSpec {
-  double theta_deg;
-  int count;
-  double offset_deg;
-};
-
-std::vector<SphericalAngles> RingAngles(const std::vector<RingSpec>& rings) {
-  std::vector<SphericalAngles> out;
-  for (const auto& r : rings) {
-    for (int k = 0; k < r.count; ++k) {
-      out.push_back({r.theta_deg * kDegree, (r.offset_deg + 360.0 * k / r.count) * kDegree});
-    }
-  }
-  return out;
 }
 
 // "grid<A>x<P>" with both counts in canonical decimal form (no sign, no
@@ -106,7 +88,7 @@ SphericalAngles AnglesFromDirection(const Eigen::Vector3d& d) {
   return a;
 }
 
-SamplingSet SamplingSet::Named(const std::string& name) {
+std::optional<SamplingSet> SamplingSet::FindNamed(const std::string& name) {
   // The MDF paper (Wang et al. 2005, Table 1) gives only the counts 12 x 5 and
   // 12 x 8, not the polar angles; they are placed as in RegularGrid.
   if (name == "paper12x5" || name == "paper12x8") {
@@ -114,27 +96,14 @@ SamplingSet SamplingSet::Named(const std::string& name) {
     set.name_ = name;
     return set;
   }
-  // Sattler, Sarlette, Klein 2003: six rings 15 degrees apart.
-  if (name == "ubo2003") {
-    return FromAngles(name, RingAngles({{0, 1, 0}, {15, 6, 0}, {30, 12, 0}, {45, 18, 0},
-                                        {60, 20, 0}, {75, 24, 0}}));
-  }
-  // Bonn dome 1 as in btflib's create_ubo_dome1_sampling (ring offsets included).
-  if (name == "ubo2014") {
-    return FromAngles(name, RingAngles({{0, 1, 0},
-                                        {11, 6, 15},
-                                        {23.5, 12, 0},
-                                        {30, 12, 15},
-                                        {37.5, 12, 0},
-                                        {45, 18, 0},
-                                        {52.5, 18, 7.5},
-                                        {60, 24, 0},
-                                        {67.5, 24, 7.5},
-                                        {75, 24, 0}}));
-  }
   int azimuths = 0;
   int polars = 0;
   if (ParseGridName(name, &azimuths, &polars)) return RegularGrid(azimuths, polars);
+  return std::nullopt;
+}
+
+SamplingSet SamplingSet::Named(const std::string& name) {
+  if (std::optional<SamplingSet> set = FindNamed(name)) return *std::move(set);
   throw Error("unknown sampling set \"" + name + "\"; valid names: " + kValidNames);
 }
 

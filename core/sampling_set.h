@@ -7,6 +7,7 @@
 #include <Eigen/Core>
 #include <array>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -39,13 +40,16 @@ SphericalAngles AnglesFromDirection(const Eigen::Vector3d& d);
 // regular grid these are exactly the bands' solid angles.
 class SamplingSet {
  public:
-  // Named sets (docs/FORMATS.md "Sampling sets" gives every angle):
+  // Core's named sets (docs/FORMATS.md "Sampling sets" gives every angle):
   //   "paper12x5", "paper12x8": the MDF paper's 12 azimuths x 5 or 8 polar
   //       angles; the paper gives no polar angles, so these are placed as in
   //       RegularGrid(12, 5) and RegularGrid(12, 8)
-  //   "ubo2003": Bonn UBO2003, 81 directions;  "ubo2014": Bonn UBO2014 (dome 1), 151
   //   "grid<A>x<P>": regular grid, A azimuths x P polar angles (e.g. "grid24x6")
-  // Throws Error listing the valid names for anything else.
+  // The Bonn database's sets ("ubo2003", "ubo2014") are Bonn forms:
+  // bonn::NamedSamplingSet (interop/bonn/ubo_sampling_sets.h) knows them and these.
+  // FindNamed returns nullopt for any other name; Named throws Error listing
+  // core's names. Both throw Error for a grid whose counts RegularGrid refuses.
+  static std::optional<SamplingSet> FindNamed(const std::string& name);
   static SamplingSet Named(const std::string& name);
   // phi_k = 2 pi k / A, theta_j = (j + 0.5) (pi/2) / P: the centres of P equal
   // bands of [0, pi/2). Throws Error unless A >= 1, P >= 1, A * P <= 100,000 (what a file may hold).

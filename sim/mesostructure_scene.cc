@@ -20,4 +20,13 @@ Eigen::Vector3f Reflectance::Evaluate(const Eigen::Vector3d& n, const Eigen::Vec
   return f;
 }
 
+std::unique_ptr<MesostructureScene> LoadScene(const SceneSource& source) {
+  const std::string ext = std::filesystem::path(source.scene).extension().string();
+  if (ext == ".obj" || ext == ".OBJ") return LoadObjScene(source.scene, source.obj_scale);
+  if (ext == ".png" || ext == ".exr" || ext == ".tif" || ext == ".tiff") {
+    return LoadHeightMapScene(source.scene, source.tile_size_mm, source.depth_mm);
+  }
+  return MakeBuiltinScene(source.scene);
+}
+
 }  // namespace mesocap::sim

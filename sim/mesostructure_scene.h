@@ -112,4 +112,15 @@ std::unique_ptr<MesostructureScene> LoadObjScene(const std::filesystem::path& ob
 std::unique_ptr<MesostructureScene> LoadHeightMapScene(const std::filesystem::path& image,
                                                        double tile_size_mm, double depth_mm);
 
+// Where a scene comes from, as a user names it: a built-in scene name, an
+// OBJ file (.obj, with its scale) or a height map image (.png, .exr, .tif,
+// .tiff, with its tile size and depth), told by the extension.
+struct SceneSource {
+  std::string scene = "weave";
+  double obj_scale = 1.0;     // OBJ units to mm
+  double tile_size_mm = 4.0;  // height map: side of one tile
+  double depth_mm = 1.0;      // height map: depth of value 0 below value 1
+};
+std::unique_ptr<MesostructureScene> LoadScene(const SceneSource& source);
+
 }  // namespace mesocap::sim

@@ -7,11 +7,6 @@
 
 namespace mesocap {
 
-// Global flags shared by every subcommand.
-struct GlobalOptions {
-  int verbosity = 0;  // -v raises it, -q lowers it
-};
-
 void RegisterInfoCommand(CLI::App& app);
 void RegisterGroundTruthCommand(CLI::App& app);
 void RegisterSimulateCommand(CLI::App& app);

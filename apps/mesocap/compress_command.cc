@@ -1,36 +1,18 @@
 // `mesocap compress --in MATERIAL --out MATERIAL2 [--rank K | --max-error E]
 // [--layout paper|per_texel] [--color rgb|ycbcr]`: factors the full BTF of any
 // material package (a ground-truth one too) by SVD (Wang et al. 2005 Sec. 5)
-// and writes a new package holding the factored BTF, with the MDF, ambient
-// term and calibration copied through and the compression figures added to
-// the error report.
+// into a new package (pipelines/compress.h).
 #include <spdlog/spdlog.h>
 
-#include <filesystem>
 #include <map>
 
 #include "apps/mesocap/command.h"
-#include "btf/material_compression.h"
+#include "pipelines/compress.h"
 
 namespace mesocap {
-namespace {
-
-struct CompressCommandOptions {
-  std::filesystem::path in;
-  std::filesystem::path out;
-  btf::BtfCompressionOptions compression;
-  bool replace = false;
-};
-
-void RunCompress(const CompressCommandOptions& o) {
-  btf::CompressMaterialPackage(o.in, o.out, o.compression, o.replace);
-  spdlog::info("wrote {}", o.out.string());
-}
-
-}  // namespace
 
 void RegisterCompressCommand(CLI::App& app) {
-  auto o = std::make_shared<CompressCommandOptions>();
+  auto o = std::make_shared<pipelines::CompressOptions>();
   CLI::App* sub = app.add_subcommand(
       "compress", "Factor the full BTF of a material package by SVD into a new package (Wang et al. 2005 Sec. 5)");
   sub->add_option("--in", o->in, "material package holding a full BTF")->required()->check(CLI::ExistingDirectory);
@@ -43,17 +25,21 @@ void RegisterCompressCommand(CLI::App& app) {
       ->capture_default_str()
       ->excludes(rank);
   const std::map<std::string, core::BtfFactorLayout> layouts{{"paper", core::BtfFactorLayout::kPaper},
-                                                       {"per_texel", core::BtfFactorLayout::kPerTexel}};
+                                                             {"per_texel", core::BtfFactorLayout::kPerTexel}};
   sub->add_option("--layout", o->compression.layout,
                   "matrix layout: paper (rows x, y, light; columns view) or per_texel (rows x, y; columns view, light)")
       ->transform(CLI::CheckedTransformer(layouts, CLI::ignore_case))
       ->default_str("paper");
-  const std::map<std::string, core::BtfFactorColor> colors{{"rgb", core::BtfFactorColor::kRgb}, {"ycbcr", core::BtfFactorColor::kYCbCr}};
+  const std::map<std::string, core::BtfFactorColor> colors{{"rgb", core::BtfFactorColor::kRgb},
+                                                           {"ycbcr", core::BtfFactorColor::kYCbCr}};
   sub->add_option("--color", o->compression.color, "channels factored: rgb, or ycbcr (luminance/chroma)")
       ->transform(CLI::CheckedTransformer(colors, CLI::ignore_case))
       ->default_str("rgb");
   sub->add_flag("--replace", o->replace, "replace an existing package at --out");
-  sub->callback([o] { RunCompress(*o); });
+  sub->callback([o] {
+    pipelines::RunCompress(*o);
+    spdlog::info("wrote {}", o->out.string());
+  });
 }
 
 }  // namespace mesocap

@@ -1,38 +1,19 @@
 // `mesocap export bonn --in MATERIAL --out PATH --form ubo2003|fmf|dfmf`:
 // writes a material package's BTF in a Bonn BTF database form
-// (processing/bonn_interop.h): the UBO2003 image folder (8-bit sRGB PNG or
+// (pipelines/export_bonn.h): the UBO2003 image folder (8-bit sRGB PNG or
 // linear half EXR), or the UBO2014 binary FMF / DFMF file that btflib reads.
 #include <spdlog/spdlog.h>
 
-#include <filesystem>
 #include <map>
+#include <string>
 
 #include "apps/mesocap/command.h"
-#include "interop/bonn/bonn_interop.h"
+#include "pipelines/export_bonn.h"
 
 namespace mesocap {
-namespace {
-
-struct ExportBonnCommandOptions {
-  std::filesystem::path in;
-  std::filesystem::path out;
-  bonn::BonnExportOptions bonn;
-};
-
-void RunExportBonn(const ExportBonnCommandOptions& o) {
-  const bonn::BonnExportReport r = bonn::ExportBonn(o.in, o.out, o.bonn);
-  if (r.compression) {
-    spdlog::info("factored to rank {} ({}); relative RMS error {:.3g}", r.compression->rank, r.compression->reason,
-                 r.compression->measured_relative_rms_error);
-  }
-  spdlog::info("wrote {} ({}, from the {}{}; {} file(s), {:.2f} s)", o.out.string(), ToString(o.bonn.form), r.source,
-               r.rank > 0 ? ", " + std::to_string(r.rank) + " components" : std::string(), r.files, r.seconds);
-}
-
-}  // namespace
 
 void RegisterExportBonnCommand(CLI::App& app) {
-  auto o = std::make_shared<ExportBonnCommandOptions>();
+  auto o = std::make_shared<pipelines::ExportBonnOptions>();
   CLI::App* group = GroupCommand(app, "export", "Write a material package in another tool's format");
   CLI::App* sub = group->add_subcommand(
       "bonn", "Write a package's BTF as a Bonn BTF database form: UBO2003 images, or a UBO2014 FMF/DFMF file");
@@ -42,37 +23,47 @@ void RegisterExportBonnCommand(CLI::App& app) {
   sub->add_option("--out", o->out, "folder (ubo2003) or file (fmf, dfmf) to write")->required();
   const std::map<std::string, bonn::BonnForm> forms{
       {"ubo2003", bonn::BonnForm::kUbo2003}, {"fmf", bonn::BonnForm::kFmf}, {"dfmf", bonn::BonnForm::kDfmf}};
-  sub->add_option("--form", o->bonn.form,
+  sub->add_option("--form", o->form,
                   "ubo2003 (image folder tl..._pl..._tv..._pv...), fmf (!FMF12FCER) or dfmf (!DFMF08FCR)")
       ->required()
       ->transform(CLI::CheckedTransformer(forms, CLI::ignore_case));
   const std::map<std::string, bonn::Ubo2003Encoding> encodings{{"png", bonn::Ubo2003Encoding::kSrgb8Png},
-                                                         {"exr", bonn::Ubo2003Encoding::kHalfExr}};
-  sub->add_option("--encoding", o->bonn.encoding, "ubo2003 images: png (8-bit sRGB) or exr (linear half)")
+                                                               {"exr", bonn::Ubo2003Encoding::kHalfExr}};
+  sub->add_option("--encoding", o->encoding, "ubo2003 images: png (8-bit sRGB) or exr (linear half)")
       ->transform(CLI::CheckedTransformer(encodings, CLI::ignore_case))
       ->default_str("png");
-  sub->add_option("--scale", o->bonn.scale, "ubo2003 images: image value = reflectance x scale")
+  sub->add_option("--scale", o->scale, "ubo2003 images: image value = reflectance x scale")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
-  const std::map<std::string, bonn::BonnScalar> scalars{{"half", bonn::BonnScalar::kHalf}, {"float", bonn::BonnScalar::kFloat}};
-  sub->add_option("--scalar", o->bonn.scalar, "fmf/dfmf factor values: half (as btflib writes) or float")
+  const std::map<std::string, bonn::BonnScalar> scalars{{"half", bonn::BonnScalar::kHalf},
+                                                        {"float", bonn::BonnScalar::kFloat}};
+  sub->add_option("--scalar", o->scalar, "fmf/dfmf factor values: half (as btflib writes) or float")
       ->transform(CLI::CheckedTransformer(scalars, CLI::ignore_case))
       ->default_str("half");
-  auto* rank = sub->add_option("--rank", o->bonn.compression.rank,
+  auto* rank = sub->add_option("--rank", o->compression.rank,
                                "fmf/dfmf when factoring here: number of SVD components, 1..100")
                    ->check(CLI::Range(1, core::kMaxBtfRank));
-  sub->add_option("--max-error", o->bonn.compression.max_relative_error,
+  sub->add_option("--max-error", o->compression.max_relative_error,
                   "fmf/dfmf when factoring here: the smallest rank whose relative RMS error is at most this")
       ->check(CLI::Range(1e-12, 1.0))
       ->capture_default_str()
       ->excludes(rank);
-  const std::map<std::string, core::BtfFactorColor> colors{{"rgb", core::BtfFactorColor::kRgb}, {"ycbcr", core::BtfFactorColor::kYCbCr}};
-  sub->add_option("--color", o->bonn.compression.color,
+  const std::map<std::string, core::BtfFactorColor> colors{{"rgb", core::BtfFactorColor::kRgb},
+                                                           {"ycbcr", core::BtfFactorColor::kYCbCr}};
+  sub->add_option("--color", o->compression.color,
                   "dfmf when factoring here: rgb (colour model 0) or ycbcr (written as the PCA model 3)")
       ->transform(CLI::CheckedTransformer(colors, CLI::ignore_case))
       ->default_str("rgb");
-  sub->add_flag("--replace", o->bonn.replace, "replace an existing file or folder at --out");
-  sub->callback([o] { RunExportBonn(*o); });
+  sub->add_flag("--replace", o->replace, "replace an existing file or folder at --out");
+  sub->callback([o] {
+    const pipelines::ExportBonnReport r = pipelines::RunExportBonn(*o);
+    if (r.compression) {
+      spdlog::info("factored to rank {} ({}); relative RMS error {:.3g}", r.compression->rank, r.compression->reason,
+                   r.compression->measured_relative_rms_error);
+    }
+    spdlog::info("wrote {} ({}, from the {}{}; {} file(s), {:.2f} s)", o->out.string(), ToString(o->form), r.source,
+                 r.rank > 0 ? ", " + std::to_string(r.rank) + " components" : std::string(), r.files, r.seconds);
+  });
 }
 
 }  // namespace mesocap

@@ -5,9 +5,9 @@
 #include <charconv>
 #include <cstdlib>
 
-#include "btf/material_compression.h"
 #include "core/error.h"
 #include "formats/material_package.h"
+#include "pipelines/compress.h"
 #include "render/sim_material.h"
 #include "sim/builtin_scenes.h"
 #include "sim/ground_truth.h"
@@ -83,9 +83,12 @@ render::RenderMaterial ResolveRenderMaterial(const std::string& spec, const std:
     spdlog::info("building material {} from ground truth into {}", spec, package.string());
     sim::WriteGroundTruthPackage(*scene, render::SimMaterialGroundTruthOptions(name), nullptr,
                                  "groundtruth scene=" + name + " for render", truth, true);
-    btf::BtfCompressionOptions compression;
-    compression.rank = kSimMaterialRank;
-    btf::CompressMaterialPackage(truth, package, compression, true);
+    pipelines::CompressOptions compress;
+    compress.in = truth;
+    compress.out = package;
+    compress.compression.rank = kSimMaterialRank;
+    compress.replace = true;
+    pipelines::RunCompress(compress);
     std::filesystem::remove_all(truth);
   }
   if (!formats::ReadMaterialManifest(package).factored_btf) {

@@ -29,6 +29,7 @@
 #include "formats/capture_session.h"
 #include "sim/camera_renderer.h"
 #include "sim/fault_plan.h"
+#include "sim/mesostructure_scene.h"
 #include "sim/shipped_rigs.h"
 #include "sim/simulated_operator.h"
 #include "sim/simulated_rig_backend.h"
@@ -43,7 +44,7 @@ using nlohmann::json;
 constexpr const char* kCalibrationFile = "calibration.json";
 
 struct SimulateCommandOptions {
-  SceneOption scene;
+  sim::SceneSource scene;
   std::string rig = "tiny";
   fs::path out;
   std::uint64_t seed = 1;
@@ -62,7 +63,7 @@ json PlanJson(const std::vector<formats::PlannedStep>& plan) {
 }
 
 void RunSimulate(const SimulateCommandOptions& o) {
-  const auto scene = o.scene.Load();
+  const auto scene = sim::LoadScene(o.scene);
   const formats::RigDescription rig = sim::LoadRig(o.rig);
   sim::FaultPlan faults = sim::FaultPlanOfRig(rig);
   if (!o.faults.empty()) {

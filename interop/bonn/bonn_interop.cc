@@ -1,16 +1,10 @@
 #include "interop/bonn/bonn_interop.h"
 
-#include <spdlog/spdlog.h>
-
 #include <Eigen/LU>
 #include <array>
-#include <chrono>
 #include <cmath>
 
-#include "btf/ambient_term.h"
-#include "core/atomic_file.h"
-#include "core/mdf.h"
-#include "core/version.h"
+#include "interop/bonn/ubo_sampling_sets.h"
 
 namespace mesocap::bonn {
 namespace fs = std::filesystem;
@@ -18,16 +12,6 @@ namespace {
 
 // btflib's restore_dynamic_range.m: the stored values are log(value + eps).
 constexpr double kDynamicRangeEps = 1e-5;
-
-double SecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
-// The meta data a Bonn file takes from a package's description.
-void FillBonnMeta(const formats::MaterialDescription& d, BonnBtfFile* b) {
-  b->measurement_setup = (std::string("mesocap ") + core::Version() + ": " + d.name).substr(0, 80);
-  b->pixels_per_mm = static_cast<float>(d.width / d.physical_size_mm.x());
-}
 
 // Splits r c^T into U = r / |r| (unit left vector, what btflib calls U),
 // SxV = c |r|, S = |r| |c|: the same product, with U well inside the half
@@ -58,7 +42,7 @@ core::SamplingSet BonnSet(const std::vector<BonnDirection>& dirs, const fs::path
   // Snap to a named set when the file holds its directions in its order
   // (the float angles are within ~1e-7 rad of them).
   for (const char* name : {"ubo2014", "ubo2003"}) {
-    const core::SamplingSet named = core::SamplingSet::Named(name);
+    const core::SamplingSet named = NamedSamplingSet(name);
     if (named.size() != static_cast<int>(angles.size())) continue;
     bool same = true;
     for (int i = 0; i < named.size() && same; ++i) {
@@ -82,40 +66,6 @@ std::vector<double> CosineDivisors(const BonnBtfFile& btf) {
   return out;
 }
 
-formats::MaterialDescription DescriptionFor(const std::string& name, int width, int height, double width_mm, double d_max_mm,
-                                   core::SamplingSet views, core::SamplingSet lights, std::string source) {
-  formats::MaterialDescription d;
-  d.name = name;
-  d.width = width;
-  d.height = height;
-  d.physical_size_mm = {width_mm, width_mm * height / width};
-  d.d_max_mm = d_max_mm;
-  d.view_directions = std::move(views);
-  d.light_directions = std::move(lights);
-  d.provenance.source = std::move(source);
-  return d;
-}
-
-void WriteFlatMdf(const formats::MaterialDescription& d, formats::MaterialPackageWriter* writer) {
-  core::Mdf mdf = core::MakeMdf(d.width, d.height, d.view_directions);
-  std::fill(mdf.distance_mm.data(), mdf.distance_mm.data() + mdf.distance_mm.size(), 0.0f);
-  writer->WriteMdf(mdf);
-}
-
-// The package's BTF in full, read or reconstructed from its factors.
-core::FullBtf FullBtfOfPackage(const fs::path& package, const formats::MaterialManifest& manifest) {
-  if (manifest.full_btf) return formats::ReadFullBtf(package, manifest);
-  const core::FactoredBtf factored = formats::ReadFactoredBtf(package, manifest);
-  core::FullBtf full = core::MakeFullBtf(factored.width, factored.height, factored.views, factored.lights);
-  for (int v = 0; v < full.view_count(); ++v) full.view_images[v] = btf::ReconstructBtfView(factored, v);
-  return full;
-}
-
-void ExpectNoTarget(const fs::path& out, bool replace) {
-  std::error_code ec;
-  if (!replace && fs::exists(out, ec)) throw core::Error(out.string() + " already exists (use --replace to overwrite it)");
-}
-
 }  // namespace
 
 const char* ToString(BonnForm form) {
@@ -125,21 +75,6 @@ const char* ToString(BonnForm form) {
     case BonnForm::kDfmf: return "dfmf";
   }
   return "?";
-}
-
-core::CheckResult BonnExportOptions::Check() const {
-  if (!(std::isfinite(scale) && scale > 0.0)) return "scale " + std::to_string(scale) + " must be a positive number";
-  if (scalar == BonnScalar::kDouble) return "mesocap writes half or float factors";
-  return compression.Check();
-}
-
-core::CheckResult BonnImportOptions::Check() const {
-  if (!(std::isfinite(d_max_mm) && d_max_mm > 0.0)) {
-    return "d_max_mm " + std::to_string(d_max_mm) + " must be a positive number (the Bonn forms carry no depth)";
-  }
-  if (!(std::isfinite(width_mm) && width_mm >= 0.0)) return "width_mm must be a positive number, or 0";
-  if (!(std::isfinite(scale) && scale > 0.0)) return "scale " + std::to_string(scale) + " must be a positive number";
-  return {};
 }
 
 BonnBtfFile BonnDfmfFromFactored(const core::FactoredBtf& btf) {
@@ -333,153 +268,6 @@ core::Image BonnBtfView(const BonnBtfFile& btf, int view) {
       for (int c = 0; c < 3; ++c) p[c] = static_cast<float>(rgb[c]);
     }
   return out;
-}
-
-BonnExportReport ExportBonn(const fs::path& package, const fs::path& out, const BonnExportOptions& options) {
-  const auto start = std::chrono::steady_clock::now();
-  if (const auto problem = options.Check(); !problem.empty()) throw core::Error("export bonn: " + problem);
-  const formats::MaterialManifest manifest = formats::ReadMaterialManifest(package);
-  if (!manifest.full_btf && !manifest.factored_btf) {
-    throw core::Error("export bonn: " + package.string() + " holds no BTF (manifest.json has no btf part)");
-  }
-  const formats::MaterialDescription& d = manifest.description;
-  BonnExportReport report;
-  if (options.form == BonnForm::kUbo2003) {
-    report.source = manifest.full_btf ? "full BTF" : "factored BTF, reconstructed";
-    std::optional<core::FactoredBtf> factored;
-    if (!manifest.full_btf) factored = formats::ReadFactoredBtf(package, manifest);
-    core::AtomicDirectory folder(out, options.replace);
-    for (int v = 0; v < d.view_directions.size(); ++v) {
-      const core::Image view = factored ? btf::ReconstructBtfView(*factored, v) : formats::ReadFullBtfView(package, manifest, v);
-      report.clipped_values += WriteUbo2003View(folder.temp_path(), d.view_directions, d.light_directions, v, view,
-                                                options.encoding, options.scale);
-    }
-    folder.Commit();
-    report.files = static_cast<long long>(d.view_directions.size()) * d.light_directions.size();
-    if (report.clipped_values > 0) {
-      spdlog::warn("{} of {} values fell outside [0, 1] after scaling by {} and were clipped to 8 bits; "
-                   "choose --scale so the brightest value maps to at most 1, or write EXR",
-                   report.clipped_values, report.files * d.width * d.height * 3, options.scale);
-    }
-  } else {
-    ExpectNoTarget(out, options.replace);
-    BonnBtfFile file;
-    if (options.form == BonnForm::kDfmf) {
-      if (manifest.factored_btf && manifest.factored_btf->layout == core::BtfFactorLayout::kPerTexel) {
-        report.source = "per_texel factored BTF";
-        file = BonnDfmfFromFactored(formats::ReadFactoredBtf(package, manifest));
-      } else {
-        report.source = manifest.full_btf ? "full BTF, factored per_texel" : "paper-layout factors, refactored per_texel";
-        btf::BtfCompressionOptions o = options.compression;
-        o.layout = core::BtfFactorLayout::kPerTexel;
-        btf::BtfCompressionReport compression;
-        file = BonnDfmfFromFactored(btf::CompressBtf(FullBtfOfPackage(package, manifest), o, &compression));
-        report.compression = compression;
-      }
-    } else {
-      report.source = manifest.full_btf ? "full BTF, factored as one matrix" : "factored BTF, refactored as one matrix";
-      btf::BtfCompressionReport compression;
-      file = BonnFmfFromFullBtf(FullBtfOfPackage(package, manifest), options.compression, &compression);
-      report.compression = compression;
-    }
-    FillBonnMeta(d, &file);
-    report.rank = 0;
-    for (const auto& f : file.factors) report.rank = std::max(report.rank, f.rank());
-    WriteBonnBtfFile(out, file, options.scalar);
-    report.files = 1;
-  }
-  report.seconds = SecondsSince(start);
-  return report;
-}
-
-BonnImportReport ImportBonn(const fs::path& in, const fs::path& out, const BonnImportOptions& options) {
-  const auto start = std::chrono::steady_clock::now();
-  if (const auto problem = options.Check(); !problem.empty()) throw core::Error("import bonn: " + problem);
-  std::error_code ec;
-  fs::path named = in;
-  if (named.filename().empty()) named = named.parent_path();  // "folder/"
-  const std::string name = !options.name.empty()           ? options.name
-                           : fs::is_directory(in, ec) ? named.filename().string()
-                                                      : named.stem().string();
-  BonnImportReport report;
-  nlohmann::json facts;
-  if (fs::is_directory(in, ec)) {
-    report.form = BonnForm::kUbo2003;
-    const BonnImportParts parts = options.parts.value_or(BonnImportParts::kFull);
-    if (parts != BonnImportParts::kFull) {
-      throw core::Error("import bonn: " + in.string() + " is an image folder, which holds a full BTF only; import it with "
-                  "--btf full and factor it with `mesocap compress`");
-    }
-    if (!(options.width_mm > 0.0)) {
-      throw core::Error("import bonn: the images of " + in.string() + " carry no physical size; give --size-mm");
-    }
-    const Ubo2003ImageSet set = ScanUbo2003Folder(in);
-    const formats::MaterialDescription d = DescriptionFor(name, set.width, set.height, options.width_mm, options.d_max_mm,
-                                                 set.views, set.lights, "import bonn ubo2003 " + in.string());
-    formats::MaterialPackageWriter writer(out, d, options.replace);
-    formats::AmbientTerm ambient = btf::MakeAmbientTerm(d.width, d.height, d.view_directions);
-    for (int v = 0; v < d.view_directions.size(); ++v) {
-      const core::Image view = ReadUbo2003View(set, v, options.scale);
-      writer.WriteFullBtfView(v, view);
-      btf::AddAmbientView(view, d.light_directions, v, &ambient);
-    }
-    writer.WriteAmbientTerm(ambient);
-    if (options.flat_mdf) WriteFlatMdf(d, &writer);
-    facts = {{"form", "ubo2003"}, {"images", d.view_directions.size() * d.light_directions.size()}, {"scale", options.scale}};
-    writer.WriteErrorReport({{"bonn_import", facts}});
-    report.manifest = writer.Commit();
-  } else {
-    const BonnBtfFile btf = ReadBonnBtfFile(in);
-    report.form = btf.form == BonnBtfForm::kFmf ? BonnForm::kFmf : BonnForm::kDfmf;
-    report.signature = btf.signature;
-    const BonnImportParts parts = options.parts.value_or(BonnImportParts::kFactored);
-    double width_mm = options.width_mm;
-    if (!(width_mm > 0.0)) {
-      if (!(btf.pixels_per_mm > 0.0f)) {
-        throw core::FormatError(in, "meta.pixels_per_mm",
-                          "is " + std::to_string(btf.pixels_per_mm) + ", so the physical size is unknown; give --size-mm");
-      }
-      width_mm = btf.width / static_cast<double>(btf.pixels_per_mm);
-    }
-    if (btf.rgb_scale_factor != Eigen::Vector3f::Ones()) {
-      spdlog::warn("{}: RGB scale factor ({}, {}, {}) is not applied (btflib does not apply it either)", in.string(),
-                   btf.rgb_scale_factor[0], btf.rgb_scale_factor[1], btf.rgb_scale_factor[2]);
-    }
-    std::optional<core::FactoredBtf> factored;
-    if (parts != BonnImportParts::kFull) factored = FactoredFromBonn(btf, in);
-    try {
-      BonnToRgb(btf);  // a full import needs a linear colour model too: fail before writing anything
-    } catch (const core::Error& e) {
-      throw core::FormatError(in, "color_model", e.what());
-    }
-    const formats::MaterialDescription d =
-        DescriptionFor(name, btf.width, btf.height, width_mm, options.d_max_mm, BonnViewSet(btf, in),
-                       BonnLightSet(btf, in), std::string("import bonn ") + ToString(report.form) + " " + in.string());
-    formats::MaterialPackageWriter writer(out, d, options.replace);
-    formats::AmbientTerm ambient = btf::MakeAmbientTerm(d.width, d.height, d.view_directions);
-    for (int v = 0; v < d.view_directions.size(); ++v) {
-      // With a full BTF the ambient term integrates the exact decode; else
-      // the factored BTF, which equals it up to float rounding.
-      const core::Image view = parts != BonnImportParts::kFactored ? BonnBtfView(btf, v) : btf::ReconstructBtfView(*factored, v);
-      if (parts != BonnImportParts::kFactored) writer.WriteFullBtfView(v, view);
-      btf::AddAmbientView(view, d.light_directions, v, &ambient);
-    }
-    if (factored) {
-      writer.WriteFactoredBtf(*factored);
-      report.rank = factored->rank();
-    }
-    writer.WriteAmbientTerm(ambient);
-    if (options.flat_mdf) WriteFlatMdf(d, &writer);
-    facts = {{"form", ToString(report.form)},
-             {"signature", btf.signature},
-             {"scalar_bytes", static_cast<int>(btf.scalar)},
-             {"color_model", BonnColorModelName(btf.color_model)},
-             {"cosine_flag", btf.cosine_flag}};
-    writer.WriteErrorReport({{"bonn_import", facts}});
-    report.manifest = writer.Commit();
-  }
-  report.seconds = SecondsSince(start);
-  return report;
 }
 
 }  // namespace mesocap::bonn

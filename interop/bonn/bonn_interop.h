@@ -1,8 +1,10 @@
-// Interop with the Bonn BTF database: a material package's BTF exported to
-// the UBO2003 image folder (core/bonn_ubo2003.h) or the UBO2014 binary FMF /
-// DFMF files (core/bonn_btf_file.h), and those forms imported as a material
-// package, so public BTFs can be processed and rendered by mesocap and
-// mesocap's BTFs read by the tools that read those databases.
+// Interop with the Bonn BTF database: the conversions between mesocap's BTF
+// values and the UBO2014 binary FMF / DFMF files (bonn_btf_file.h), behind
+// the export and import jobs (pipelines/export_bonn.h, pipelines/import_bonn.h)
+// that write a material package's BTF in those forms or the UBO2003 image
+// folder (bonn_ubo2003.h) and read them back, so public BTFs can be processed
+// and rendered by mesocap and mesocap's BTFs read by the tools that read
+// those databases.
 //
 // How the data map (docs/FORMATS.md "Bonn BTF database forms"):
 // - Directions: the same frame and angles (core/bonn_btf_file.h); index
@@ -18,7 +20,7 @@
 //   colour channels are RGB (model 0) or, for mesocap's decorrelated
 //   channels f = M rgb, the PCA model 3 with matrix (M^-1)^T and mean 0.
 // - FMF factors one matrix whose rows are (channel, x, y): written from the
-//   SVD (processing/btf_compression.h) of that matrix, read as a per_texel
+//   SVD (btf/btf_compression.h) of that matrix, read as a per_texel
 //   factored BTF whose column factors are the same for the 3 channels.
 // - Importing a factored file as mesocap's factored BTF is exact (up to
 //   float rounding); a PCA mean becomes one extra component. Nonlinear
@@ -27,92 +29,19 @@
 #pragma once
 
 #include <filesystem>
-#include <optional>
 #include <string>
 
 #include "btf/btf_compression.h"
 #include "core/btf.h"
 #include "core/error.h"
-#include "formats/material_package.h"
 #include "interop/bonn/bonn_btf_file.h"
-#include "interop/bonn/bonn_ubo2003.h"
 
 namespace mesocap::bonn {
 
+// The forms a package's BTF is exported to or imported from.
 enum class BonnForm { kUbo2003, kFmf, kDfmf };
 const char* ToString(BonnForm form);  // "ubo2003", "fmf", "dfmf"
 
-struct BonnExportOptions {
-  BonnForm form = BonnForm::kDfmf;
-  // ubo2003: image = T * scale, 8-bit sRGB PNG or linear half EXR.
-  Ubo2003Encoding encoding = Ubo2003Encoding::kSrgb8Png;
-  double scale = 1.0;
-  // fmf, dfmf: factor values as half (what btflib writes) or float.
-  BonnScalar scalar = BonnScalar::kHalf;
-  // fmf, dfmf, when the package's BTF has to be factored here (always for
-  // fmf; for dfmf unless the package holds a per_texel factored BTF): rank
-  // or error budget, and for dfmf the colour channels. The layout is
-  // per_texel whatever is set.
-  btf::BtfCompressionOptions compression;
-  bool replace = false;
-
-  core::CheckResult Check() const;
-};
-
-struct BonnExportReport {
-  std::string source;  // what was exported: "full BTF", "per_texel factored BTF", ...
-  int rank = 0;        // components written (fmf, dfmf)
-  std::optional<btf::BtfCompressionReport> compression;  // when factored here
-  long long clipped_values = 0;                     // ubo2003 8-bit: values outside [0, 1] after scaling
-  long long files = 0;
-  double seconds = 0.0;
-};
-
-// Writes the BTF of the package at `package` to `out` (a folder for
-// ubo2003, a file for fmf and dfmf), atomically: on any failure nothing is
-// left at `out` and what was there is intact. Throws Error when the package
-// holds no BTF or `out` exists and `replace` is false.
-BonnExportReport ExportBonn(const std::filesystem::path& package, const std::filesystem::path& out,
-                            const BonnExportOptions& options);
-
-enum class BonnImportParts { kFactored, kFull, kBoth };
-
-struct BonnImportOptions {
-  // The Bonn forms carry no mesostructure depth, but every package states
-  // d_max (docs/FORMATS.md): required, > 0.
-  double d_max_mm = 0.0;
-  // Physical width of the texture (height follows for square texels); 0:
-  // from the binary file's pixels per mm. Required for the image form.
-  double width_mm = 0.0;
-  // Default: factored for FMF/DFMF (exact, what the renderer reads), full
-  // for the image form (the only one it can be).
-  std::optional<BonnImportParts> parts;
-  double scale = 1.0;     // image form: T = image / scale
-  bool flat_mdf = false;  // add an MDF of distance 0 everywhere (a flat surface at the reference plane)
-  std::string name;       // default: the input's file or folder name
-  bool replace = false;
-
-  core::CheckResult Check() const;
-};
-
-struct BonnImportReport {
-  BonnForm form = BonnForm::kDfmf;
-  std::string signature;  // binary forms
-  int rank = 0;           // components of the factored BTF written (0 if none)
-  formats::MaterialManifest manifest;
-  double seconds = 0.0;
-};
-
-// Reads the folder (UBO2003 images) or file (FMF, DFMF, told by its
-// signature) at `in` and writes a material package at `out` with the BTF
-// (full and/or factored), its ambient term (processing/ambient_term.h) and,
-// when asked, a flat MDF; atomically. Throws FormatError / Error naming the
-// file and field for bad input; nothing is written then.
-BonnImportReport ImportBonn(const std::filesystem::path& in, const std::filesystem::path& out,
-                            const BonnImportOptions& options);
-
-// The conversions behind the above.
-//
 // A per_texel factored BTF as a DFMF (texel rows). Throws Error for the paper layout.
 BonnBtfFile BonnDfmfFromFactored(const core::FactoredBtf& btf);
 // The FMF of a full BTF: the SVD of the (channel, x, y) x (view, light)

@@ -13,6 +13,7 @@
 #include <set>
 
 #include "core/error.h"
+#include "interop/bonn/ubo_sampling_sets.h"
 
 namespace mesocap::bonn {
 namespace fs = std::filesystem;
@@ -117,7 +118,7 @@ DegreePair Key(double theta_deg, double phi_deg) { return {theta_deg, theta_deg 
 core::SamplingSet SetOf(const fs::path& dir, const std::set<DegreePair>& keys, const char* what) {
   std::vector<core::SphericalAngles> angles;
   for (const auto& [t, p] : keys) angles.push_back({t * kDegree, p * kDegree});
-  const core::SamplingSet named = core::SamplingSet::Named("ubo2003");
+  const core::SamplingSet named = NamedSamplingSet("ubo2003");
   if (named.size() == static_cast<int>(angles.size())) {
     bool same = true;
     for (int i = 0; i < named.size() && same; ++i) {

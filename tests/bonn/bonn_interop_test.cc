@@ -7,7 +7,8 @@
 //     float rounding and the 2^-25 absolute error of subnormals);
 //   UBO2003 8-bit sRGB: half the local code step; EXR half: 2^-11 relative.
 // Plus the other matrix orientation, the cosine flag and the PCA mean
-// against hand-made files, and package-level failures leaving nothing.
+// against hand-made files. The package-level jobs (export and import) are
+// tested in tests/pipelines/bonn_jobs_test.cc.
 #include "interop/bonn/bonn_interop.h"
 
 #include <OpenImageIO/color.h>
@@ -19,66 +20,18 @@
 
 #include "btf/ambient_term.h"
 #include "btf/btf_compression.h"
+#include "interop/bonn/ubo_sampling_sets.h"
 #include "sim/ground_truth.h"
 #include "sim/mesostructure_scene.h"
+#include "tests/bonn/bonn_round_trip.h"
 #include "tests/common/temporary_directory.h"
 
 namespace mesocap::bonn {
 namespace {
 
-// The exact BTF of the `blocks` scene on a 6 x 4 texture (not square, so a
-// swapped x and y shows) with 8 views and 6 lights.
-const core::FullBtf& TrueBtf() {
-  static const core::FullBtf btf = [] {
-    sim::GroundTruthOptions gt;
-    gt.texture_width = 6;
-    gt.texture_height = 4;
-    gt.sample_size_mm = 12.0;
-    gt.views = core::SamplingSet::Named("grid4x2");
-    gt.lights = core::SamplingSet::Named("grid3x2");
-    return sim::RenderTrueBtf(*sim::MakeBuiltinScene("blocks"), gt);
-  }();
-  return btf;
-}
-
-formats::MaterialPackage PackageOf(const core::FullBtf& btf) {
-  formats::MaterialPackage p;
-  p.description.name = "blocks";
-  p.description.width = btf.width;
-  p.description.height = btf.height;
-  p.description.physical_size_mm = {12.0, 8.0};
-  p.description.d_max_mm = 1.5;
-  p.description.view_directions = btf.views;
-  p.description.light_directions = btf.lights;
-  p.full_btf = btf;
-  return p;
-}
-
-// Largest |a - b| / bound over every value, bound(x, y, v, l, c) given.
-template <typename Bound>
-double WorstRatio(const core::FullBtf& want, const std::function<core::Image(int)>& got_view, Bound bound) {
-  double worst = 0.0;
-  for (int v = 0; v < want.view_count(); ++v) {
-    const core::Image got = got_view(v);
-    for (int l = 0; l < want.light_count(); ++l)
-      for (int y = 0; y < want.height; ++y)
-        for (int x = 0; x < want.width; ++x)
-          for (int c = 0; c < 3; ++c) {
-            const double d = std::abs(got.at(x, l * want.height + y, c) - want.at(x, y, v, l)[c]);
-            worst = std::max(worst, d / bound(x, y, v, l, c));
-          }
-  }
-  return worst;
-}
-
-// sum_k |U| |SxV| of one value of a texel-rows Bonn file: what bounds the
-// rounding of its factors.
-double TermSum(const BonnBtfFile& b, int x, int y, int v, int l, int c) {
-  const int t = x + b.width * y, j = l + b.light_count() * v;
-  const BonnFactors& f = b.factors[b.form == BonnBtfForm::kFmf ? 0 : c];
-  const int row = b.form == BonnBtfForm::kFmf ? c + 3 * t : t;
-  return (f.u.row(row).cwiseAbs().array() * f.sxv.row(j).cwiseAbs().array()).sum();
-}
+using testing::TermSum;
+using testing::TrueBtf;
+using testing::WorstRatio;
 
 TEST(BonnInterop, DfmfRoundTripFromPerTexelFactors) {
   const core::FullBtf& truth = TrueBtf();
@@ -218,144 +171,13 @@ TEST(BonnInterop, OrientationCosineAndMeanAreUndone) {
 
 TEST(BonnInterop, Ubo2014DomeIsRecognised) {
   BonnBtfFile b;
-  const core::SamplingSet dome = core::SamplingSet::Named("ubo2014");
+  const core::SamplingSet dome = NamedSamplingSet("ubo2014");
   for (int i = 0; i < dome.size(); ++i) b.views.push_back(BonnFromAngles(dome.angles(i)));
   const core::SamplingSet set = BonnViewSet(b, "x.btf");
   EXPECT_EQ(set.name(), "ubo2014");
   EXPECT_EQ(set.angles(7).phi, dome.angles(7).phi);  // the named set's exact angles
   b.views[3].theta += 0.01f;
   EXPECT_EQ(BonnViewSet(b, "x.btf").name(), "bonn_file");
-}
-
-TEST(BonnInterop, PackageRoundTripsThroughEveryForm) {
-  testing::TemporaryDirectory dir;
-  const core::FullBtf& truth = TrueBtf();
-  formats::WriteMaterialPackage(dir / "in", PackageOf(truth), false);
-
-  BonnImportOptions import;
-  import.d_max_mm = 1.5;
-  import.flat_mdf = true;
-
-  // UBO2003, 8-bit sRGB: within half a code step (the values are below 1).
-  BonnExportOptions png;
-  png.form = BonnForm::kUbo2003;
-  const BonnExportReport r = ExportBonn(dir / "in", dir / "ubo", png);
-  EXPECT_EQ(r.files, 8 * 6);
-  EXPECT_EQ(r.clipped_values, 0);
-  import.width_mm = 12.0;
-  const BonnImportReport ir = ImportBonn(dir / "ubo", dir / "from_ubo", import);
-  EXPECT_TRUE(ir.manifest.full_btf);
-  EXPECT_TRUE(ir.manifest.ambient);
-  EXPECT_TRUE(ir.manifest.mdf.has_value());
-  EXPECT_NEAR(ir.manifest.description.physical_size_mm.y(), 8.0, 1e-12);
-  const core::FullBtf from_ubo = formats::ReadFullBtf(dir / "from_ubo", ir.manifest);
-  // The folder scan orders directions ring by ring; the grid sets are in that order.
-  for (int v = 0; v < truth.view_count(); ++v) {
-    EXPECT_NEAR(from_ubo.views.angles(v).theta, truth.views.angles(v).theta, 1e-9);
-    EXPECT_NEAR(from_ubo.views.angles(v).phi, truth.views.angles(v).phi, 1e-9);
-  }
-  const double srgb = WorstRatio(truth, [&](int v) { return from_ubo.view_images[v]; },
-                                 [&](int x, int y, int v, int l, int c) {
-                                   const float w = truth.at(x, y, v, l)[c];
-                                   const float code = std::round(OIIO::linear_to_sRGB(w) * 255.0f);
-                                   return 0.5 * (OIIO::sRGB_to_linear(std::min(code + 1, 255.0f) / 255.0f) -
-                                                 OIIO::sRGB_to_linear(std::max(code - 1, 0.0f) / 255.0f)) +
-                                          1e-6;
-                                 });
-  EXPECT_LE(srgb, 1.0);
-
-  // DFMF from a full BTF (factored here at full rank), half, imported factored.
-  BonnExportOptions dfmf;
-  dfmf.form = BonnForm::kDfmf;
-  dfmf.compression.rank = 24;
-  const BonnExportReport dr = ExportBonn(dir / "in", dir / "a.dfmf", dfmf);
-  EXPECT_EQ(dr.rank, 24);
-  import.width_mm = 0.0;  // from the file's pixels per mm
-  const BonnImportReport di = ImportBonn(dir / "a.dfmf", dir / "from_dfmf", import);
-  EXPECT_EQ(di.rank, 24);
-  EXPECT_NEAR(di.manifest.description.physical_size_mm.x(), 12.0, 1e-5);
-  const core::FactoredBtf from_dfmf = formats::ReadFactoredBtf(dir / "from_dfmf", di.manifest);
-  const BonnBtfFile dfile = ReadBonnBtfFile(dir / "a.dfmf");
-  EXPECT_LE(WorstRatio(truth, [&](int v) { return btf::ReconstructBtfView(from_dfmf, v); },
-                       [&](int x, int y, int v, int l, int c) {
-                         return (2.1 * std::ldexp(1.0, -11) + 2e-6) * TermSum(dfile, x, y, v, l, c) + 1e-6;
-                       }),
-            1.0);
-  // The ambient term is the truth's (processing/ambient_term.h) within the
-  // quantization integrated over the lights: sum_l cos(theta_l) w_l <= pi.
-  const formats::AmbientTerm ambient = formats::ReadAmbientTerm(dir / "from_dfmf", di.manifest);
-  const formats::AmbientTerm true_ambient = btf::ComputeAmbientTerm(truth);
-  double largest_term_sum = 0.0;
-  for (int v = 0; v < truth.view_count(); ++v)
-    for (int l = 0; l < truth.light_count(); ++l)
-      for (int y = 0; y < truth.height; ++y)
-        for (int x = 0; x < truth.width; ++x)
-          for (int c = 0; c < 3; ++c) largest_term_sum = std::max(largest_term_sum, TermSum(dfile, x, y, v, l, c));
-  const double ambient_bound = std::numbers::pi * ((2.1 * std::ldexp(1.0, -11) + 2e-6) * largest_term_sum + 1e-6);
-  ASSERT_EQ(ambient.values.size(), true_ambient.values.size());
-  for (std::size_t i = 0; i < ambient.values.size(); ++i) {
-    EXPECT_NEAR(ambient.values.data()[i], true_ambient.values.data()[i], ambient_bound) << i;
-  }
-
-  // FMF, float, imported as both forms.
-  BonnExportOptions fmf;
-  fmf.form = BonnForm::kFmf;
-  fmf.scalar = BonnScalar::kFloat;
-  fmf.compression.rank = 48;
-  ExportBonn(dir / "in", dir / "a.fmf", fmf);
-  import.parts = BonnImportParts::kBoth;
-  const BonnImportReport fi = ImportBonn(dir / "a.fmf", dir / "from_fmf", import);
-  EXPECT_TRUE(fi.manifest.full_btf);
-  EXPECT_EQ(fi.rank, 48);
-  const core::FullBtf from_fmf = formats::ReadFullBtf(dir / "from_fmf", fi.manifest);
-  const BonnBtfFile ffile = ReadBonnBtfFile(dir / "a.fmf");
-  EXPECT_LE(WorstRatio(truth, [&](int v) { return from_fmf.view_images[v]; },
-                       [&](int x, int y, int v, int l, int c) { return 1e-5 * TermSum(ffile, x, y, v, l, c) + 1e-6; }),
-            1.0);
-}
-
-TEST(BonnInterop, FailuresLeaveNothingBehind) {
-  testing::TemporaryDirectory dir;
-  core::FullBtf big = TrueBtf();
-  big.view_images[2].at(1, 1, 0) = 1e6f;  // does not fit a half
-  formats::WriteMaterialPackage(dir / "in", PackageOf(big), false);
-
-  BonnExportOptions exr;
-  exr.form = BonnForm::kUbo2003;
-  exr.encoding = Ubo2003Encoding::kHalfExr;
-  EXPECT_THROW(ExportBonn(dir / "in", dir / "ubo", exr), core::Error);
-  EXPECT_FALSE(std::filesystem::exists(dir / "ubo"));
-
-  BonnExportOptions dfmf;
-  dfmf.form = BonnForm::kDfmf;
-  dfmf.compression.rank = 24;
-  EXPECT_THROW(ExportBonn(dir / "in", dir / "a.dfmf", dfmf), core::Error);
-  EXPECT_FALSE(std::filesystem::exists(dir / "a.dfmf"));
-
-  // An existing target is kept unless --replace.
-  std::filesystem::create_directories(dir / "taken");
-  BonnExportOptions png;
-  png.form = BonnForm::kUbo2003;
-  EXPECT_THROW(ExportBonn(dir / "in", dir / "taken", png), core::Error);
-  dfmf.scalar = BonnScalar::kFloat;
-  ExportBonn(dir / "in", dir / "a.dfmf", dfmf);
-  EXPECT_THROW(ExportBonn(dir / "in", dir / "a.dfmf", dfmf), core::Error);
-
-  // Import of a truncated file: FormatError, no package.
-  std::filesystem::resize_file(dir / "a.dfmf", std::filesystem::file_size(dir / "a.dfmf") - 7);
-  BonnImportOptions import;
-  import.d_max_mm = 1.0;
-  EXPECT_THROW(ImportBonn(dir / "a.dfmf", dir / "out", import), core::FormatError);
-  EXPECT_FALSE(std::filesystem::exists(dir / "out"));
-  // An image folder cannot be imported factored, nor without a size.
-  ExportBonn(dir / "in", dir / "ubo", png);
-  import.parts = BonnImportParts::kFactored;
-  import.width_mm = 10;
-  EXPECT_THROW(ImportBonn(dir / "ubo", dir / "out", import), core::Error);
-  import.parts.reset();
-  import.width_mm = 0;
-  EXPECT_THROW(ImportBonn(dir / "ubo", dir / "out", import), core::Error);
-  EXPECT_FALSE(std::filesystem::exists(dir / "out"));
 }
 
 }  // namespace

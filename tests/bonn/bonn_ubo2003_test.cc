@@ -11,6 +11,7 @@
 #include <numbers>
 
 #include "core/error.h"
+#include "interop/bonn/ubo_sampling_sets.h"
 #include "tests/common/temporary_directory.h"
 
 namespace mesocap::bonn {
@@ -160,7 +161,7 @@ TEST(Ubo2003Images, BadFoldersNameTheFile) {
 TEST(Ubo2003Images, NamedSetIsRecognised) {
   // The 81 UBO2003 views under one light scan to the named set.
   testing::TemporaryDirectory dir;
-  const core::SamplingSet ubo = core::SamplingSet::Named("ubo2003");
+  const core::SamplingSet ubo = NamedSamplingSet("ubo2003");
   const core::SamplingSet one_light = Set({{0, 0}});
   for (int v = 0; v < ubo.size(); ++v) {
     WriteUbo2003View(dir.path(), ubo, one_light, v, core::Image(2, 2, 3, 0.25f), Ubo2003Encoding::kSrgb8Png, 1.0);

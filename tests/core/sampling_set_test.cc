@@ -9,59 +9,24 @@
 #include <random>
 
 #include "core/error.h"
+#include "tests/common/sampling_set_checks.h"
 
 namespace mesocap::core {
 namespace {
 
 using nlohmann::json;
 
-constexpr double kPi = std::numbers::pi;
-constexpr double kDeg = kPi / 180.0;
+using testing::Blended;
+using testing::Contains;
+using testing::ErrorOf;
+using testing::kDeg;
+using testing::kPi;
+using testing::RandomDirection;
+using testing::RandomDirectionIn;
 
-const std::vector<std::string> kNamedSets = {"paper12x5", "paper12x8", "ubo2003", "ubo2014",
-                                             "grid24x6",  "grid1x1",   "grid7x3"};
-
-// Returns the message of the Error (of type E) `f` throws; fails if it throws none.
-template <typename E = Error, typename F>
-std::string ErrorOf(F&& f) {
-  try {
-    f();
-  } catch (const E& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "no error thrown";
-  return {};
-}
-
-bool Contains(const std::string& text, const std::string& part) {
-  return text.find(part) != std::string::npos;
-}
-
-Eigen::Vector3d RandomDirection(std::mt19937& rng) {
-  std::normal_distribution<double> normal;
-  Eigen::Vector3d d;
-  do {
-    d = {normal(rng), normal(rng), normal(rng)};
-  } while (d.norm() < 1e-6);
-  return d.normalized();
-}
-
-// A direction with theta uniform in [lo, hi] and phi uniform in [0, 2 pi).
-Eigen::Vector3d RandomDirectionIn(std::mt19937& rng, double lo, double hi) {
-  std::uniform_real_distribution<double> theta(lo, hi);
-  std::uniform_real_distribution<double> phi(0.0, 2 * kPi);
-  return DirectionFromAngles(theta(rng), phi(rng));
-}
-
-// The blend of per-direction values f(i).
-double Blended(const SamplingSet::Blend& b, const std::function<double(int)>& f) {
-  double sum = 0.0;
-  for (int k = 0; k < b.count; ++k) sum += b.weight[k] * f(b.index[k]);
-  return sum;
-}
-
-// A smooth function on the sphere for continuity checks.
-double Smooth(const Eigen::Vector3d& d) { return d.x() + 2 * d.y() + 3 * d.z() * d.z(); }
+// Core's named sets; the Bonn database's (ubo2003, ubo2014) are checked in
+// tests/bonn/ubo_sampling_sets_test.cc.
+const std::vector<std::string> kNamedSets = {"paper12x5", "paper12x8", "grid24x6", "grid1x1", "grid7x3"};
 
 // ---------------------------------------------------------------- angles
 
@@ -108,8 +73,7 @@ TEST(Angles, RejectsZeroAndNonFinite) {
 
 TEST(SamplingSetNamed, SizesAndNames) {
   const std::vector<std::pair<std::string, int>> sizes = {
-      {"paper12x5", 60}, {"paper12x8", 96}, {"ubo2003", 81}, {"ubo2014", 151},
-      {"grid24x6", 144}, {"grid1x1", 1},    {"grid7x3", 21}};
+      {"paper12x5", 60}, {"paper12x8", 96}, {"grid24x6", 144}, {"grid1x1", 1}, {"grid7x3", 21}};
   for (const auto& [name, size] : sizes) {
     const SamplingSet set = SamplingSet::Named(name);
     EXPECT_EQ(set.name(), name);
@@ -119,19 +83,7 @@ TEST(SamplingSetNamed, SizesAndNames) {
 }
 
 TEST(SamplingSetNamed, OrderedRingByRingThenByPhi) {
-  for (const auto& name : kNamedSets) {
-    const SamplingSet set = SamplingSet::Named(name);
-    for (int i = 0; i < set.size(); ++i) {
-      EXPECT_GE(set.angles(i).phi, 0.0) << name;
-      EXPECT_LT(set.angles(i).phi, 2 * kPi) << name;
-      EXPECT_LT(set.angles(i).theta, kPi / 2) << name;
-      if (i == 0) continue;
-      const auto& prev = set.angles(i - 1);
-      const auto& cur = set.angles(i);
-      EXPECT_TRUE(prev.theta < cur.theta || (prev.theta == cur.theta && prev.phi < cur.phi))
-          << name << " at " << i;
-    }
-  }
+  for (const auto& name : kNamedSets) testing::ExpectOrderedRingByRingThenByPhi(SamplingSet::Named(name));
 }
 
 TEST(SamplingSetNamed, RegularGridAngles) {
@@ -157,36 +109,13 @@ TEST(SamplingSetNamed, PaperSetsArePlacedAsRegularGrids) {
   }
 }
 
-// Counts the members of each ring, in order, and checks each ring's azimuths.
-void ExpectRings(const SamplingSet& set, const std::vector<double>& theta_deg,
-                 const std::vector<int>& count, const std::vector<double>& offset_deg) {
-  int i = 0;
-  for (std::size_t r = 0; r < theta_deg.size(); ++r) {
-    for (int k = 0; k < count[r]; ++k, ++i) {
-      ASSERT_LT(i, set.size());
-      EXPECT_NEAR(set.angles(i).theta, theta_deg[r] * kDeg, 1e-15) << set.name() << " " << i;
-      EXPECT_NEAR(set.angles(i).phi, (offset_deg[r] + 360.0 * k / count[r]) * kDeg, 1e-14)
-          << set.name() << " " << i;
-    }
-  }
-  EXPECT_EQ(i, set.size());
-}
-
-TEST(SamplingSetNamed, Ubo2003) {
-  ExpectRings(SamplingSet::Named("ubo2003"), {0, 15, 30, 45, 60, 75}, {1, 6, 12, 18, 20, 24},
-              {0, 0, 0, 0, 0, 0});
-}
-
-TEST(SamplingSetNamed, Ubo2014) {
-  ExpectRings(SamplingSet::Named("ubo2014"), {0, 11, 23.5, 30, 37.5, 45, 52.5, 60, 67.5, 75},
-              {1, 6, 12, 12, 12, 18, 18, 24, 24, 24}, {0, 15, 0, 15, 0, 0, 7.5, 0, 7.5, 0});
-}
-
 TEST(SamplingSetNamed, RejectsUnknownNamesAndBadGrids) {
-  for (const std::string bad : {"ubo2015", "", "grid", "grid24", "grid24x", "gridx6", "grid024x6",
+  // The Bonn database's names are not core's (bonn::NamedSamplingSet knows them).
+  for (const std::string bad : {"ubo2003", "ubo2015", "", "grid", "grid24", "grid24x", "gridx6", "grid024x6",
                                 "grid+2x6", "grid2x6 ", "grid99999999999x1"}) {
     const std::string msg = ErrorOf([&] { SamplingSet::Named(bad); });
-    EXPECT_TRUE(Contains(msg, "ubo2014") && Contains(msg, "grid<A>x<P>")) << bad << ": " << msg;
+    EXPECT_TRUE(Contains(msg, "paper12x8") && Contains(msg, "grid<A>x<P>")) << bad << ": " << msg;
+    EXPECT_FALSE(SamplingSet::FindNamed(bad).has_value()) << bad;
   }
   EXPECT_TRUE(Contains(ErrorOf([] { SamplingSet::Named("grid0x6"); }), "at least 1"));
   EXPECT_TRUE(Contains(ErrorOf([] { SamplingSet::RegularGrid(24, 0); }), "at least 1"));
@@ -198,15 +127,7 @@ TEST(SamplingSetNamed, RejectsUnknownNamesAndBadGrids) {
 // ---------------------------------------------------------------- weights
 
 TEST(SamplingSetWeights, SumToTwoPi) {
-  for (const auto& name : kNamedSets) {
-    const SamplingSet set = SamplingSet::Named(name);
-    double sum = 0.0;
-    for (int i = 0; i < set.size(); ++i) {
-      EXPECT_GT(set.weight(i), 0.0);
-      sum += set.weight(i);
-    }
-    EXPECT_NEAR(sum, 2 * kPi, 1e-12) << name;
-  }
+  for (const auto& name : kNamedSets) testing::ExpectWeightsSumToTwoPi(SamplingSet::Named(name));
 }
 
 TEST(SamplingSetWeights, RegularGridGivesBandSolidAngles) {
@@ -215,13 +136,6 @@ TEST(SamplingSetWeights, RegularGridGivesBandSolidAngles) {
     const double band = 2 * kPi * (std::cos(j * 15 * kDeg) - std::cos((j + 1) * 15 * kDeg));
     for (int k = 0; k < 24; ++k) EXPECT_NEAR(set.weight(j * 24 + k), band / 24, 1e-15);
   }
-}
-
-TEST(SamplingSetWeights, RingBandsAtMidpoints) {
-  const SamplingSet set = SamplingSet::Named("ubo2003");
-  EXPECT_NEAR(set.weight(0), 2 * kPi * (1 - std::cos(7.5 * kDeg)), 1e-15);  // pole cap
-  EXPECT_NEAR(set.weight(1), 2 * kPi * (std::cos(7.5 * kDeg) - std::cos(22.5 * kDeg)) / 6, 1e-15);
-  EXPECT_NEAR(set.weight(80), 2 * kPi * std::cos(67.5 * kDeg) / 24, 1e-15);  // last band to 90
 }
 
 // ---------------------------------------------------------------- FromAngles
@@ -281,116 +195,35 @@ std::vector<SamplingSet> AllTestSets() {
 
 TEST(SamplingSetNearest, MatchesBruteForce) {
   std::mt19937 rng(7);
-  for (const SamplingSet& set : AllTestSets()) {
-    for (int t = 0; t < 5000; ++t) {
-      // The whole sphere: below the horizon too.
-      const Eigen::Vector3d d = t % 2 ? RandomDirection(rng) : RandomDirectionIn(rng, 0, kPi / 2);
-      double best = -2.0;
-      for (int i = 0; i < set.size(); ++i) best = std::max(best, set.direction(i).dot(d));
-      const int found = set.Nearest(d);
-      ASSERT_GE(found, 0);
-      ASSERT_LT(found, set.size());
-      ASSERT_NEAR(set.direction(found).dot(d), best, 1e-12) << set.name() << " at trial " << t;
-    }
-    for (int i = 0; i < set.size(); ++i) EXPECT_EQ(set.Nearest(set.direction(i)), i) << set.name();
-  }
+  for (const SamplingSet& set : AllTestSets()) testing::ExpectNearestMatchesBruteForce(set, rng);
 }
 
 TEST(SamplingSetNearest, PoleAndZero) {
   const SamplingSet grid = SamplingSet::RegularGrid(24, 6);
   const int at_pole = grid.Nearest({0, 0, 1});
   EXPECT_LT(at_pole, 24);  // first ring; every member is equally near
-  EXPECT_EQ(SamplingSet::Named("ubo2003").Nearest({1e-6, 0, 1}), 0);
   EXPECT_THROW(grid.Nearest({0, 0, 0}), Error);
 }
 
 // ---------------------------------------------------------------- Interpolate
 
-void ExpectValidBlend(const SamplingSet& set, const SamplingSet::Blend& b) {
-  ASSERT_GE(b.count, 1);
-  ASSERT_LE(b.count, 4);
-  double sum = 0.0;
-  for (int k = 0; k < b.count; ++k) {
-    ASSERT_GE(b.index[k], 0);
-    ASSERT_LT(b.index[k], set.size());
-    EXPECT_GT(b.weight[k], 0.0);
-    sum += b.weight[k];
-  }
-  EXPECT_NEAR(sum, 1.0, 1e-12);
-}
-
 TEST(SamplingSetInterpolate, ExactAtSetDirections) {
-  for (const SamplingSet& set : AllTestSets()) {
-    for (int i = 0; i < set.size(); ++i) {
-      const auto b = set.Interpolate(set.direction(i));
-      ASSERT_EQ(b.count, 1) << set.name() << " " << i;
-      EXPECT_EQ(b.index[0], i) << set.name();
-      EXPECT_EQ(b.weight[0], 1.0) << set.name();
-    }
-  }
+  for (const SamplingSet& set : AllTestSets()) testing::ExpectInterpolateExactAtSetDirections(set);
 }
 
 TEST(SamplingSetInterpolate, WeightsNonNegativeSumToOne) {
   std::mt19937 rng(3);
-  for (const SamplingSet& set : AllTestSets()) {
-    for (int t = 0; t < 2000; ++t) ExpectValidBlend(set, set.Interpolate(RandomDirection(rng)));
-  }
+  for (const SamplingSet& set : AllTestSets()) testing::ExpectBlendsValid(set, rng);
 }
 
 TEST(SamplingSetInterpolate, ReproducesFunctionsLinearInThetaAndPhi) {
-  // Inside the bracketing rings and away from the phi = 0 seam, a + b theta +
-  // c phi is blended exactly.
-  const auto linear = [](double theta, double phi) { return 0.5 + 2.0 * theta - 0.3 * phi; };
   std::mt19937 rng(5);
-  struct Case {
-    std::string name;
-    double theta_lo, theta_hi, phi_lo, phi_hi;  // degrees
-  };
-  for (const Case& c : {Case{"grid24x6", 7.5, 82.5, 0, 345}, Case{"ubo2014", 11, 75, 15, 315},
-                        Case{"ubo2003", 15, 75, 0, 300}}) {
-    const SamplingSet set = SamplingSet::Named(c.name);
-    std::uniform_real_distribution<double> theta(c.theta_lo * kDeg, c.theta_hi * kDeg);
-    std::uniform_real_distribution<double> phi(c.phi_lo * kDeg, c.phi_hi * kDeg);
-    for (int t = 0; t < 2000; ++t) {
-      const double th = theta(rng);
-      const double ph = phi(rng);
-      const double got = Blended(set.Interpolate(DirectionFromAngles(th, ph)), [&](int i) {
-        return linear(set.angles(i).theta, set.angles(i).phi);
-      });
-      ASSERT_NEAR(got, linear(th, ph), 1e-12) << c.name << " at " << th << ", " << ph;
-    }
-  }
+  testing::ExpectLinearInThetaAndPhiReproduced(SamplingSet::Named("grid24x6"), 7.5, 82.5, 0, 345, rng);
 }
 
 TEST(SamplingSetInterpolate, Continuous) {
   std::mt19937 rng(11);
-  std::normal_distribution<double> normal;
-  for (const SamplingSet& set : AllTestSets()) {
-    const auto value = [&](int i) { return Smooth(set.direction(i)); };
-    for (int t = 0; t < 2000; ++t) {
-      // Away from the pole, where a set without a pole sample jumps with phi.
-      const Eigen::Vector3d d = RandomDirectionIn(rng, 0.01, kPi / 2);
-      const Eigen::Vector3d step(normal(rng), normal(rng), normal(rng));
-      const Eigen::Vector3d moved = (d + 1e-7 * step.normalized()).normalized();
-      // |Smooth| < 6 and the weights move at most ~1/(sin theta * ring gap) per
-      // radian, about 1e3 here: a change over 1e-3 would be a jump.
-      ASSERT_NEAR(Blended(set.Interpolate(moved), value), Blended(set.Interpolate(d), value), 1e-3)
-          << set.name();
-    }
-  }
-  // Across the phi = 0 seam and across a ring.
-  const SamplingSet set = SamplingSet::Named("ubo2014");
-  const auto value = [&](int i) { return Smooth(set.direction(i)); };
-  for (const double theta : {5.0, 11.0, 40.0, 75.0, 80.0}) {
-    const double below = Blended(set.Interpolate(DirectionFromAngles(theta * kDeg, -1e-9)), value);
-    const double above = Blended(set.Interpolate(DirectionFromAngles(theta * kDeg, 1e-9)), value);
-    EXPECT_NEAR(below, above, 1e-6) << theta;
-  }
-  for (const double theta : {11.0, 23.5, 52.5, 75.0}) {
-    const double inside = Blended(set.Interpolate(DirectionFromAngles(theta * kDeg - 1e-9, 1.0)), value);
-    const double outside = Blended(set.Interpolate(DirectionFromAngles(theta * kDeg + 1e-9, 1.0)), value);
-    EXPECT_NEAR(inside, outside, 1e-6) << theta;
-  }
+  for (const SamplingSet& set : AllTestSets()) testing::ExpectInterpolateContinuous(set, rng);
 }
 
 TEST(SamplingSetInterpolate, CosThetaOnRegularGridWithinBound) {
@@ -412,20 +245,6 @@ TEST(SamplingSetInterpolate, CosThetaOnRegularGridWithinBound) {
   EXPECT_LE(worst_inside, h * h / 8 + 1e-12);
   EXPECT_GT(worst_inside, 0.5 * h * h / 8);  // the bound is not vacuous
   EXPECT_LE(worst_grazing, std::sin(h / 2) + 1e-12);
-}
-
-TEST(SamplingSetInterpolate, NearThePoleWithAPoleSample) {
-  const SamplingSet set = SamplingSet::Named("ubo2003");
-  const auto at_pole = set.Interpolate({0, 0, 1});
-  ASSERT_EQ(at_pole.count, 1);
-  EXPECT_EQ(at_pole.index[0], 0);
-  // The pole's weight is 1 - theta / 15 degrees whatever phi is.
-  for (const double phi : {0.0, 1.0, 4.0}) {
-    const auto b = set.Interpolate(DirectionFromAngles(1e-8, phi));
-    ExpectValidBlend(set, b);
-    EXPECT_EQ(b.index[0], 0);
-    EXPECT_NEAR(b.weight[0], 1 - 1e-8 / (15 * kDeg), 1e-15);
-  }
 }
 
 TEST(SamplingSetInterpolate, NearThePoleWithoutAPoleSample) {
@@ -471,21 +290,7 @@ TEST(SamplingSetInterpolate, AtGrazingClampsToTheLastRing) {
 // ---------------------------------------------------------------- JSON
 
 TEST(SamplingSetJson, RoundTripsEveryNamedSet) {
-  for (const SamplingSet& set : AllTestSets()) {
-    const json doc = json::parse(json{{"view_directions", ToJson(set)}}.dump());
-    const JsonFieldReader root(doc, "material.json");
-    const SamplingSet back = ReadSamplingSet(root.Object("view_directions"));
-    EXPECT_EQ(back.name(), set.name());
-    ASSERT_EQ(back.size(), set.size());
-    for (int i = 0; i < set.size(); ++i) {
-      EXPECT_NEAR(back.angles(i).theta, set.angles(i).theta, 1e-9) << set.name() << " " << i;
-      EXPECT_NEAR(back.angles(i).phi, set.angles(i).phi, 1e-9) << set.name() << " " << i;
-      EXPECT_NEAR(back.weight(i), set.weight(i), 1e-12) << set.name() << " " << i;
-    }
-  }
-  const json j = ToJson(SamplingSet::Named("ubo2003"));
-  EXPECT_EQ(j["directions_deg"].size(), 81u);
-  EXPECT_NEAR(j["directions_deg"][1][0].get<double>(), 15.0, 1e-12);
+  for (const SamplingSet& set : AllTestSets()) testing::ExpectJsonRoundTrip(set);
 }
 
 // The FormatError message for reading `directions` as "view_directions".

@@ -1,0 +1,47 @@
+#include "pipelines/compress.h"
+
+#include <spdlog/spdlog.h>
+
+#include "formats/material_package.h"
+
+namespace mesocap::pipelines {
+
+core::CheckResult CompressOptions::Check() const {
+  if (in.empty()) return "in: give the material package holding a full BTF";
+  if (out.empty()) return "out: give the material package folder to write";
+  return compression.Check();
+}
+
+btf::BtfCompressionReport RunCompress(const CompressOptions& o) {
+  if (const auto problem = o.Check(); !problem.empty()) throw core::Error("compress: " + problem);
+  const formats::MaterialManifest manifest = formats::ReadMaterialManifest(o.in);
+  if (!manifest.full_btf) {
+    throw core::Error("compress: " + o.in.string() + " holds no full BTF to factor (manifest.json has no btf.full)");
+  }
+  formats::PackageFullBtfReader btf(o.in, manifest);
+  spdlog::info("compressing the {}x{} BTF of {} ({} views x {} lights), {} layout, {}", btf.width(), btf.height(),
+               o.in.string(), btf.view_count(), btf.light_count(), ToString(o.compression.layout),
+               ToString(o.compression.color));
+  btf::BtfCompressionReport report;
+  const core::FactoredBtf factored = btf::CompressBtf(btf, o.compression, &report);
+  spdlog::info("rank {}: {}; measured relative RMS error {:.3g} ({:.2f} s)", report.rank, report.reason,
+               report.measured_relative_rms_error, report.seconds);
+
+  formats::MaterialDescription description = manifest.description;
+  description.provenance.software_version.clear();
+  description.provenance.created_utc.clear();
+  description.provenance.source =
+      "compress of " + o.in.string() + " (" + manifest.description.provenance.source + ")";
+  formats::MaterialPackageWriter writer(o.out, description, o.replace);
+  if (manifest.mdf) writer.WriteMdf(formats::ReadMdf(o.in, manifest), manifest.mdf->forms);
+  writer.WriteFactoredBtf(factored);
+  if (manifest.ambient) writer.WriteAmbientTerm(formats::ReadAmbientTerm(o.in, manifest));
+  if (manifest.calibration) writer.WriteCalibration(formats::ReadPackageCalibration(o.in, manifest));
+  nlohmann::json errors = manifest.error_report ? formats::ReadErrorReport(o.in, manifest) : nlohmann::json::object();
+  errors["btf_compression"] = ToJson(report, factored);
+  writer.WriteErrorReport(errors);
+  writer.Commit();
+  return report;
+}
+
+}  // namespace mesocap::pipelines

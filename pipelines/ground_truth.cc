@@ -1,0 +1,47 @@
+#include "pipelines/ground_truth.h"
+
+#include <spdlog/spdlog.h>
+
+#include "calibration/nominal_geometry.h"
+#include "formats/material_package.h"
+#include "interop/bonn/ubo_sampling_sets.h"
+#include "sim/ground_truth.h"
+#include "sim/shipped_rigs.h"
+#include "sim/true_calibration.h"
+
+namespace mesocap::pipelines {
+namespace {
+
+core::SamplingSet DirectionSet(const std::string& name, const core::SamplingSet& rig_set) {
+  return name == "rig" ? rig_set : bonn::NamedSamplingSet(name);
+}
+
+}  // namespace
+
+core::CheckResult GroundTruthOptions::Check() const {
+  if (out.empty()) return "out: give the material package folder to write";
+  if (texture_size < 1 || texture_size > formats::kMaxTextureSize) {
+    return "texture_size " + std::to_string(texture_size) + " must be 1.." + std::to_string(formats::kMaxTextureSize);
+  }
+  return {};
+}
+
+GroundTruthReport RunGroundTruth(const GroundTruthOptions& o) {
+  if (const auto problem = o.Check(); !problem.empty()) throw core::Error("groundtruth: " + problem);
+  const auto scene = sim::LoadScene(o.scene);
+  const formats::RigDescription rig = sim::LoadRig(o.rig);
+  sim::GroundTruthOptions gt;
+  gt.texture_width = gt.texture_height = o.texture_size;
+  gt.sample_size_mm = rig.sample_size_mm;
+  gt.views = DirectionSet(o.views, calibration::ViewDirections(rig));
+  gt.lights = DirectionSet(o.lights, calibration::LightDirections(rig));
+  if (const auto problem = gt.Check(); !problem.empty()) throw core::Error("groundtruth: " + problem);
+  const formats::Calibration calibration = sim::TrueCalibration(rig);
+  spdlog::info("ground truth of scene {} on rig {}: {}x{} texels, {} views x {} lights", scene->name(), rig.name,
+               gt.texture_width, gt.texture_height, gt.views.size(), gt.lights.size());
+  sim::WriteGroundTruthPackage(*scene, gt, &calibration, "groundtruth scene=" + scene->name() + " rig=" + rig.name,
+                               o.out, o.replace);
+  return {scene->name(), rig.name};
+}
+
+}  // namespace mesocap::pipelines

@@ -1,0 +1,139 @@
+#include "pipelines/process_btf.h"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <optional>
+#include <vector>
+
+#include "btf/ambient_term.h"
+#include "btf/btf_assembly.h"
+#include "calibration/nominal_geometry.h"
+#include "formats/calibration.h"
+#include "formats/capture_session.h"
+#include "formats/material_package.h"
+#include "formats/rig_description.h"
+
+namespace mesocap::pipelines {
+namespace {
+
+namespace fs = std::filesystem;
+
+// The assembly's figures as the error report's "btf_assembly" entry.
+nlohmann::json ToJson(const btf::BtfAssemblyReport& assembly) {
+  return {{"images", assembly.images},
+          {"measured_pairs", assembly.measured_pairs},
+          {"interpolated_pairs", assembly.filled_pairs},
+          {"resampled", assembly.resampled},
+          {"extrapolated_views", assembly.extrapolated_views},
+          {"extrapolated_lights", assembly.extrapolated_lights},
+          {"max_view_offset_deg", assembly.max_view_offset_deg},
+          {"max_light_offset_deg", assembly.max_light_offset_deg},
+          {"max_samples_per_side", assembly.max_samples_per_side},
+          {"min_pixels_per_texel", assembly.min_pixels_per_texel}};
+}
+
+// Each camera's exposure and radiometric gain, in the calibration's camera
+// order: the gain is the calibration's unless `gain` overrides it for all.
+void AddCameraRadiometry(const formats::RigDescription& rig, const formats::Calibration& calibration,
+                         const fs::path& calibration_file, double gain, btf::BtfAssemblyOptions* a) {
+  for (const formats::CameraCalibration& camera : calibration.cameras) {
+    const auto it =
+        std::find_if(rig.cameras.begin(), rig.cameras.end(), [&](const auto& c) { return c.id == camera.id; });
+    if (it == rig.cameras.end()) {
+      throw core::Error("process btf: calibrated camera " + camera.id + " is not in the rig");
+    }
+    a->exposure_s.push_back(it->exposure_us * 1e-6);
+    if (gain > 0) {
+      a->signal_per_radiance_second.push_back(gain);
+    } else if (camera.radiometry) {
+      a->signal_per_radiance_second.push_back(camera.radiometry->signal_per_radiance_second);
+    } else {
+      throw core::Error("process btf: " + calibration_file.string() + ": camera " + camera.id +
+                        " has no radiometry.signal_per_radiance_second (its gain); calibrate it or give --gain G for "
+                        "all cameras");
+    }
+  }
+}
+
+}  // namespace
+
+core::CheckResult ProcessBtfOptions::Check() const {
+  if (session.empty()) return "session: give the capture session folder";
+  if (out.empty()) return "out: give the material package folder to write";
+  if (texture_size < 1 || texture_size > formats::kMaxTextureSize) {
+    return "texture_size " + std::to_string(texture_size) + " must be 1.." + std::to_string(formats::kMaxTextureSize);
+  }
+  if (gain != 0.0 && !(gain >= formats::kMinCameraGain && gain <= formats::kMaxCameraGain)) {
+    return "gain must be 0 (each camera's from the calibration) or a camera gain in [1e-30, 1e30]";
+  }
+  return compression.Check();
+}
+
+ProcessBtfReport RunProcessBtf(const ProcessBtfOptions& o) {
+  if (const auto problem = o.Check(); !problem.empty()) throw core::Error("process btf: " + problem);
+  const formats::SessionManifest manifest = formats::ReadSessionManifest(o.session);
+  const formats::RigDescription rig =
+      formats::ParseRigDescription(manifest.rig, o.session / formats::kSessionManifestName);
+  fs::path calibration_file = o.calibration;
+  if (calibration_file.empty()) {
+    if (!manifest.calibration) throw core::Error("process btf: give --calibration (the session names none)");
+    calibration_file = o.session / *manifest.calibration;
+  }
+  const formats::Calibration calibration = formats::ReadCalibration(calibration_file);
+
+  btf::BtfAssemblyOptions a;
+  a.texture_width = a.texture_height = o.texture_size;
+  a.sample_size_mm = rig.sample_size_mm;
+  a.views = calibration::ViewDirections(rig);
+  a.lights = calibration::LightDirections(rig);
+  a.resample = o.resample;
+  AddCameraRadiometry(rig, calibration, calibration_file, o.gain, &a);
+  const std::vector<btf::BtfCaptureImage> images = btf::SessionBtfImages(o.session, manifest, calibration);
+  spdlog::info("assembling the BTF of {}: {} images, {} views x {} lights, {}x{} texels", o.session.string(),
+               images.size(), a.views.size(), a.lights.size(), o.texture_size, o.texture_size);
+  formats::MaterialDescription d;
+  d.name = manifest.rig.value("name", "") + " session";
+  d.width = d.height = o.texture_size;
+  d.physical_size_mm = {rig.sample_size_mm, rig.sample_size_mm};
+  // No geometry is measured here; d_max is a property of the MDF. The rig's
+  // laser sweep range bounds it from above.
+  d.d_max_mm = std::max(1e-3, rig.laser.sweep_max_mm - rig.laser.sweep_min_mm);
+  d.view_directions = a.views;
+  d.light_directions = a.lights;
+  d.provenance.source = "process btf session=" + o.session.string();
+  formats::MaterialPackageWriter writer(o.out, d, o.replace);
+
+  // Each assembled view goes to disk as soon as it is made, and the SVD
+  // streams it back in bands, so the BTF (1.5 GB of float for a paper rig at
+  // 128 x 128) is never whole in memory. Without `full` the views go to a
+  // scratch package beside the output that is never committed: it is
+  // removed when the job ends, however it ends.
+  std::optional<formats::MaterialPackageWriter> scratch;
+  if (!o.full) scratch.emplace(fs::path(o.out.string() + ".assembled"), d, true);
+  formats::MaterialPackageWriter& views = o.full ? writer : *scratch;
+  formats::AmbientTerm ambient = btf::MakeAmbientTerm(o.texture_size, o.texture_size, a.views);
+  btf::BtfAssemblyReport assembly;
+  btf::AssembleBtfViews(
+      images, calibration, a,
+      [&](int v, core::Image&& values) {
+        btf::AddAmbientView(values, a.lights, v, &ambient);
+        views.WriteFullBtfView(v, values);
+      },
+      &assembly);
+  ProcessBtfReport report;
+  report.images = assembly.images;
+  const core::FactoredBtf factored = btf::CompressBtf(*views.ReadBackFullBtf(), o.compression, &report.compression);
+  spdlog::info("rank {}: {}", report.compression.rank, report.compression.reason);
+  scratch.reset();
+
+  writer.WriteFactoredBtf(factored);
+  writer.WriteAmbientTerm(ambient);
+  writer.WriteCalibration(calibration);
+  writer.WriteErrorReport(
+      {{"btf_assembly", ToJson(assembly)}, {"btf_compression", ToJson(report.compression, factored)}});
+  writer.Commit();
+  return report;
+}
+
+}  // namespace mesocap::pipelines

@@ -1,0 +1,49 @@
+#include "pipelines/process_mdf.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "calibration/nominal_geometry.h"
+#include "formats/calibration.h"
+#include "formats/capture_session.h"
+#include "formats/material_package.h"
+#include "formats/rig_description.h"
+
+namespace mesocap::pipelines {
+
+core::CheckResult ProcessMdfOptions::Check() const {
+  if (session.empty()) return "session: give the capture session folder";
+  if (calibration.empty()) return "calibration: give the rig calibration file";
+  if (out.empty()) return "out: give the material package folder to write";
+  return processing.Check();
+}
+
+ProcessMdfReport RunProcessMdf(const ProcessMdfOptions& o) {
+  if (const auto problem = o.Check(); !problem.empty()) throw core::Error("process mdf: " + problem);
+  if (!o.replace && std::filesystem::exists(o.out)) {
+    throw core::Error("process mdf: " + o.out.string() + " exists (use --replace to replace it)");
+  }
+  const formats::Calibration calibration = formats::ReadCalibration(o.calibration);
+  const mdf::MdfProcessingResult result = mdf::ProcessMdfSession(o.session, calibration, o.processing);
+  const formats::SessionManifest manifest = formats::ReadSessionManifest(o.session);
+  const formats::RigDescription rig =
+      formats::ParseRigDescription(manifest.rig, o.session / formats::kSessionManifestName);
+  formats::MaterialDescription description;
+  description.name = o.out.filename().string();
+  description.width = description.height = o.processing.texture_size;
+  description.physical_size_mm = {result.sample_size_mm, result.sample_size_mm};
+  // The slab's depth: given, or the deepest measured point rounded up to
+  // 0.1 mm (the 8-bit scale follows the largest distance either way).
+  description.d_max_mm = o.d_max_mm > 0 ? o.d_max_mm : std::max(0.1, std::ceil(result.deepest_mm * 10.0) / 10.0);
+  description.view_directions = result.mdf.views;
+  description.light_directions = calibration::LightDirections(rig);
+  description.provenance.source = "process mdf session=" + o.session.string();
+  formats::MaterialPackageWriter writer(o.out, description, o.replace);
+  writer.WriteMdf(result.mdf);
+  writer.WriteMdfConfidence(result.confidence);
+  writer.WriteCalibration(calibration);
+  writer.Commit();
+  return {result.sweeps, description.width, result.mdf.view_count()};
+}
+
+}  // namespace mesocap::pipelines
