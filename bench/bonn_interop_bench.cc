@@ -17,6 +17,8 @@
 #include <filesystem>
 #include <map>
 
+#include "formats/material_manifest.h"
+#include "formats/material_package_reader.h"
 #include "interop/bonn/bonn_interop.h"
 #include "sim/ground_truth.h"
 #include "sim/mesostructure_scene.h"

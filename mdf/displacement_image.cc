@@ -14,7 +14,7 @@
 namespace mesocap::mdf {
 
 core::CheckResult TextureGrid::Check() const {
-  if (width < 1 || height < 1 || width > 16384 || height > 16384) return "texture size must be in 1..16384";
+  if (auto problem = core::CheckImageSize(width, height, "texture size"); !problem.empty()) return problem;
   if (!(sample_size_mm > 0 && std::isfinite(sample_size_mm))) return "sample_size_mm must be positive";
   return {};
 }

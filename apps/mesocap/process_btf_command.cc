@@ -21,7 +21,9 @@
 #include "calibration/nominal_geometry.h"
 #include "core/error.h"
 #include "formats/capture_session.h"
+#include "formats/material_manifest.h"
 #include "formats/material_package.h"
+#include "formats/material_package_writer.h"
 #include "formats/rig_description.h"
 
 namespace mesocap {

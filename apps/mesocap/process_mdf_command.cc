@@ -12,7 +12,8 @@
 #include "core/error.h"
 #include "formats/calibration.h"
 #include "formats/capture_session.h"
-#include "formats/material_package.h"
+#include "formats/material_manifest.h"
+#include "formats/material_package_writer.h"
 #include "formats/rig_description.h"
 #include "mdf/mdf_session.h"
 

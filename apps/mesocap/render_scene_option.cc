@@ -7,7 +7,7 @@
 
 #include "btf/material_compression.h"
 #include "core/error.h"
-#include "formats/material_package.h"
+#include "formats/material_manifest.h"
 #include "render/sim_material.h"
 #include "sim/builtin_scenes.h"
 #include "sim/ground_truth.h"

@@ -11,6 +11,8 @@
 #include "core/atomic_file.h"
 #include "core/mdf.h"
 #include "core/version.h"
+#include "formats/material_package_reader.h"
+#include "formats/material_package_writer.h"
 
 namespace mesocap::bonn {
 namespace fs = std::filesystem;

@@ -33,7 +33,7 @@
 #include "btf/btf_compression.h"
 #include "core/btf.h"
 #include "core/error.h"
-#include "formats/material_package.h"
+#include "formats/material_manifest.h"
 #include "interop/bonn/bonn_btf_file.h"
 #include "interop/bonn/bonn_ubo2003.h"
 

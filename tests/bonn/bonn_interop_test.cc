@@ -19,6 +19,8 @@
 
 #include "btf/ambient_term.h"
 #include "btf/btf_compression.h"
+#include "formats/material_package_reader.h"
+#include "formats/material_package_writer.h"
 #include "sim/ground_truth.h"
 #include "sim/mesostructure_scene.h"
 #include "tests/common/temporary_directory.h"
