@@ -18,6 +18,12 @@ Image::Image(int width, int height, int channels, float fill)
   data_.assign(static_cast<std::size_t>(width) * height * channels, fill);
 }
 
+CheckResult CheckImageSize(int width, int height, std::string_view what) {
+  if (width >= 1 && width <= kMaxImageSide && height >= 1 && height <= kMaxImageSide) return {};
+  return std::string(what) + " " + std::to_string(width) + "x" + std::to_string(height) + " outside 1.." +
+         std::to_string(kMaxImageSide);
+}
+
 Image ChannelMean(Image image) {
   if (image.channels() == 1) return image;
   Image mean(image.width(), image.height(), 1);

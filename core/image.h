@@ -3,9 +3,22 @@
 #pragma once
 
 #include <cstddef>
+#include <string_view>
 #include <vector>
 
+#include "core/error.h"
+
 namespace mesocap::core {
+
+// The largest image side mesocap accepts wherever a size comes from outside
+// (a rig's camera images, a texel grid, a package's or a Bonn file's texture):
+// above any sensor or texture a capture needs, and a size beyond it (a typo,
+// a hostile header) is refused before anything is allocated for it.
+inline constexpr int kMaxImageSide = 16384;
+
+// Empty when both sides are in 1..kMaxImageSide, else why not, e.g.
+// "texture size 0x64 outside 1..16384" for `what` = "texture size".
+CheckResult CheckImageSize(int width, int height, std::string_view what);
 
 class Image {
  public:

@@ -1,3 +1,4 @@
+// The version of this build, recorded as provenance.
 #pragma once
 
 namespace mesocap::core {

@@ -35,7 +35,9 @@ constexpr double kMaxPixels = 1e7;
 constexpr double kMaxDistortion = 1e6;
 constexpr double kMaxIntensity = 1e12;
 constexpr double kMaxAngleDeg = 180;
-constexpr int kMaxImageSide = 65536;
+// Wider than core::kMaxImageSide: a calibration may describe any camera, also
+// one calibrated by another tool that mesocap never captures with.
+constexpr int kMaxCalibratedImageSide = 65536;
 // |n . a| for a tilt axis in the laser plane, after normalizing both.
 constexpr double kInPlaneTolerance = 1e-6;
 
@@ -210,7 +212,7 @@ CameraCalibration ReadCamera(const core::JsonFieldReader& fields, int version) {
   }
   CameraCalibration c;
   c.id = Id(fields);
-  const auto size = BoundedNumbers(fields, "image_size", 2, 1, kMaxImageSide);
+  const auto size = BoundedNumbers(fields, "image_size", 2, 1, kMaxCalibratedImageSide);
   for (int i = 0; i < 2; ++i) {
     if (size[i] != std::floor(size[i])) {
       fields.Fail("image_size[" + std::to_string(i) + "]", "expected a whole number of pixels");

@@ -5,6 +5,7 @@
 #include <numbers>
 #include <set>
 
+#include "core/image.h"
 #include "core/json_field_reader.h"
 
 namespace mesocap::formats {
@@ -50,8 +51,8 @@ CameraDescription ParseCamera(const core::JsonFieldReader& f) {
   c.distance_mm = f.Number("distance_mm", 1.0, 1e5);
   const auto size = f.Numbers("image_size", 2);
   for (int i = 0; i < 2; ++i) {
-    if (size[i] < 8 || size[i] > 16384 || size[i] != std::floor(size[i])) {
-      f.Fail("image_size", "expected two whole numbers of pixels in [8, 16384]");
+    if (size[i] < 8 || size[i] > core::kMaxImageSide || size[i] != std::floor(size[i])) {
+      f.Fail("image_size", "expected two whole numbers of pixels in [8, " + std::to_string(core::kMaxImageSide) + "]");
     }
   }
   c.width = static_cast<int>(size[0]);

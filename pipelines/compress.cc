@@ -2,7 +2,10 @@
 
 #include <spdlog/spdlog.h>
 
-#include "formats/material_package.h"
+#include "formats/material_manifest.h"
+#include "formats/material_package_reader.h"
+#include "formats/material_package_writer.h"
+#include "formats/package_full_btf_reader.h"
 
 namespace mesocap::pipelines {
 

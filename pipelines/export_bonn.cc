@@ -8,7 +8,8 @@
 
 #include "core/atomic_file.h"
 #include "core/version.h"
-#include "formats/material_package.h"
+#include "formats/material_manifest.h"
+#include "formats/material_package_reader.h"
 
 namespace mesocap::pipelines {
 namespace {

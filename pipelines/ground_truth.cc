@@ -3,7 +3,7 @@
 #include <spdlog/spdlog.h>
 
 #include "calibration/nominal_geometry.h"
-#include "formats/material_package.h"
+#include "core/image.h"
 #include "interop/bonn/ubo_sampling_sets.h"
 #include "sim/ground_truth.h"
 #include "sim/shipped_rigs.h"
@@ -20,8 +20,8 @@ core::SamplingSet DirectionSet(const std::string& name, const core::SamplingSet&
 
 core::CheckResult GroundTruthOptions::Check() const {
   if (out.empty()) return "out: give the material package folder to write";
-  if (texture_size < 1 || texture_size > formats::kMaxTextureSize) {
-    return "texture_size " + std::to_string(texture_size) + " must be 1.." + std::to_string(formats::kMaxTextureSize);
+  if (texture_size < 1 || texture_size > core::kMaxImageSide) {
+    return "texture_size " + std::to_string(texture_size) + " must be 1.." + std::to_string(core::kMaxImageSide);
   }
   return {};
 }

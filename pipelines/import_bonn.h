@@ -11,7 +11,7 @@
 #include <string>
 
 #include "core/error.h"
-#include "formats/material_package.h"
+#include "formats/material_manifest.h"
 #include "interop/bonn/bonn_interop.h"
 
 namespace mesocap::pipelines {

@@ -9,9 +9,12 @@
 #include "btf/ambient_term.h"
 #include "btf/btf_assembly.h"
 #include "calibration/nominal_geometry.h"
+#include "core/image.h"
 #include "formats/calibration.h"
 #include "formats/capture_session.h"
+#include "formats/material_manifest.h"
 #include "formats/material_package.h"
+#include "formats/material_package_writer.h"
 #include "formats/rig_description.h"
 
 namespace mesocap::pipelines {
@@ -61,8 +64,8 @@ void AddCameraRadiometry(const formats::RigDescription& rig, const formats::Cali
 core::CheckResult ProcessBtfOptions::Check() const {
   if (session.empty()) return "session: give the capture session folder";
   if (out.empty()) return "out: give the material package folder to write";
-  if (texture_size < 1 || texture_size > formats::kMaxTextureSize) {
-    return "texture_size " + std::to_string(texture_size) + " must be 1.." + std::to_string(formats::kMaxTextureSize);
+  if (texture_size < 1 || texture_size > core::kMaxImageSide) {
+    return "texture_size " + std::to_string(texture_size) + " must be 1.." + std::to_string(core::kMaxImageSide);
   }
   if (gain != 0.0 && !(gain >= formats::kMinCameraGain && gain <= formats::kMaxCameraGain)) {
     return "gain must be 0 (each camera's from the calibration) or a camera gain in [1e-30, 1e30]";

@@ -6,7 +6,8 @@
 #include "calibration/nominal_geometry.h"
 #include "formats/calibration.h"
 #include "formats/capture_session.h"
-#include "formats/material_package.h"
+#include "formats/material_manifest.h"
+#include "formats/material_package_writer.h"
 #include "formats/rig_description.h"
 
 namespace mesocap::pipelines {

@@ -4,6 +4,8 @@
 #include <string>
 
 #include "core/error.h"
+#include "formats/material_manifest.h"
+#include "formats/material_package_reader.h"
 
 namespace mesocap::render {
 

@@ -277,6 +277,9 @@ inline constexpr double kMinFootprintCosine = 0.05;
 double StripeFootprintVariance(const formats::CameraCalibration& camera, const ViewSample& sample,
                                const Eigen::Vector3d& plane_normal, int samples_per_pixel_side);
 
+// The simulator's own camera model, apart from calibration/camera_rays.h (OpenCV) on purpose: the simulated truth
+// must not share projection code with the processing it checks, so that a bug in either shows against the other.
+//
 // Brown-Conrady (OpenCV) distortion of normalized image coordinates, and its
 // inverse by fixed-point iteration (at most 100 steps, stopping when a step
 // moves less than 1e-14): accurate to far below 1e-3 px for the moderate

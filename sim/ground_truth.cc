@@ -5,6 +5,9 @@
 #include <cmath>
 #include <limits>
 
+#include "formats/material_manifest.h"
+#include "formats/material_package_writer.h"
+
 namespace mesocap::sim {
 namespace {
 
@@ -20,9 +23,8 @@ std::optional<SurfaceHit> FirstHitBelow(const MesostructureScene& scene, const E
 }  // namespace
 
 core::CheckResult GroundTruthOptions::Check() const {
-  if (texture_width < 1 || texture_height < 1 || texture_width > formats::kMaxTextureSize ||
-      texture_height > formats::kMaxTextureSize) {
-    return "texture size must be 1.." + std::to_string(formats::kMaxTextureSize) + " texels per side";
+  if (auto problem = core::CheckImageSize(texture_width, texture_height, "texture size"); !problem.empty()) {
+    return problem;
   }
   if (!(sample_size_mm > 0.0) || !std::isfinite(sample_size_mm)) return "sample size must be positive";
   if (views.size() == 0 || lights.size() == 0) return "view and light sets must not be empty";

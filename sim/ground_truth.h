@@ -17,6 +17,7 @@
 #include "core/mdf.h"
 #include "core/progress.h"
 #include "core/sampling_set.h"
+#include "formats/calibration.h"
 #include "formats/material_package.h"
 #include "sim/mesostructure_scene.h"
 

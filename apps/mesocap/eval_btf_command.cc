@@ -12,7 +12,9 @@
 #include "btf/btf_compression.h"
 #include "btf/btf_evaluation.h"
 #include "core/error.h"
+#include "formats/material_manifest.h"
 #include "formats/material_package.h"
+#include "formats/material_package_reader.h"
 
 namespace mesocap {
 namespace {

@@ -7,7 +7,8 @@
 #include "apps/mesocap/command.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
-#include "formats/material_package.h"
+#include "formats/material_manifest.h"
+#include "formats/material_package_reader.h"
 #include "mdf/mdf_evaluation.h"
 
 namespace mesocap {

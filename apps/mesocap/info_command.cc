@@ -20,7 +20,8 @@
 #include "formats/calibration.h"
 #include "formats/capture_journal.h"
 #include "formats/capture_session.h"
-#include "formats/material_package.h"
+#include "formats/material_manifest.h"
+#include "formats/material_package_reader.h"
 #include "formats/rig_description.h"
 #include "mdf/displacement_image.h"
 

@@ -6,7 +6,7 @@
 #include <cstdlib>
 
 #include "core/error.h"
-#include "formats/material_package.h"
+#include "formats/material_manifest.h"
 #include "pipelines/compress.h"
 #include "render/sim_material.h"
 #include "sim/builtin_scenes.h"

@@ -11,7 +11,8 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
-#include "formats/material_package.h"
+#include "core/image.h"
+#include "formats/material_manifest.h"
 
 namespace mesocap::bonn {
 namespace fs = std::filesystem;
@@ -442,8 +443,8 @@ BonnBtfFile ReadBonnBtfFile(const fs::path& file) {
 
   ReadMeta(body, &btf);
   ReadDirections(body, &btf);
-  btf.width = body.Count("width", 1, formats::kMaxTextureSize);
-  btf.height = body.Count("height", 1, formats::kMaxTextureSize);
+  btf.width = body.Count("width", 1, core::kMaxImageSide);
+  btf.height = body.Count("height", 1, core::kMaxImageSide);
   if (btf.signature.back() == 'R') {
     const auto rotations = body.Get<std::uint32_t>("rotations.count");
     body.Skip(static_cast<std::uint64_t>(rotations) * 36, "rotations");

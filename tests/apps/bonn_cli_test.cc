@@ -11,7 +11,10 @@
 #include <fstream>
 #include <string>
 
+#include "formats/material_manifest.h"
 #include "formats/material_package.h"
+#include "formats/material_package_reader.h"
+#include "formats/material_package_writer.h"
 #include "tests/common/mesocap_command.h"
 #include "tests/common/temporary_directory.h"
 

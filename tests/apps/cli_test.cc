@@ -13,7 +13,8 @@
 #include <string>
 
 #include "core/json_field_reader.h"
-#include "formats/material_package.h"
+#include "formats/material_manifest.h"
+#include "formats/material_package_reader.h"
 #include "tests/common/mesocap_command.h"
 #include "tests/common/temporary_directory.h"
 

@@ -7,7 +7,8 @@
 #include <string>
 
 #include "core/image_io.h"
-#include "formats/material_package.h"
+#include "formats/material_manifest.h"
+#include "formats/material_package_writer.h"
 #include "render/image_comparison.h"
 #include "tests/common/mesocap_command.h"
 #include "tests/common/temporary_directory.h"

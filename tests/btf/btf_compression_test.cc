@@ -12,7 +12,9 @@
 #include <random>
 
 #include "core/image_io.h"
-#include "formats/material_package.h"
+#include "formats/material_manifest.h"
+#include "formats/material_package_writer.h"
+#include "formats/package_full_btf_reader.h"
 #include "sim/ground_truth.h"
 #include "sim/mesostructure_scene.h"
 #include "tests/common/temporary_directory.h"

@@ -13,9 +13,13 @@
 #include <random>
 
 #include "core/error.h"
+#include "core/image.h"
 #include "core/image_io.h"
 #include "core/json_field_reader.h"
 #include "core/version.h"
+#include "formats/material_manifest.h"
+#include "formats/material_package_reader.h"
+#include "formats/material_package_writer.h"
 #include "tests/common/temporary_directory.h"
 
 // The hostile-input tests must show that no reader allocates what a manifest
@@ -605,7 +609,7 @@ TEST(MaterialPackage, WriterRejectsPartsThatDoNotMatchTheDescription) {
   bad.d_max_mm = 0;
   EXPECT_THROW(MaterialPackageWriter(dir / "bad", bad, false), core::Error);
   bad = TestDescription();
-  bad.width = kMaxTextureSize + 1;
+  bad.width = core::kMaxImageSide + 1;
   EXPECT_THROW(MaterialPackageWriter(dir / "bad", bad, false), core::Error);
   EXPECT_FALSE(fs::exists(dir / "bad"));
 }
