@@ -16,6 +16,7 @@
 #include "calibration/camera_rays.h"
 #include "calibration/rig_frames.h"
 #include "core/image_io.h"
+#include "formats/capture_plan_steps.h"
 #include "formats/capture_session.h"
 
 namespace mesocap::btf {
@@ -415,32 +416,20 @@ core::FullBtf AssembleBtf(const std::vector<BtfCaptureImage>& images, const form
 
 std::vector<BtfCaptureImage> SessionBtfImages(const std::filesystem::path& session, const formats::SessionManifest& manifest,
                                            const formats::Calibration& calibration) {
+  const std::filesystem::path manifest_file = session / formats::kSessionManifestName;
   std::map<std::string, int> camera_index;
   for (int c = 0; c < static_cast<int>(calibration.cameras.size()); ++c) camera_index[calibration.cameras[c].id] = c;
-  constexpr double kRadPerDeg = std::numbers::pi / 180.0;
   std::vector<BtfCaptureImage> images;
-  for (const formats::PlannedStep& step : manifest.plan) {
+  for (std::size_t s = 0; s < manifest.plan.size(); ++s) {
+    const formats::PlannedStep& step = manifest.plan[s];
     if (step.kind != formats::StepKind::kBtfImage) continue;
-    const auto field = [&](const char* name) {
-      if (!step.params.contains(name) || !step.params[name].is_number()) {
-        throw core::FormatError(session / formats::kSessionManifestName, "plan step " + step.id + "." + name, "expected a number");
+    const formats::BtfImageStep btf = formats::ReadBtfImageStep(step, s, manifest_file);
+    for (const formats::CameraFile& file : btf.files) {
+      if (!camera_index.count(file.camera)) {
+        throw core::FormatError(manifest_file, "plan step " + step.id + ".files",
+                                "camera '" + file.camera + "' not in the calibration");
       }
-      return step.params[name].get<double>();
-    };
-    const double turntable = field("turntable_deg") * kRadPerDeg;
-    const double arc = field("arc_deg") * kRadPerDeg;
-    const int lamp = static_cast<int>(field("lamp"));
-    if (!step.params.contains("files") || !step.params["files"].is_array()) {
-      throw core::FormatError(session / formats::kSessionManifestName, "plan step " + step.id + ".files", "expected a list");
-    }
-    for (const auto& file : step.params["files"]) {
-      const std::string camera = file.value("camera", "");
-      const std::string path = file.value("path", "");
-      if (!camera_index.count(camera) || !formats::IsSessionPath(path)) {
-        throw core::FormatError(session / formats::kSessionManifestName, "plan step " + step.id + ".files",
-                          "camera '" + camera + "' not in the calibration or bad path '" + path + "'");
-      }
-      images.push_back({session / path, camera_index[camera], turntable, arc, lamp});
+      images.push_back({session / file.path, camera_index[file.camera], btf.turntable_rad, btf.arc_rad, btf.lamp});
     }
   }
   if (images.empty()) throw core::Error("BTF assembly: the session " + session.string() + " plans no BTF images");

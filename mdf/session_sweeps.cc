@@ -1,5 +1,6 @@
 #include "mdf/session_sweeps.h"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -7,26 +8,12 @@
 #include "calibration/rig_frames.h"
 #include "core/error.h"
 #include "core/image_io.h"
-#include "core/json_field_reader.h"
 
 namespace mesocap::mdf {
 namespace {
 
 namespace fs = std::filesystem;
 constexpr double kRadPerDeg = std::numbers::pi / 180.0;
-
-// The per-camera files of a step: camera id -> path inside the session.
-std::map<std::string, std::string> StepFiles(const core::JsonFieldReader& step) {
-  std::map<std::string, std::string> files;
-  for (const auto& f : step.Objects("files", formats::kMaxRigParts)) {
-    const std::string path = f.String("path");
-    if (!formats::IsSessionPath(path)) f.Fail("path", "a relative path inside the session folder");
-    files[f.String("camera")] = path;
-  }
-  return files;
-}
-
-std::string Where(std::size_t index) { return "plan[" + std::to_string(index) + "]"; }
 
 }  // namespace
 
@@ -35,21 +22,6 @@ core::CheckResult SweepGeometryOptions::Check() const {
   if (!(reference_margin_mm >= 0)) return "reference_margin_mm must be >= 0";
   if (!(reference_extent > 0.5)) return "reference_extent must exceed 0.5 (the sample's half size)";
   return {};
-}
-
-SweepStep ParseSweepStep(const formats::PlannedStep& step, std::size_t index, const formats::RigDescription& rig,
-                         const fs::path& manifest_file) {
-  const core::JsonFieldReader fields(step.params, manifest_file, Where(index));
-  SweepStep out;
-  out.location = static_cast<int>(fields.Integer("location", 0, static_cast<std::int64_t>(rig.laser.locations.size()) - 1));
-  out.mount = static_cast<int>(fields.Integer("mount", 0, formats::kMaxRigParts));
-  out.turntable_rad = fields.Number("turntable_deg", -360, 360) * kRadPerDeg;
-  out.arc_rad = fields.Number("arc_deg", -360, 360) * kRadPerDeg;
-  for (double t : fields.Numbers("tilt_deg", fields.Raw("tilt_deg").size())) out.tilts_rad.push_back(t * kRadPerDeg);
-  if (out.tilts_rad.empty()) fields.Fail("tilt_deg", "at least one frame's tilt");
-  out.files = StepFiles(fields);
-  out.stores_analysis = fields.Has("stored_as") && fields.Choice("stored_as", {"frames", "analysis"}) == "analysis";
-  return out;
 }
 
 SessionSweepGeometry::SessionSweepGeometry(fs::path session, const formats::SessionManifest& manifest,
@@ -82,15 +54,14 @@ SessionSweepGeometry::SessionSweepGeometry(fs::path session, const formats::Sess
   for (std::size_t s = 0; s < manifest.plan.size(); ++s) {
     const formats::PlannedStep& step = manifest.plan[s];
     if (step.kind != formats::StepKind::kLaserCalibration) continue;
-    const core::JsonFieldReader fields(step.params, manifest_file_, Where(s));
-    const int li = static_cast<int>(fields.Integer("location", 0, static_cast<std::int64_t>(rig_.laser.locations.size()) - 1));
-    const double tilt = fields.NumberOr("tilt_deg", 0.0, -90, 90) * kRadPerDeg;
-    Plates& plates = plates_[li];
-    if (!plates.heights.empty() && std::abs(plates.tilt_rad - tilt) > 1e-9) {
-      throw core::FormatError(manifest_file_, "plan", "the same tilt_deg on both plates of laser location " + std::to_string(li));
+    formats::LaserCalibrationStep plate = formats::ReadLaserCalibrationStep(step, s, rig_, manifest_file_);
+    Plates& plates = plates_[plate.location];
+    if (!plates.heights.empty() && std::abs(plates.tilt_rad - plate.tilt_rad) > 1e-9) {
+      throw core::FormatError(manifest_file_, "plan",
+                              "the same tilt on both plates of laser location " + std::to_string(plate.location));
     }
-    plates.tilt_rad = tilt;
-    plates.heights.emplace_back(fields.Number("height_mm"), StepFiles(fields));
+    plates.tilt_rad = plate.tilt_rad;
+    plates.heights.push_back(std::move(plate));
   }
 }
 
@@ -114,8 +85,8 @@ const core::Plane& SessionSweepGeometry::CalibratedPlane(int location, int camer
   const std::string& id = rig_.cameras[camera].id;
   core::Image frames[2];
   for (int h = 0; h < 2; ++h) {
-    const auto& files = it->second.heights[h].second;
-    const auto f = files.find(id);
+    const auto& files = it->second.heights[h].files;
+    const auto f = std::find_if(files.begin(), files.end(), [&](const formats::CameraFile& file) { return file.camera == id; });
     if (f == files.end()) {
       throw core::FormatError(manifest_file_, "plan",
                         "a laser calibration file of camera " + id + " for location " + std::to_string(location));
@@ -124,16 +95,16 @@ const core::Plane& SessionSweepGeometry::CalibratedPlane(int location, int camer
     read.expected_width = rays_[camera].width();
     read.expected_height = rays_[camera].height();
     read.expected_channels = 1;
-    frames[h] = core::ReadImage(session_ / f->second, read);
+    frames[h] = core::ReadImage(session_ / f->path, read);
   }
-  const core::Plane plane = calibration::CalibrateLaserPlane(frames[0], it->second.heights[0].first, frames[1],
-                                          it->second.heights[1].first, rays_[camera], pose.normal.head<2>().normalized(),
+  const core::Plane plane = calibration::CalibrateLaserPlane(frames[0], it->second.heights[0].height_mm, frames[1],
+                                          it->second.heights[1].height_mm, rays_[camera], pose.normal.head<2>().normalized(),
                                           options_.reference_extent * rig_.sample_size_mm, options_.line,
                                           "laser location " + std::to_string(location) + ", camera " + id);
   return planes_.emplace(std::make_pair(location, camera), plane).first->second;
 }
 
-SweepGeometry SessionSweepGeometry::Geometry(const SweepStep& step, int camera) {
+SweepGeometry SessionSweepGeometry::Geometry(const formats::LaserSweepStep& step, int camera) {
   SweepGeometry geometry;
   geometry.calibrated_plane = CalibratedPlane(step.location, camera);
   const double calibration_tilt = plates_.at(step.location).tilt_rad;

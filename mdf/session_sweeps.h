@@ -17,6 +17,7 @@
 #include "calibration/laser_line.h"
 #include "core/plane.h"
 #include "formats/calibration.h"
+#include "formats/capture_plan_steps.h"
 #include "formats/capture_session.h"
 #include "formats/rig_description.h"
 #include "mdf/laser_sweep.h"
@@ -32,23 +33,6 @@ struct SweepGeometryOptions {
 
   core::CheckResult Check() const;
 };
-
-// One laser_sweep step of a session's plan.
-struct SweepStep {
-  int location = 0;
-  int mount = 0;
-  double turntable_rad = 0.0;
-  double arc_rad = 0.0;
-  std::vector<double> tilts_rad;  // per frame
-  std::map<std::string, std::string> files;  // camera id -> path inside the session
-  // "stored_as": "analysis": each camera's file is a mesocap.sweep_analysis
-  // made during the capture; otherwise a frame sequence.
-  bool stores_analysis = false;
-};
-
-// Throws FormatError naming the manifest and the step's field.
-SweepStep ParseSweepStep(const formats::PlannedStep& step, std::size_t index, const formats::RigDescription& rig,
-                         const std::filesystem::path& manifest_file);
 
 class SessionSweepGeometry {
  public:
@@ -73,12 +57,12 @@ class SessionSweepGeometry {
   // The geometry of `step`'s sweep seen by `camera`, for analysing its
   // frames: the location's CalibratedPlane, the reference region at the
   // step's turntable angle, the tilts relative to the plates'.
-  SweepGeometry Geometry(const SweepStep& step, int camera);
+  SweepGeometry Geometry(const formats::LaserSweepStep& step, int camera);
 
  private:
   struct Plates {
     double tilt_rad = 0.0;
-    std::vector<std::pair<double, std::map<std::string, std::string>>> heights;  // (height, files)
+    std::vector<formats::LaserCalibrationStep> heights;  // the plates' steps
   };
 
   std::filesystem::path session_;
