@@ -27,7 +27,7 @@
 
 namespace mesocap::acquisition {
 
-// `recording` (null for none) is stored in every step as "recording": the
+// `recording` (null for none) is stored in every step (ToPlannedStep): the
 // settings that shaped the data beyond the rig (for the simulated rig: the
 // scene, seed and sensor model), so that resuming a session can check that
 // it continues the same capture. The steps' members are those of

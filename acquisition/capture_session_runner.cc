@@ -267,11 +267,12 @@ class SessionRun {
       sweep_geometry_ = std::make_unique<mdf::SessionSweepGeometry>(dir_, manifest_, rig_description_,
                                                                     *options_.calibration, options_.sweep_geometry);
     }
+    const mdf::SweepPoses poses = sweep_geometry_->Poses(sweep);
     std::vector<std::unique_ptr<mdf::LaserSweepProcessor>> processors;
     for (const formats::CameraFile& f : sweep.files) {
       const int camera = sweep_geometry_->CameraIndex(f.camera);
       processors.push_back(std::make_unique<mdf::LaserSweepProcessor>(sweep_geometry_->rays(camera),
-                                                                 sweep_geometry_->Geometry(sweep, camera),
+                                                                 sweep_geometry_->Geometry(sweep, poses, camera),
                                                                  options_.sweep_geometry.line, options_.space_time));
     }
     return processors;

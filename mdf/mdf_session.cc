@@ -6,7 +6,6 @@
 
 #include "calibration/camera_rays.h"
 #include "calibration/nominal_geometry.h"
-#include "calibration/rig_frames.h"
 #include "core/error.h"
 #include "formats/capture_plan_steps.h"
 #include "formats/capture_session.h"
@@ -115,9 +114,7 @@ MdfProcessingResult ProcessMdfSession(const fs::path& session, const formats::Ca
   result.sample_size_mm = sample_size;
   core::Progress progress("process mdf", sweeps.size() * rig.cameras.size(), progress_style);
   for (const formats::LaserSweepStep& step : sweeps) {
-    const calibration::LaserMountPose pose = calibration::MountInWorld(calibration, step.mount, step.arc_rad, 0.0);
-    const core::RigidTransform world_from_sample = calibration::WorldFromSample(calibration.turntable, step.turntable_rad);
-    const core::RigidTransform sample_from_world = world_from_sample.Inverse();
+    const SweepPoses poses = geometry.Poses(step);
     for (std::size_t c = 0; c < rig.cameras.size(); ++c) {
       const std::string& id = rig.cameras[c].id;
       const calibration::CameraRays& rays = geometry.rays(static_cast<int>(c));
@@ -131,11 +128,9 @@ MdfProcessingResult ProcessMdfSession(const fs::path& session, const formats::Ca
       // A stored analysis needs no reference region: only the plane, for the weight.
       const formats::SweepAnalysis analysis =
           step.stores_analysis ? ReadStoredAnalysis(file, rays, step.tilts_rad.size(), options.space_time)
-                               : AnalyseFrames(file, rays, geometry.Geometry(step, static_cast<int>(c)), options);
-      const Eigen::Vector3d to_camera = sample_from_world.Apply(rays.centre()).normalized();
-      const double weight = ScanWeight(pose.source, rays.centre(),
-                                       geometry.CalibratedPlane(step.location, static_cast<int>(c)), 0.5 * sample_size);
-      assembler.AddSweep(views.Nearest(to_camera), analysis, rays, world_from_sample, weight);
+                               : AnalyseFrames(file, rays, geometry.Geometry(step, poses, static_cast<int>(c)), options);
+      geometry.AddToMdf(assembler, geometry.View(views, poses, static_cast<int>(c)), step, poses,
+                        static_cast<int>(c), analysis);
       ++result.sweeps;
       progress.Advance();
     }
