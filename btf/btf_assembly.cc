@@ -15,6 +15,7 @@
 #include "btf/btf_resampling.h"
 #include "calibration/camera_rays.h"
 #include "calibration/rig_frames.h"
+#include "core/angles.h"
 #include "core/image_io.h"
 #include "formats/capture_plan_steps.h"
 #include "formats/capture_session.h"
@@ -22,15 +23,15 @@
 namespace mesocap::btf {
 namespace {
 
-constexpr double kDegPerRad = 180.0 / std::numbers::pi;
 
 std::string Degrees(const core::SphericalAngles& a) {
-  return "(theta " + std::to_string(a.theta * kDegPerRad) + ", phi " + std::to_string(a.phi * kDegPerRad) + ") deg";
+  return "(theta " + std::to_string(core::DegreesFromRadians(a.theta)) + ", phi " +
+         std::to_string(core::DegreesFromRadians(a.phi)) + ") deg";
 }
 
 // Angle in degrees between direction i of `set` and d (sample frame).
 double OffsetDeg(const core::SamplingSet& set, int i, const Eigen::Vector3d& d) {
-  return std::acos(std::clamp(set.direction(i).dot(d.normalized()), -1.0, 1.0)) * kDegPerRad;
+  return core::DegreesFromRadians(std::acos(std::clamp(set.direction(i).dot(d.normalized()), -1.0, 1.0)));
 }
 
 // Index of `d` (sample frame) in `set`, and how far it is from it.
@@ -243,7 +244,7 @@ void AssembleOnGrid(const std::vector<BtfCaptureImage>& images, const formats::C
 void AssembleResampled(const std::vector<BtfCaptureImage>& images, const formats::Calibration& calibration,
                        const BtfAssemblyOptions& o, const std::vector<CentreDirections>& directions,
                        const BtfViewSink& sink, BtfAssemblyReport* r) {
-  const double tolerance = o.max_direction_error_deg / kDegPerRad;
+  const double tolerance = core::RadiansFromDegrees(o.max_direction_error_deg);
   std::vector<CapturedView> captured;
   for (int k = 0; k < static_cast<int>(images.size()); ++k) {
     auto it = std::find_if(captured.begin(), captured.end(), [&](const CapturedView& c) {
@@ -263,7 +264,7 @@ void AssembleResampled(const std::vector<BtfCaptureImage>& images, const formats
   std::vector<Eigen::Vector3d> view_centres;
   for (const CapturedView& c : captured) view_centres.push_back(directions[c.images.front()].view);
   const CapturedDirections captured_views = MakeCapturedDirections("BTF assembly: captured views", view_centres,
-                                                                   o.ring_tolerance_deg / kDegPerRad);
+                                                                   core::RadiansFromDegrees(o.ring_tolerance_deg));
   const int w = o.texture_width, h = o.texture_height;
   const std::size_t texels = static_cast<std::size_t>(w) * h;
   std::vector<calibration::CameraRays> camera_rays;
@@ -282,8 +283,8 @@ void AssembleResampled(const std::vector<BtfCaptureImage>& images, const formats
     for (int k : view.images) light_centres.push_back(directions[k].light);
     const CapturedDirections lights = MakeCapturedDirections(
         "BTF assembly: lights of camera " + calibration.cameras[view.camera].id + " at turntable " +
-            std::to_string(view.turntable_rad * kDegPerRad) + " deg",
-        light_centres, o.ring_tolerance_deg / kDegPerRad);
+            std::to_string(core::DegreesFromRadians(view.turntable_rad)) + " deg",
+        light_centres, core::RadiansFromDegrees(o.ring_tolerance_deg));
     std::vector<core::Image> textures;
     std::vector<std::vector<Eigen::Vector3d>> light_offsets;
     for (int b = 0; b < static_cast<int>(view.images.size()); ++b) {

@@ -1,8 +1,8 @@
 #include "formats/capture_plan_steps.h"
 
 #include <cmath>
-#include <numbers>
 
+#include "core/angles.h"
 #include "core/error.h"
 #include "core/json_field_reader.h"
 #include "formats/calibration.h"
@@ -13,10 +13,8 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-constexpr double kRadPerDeg = std::numbers::pi / 180.0;
-
 // Degrees rounded to 1e-9, so that the same radians always print the same.
-double PlanDegrees(double rad) { return std::round(rad * (180.0 / std::numbers::pi) * 1e9) / 1e9; }
+double PlanDegrees(double rad) { return std::round(core::DegreesFromRadians(rad) * 1e9) / 1e9; }
 
 json FilesJson(const std::vector<CameraFile>& files) {
   json list = json::array();
@@ -55,8 +53,12 @@ int Mount(const core::JsonFieldReader& fields) {
   return static_cast<int>(fields.Integer("mount", 0, static_cast<std::int64_t>(kMaxRigParts)));
 }
 
+int Index(const core::JsonFieldReader& fields, std::string_view key) {
+  return static_cast<int>(fields.Integer(key, 0, static_cast<std::int64_t>(kMaxPlanSteps)));
+}
+
 double Radians(const core::JsonFieldReader& fields, std::string_view key) {
-  return fields.Number(key, -360, 360) * kRadPerDeg;
+  return core::RadiansFromDegrees(fields.Number(key, -360, 360));
 }
 
 }  // namespace
@@ -109,7 +111,7 @@ LaserCalibrationStep ReadLaserCalibrationStep(const PlannedStep& step, std::size
   out.mount = Mount(fields);
   out.arc_rad = Radians(fields, "arc_deg");
   out.height_mm = fields.Number("height_mm");
-  out.tilt_rad = fields.NumberOr("tilt_deg", 0.0, -90, 90) * kRadPerDeg;
+  out.tilt_rad = core::RadiansFromDegrees(fields.NumberOr("tilt_deg", 0.0, -90, 90));
   out.files = ReadFiles(fields);
   return out;
 }
@@ -117,9 +119,9 @@ LaserCalibrationStep ReadLaserCalibrationStep(const PlannedStep& step, std::size
 BtfImageStep ReadBtfImageStep(const PlannedStep& step, std::size_t index, const fs::path& manifest_file) {
   const core::JsonFieldReader fields = StepFields(step, StepKind::kBtfImage, index, manifest_file);
   BtfImageStep out;
-  out.turntable_index = static_cast<int>(fields.Integer("turntable_index", 0, static_cast<std::int64_t>(kMaxPlanSteps)));
+  out.turntable_index = Index(fields, "turntable_index");
   out.turntable_rad = Radians(fields, "turntable_deg");
-  out.arc_index = static_cast<int>(fields.Integer("arc_index", 0, static_cast<std::int64_t>(kMaxPlanSteps)));
+  out.arc_index = Index(fields, "arc_index");
   out.arc_rad = Radians(fields, "arc_deg");
   out.lamp = static_cast<int>(fields.Integer("lamp", 0, static_cast<std::int64_t>(kMaxRigParts)));
   out.lamp_elevation_rad = Radians(fields, "lamp_elevation_deg");
@@ -131,12 +133,14 @@ LaserSweepStep ReadLaserSweepStep(const PlannedStep& step, std::size_t index, co
                                   const fs::path& manifest_file) {
   const core::JsonFieldReader fields = StepFields(step, StepKind::kLaserSweep, index, manifest_file);
   LaserSweepStep out;
-  out.turntable_index = static_cast<int>(fields.Integer("turntable_index", 0, static_cast<std::int64_t>(kMaxPlanSteps)));
+  out.turntable_index = Index(fields, "turntable_index");
   out.turntable_rad = Radians(fields, "turntable_deg");
   out.location = Location(fields, rig);
   out.mount = Mount(fields);
   out.arc_rad = Radians(fields, "arc_deg");
-  for (double t : fields.Numbers("tilt_deg", fields.Raw("tilt_deg").size())) out.tilts_rad.push_back(t * kRadPerDeg);
+  for (const double t : fields.Numbers("tilt_deg", fields.Raw("tilt_deg").size())) {
+    out.tilts_rad.push_back(core::RadiansFromDegrees(t));
+  }
   if (out.tilts_rad.empty()) fields.Fail("tilt_deg", "at least one frame's tilt");
   out.offsets_mm = fields.Numbers("offset_mm", out.tilts_rad.size());
   out.stores_analysis = fields.Has("stored_as") && fields.Choice("stored_as", {"frames", "analysis"}) == "analysis";

@@ -126,11 +126,11 @@ MdfProcessingResult ProcessMdfSession(const fs::path& session, const formats::Ca
       }
       const fs::path file = session / file_entry->path;
       // A stored analysis needs no reference region: only the plane, for the weight.
+      const int camera = static_cast<int>(c);
       const formats::SweepAnalysis analysis =
           step.stores_analysis ? ReadStoredAnalysis(file, rays, step.tilts_rad.size(), options.space_time)
-                               : AnalyseFrames(file, rays, geometry.Geometry(step, poses, static_cast<int>(c)), options);
-      geometry.AddToMdf(assembler, geometry.View(views, poses, static_cast<int>(c)), step, poses,
-                        static_cast<int>(c), analysis);
+                               : AnalyseFrames(file, rays, geometry.Geometry(step, poses, camera), options);
+      geometry.AddToMdf(assembler, geometry.View(views, poses, camera), step, poses, camera, analysis);
       ++result.sweeps;
       progress.Advance();
     }

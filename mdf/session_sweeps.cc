@@ -2,10 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numbers>
 
 #include "calibration/laser_plane_calibration.h"
 #include "calibration/rig_frames.h"
+#include "core/angles.h"
 #include "core/error.h"
 #include "core/image_io.h"
 
@@ -13,7 +13,6 @@ namespace mesocap::mdf {
 namespace {
 
 namespace fs = std::filesystem;
-constexpr double kRadPerDeg = std::numbers::pi / 180.0;
 
 }  // namespace
 
@@ -87,7 +86,8 @@ int SessionSweepGeometry::CameraIndex(const std::string& id) const {
 core::Image SessionSweepGeometry::ReadPlateFrame(int location, int plate, int camera) const {
   const std::string& id = rig_.cameras[camera].id;
   const auto& files = plates_.at(location).heights[plate].files;
-  const auto f = std::find_if(files.begin(), files.end(), [&](const formats::CameraFile& file) { return file.camera == id; });
+  const auto f =
+      std::find_if(files.begin(), files.end(), [&](const formats::CameraFile& file) { return file.camera == id; });
   if (f == files.end()) {
     throw core::FormatError(manifest_file_, "plan",
                             "a laser calibration file of camera " + id + " for location " + std::to_string(location));
@@ -110,11 +110,14 @@ const core::Plane& SessionSweepGeometry::CalibratedPlane(int location, int camer
   const auto& loc = rig_.laser.locations.at(location);
   const calibration::LaserMountPose pose = calibration::MountInWorld(calibration_, loc.mount, loc.arc_angle_rad, it->second.tilt_rad);
   core::Image frames[2];
-  for (int h = 0; h < 2; ++h) frames[h] = plate_frame_ ? plate_frame_(location, h, camera) : ReadPlateFrame(location, h, camera);
-  const core::Plane plane = calibration::CalibrateLaserPlane(frames[0], it->second.heights[0].height_mm, frames[1],
-                                          it->second.heights[1].height_mm, rays_[camera], pose.normal.head<2>().normalized(),
-                                          options_.reference_extent * rig_.sample_size_mm, options_.line,
-                                          "laser location " + std::to_string(location) + ", camera " + rig_.cameras[camera].id);
+  for (int h = 0; h < 2; ++h) {
+    frames[h] = plate_frame_ ? plate_frame_(location, h, camera) : ReadPlateFrame(location, h, camera);
+  }
+  const auto& heights = it->second.heights;
+  const core::Plane plane = calibration::CalibrateLaserPlane(
+      frames[0], heights[0].height_mm, frames[1], heights[1].height_mm, rays_[camera],
+      pose.normal.head<2>().normalized(), options_.reference_extent * rig_.sample_size_mm, options_.line,
+      "laser location " + std::to_string(location) + ", camera " + rig_.cameras[camera].id);
   return planes_.emplace(std::make_pair(location, camera), plane).first->second;
 }
 
@@ -130,14 +133,13 @@ SweepGeometry SessionSweepGeometry::Geometry(const formats::LaserSweepStep& step
   SweepGeometry geometry;
   geometry.calibrated_plane = CalibratedPlane(step.location, camera);
   const double calibration_tilt = plates_.at(step.location).tilt_rad;
-  const long long key = std::llround(step.turntable_rad / kRadPerDeg * 1e6);
+  const long long key = std::llround(core::DegreesFromRadians(step.turntable_rad) * 1e6);
   auto region = regions_.find({key, camera});
   if (region == regions_.end()) {
-    region = regions_
-                 .emplace(std::make_pair(key, camera),
-                          ReferenceRegion(rays_[camera], poses.world_from_sample, rig_.sample_size_mm,
-                                          options_.reference_margin_mm, options_.reference_extent * rig_.sample_size_mm))
-                 .first;
+    calibration::PixelMask mask =
+        ReferenceRegion(rays_[camera], poses.world_from_sample, rig_.sample_size_mm, options_.reference_margin_mm,
+                        options_.reference_extent * rig_.sample_size_mm);
+    region = regions_.emplace(std::make_pair(key, camera), std::move(mask)).first;
   }
   geometry.reference_region = region->second;
   geometry.tilt_axis = poses.mount.tilt_axis;

@@ -12,19 +12,19 @@
 #include <optional>
 #include <set>
 
+#include "core/angles.h"
 #include "core/error.h"
 
 namespace mesocap::bonn {
 namespace fs = std::filesystem;
 namespace {
 
-constexpr double kDegree = std::numbers::pi / 180.0;
 constexpr float kHalfMax = 65504.0f;
 
 // Degrees as a name writes them: three integer digits, and up to six
 // decimals only when the angle is not whole.
 std::string AngleText(double radians) {
-  double deg = std::round(radians / kDegree * 1e6) / 1e6;
+  double deg = std::round(core::DegreesFromRadians(radians) * 1e6) / 1e6;
   if (deg >= 360.0) deg -= 360.0;
   char text[32];
   if (deg == std::round(deg)) {
@@ -116,7 +116,7 @@ DegreePair Key(double theta_deg, double phi_deg) { return {theta_deg, theta_deg 
 
 core::SamplingSet SetOf(const fs::path& dir, const std::set<DegreePair>& keys, const char* what) {
   std::vector<core::SphericalAngles> angles;
-  for (const auto& [t, p] : keys) angles.push_back({t * kDegree, p * kDegree});
+  for (const auto& [t, p] : keys) angles.push_back({core::RadiansFromDegrees(t), core::RadiansFromDegrees(p)});
   const core::SamplingSet named = core::SamplingSet::Named("ubo2003");
   if (named.size() == static_cast<int>(angles.size())) {
     bool same = true;

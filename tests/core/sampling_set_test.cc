@@ -8,6 +8,7 @@
 #include <numbers>
 #include <random>
 
+#include "core/angles.h"
 #include "core/error.h"
 
 namespace mesocap::core {
@@ -16,7 +17,7 @@ namespace {
 using nlohmann::json;
 
 constexpr double kPi = std::numbers::pi;
-constexpr double kDeg = kPi / 180.0;
+constexpr double kDeg = core::kRadiansPerDegree;
 
 const std::vector<std::string> kNamedSets = {"paper12x5", "paper12x8", "ubo2003", "ubo2014",
                                              "grid24x6",  "grid1x1",   "grid7x3"};

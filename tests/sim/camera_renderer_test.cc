@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <numbers>
 
+#include "core/angles.h"
 #include "core/error.h"
 #include "core/image_io.h"
 #include "formats/capture_journal.h"
@@ -26,7 +27,7 @@ namespace mesocap::sim {
 namespace {
 
 namespace fs = std::filesystem;
-constexpr double kDeg = std::numbers::pi / 180.0;
+constexpr double kDeg = core::kRadiansPerDegree;
 
 Eigen::Vector3d SampleToWorld(const Eigen::Vector3d& p, double turntable_rad) {
   return Eigen::AngleAxisd(turntable_rad, Eigen::Vector3d::UnitZ()) * p;
