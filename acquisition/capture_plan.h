@@ -27,15 +27,12 @@
 
 namespace mesocap::acquisition {
 
-// `recording` (null for none) is stored in every step as "recording": the
+// `recording` (null for none) is stored in every step (ToPlannedStep): the
 // settings that shaped the data beyond the rig (for the simulated rig: the
 // scene, seed and sensor model), so that resuming a session can check that
-// it continues the same capture.
+// it continues the same capture. The steps' members are those of
+// formats/capture_plan_steps.h.
 std::vector<formats::PlannedStep> MakeCapturePlan(const formats::RigDescription& rig,
-                                         const nlohmann::json& recording = nullptr);
-
-// Angles as the plan writes them, in degrees rounded to 1e-9 so that a plan
-// is byte-identical across runs and machines.
-double PlanDegrees(double rad);
+                                                  const nlohmann::json& recording = nullptr);
 
 }  // namespace mesocap::acquisition

@@ -5,7 +5,6 @@
 
 #include <map>
 #include <memory>
-#include <numbers>
 #include <string>
 #include <vector>
 
@@ -15,6 +14,7 @@
 #include "core/progress.h"
 #include "drivers/device_error.h"
 #include "formats/capture_journal.h"
+#include "formats/capture_plan_steps.h"
 #include "formats/capture_session.h"
 #include "formats/frame_sequence.h"
 #include "formats/sweep_analysis.h"
@@ -24,9 +24,6 @@ namespace mesocap::acquisition {
 namespace {
 
 namespace fs = std::filesystem;
-using nlohmann::json;
-
-constexpr double kRadPerDeg = std::numbers::pi / 180.0;
 
 class SessionRun {
  public:
@@ -46,9 +43,15 @@ class SessionRun {
       if (step.kind == formats::StepKind::kOther) {
         throw core::Error(dir_.string() + ": step \"" + step.id + "\" is of kind \"other\", which a capture cannot run");
       }
-      for (const json& f : step.params.at("files")) CameraFor(step, f);
-      if (step.kind == formats::StepKind::kLaserSweep && step.params.value("stored_as", "frames") == "analysis" &&
-          !options_.calibration) {
+    }
+    const fs::path manifest_file = dir_ / formats::kSessionManifestName;
+    rig_description_ = formats::ParseRigDescription(manifest_.rig, manifest_file);
+    for (std::size_t s = 0; s < manifest_.plan.size(); ++s) {
+      const formats::PlannedStep& step = manifest_.plan[s];
+      steps_.push_back(formats::ReadCaptureStep(step, s, rig_description_, manifest_file));
+      for (const formats::CameraFile& f : formats::Files(steps_.back())) CameraFor(step, f);
+      const auto* sweep = std::get_if<formats::LaserSweepStep>(&steps_.back());
+      if (sweep && sweep->stores_analysis && !options_.calibration) {
         throw core::Error(dir_.string() + ": step \"" + step.id +
                     "\" stores a sweep analysis, which needs the rig's calibration (none was given)");
       }
@@ -64,15 +67,16 @@ class SessionRun {
                       options_.show_progress ? core::Progress::Style::kAuto : core::Progress::Style::kSilent);
     progress.Advance(report_.steps_done_before);
     for (auto& camera : rig_.cameras) camera->SetTrigger(drivers::TriggerMode::kSoftware);
-    for (const formats::PlannedStep& step : manifest_.plan) {
+    for (std::size_t s = 0; s < manifest_.plan.size(); ++s) {
+      const formats::PlannedStep& step = manifest_.plan[s];
       if (journal_.IsDone(step.id)) continue;
       try {
-        RunStep(step);
+        RunStep(step, steps_[s]);
       } catch (const drivers::DeviceError& e) {
         throw core::Error(dir_.string() + ": step \"" + step.id + "\": " + e.what() +
                     " (finished steps are journaled; run again to resume)");
       }
-      Journal(step);
+      Journal(step, steps_[s]);
       ++report_.steps_run;
       progress.Advance();
     }
@@ -82,28 +86,28 @@ class SessionRun {
   }
 
  private:
-  drivers::Camera& CameraFor(const formats::PlannedStep& step, const json& file) {
-    const std::string id = file.at("camera").get<std::string>();
-    const auto it = camera_index_.find(id);
+  drivers::Camera& CameraFor(const formats::PlannedStep& step, const formats::CameraFile& file) {
+    const auto it = camera_index_.find(file.camera);
     if (it == camera_index_.end()) {
-      throw core::Error(dir_.string() + ": step \"" + step.id + "\" names camera \"" + id + "\", which the rig lacks");
+      throw core::Error(dir_.string() + ": step \"" + step.id + "\" names camera \"" + file.camera +
+                        "\", which the rig lacks");
     }
     return *rig_.cameras[it->second];
   }
 
-  fs::path FilePath(const json& file) const {
-    const fs::path path = dir_ / file.at("path").get<std::string>();
+  fs::path FilePath(const formats::CameraFile& file) const {
+    const fs::path path = dir_ / file.path;
     fs::create_directories(path.parent_path());
     return path;
   }
 
   // Homes a stage that is not homed, then moves it, retrying what a retry
   // can cure (a timeout: wait again; a stall: home again).
-  void Move(drivers::RotaryStage& stage, double angle_deg) {
+  void Move(drivers::RotaryStage& stage, double angle_rad) {
     for (int attempt = 0;; ++attempt) {
       try {
         if (!stage.IsHomed()) stage.Home();
-        stage.MoveTo(angle_deg * kRadPerDeg);
+        stage.MoveTo(angle_rad);
         stage.WaitUntilStopped(options_.move_timeout);
         return;
       } catch (const drivers::TimeoutError& e) {
@@ -114,10 +118,10 @@ class SessionRun {
     }
   }
 
-  void Tilt(double tilt_deg) {
+  void Tilt(double tilt_rad) {
     for (int attempt = 0;; ++attempt) {
       try {
-        rig_.laser->SetTilt(tilt_deg * kRadPerDeg, options_.move_timeout);
+        rig_.laser->SetTilt(tilt_rad, options_.move_timeout);
         return;
       } catch (const drivers::TimeoutError& e) {
         Retry(attempt, e);
@@ -140,10 +144,10 @@ class SessionRun {
   // frames are read mono: processing needs the stripe's intensity, not its
   // hue (a camera that still gives colour is averaged to grey where the
   // frames are used).
-  std::vector<core::Image> GrabAll(const formats::PlannedStep& step, drivers::PixelFormat format) {
-    const json& files = step.params.at("files");
+  std::vector<core::Image> GrabAll(const formats::PlannedStep& step, const std::vector<formats::CameraFile>& files,
+                                   drivers::PixelFormat format) {
     std::vector<drivers::Camera*> cameras;
-    for (const json& f : files) cameras.push_back(&CameraFor(step, f));
+    for (const formats::CameraFile& f : files) cameras.push_back(&CameraFor(step, f));
     for (drivers::Camera* c : cameras) {
       if (c->settings().pixel_format != format) c->SetPixelFormat(format);
     }
@@ -185,115 +189,110 @@ class SessionRun {
     rig_.laser->SetMount(mount);
   }
 
-  void RunStep(const formats::PlannedStep& step) {
-    const json& p = step.params;
-    const json& files = p.at("files");
+  void RunStep(const formats::PlannedStep& step, const formats::CaptureStep& typed) {
     AllOff();
-    switch (step.kind) {
-      case formats::StepKind::kLaserCalibration: {
-        // Sec. 3.2: the stripe at tilt 0 on a flat plate at a known height.
-        Move(*rig_.light_arc, p.at("arc_deg").get<double>());
-        MountLaser(p.at("mount").get<int>());
-        operator_.PlaceCalibrationPlate(p.at("height_mm").get<double>());
-        rig_.laser->SetEnabled(true);
-        Tilt(p.at("tilt_deg").get<double>());
-        std::vector<core::Image> images = GrabAll(step, drivers::PixelFormat::kMono);
-        rig_.laser->SetEnabled(false);
-        operator_.RemoveCalibrationPlate();
+    std::visit([&](const auto& s) { Run(step, s); }, typed);
+  }
+
+  void Run(const formats::PlannedStep& step, const formats::LaserCalibrationStep& calibration) {
+    // Sec. 3.2: the stripe at tilt 0 on a flat plate at a known height.
+    Move(*rig_.light_arc, calibration.arc_rad);
+    MountLaser(calibration.mount);
+    operator_.PlaceCalibrationPlate(calibration.height_mm);
+    rig_.laser->SetEnabled(true);
+    Tilt(calibration.tilt_rad);
+    std::vector<core::Image> images = GrabAll(step, calibration.files, drivers::PixelFormat::kMono);
+    rig_.laser->SetEnabled(false);
+    operator_.RemoveCalibrationPlate();
+    for (std::size_t i = 0; i < images.size(); ++i) {
+      core::WriteImage(FilePath(calibration.files[i]), core::ChannelMean(std::move(images[i])),
+                       core::PixelEncoding::kUInt16);
+    }
+  }
+
+  void Run(const formats::PlannedStep& step, const formats::BtfImageStep& btf) {
+    Move(*rig_.turntable, btf.turntable_rad);
+    Move(*rig_.light_arc, btf.arc_rad);
+    rig_.lamps->SetLamp(btf.lamp, true);
+    const std::vector<core::Image> images = GrabAll(step, btf.files, drivers::PixelFormat::kNative);
+    // One encoder per camera at once: PNG encoding is single-threaded.
+    std::vector<fs::path> paths;
+    for (std::size_t i = 0; i < images.size(); ++i) paths.push_back(FilePath(btf.files[i]));
+    tbb::parallel_for(std::size_t{0}, images.size(),
+                      [&](std::size_t i) { core::WriteImage(paths[i], images[i], core::PixelEncoding::kUInt16); });
+  }
+
+  void Run(const formats::PlannedStep& step, const formats::LaserSweepStep& sweep) {
+    Move(*rig_.turntable, sweep.turntable_rad);
+    Move(*rig_.light_arc, sweep.arc_rad);
+    MountLaser(sweep.mount);
+    Tilt(sweep.tilts_rad.at(0));
+    // Frames go to disk, or into the analysis, as they arrive: a sweep
+    // is never in memory.
+    std::vector<std::unique_ptr<formats::FrameSequenceWriter>> writers;
+    std::vector<std::unique_ptr<mdf::LaserSweepProcessor>> analyses;
+    if (sweep.stores_analysis) analyses = SweepProcessors(sweep);
+    rig_.laser->SetEnabled(true);
+    for (std::size_t f = 0; f < sweep.tilts_rad.size(); ++f) {
+      Tilt(sweep.tilts_rad[f]);
+      std::vector<core::Image> images = GrabAll(step, sweep.files, drivers::PixelFormat::kMono);
+      if (!analyses.empty()) {
+        // The cameras' analyses are independent (line detection and the
+        // space-time state are single-threaded each).
+        tbb::parallel_for(std::size_t{0}, images.size(), [&](std::size_t i) {
+          analyses[i]->AddFrame(static_cast<int>(f), core::ChannelMean(std::move(images[i])));
+        });
+        continue;
+      }
+      if (writers.empty()) {
         for (std::size_t i = 0; i < images.size(); ++i) {
-          core::WriteImage(FilePath(files[i]), core::ChannelMean(std::move(images[i])), core::PixelEncoding::kUInt16);
+          writers.push_back(std::make_unique<formats::FrameSequenceWriter>(
+              FilePath(sweep.files[i]), images[i].width(), images[i].height(), 1, core::PixelEncoding::kUInt16));
         }
-        break;
       }
-      case formats::StepKind::kBtfImage: {
-        Move(*rig_.turntable, p.at("turntable_deg").get<double>());
-        Move(*rig_.light_arc, p.at("arc_deg").get<double>());
-        rig_.lamps->SetLamp(p.at("lamp").get<int>(), true);
-        const std::vector<core::Image> images = GrabAll(step, drivers::PixelFormat::kNative);
-        // One encoder per camera at once: PNG encoding is single-threaded.
-        std::vector<fs::path> paths;
-        for (std::size_t i = 0; i < images.size(); ++i) paths.push_back(FilePath(files[i]));
-        tbb::parallel_for(std::size_t{0}, images.size(),
-                          [&](std::size_t i) { core::WriteImage(paths[i], images[i], core::PixelEncoding::kUInt16); });
-        break;
-      }
-      case formats::StepKind::kLaserSweep: {
-        Move(*rig_.turntable, p.at("turntable_deg").get<double>());
-        Move(*rig_.light_arc, p.at("arc_deg").get<double>());
-        MountLaser(p.at("mount").get<int>());
-        const json& tilts = p.at("tilt_deg");
-        Tilt(tilts.at(0).get<double>());
-        // Frames go to disk, or into the analysis, as they arrive: a sweep
-        // is never in memory.
-        std::vector<std::unique_ptr<formats::FrameSequenceWriter>> writers;
-        std::vector<std::unique_ptr<mdf::LaserSweepProcessor>> analyses;
-        if (p.value("stored_as", "frames") == "analysis") analyses = SweepProcessors(step);
-        rig_.laser->SetEnabled(true);
-        for (std::size_t f = 0; f < tilts.size(); ++f) {
-          Tilt(tilts[f].get<double>());
-          std::vector<core::Image> images = GrabAll(step, drivers::PixelFormat::kMono);
-          if (!analyses.empty()) {
-            // The cameras' analyses are independent (line detection and the
-            // space-time state are single-threaded each).
-            tbb::parallel_for(std::size_t{0}, images.size(), [&](std::size_t i) {
-              analyses[i]->AddFrame(static_cast<int>(f), core::ChannelMean(std::move(images[i])));
-            });
-            continue;
-          }
-          if (writers.empty()) {
-            for (std::size_t i = 0; i < images.size(); ++i) {
-              writers.push_back(std::make_unique<formats::FrameSequenceWriter>(FilePath(files[i]), images[i].width(),
-                                                                      images[i].height(), 1, core::PixelEncoding::kUInt16));
-            }
-          }
-          for (std::size_t i = 0; i < images.size(); ++i) writers[i]->Append(core::ChannelMean(std::move(images[i])));
-        }
-        rig_.laser->SetEnabled(false);
-        for (auto& w : writers) w->Commit();
-        for (std::size_t i = 0; i < analyses.size(); ++i) formats::WriteSweepAnalysis(FilePath(files[i]), analyses[i]->Finish());
-        break;
-      }
-      case formats::StepKind::kOther:
-        break;  // refused in the constructor
+      for (std::size_t i = 0; i < images.size(); ++i) writers[i]->Append(core::ChannelMean(std::move(images[i])));
+    }
+    rig_.laser->SetEnabled(false);
+    for (auto& w : writers) w->Commit();
+    for (std::size_t i = 0; i < analyses.size(); ++i) {
+      formats::WriteSweepAnalysis(FilePath(sweep.files[i]), analyses[i]->Finish());
     }
   }
 
   // One streaming analysis per file of the sweep step, in its files' order.
   // The laser planes come from this session's calibration plates, which
   // the plan captures before any sweep.
-  std::vector<std::unique_ptr<mdf::LaserSweepProcessor>> SweepProcessors(const formats::PlannedStep& step) {
-    const fs::path manifest_file = dir_ / formats::kSessionManifestName;
+  std::vector<std::unique_ptr<mdf::LaserSweepProcessor>> SweepProcessors(const formats::LaserSweepStep& sweep) {
     if (!sweep_geometry_) {
-      sweep_geometry_ = std::make_unique<mdf::SessionSweepGeometry>(
-          dir_, manifest_, formats::ParseRigDescription(manifest_.rig, manifest_file), *options_.calibration,
-          options_.sweep_geometry);
+      sweep_geometry_ = std::make_unique<mdf::SessionSweepGeometry>(dir_, manifest_, rig_description_,
+                                                                    *options_.calibration, options_.sweep_geometry);
     }
-    const std::size_t index = static_cast<std::size_t>(&step - manifest_.plan.data());  // step is in the plan
-    const mdf::SweepStep sweep = mdf::ParseSweepStep(step, index, sweep_geometry_->rig(), manifest_file);
+    const mdf::SweepPoses poses = sweep_geometry_->Poses(sweep);
     std::vector<std::unique_ptr<mdf::LaserSweepProcessor>> processors;
-    for (const json& f : step.params.at("files")) {
-      const int camera = sweep_geometry_->CameraIndex(f.at("camera").get<std::string>());
+    for (const formats::CameraFile& f : sweep.files) {
+      const int camera = sweep_geometry_->CameraIndex(f.camera);
       processors.push_back(std::make_unique<mdf::LaserSweepProcessor>(sweep_geometry_->rays(camera),
-                                                                 sweep_geometry_->Geometry(sweep, camera),
+                                                                 sweep_geometry_->Geometry(sweep, poses, camera),
                                                                  options_.sweep_geometry.line, options_.space_time));
     }
     return processors;
   }
 
-  void Journal(const formats::PlannedStep& step) {
+  void Journal(const formats::PlannedStep& step, const formats::CaptureStep& typed) {
     formats::JournalRecord record;
     record.seq = journal_.next_seq();
     record.step = step.id;
     record.time_utc = formats::UtcTimestamp(std::chrono::system_clock::now());
-    for (const json& f : step.params.at("files")) {
-      const std::string path = f.at("path").get<std::string>();
-      record.files.push_back({path, fs::file_size(dir_ / path)});
+    for (const formats::CameraFile& f : formats::Files(typed)) {
+      record.files.push_back({f.path, fs::file_size(dir_ / f.path)});
     }
     journal_.Append(record);
   }
 
   fs::path dir_;
   formats::SessionManifest manifest_;
+  formats::RigDescription rig_description_;  // the rig the session records
+  std::vector<formats::CaptureStep> steps_;  // the plan's steps, typed
   drivers::Rig& rig_;
   drivers::RigOperator& operator_;
   CaptureRunnerOptions options_;

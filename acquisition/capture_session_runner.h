@@ -36,10 +36,11 @@ struct CaptureRunnerOptions {
   int retries = 3;
   bool show_progress = true;
   // The rig's calibration, needed when the plan stores sweep analyses
-  // ("stored_as": "analysis"): each sweep is then streamed through line
-  // detection and space-time analysis (processing/laser_sweep.h) as its
-  // frames arrive, with the laser planes from the session's own
-  // calibration plates, and only the analysis is written. Not owned.
+  // (formats::LaserSweepStep::stores_analysis): each sweep is then streamed
+  // through line detection and space-time analysis (mdf/laser_sweep.h) as
+  // its frames arrive, with the laser planes from the session's own
+  // calibration plates (mdf/session_sweeps.h), and only the analysis is
+  // written. Not owned.
   const formats::Calibration* calibration = nullptr;
   mdf::SweepGeometryOptions sweep_geometry;
   mdf::SpaceTimeOptions space_time;

@@ -17,6 +17,8 @@
 #include <filesystem>
 #include <map>
 
+#include "formats/material_manifest.h"
+#include "formats/material_package_reader.h"
 #include "pipelines/export_bonn.h"
 #include "pipelines/import_bonn.h"
 #include "sim/ground_truth.h"

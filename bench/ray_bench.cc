@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "core/angles.h"
 #include "sim/cell_walk.h"
 #include "sim/mesostructure_scene.h"
 
@@ -31,7 +32,7 @@ struct Ray {
 std::vector<Ray> PrimaryRays(const mesocap::sim::MesostructureScene& scene, double theta_deg, int count) {
   std::mt19937_64 rng(42);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
-  const double theta = theta_deg * std::numbers::pi / 180.0;
+  const double theta = mesocap::core::RadiansFromDegrees(theta_deg);
   std::vector<Ray> rays;
   for (int k = 0; k < count; ++k) {
     const double phi = 2.0 * std::numbers::pi * unit(rng);

@@ -15,21 +15,23 @@
 #include "btf/btf_resampling.h"
 #include "calibration/camera_rays.h"
 #include "calibration/rig_frames.h"
+#include "core/angles.h"
 #include "core/image_io.h"
+#include "formats/capture_plan_steps.h"
 #include "formats/capture_session.h"
 
 namespace mesocap::btf {
 namespace {
 
-constexpr double kDegPerRad = 180.0 / std::numbers::pi;
 
 std::string Degrees(const core::SphericalAngles& a) {
-  return "(theta " + std::to_string(a.theta * kDegPerRad) + ", phi " + std::to_string(a.phi * kDegPerRad) + ") deg";
+  return "(theta " + std::to_string(core::DegreesFromRadians(a.theta)) + ", phi " +
+         std::to_string(core::DegreesFromRadians(a.phi)) + ") deg";
 }
 
 // Angle in degrees between direction i of `set` and d (sample frame).
 double OffsetDeg(const core::SamplingSet& set, int i, const Eigen::Vector3d& d) {
-  return std::acos(std::clamp(set.direction(i).dot(d.normalized()), -1.0, 1.0)) * kDegPerRad;
+  return core::DegreesFromRadians(std::acos(std::clamp(set.direction(i).dot(d.normalized()), -1.0, 1.0)));
 }
 
 // Index of `d` (sample frame) in `set`, and how far it is from it.
@@ -244,7 +246,7 @@ void AssembleOnGrid(const std::vector<BtfCaptureImage>& images, const formats::C
 void AssembleResampled(const std::vector<BtfCaptureImage>& images, const formats::Calibration& calibration,
                        const BtfAssemblyOptions& o, const std::vector<CentreDirections>& directions,
                        const BtfViewSink& sink, BtfAssemblyReport* r) {
-  const double tolerance = o.max_direction_error_deg / kDegPerRad;
+  const double tolerance = core::RadiansFromDegrees(o.max_direction_error_deg);
   std::vector<CapturedView> captured;
   for (int k = 0; k < static_cast<int>(images.size()); ++k) {
     auto it = std::find_if(captured.begin(), captured.end(), [&](const CapturedView& c) {
@@ -264,7 +266,7 @@ void AssembleResampled(const std::vector<BtfCaptureImage>& images, const formats
   std::vector<Eigen::Vector3d> view_centres;
   for (const CapturedView& c : captured) view_centres.push_back(directions[c.images.front()].view);
   const CapturedDirections captured_views = MakeCapturedDirections("BTF assembly: captured views", view_centres,
-                                                                   o.ring_tolerance_deg / kDegPerRad);
+                                                                   core::RadiansFromDegrees(o.ring_tolerance_deg));
   const int w = o.texture_width, h = o.texture_height;
   const std::size_t texels = static_cast<std::size_t>(w) * h;
   std::vector<calibration::CameraRays> camera_rays;
@@ -283,8 +285,8 @@ void AssembleResampled(const std::vector<BtfCaptureImage>& images, const formats
     for (int k : view.images) light_centres.push_back(directions[k].light);
     const CapturedDirections lights = MakeCapturedDirections(
         "BTF assembly: lights of camera " + calibration.cameras[view.camera].id + " at turntable " +
-            std::to_string(view.turntable_rad * kDegPerRad) + " deg",
-        light_centres, o.ring_tolerance_deg / kDegPerRad);
+            std::to_string(core::DegreesFromRadians(view.turntable_rad)) + " deg",
+        light_centres, core::RadiansFromDegrees(o.ring_tolerance_deg));
     std::vector<core::Image> textures;
     std::vector<std::vector<Eigen::Vector3d>> light_offsets;
     for (int b = 0; b < static_cast<int>(view.images.size()); ++b) {
@@ -417,32 +419,20 @@ core::FullBtf AssembleBtf(const std::vector<BtfCaptureImage>& images, const form
 
 std::vector<BtfCaptureImage> SessionBtfImages(const std::filesystem::path& session, const formats::SessionManifest& manifest,
                                            const formats::Calibration& calibration) {
+  const std::filesystem::path manifest_file = session / formats::kSessionManifestName;
   std::map<std::string, int> camera_index;
   for (int c = 0; c < static_cast<int>(calibration.cameras.size()); ++c) camera_index[calibration.cameras[c].id] = c;
-  constexpr double kRadPerDeg = std::numbers::pi / 180.0;
   std::vector<BtfCaptureImage> images;
-  for (const formats::PlannedStep& step : manifest.plan) {
+  for (std::size_t s = 0; s < manifest.plan.size(); ++s) {
+    const formats::PlannedStep& step = manifest.plan[s];
     if (step.kind != formats::StepKind::kBtfImage) continue;
-    const auto field = [&](const char* name) {
-      if (!step.params.contains(name) || !step.params[name].is_number()) {
-        throw core::FormatError(session / formats::kSessionManifestName, "plan step " + step.id + "." + name, "expected a number");
+    const formats::BtfImageStep btf = formats::ReadBtfImageStep(step, s, manifest_file);
+    for (const formats::CameraFile& file : btf.files) {
+      if (!camera_index.count(file.camera)) {
+        throw core::FormatError(manifest_file, "plan step " + step.id + ".files",
+                                "camera '" + file.camera + "' not in the calibration");
       }
-      return step.params[name].get<double>();
-    };
-    const double turntable = field("turntable_deg") * kRadPerDeg;
-    const double arc = field("arc_deg") * kRadPerDeg;
-    const int lamp = static_cast<int>(field("lamp"));
-    if (!step.params.contains("files") || !step.params["files"].is_array()) {
-      throw core::FormatError(session / formats::kSessionManifestName, "plan step " + step.id + ".files", "expected a list");
-    }
-    for (const auto& file : step.params["files"]) {
-      const std::string camera = file.value("camera", "");
-      const std::string path = file.value("path", "");
-      if (!camera_index.count(camera) || !formats::IsSessionPath(path)) {
-        throw core::FormatError(session / formats::kSessionManifestName, "plan step " + step.id + ".files",
-                          "camera '" + camera + "' not in the calibration or bad path '" + path + "'");
-      }
-      images.push_back({session / path, camera_index[camera], turntable, arc, lamp});
+      images.push_back({session / file.path, camera_index[file.camera], btf.turntable_rad, btf.arc_rad, btf.lamp});
     }
   }
   if (images.empty()) throw core::Error("BTF assembly: the session " + session.string() + " plans no BTF images");

@@ -6,6 +6,7 @@
 #include <numbers>
 #include <string>
 
+#include "core/angles.h"
 #include "core/error.h"
 
 namespace mesocap::btf {
@@ -13,7 +14,7 @@ namespace {
 
 nlohmann::json Number(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
 
-double ThetaDeg(const core::SamplingSet& set, int i) { return set.angles(i).theta * 180.0 / std::numbers::pi; }
+double ThetaDeg(const core::SamplingSet& set, int i) { return core::DegreesFromRadians(set.angles(i).theta); }
 
 }  // namespace
 

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <numbers>
 
+#include "core/angles.h"
 #include "core/error.h"
 
 namespace mesocap::calibration {
@@ -15,7 +16,7 @@ core::Plane PlaneThroughLines(const ReferenceLine& lower, const ReferenceLine& u
     throw core::Error("laser plane calibration: plate heights must differ by at least 1 mm");
   }
   const double cos_between = std::abs(lower.direction.dot(upper.direction));
-  if (cos_between < std::cos(2.0 * std::numbers::pi / 180.0)) {
+  if (cos_between < std::cos(core::RadiansFromDegrees(2.0))) {
     throw core::Error("laser plane calibration: the stripe's lines on the two plates are not parallel");
   }
   const double sign = lower.direction.dot(upper.direction) < 0 ? -1.0 : 1.0;

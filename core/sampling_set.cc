@@ -10,6 +10,7 @@
 #include <numeric>
 #include <sstream>
 
+#include "core/angles.h"
 #include "core/error.h"
 
 namespace mesocap::core {
@@ -17,7 +18,6 @@ namespace {
 
 constexpr double kPi = std::numbers::pi;
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
-constexpr double kDegree = kPi / 180.0;
 // Thetas closer than this form one ring; directions closer than this coincide.
 constexpr double kRingTolerance = 1e-9;
 // A direction this close (rad) to a ring, or to a member in phi, counts as on
@@ -45,7 +45,7 @@ double AngleBetween(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
 std::string Degrees(double radians) {
   std::ostringstream s;
   s.precision(12);
-  s << radians / kDegree;
+  s << DegreesFromRadians(radians);
   return s.str();
 }
 
@@ -295,7 +295,8 @@ SamplingSet::Blend SamplingSet::Interpolate(const Eigen::Vector3d& d) const {
 nlohmann::json ToJson(const SamplingSet& set) {
   nlohmann::json directions = nlohmann::json::array();
   for (int i = 0; i < set.size(); ++i) {
-    directions.push_back(nlohmann::json::array({set.angles(i).theta / kDegree, set.angles(i).phi / kDegree}));
+    directions.push_back(
+        nlohmann::json::array({DegreesFromRadians(set.angles(i).theta), DegreesFromRadians(set.angles(i).phi)}));
   }
   return {{"name", set.name()}, {"directions_deg", std::move(directions)}};
 }
@@ -325,7 +326,7 @@ SamplingSet ReadSamplingSet(const JsonFieldReader& fields) {
     if (theta_deg < 0.0 || theta_deg >= 90.0) {
       fields.Fail(key, "theta " + Describe(entry[0]) + " degrees is outside [0, 90)");
     }
-    angles.push_back({theta_deg * kDegree, entry[1].get<double>() * kDegree});
+    angles.push_back({RadiansFromDegrees(theta_deg), RadiansFromDegrees(entry[1].get<double>())});
   }
   try {
     return SamplingSet::FromAngles(name, angles);

@@ -8,6 +8,7 @@
 #include <type_traits>
 #include <utility>
 
+#include "core/angles.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/json_field_reader.h"
@@ -40,8 +41,6 @@ constexpr double kMaxAngleDeg = 180;
 constexpr int kMaxCalibratedImageSide = 65536;
 // |n . a| for a tilt axis in the laser plane, after normalizing both.
 constexpr double kInPlaneTolerance = 1e-6;
-
-constexpr double kDegPerRad = 180.0 / std::numbers::pi;
 
 // ---- reading --------------------------------------------------------------
 
@@ -155,7 +154,7 @@ CalibratedPose ReadPose(const core::JsonFieldReader& fields, const std::string& 
   Position(fields, "translation_mm");  // bounds only; ReadRigidTransform read the values
   const auto d = ReadDeviations(
       fields, {{"rotation_deg", 3, kMaxAngleDeg}, {"translation_mm", 3, kMaxLengthMm}});
-  pose.uncertainty.rotation_rad = Deviation3(d, "rotation_deg", 1 / kDegPerRad);
+  pose.uncertainty.rotation_rad = Deviation3(d, "rotation_deg", core::RadiansFromDegrees(1.0));
   pose.uncertainty.translation_mm = Deviation3(d, "translation_mm");
   return pose;
 }
@@ -277,13 +276,15 @@ LaserMountCalibration ReadLaserMount(const core::JsonFieldReader& fields) {
   }
   const auto range = BoundedNumbers(fields, "tilt_range_deg", 2, -kMaxAngleDeg, kMaxAngleDeg);
   if (range[0] >= range[1]) fields.Fail("tilt_range_deg", "expected [min, max] with min < max");
-  m.tilt_range_rad = Eigen::Vector2d(range[0], range[1]) / kDegPerRad;
+  m.tilt_range_rad =
+      Eigen::Vector2d(core::RadiansFromDegrees(range[0]), core::RadiansFromDegrees(range[1]));
   const auto d = ReadDeviations(fields, {{"source_mm", 3, kMaxLengthMm},
                                          {"plane_normal_at_zero_tilt", 3, kMaxDirectionComponent},
                                          {"tilt_axis", 3, kMaxDirectionComponent},
                                          {"tilt_range_deg", 2, kMaxAngleDeg}});
   m.uncertainty = {Deviation3(d, "source_mm"), Deviation3(d, "plane_normal_at_zero_tilt"),
-                   Deviation3(d, "tilt_axis"), Deviation2(d, "tilt_range_deg", 1 / kDegPerRad)};
+                   Deviation3(d, "tilt_axis"),
+                   Deviation2(d, "tilt_range_deg", core::RadiansFromDegrees(1.0))};
   return m;
 }
 
@@ -327,14 +328,25 @@ Calibration ParseCalibration(const json& document, const fs::path& file) {
 json NumberList(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
 json NumberList(const Eigen::Vector2d& v) { return {v.x(), v.y()}; }
 
+// Angles in radians (or their deviations), written in degrees.
+template <typename T>
+T InDegrees(const T& radians) {
+  return radians.unaryExpr([](double r) { return core::DegreesFromRadians(r); });
+}
+template <typename T>
+std::optional<T> InDegrees(const std::optional<T>& radians) {
+  if (!radians) return std::nullopt;
+  return InDegrees(*radians);
+}
+
 // Adds `value` under `key` to the "std" object being built, when present.
 template <typename T>
-void PutDeviation(json& std_json, const char* key, const std::optional<T>& value, double scale = 1) {
+void PutDeviation(json& std_json, const char* key, const std::optional<T>& value) {
   if (!value) return;
   if constexpr (std::is_same_v<T, double>) {
-    std_json[key] = *value * scale;
+    std_json[key] = *value;
   } else {
-    std_json[key] = NumberList(T(*value * scale));
+    std_json[key] = NumberList(*value);
   }
 }
 
@@ -346,7 +358,7 @@ void AttachDeviations(json& object, json std_json) {
 json PoseJson(const CalibratedPose& pose) {
   json j = ToJson(pose.transform);
   json d = json::object();
-  PutDeviation(d, "rotation_deg", pose.uncertainty.rotation_rad, kDegPerRad);
+  PutDeviation(d, "rotation_deg", InDegrees(pose.uncertainty.rotation_rad));
   PutDeviation(d, "translation_mm", pose.uncertainty.translation_mm);
   AttachDeviations(j, std::move(d));
   return j;
@@ -424,12 +436,12 @@ json LaserMountJson(const LaserMountCalibration& m) {
             {"source_mm", NumberList(m.source_mm)},
             {"plane_normal_at_zero_tilt", NumberList(m.plane_normal_at_zero_tilt)},
             {"tilt_axis", NumberList(m.tilt_axis)},
-            {"tilt_range_deg", NumberList(Eigen::Vector2d(m.tilt_range_rad * kDegPerRad))}};
+            {"tilt_range_deg", NumberList(InDegrees(m.tilt_range_rad))}};
   json d = json::object();
   PutDeviation(d, "source_mm", m.uncertainty.source_mm);
   PutDeviation(d, "plane_normal_at_zero_tilt", m.uncertainty.plane_normal_at_zero_tilt);
   PutDeviation(d, "tilt_axis", m.uncertainty.tilt_axis);
-  PutDeviation(d, "tilt_range_deg", m.uncertainty.tilt_range_rad, kDegPerRad);
+  PutDeviation(d, "tilt_range_deg", InDegrees(m.uncertainty.tilt_range_rad));
   AttachDeviations(j, std::move(d));
   return j;
 }

@@ -31,7 +31,8 @@ const char* StepKindName(StepKind kind);
 struct PlannedStep {
   std::string id;  // unique in the plan; IsValidId (core/calibration.h)
   StepKind kind = StepKind::kOther;
-  // The step's other members, kept as written (say "camera", "turntable_deg").
+  // The step's other members, kept as written; formats/capture_plan_steps.h
+  // reads and writes those of the kinds the rig runs.
   // An object without "id" or "kind".
   nlohmann::json params = nlohmann::json::object();
 };

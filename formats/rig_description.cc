@@ -5,13 +5,13 @@
 #include <numbers>
 #include <set>
 
+#include "core/angles.h"
 #include "core/image.h"
 #include "core/json_field_reader.h"
 
 namespace mesocap::formats {
 namespace {
 
-constexpr double kDeg = std::numbers::pi / 180.0;
 constexpr std::size_t kMaxDevices = 256;
 constexpr std::size_t kMaxAngles = 4096;
 
@@ -28,7 +28,7 @@ std::vector<double> AnglesDeg(const core::JsonFieldReader& f, std::string_view k
       f.Fail(std::string(key) + "[" + std::to_string(i) + "]",
              "expected an angle in [" + std::to_string(min_deg) + ", " + std::to_string(max_deg) + "] degrees");
     }
-    out.push_back(values[i] * kDeg);
+    out.push_back(core::RadiansFromDegrees(values[i]));
   }
   return out;
 }
@@ -37,7 +37,7 @@ StageDescription ParseStage(const core::JsonFieldReader& f) {
   StageDescription s;
   s.backend = f.String("backend");
   s.angles_rad = AnglesDeg(f, "angles_deg", 0.0, 360.0);
-  s.speed_rad_per_s = f.NumberOr("speed_deg_per_s", 30.0, 1e-3, 3600.0) * kDeg;
+  s.speed_rad_per_s = core::RadiansFromDegrees(f.NumberOr("speed_deg_per_s", 30.0, 1e-3, 3600.0));
   return s;
 }
 
@@ -46,8 +46,8 @@ CameraDescription ParseCamera(const core::JsonFieldReader& f) {
   c.id = f.String("id");
   if (c.id.empty()) f.Fail("id", "expected a non-empty id");
   c.backend = f.String("backend");
-  c.azimuth_rad = f.NumberOr("azimuth_deg", 0.0, -360.0, 360.0) * kDeg;
-  c.elevation_rad = f.Number("elevation_deg", 1.0, 90.0) * kDeg;
+  c.azimuth_rad = core::RadiansFromDegrees(f.NumberOr("azimuth_deg", 0.0, -360.0, 360.0));
+  c.elevation_rad = core::RadiansFromDegrees(f.Number("elevation_deg", 1.0, 90.0));
   c.distance_mm = f.Number("distance_mm", 1.0, 1e5);
   const auto size = f.Numbers("image_size", 2);
   for (int i = 0; i < 2; ++i) {
@@ -114,7 +114,7 @@ RigDescription ParseRigDescription(const nlohmann::json& json, const std::filesy
   for (const auto& loc : laser.Objects("locations", kMaxAngles)) {
     LaserLocation location;
     location.mount = static_cast<int>(loc.Integer("mount", 0, static_cast<int>(l.mount_elevations_rad.size()) - 1));
-    location.arc_angle_rad = loc.Number("arc_angle_deg", -360.0, 360.0) * kDeg;
+    location.arc_angle_rad = core::RadiansFromDegrees(loc.Number("arc_angle_deg", -360.0, 360.0));
     l.locations.push_back(location);
   }
   if (l.locations.empty()) laser.Fail("locations", "expected at least one laser source location");

@@ -7,6 +7,7 @@
 #include <limits>
 #include <numbers>
 
+#include "core/angles.h"
 #include "core/error.h"
 
 namespace mesocap::mdf {
@@ -47,7 +48,7 @@ MdfErrorRow EvaluateMdfViews(const core::Mdf& truth, const core::Mdf& estimate, 
   std::vector<double> errors;
   long long covered = 0, false_no_hit = 0, false_hit = 0, measured_no_hit = 0;
   for (int v = 0; v < truth.view_count(); ++v) {
-    const double theta = truth.views.angles(v).theta * 180.0 / std::numbers::pi;
+    const double theta = core::DegreesFromRadians(truth.views.angles(v).theta);
     if (theta < theta_min_deg - 1e-9 || theta > theta_max_deg + 1e-9) continue;
     for (int j = 0; j < truth.height; ++j) {
       for (int i = 0; i < truth.width; ++i) {

@@ -1,12 +1,13 @@
 #include "mdf/mdf_session.h"
 
+#include <algorithm>
 #include <limits>
 #include <string>
 
 #include "calibration/camera_rays.h"
 #include "calibration/nominal_geometry.h"
-#include "calibration/rig_frames.h"
 #include "core/error.h"
+#include "formats/capture_plan_steps.h"
 #include "formats/capture_session.h"
 #include "formats/frame_sequence.h"
 #include "formats/rig_description.h"
@@ -35,7 +36,7 @@ formats::SweepAnalysis AnalyseFrames(const fs::path& file, const calibration::Ca
   if (header.channels != 1) throw core::FormatError(file, "channels", "1 (grey laser frames)");
   if (header.frame_count != static_cast<int>(geometry.delta_tilt_rad.size())) {
     throw core::FormatError(file, "frame count",
-                      std::to_string(geometry.delta_tilt_rad.size()) + " (the plan's tilt_deg), found " +
+                      std::to_string(geometry.delta_tilt_rad.size()) + " (the plan's tilts), found " +
                           std::to_string(header.frame_count));
   }
   LaserSweepProcessor processor(rays, geometry, options.geometry.line, options.space_time);
@@ -58,7 +59,7 @@ formats::SweepAnalysis ReadStoredAnalysis(const fs::path& file, const calibratio
   }
   if (analysis.frame_count != static_cast<int>(frame_count)) {
     throw core::FormatError(file, "frame_count",
-                      std::to_string(frame_count) + " (the plan's tilt_deg), found " +
+                      std::to_string(frame_count) + " (the plan's tilts), found " +
                           std::to_string(analysis.frame_count));
   }
   for (std::size_t p = 0; p < analysis.peak_time.size(); ++p) {
@@ -96,10 +97,10 @@ MdfProcessingResult ProcessMdfSession(const fs::path& session, const formats::Ca
     }
     use_location[li] = true;
   }
-  std::vector<SweepStep> sweeps;
+  std::vector<formats::LaserSweepStep> sweeps;
   for (std::size_t s = 0; s < manifest.plan.size(); ++s) {
     if (manifest.plan[s].kind != formats::StepKind::kLaserSweep) continue;
-    SweepStep step = ParseSweepStep(manifest.plan[s], s, rig, manifest_file);
+    formats::LaserSweepStep step = formats::ReadLaserSweepStep(manifest.plan[s], s, rig, manifest_file);
     if (use_location[step.location]) sweeps.push_back(std::move(step));
   }
 
@@ -112,27 +113,24 @@ MdfProcessingResult ProcessMdfSession(const fs::path& session, const formats::Ca
   MdfProcessingResult result;
   result.sample_size_mm = sample_size;
   core::Progress progress("process mdf", sweeps.size() * rig.cameras.size(), progress_style);
-  for (const SweepStep& step : sweeps) {
-    const calibration::LaserMountPose pose = calibration::MountInWorld(calibration, step.mount, step.arc_rad, 0.0);
-    const core::RigidTransform world_from_sample = calibration::WorldFromSample(calibration.turntable, step.turntable_rad);
-    const core::RigidTransform sample_from_world = world_from_sample.Inverse();
+  for (const formats::LaserSweepStep& step : sweeps) {
+    const SweepPoses poses = geometry.Poses(step);
     for (std::size_t c = 0; c < rig.cameras.size(); ++c) {
       const std::string& id = rig.cameras[c].id;
       const calibration::CameraRays& rays = geometry.rays(static_cast<int>(c));
-      const auto file_entry = step.files.find(id);
+      const auto file_entry = std::find_if(step.files.begin(), step.files.end(),
+                                           [&](const formats::CameraFile& f) { return f.camera == id; });
       if (file_entry == step.files.end()) {
         throw core::FormatError(manifest_file, "plan", "a laser sweep file of camera " + id + " for location " +
                                                      std::to_string(step.location));
       }
-      const fs::path file = session / file_entry->second;
+      const fs::path file = session / file_entry->path;
       // A stored analysis needs no reference region: only the plane, for the weight.
+      const int camera = static_cast<int>(c);
       const formats::SweepAnalysis analysis =
           step.stores_analysis ? ReadStoredAnalysis(file, rays, step.tilts_rad.size(), options.space_time)
-                               : AnalyseFrames(file, rays, geometry.Geometry(step, static_cast<int>(c)), options);
-      const Eigen::Vector3d to_camera = sample_from_world.Apply(rays.centre()).normalized();
-      const double weight = ScanWeight(pose.source, rays.centre(),
-                                       geometry.CalibratedPlane(step.location, static_cast<int>(c)), 0.5 * sample_size);
-      assembler.AddSweep(views.Nearest(to_camera), analysis, rays, world_from_sample, weight);
+                               : AnalyseFrames(file, rays, geometry.Geometry(step, poses, camera), options);
+      geometry.AddToMdf(assembler, geometry.View(views, poses, camera), step, poses, camera, analysis);
       ++result.sweeps;
       progress.Advance();
     }

@@ -1,32 +1,18 @@
 #include "mdf/session_sweeps.h"
 
+#include <algorithm>
 #include <cmath>
-#include <numbers>
 
 #include "calibration/laser_plane_calibration.h"
 #include "calibration/rig_frames.h"
+#include "core/angles.h"
 #include "core/error.h"
 #include "core/image_io.h"
-#include "core/json_field_reader.h"
 
 namespace mesocap::mdf {
 namespace {
 
 namespace fs = std::filesystem;
-constexpr double kRadPerDeg = std::numbers::pi / 180.0;
-
-// The per-camera files of a step: camera id -> path inside the session.
-std::map<std::string, std::string> StepFiles(const core::JsonFieldReader& step) {
-  std::map<std::string, std::string> files;
-  for (const auto& f : step.Objects("files", formats::kMaxRigParts)) {
-    const std::string path = f.String("path");
-    if (!formats::IsSessionPath(path)) f.Fail("path", "a relative path inside the session folder");
-    files[f.String("camera")] = path;
-  }
-  return files;
-}
-
-std::string Where(std::size_t index) { return "plan[" + std::to_string(index) + "]"; }
 
 }  // namespace
 
@@ -37,26 +23,24 @@ core::CheckResult SweepGeometryOptions::Check() const {
   return {};
 }
 
-SweepStep ParseSweepStep(const formats::PlannedStep& step, std::size_t index, const formats::RigDescription& rig,
-                         const fs::path& manifest_file) {
-  const core::JsonFieldReader fields(step.params, manifest_file, Where(index));
-  SweepStep out;
-  out.location = static_cast<int>(fields.Integer("location", 0, static_cast<std::int64_t>(rig.laser.locations.size()) - 1));
-  out.mount = static_cast<int>(fields.Integer("mount", 0, formats::kMaxRigParts));
-  out.turntable_rad = fields.Number("turntable_deg", -360, 360) * kRadPerDeg;
-  out.arc_rad = fields.Number("arc_deg", -360, 360) * kRadPerDeg;
-  for (double t : fields.Numbers("tilt_deg", fields.Raw("tilt_deg").size())) out.tilts_rad.push_back(t * kRadPerDeg);
-  if (out.tilts_rad.empty()) fields.Fail("tilt_deg", "at least one frame's tilt");
-  out.files = StepFiles(fields);
-  out.stores_analysis = fields.Has("stored_as") && fields.Choice("stored_as", {"frames", "analysis"}) == "analysis";
-  return out;
-}
-
 SessionSweepGeometry::SessionSweepGeometry(fs::path session, const formats::SessionManifest& manifest,
                                            formats::RigDescription rig, const formats::Calibration& calibration,
                                            SweepGeometryOptions options)
-    : session_(std::move(session)),
-      manifest_file_(session_ / formats::kSessionManifestName),
+    : SessionSweepGeometry(std::move(rig), calibration, {}, nullptr, std::move(options)) {
+  session_ = std::move(session);
+  manifest_file_ = session_ / formats::kSessionManifestName;
+  for (std::size_t s = 0; s < manifest.plan.size(); ++s) {
+    const formats::PlannedStep& step = manifest.plan[s];
+    if (step.kind != formats::StepKind::kLaserCalibration) continue;
+    AddPlate(formats::ReadLaserCalibrationStep(step, s, rig_, manifest_file_));
+  }
+}
+
+SessionSweepGeometry::SessionSweepGeometry(formats::RigDescription rig, const formats::Calibration& calibration,
+                                           std::vector<formats::LaserCalibrationStep> plates, PlateFrame plate_frame,
+                                           SweepGeometryOptions options)
+    : manifest_file_(formats::kSessionManifestName),
+      plate_frame_(std::move(plate_frame)),
       rig_(std::move(rig)),
       calibration_(calibration),
       options_(std::move(options)) {
@@ -79,19 +63,17 @@ SessionSweepGeometry::SessionSweepGeometry(fs::path session, const formats::Sess
     rays_.emplace_back(*match);
   }
   for (const auto& loc : rig_.laser.locations) calibration::MountInWorld(calibration_, loc.mount, 0.0, 0.0);  // throws if missing
-  for (std::size_t s = 0; s < manifest.plan.size(); ++s) {
-    const formats::PlannedStep& step = manifest.plan[s];
-    if (step.kind != formats::StepKind::kLaserCalibration) continue;
-    const core::JsonFieldReader fields(step.params, manifest_file_, Where(s));
-    const int li = static_cast<int>(fields.Integer("location", 0, static_cast<std::int64_t>(rig_.laser.locations.size()) - 1));
-    const double tilt = fields.NumberOr("tilt_deg", 0.0, -90, 90) * kRadPerDeg;
-    Plates& plates = plates_[li];
-    if (!plates.heights.empty() && std::abs(plates.tilt_rad - tilt) > 1e-9) {
-      throw core::FormatError(manifest_file_, "plan", "the same tilt_deg on both plates of laser location " + std::to_string(li));
-    }
-    plates.tilt_rad = tilt;
-    plates.heights.emplace_back(fields.Number("height_mm"), StepFiles(fields));
+  for (auto& plate : plates) AddPlate(std::move(plate));
+}
+
+void SessionSweepGeometry::AddPlate(formats::LaserCalibrationStep plate) {
+  Plates& plates = plates_[plate.location];
+  if (!plates.heights.empty() && std::abs(plates.tilt_rad - plate.tilt_rad) > 1e-9) {
+    throw core::FormatError(manifest_file_, "plan",
+                            "the same tilt on both plates of laser location " + std::to_string(plate.location));
   }
+  plates.tilt_rad = plate.tilt_rad;
+  plates.heights.push_back(std::move(plate));
 }
 
 int SessionSweepGeometry::CameraIndex(const std::string& id) const {
@@ -99,6 +81,22 @@ int SessionSweepGeometry::CameraIndex(const std::string& id) const {
     if (rig_.cameras[c].id == id) return static_cast<int>(c);
   }
   throw core::Error("the session's rig \"" + rig_.name + "\" has no camera \"" + id + "\"");
+}
+
+core::Image SessionSweepGeometry::ReadPlateFrame(int location, int plate, int camera) const {
+  const std::string& id = rig_.cameras[camera].id;
+  const auto& files = plates_.at(location).heights[plate].files;
+  const auto f =
+      std::find_if(files.begin(), files.end(), [&](const formats::CameraFile& file) { return file.camera == id; });
+  if (f == files.end()) {
+    throw core::FormatError(manifest_file_, "plan",
+                            "a laser calibration file of camera " + id + " for location " + std::to_string(location));
+  }
+  core::ImageReadOptions read;
+  read.expected_width = rays_[camera].width();
+  read.expected_height = rays_[camera].height();
+  read.expected_channels = 1;
+  return core::ReadImage(session_ / f->path, read);
 }
 
 const core::Plane& SessionSweepGeometry::CalibratedPlane(int location, int camera) {
@@ -111,46 +109,54 @@ const core::Plane& SessionSweepGeometry::CalibratedPlane(int location, int camer
   }
   const auto& loc = rig_.laser.locations.at(location);
   const calibration::LaserMountPose pose = calibration::MountInWorld(calibration_, loc.mount, loc.arc_angle_rad, it->second.tilt_rad);
-  const std::string& id = rig_.cameras[camera].id;
   core::Image frames[2];
   for (int h = 0; h < 2; ++h) {
-    const auto& files = it->second.heights[h].second;
-    const auto f = files.find(id);
-    if (f == files.end()) {
-      throw core::FormatError(manifest_file_, "plan",
-                        "a laser calibration file of camera " + id + " for location " + std::to_string(location));
-    }
-    core::ImageReadOptions read;
-    read.expected_width = rays_[camera].width();
-    read.expected_height = rays_[camera].height();
-    read.expected_channels = 1;
-    frames[h] = core::ReadImage(session_ / f->second, read);
+    frames[h] = plate_frame_ ? plate_frame_(location, h, camera) : ReadPlateFrame(location, h, camera);
   }
-  const core::Plane plane = calibration::CalibrateLaserPlane(frames[0], it->second.heights[0].first, frames[1],
-                                          it->second.heights[1].first, rays_[camera], pose.normal.head<2>().normalized(),
-                                          options_.reference_extent * rig_.sample_size_mm, options_.line,
-                                          "laser location " + std::to_string(location) + ", camera " + id);
+  const auto& heights = it->second.heights;
+  const core::Plane plane = calibration::CalibrateLaserPlane(
+      frames[0], heights[0].height_mm, frames[1], heights[1].height_mm, rays_[camera],
+      pose.normal.head<2>().normalized(), options_.reference_extent * rig_.sample_size_mm, options_.line,
+      "laser location " + std::to_string(location) + ", camera " + rig_.cameras[camera].id);
   return planes_.emplace(std::make_pair(location, camera), plane).first->second;
 }
 
-SweepGeometry SessionSweepGeometry::Geometry(const SweepStep& step, int camera) {
+SweepPoses SessionSweepGeometry::Poses(const formats::LaserSweepStep& step) const {
+  SweepPoses poses;
+  poses.world_from_sample = calibration::WorldFromSample(calibration_.turntable, step.turntable_rad);
+  poses.sample_from_world = poses.world_from_sample.Inverse();
+  poses.mount = calibration::MountInWorld(calibration_, step.mount, step.arc_rad, 0.0);
+  return poses;
+}
+
+SweepGeometry SessionSweepGeometry::Geometry(const formats::LaserSweepStep& step, const SweepPoses& poses, int camera) {
   SweepGeometry geometry;
   geometry.calibrated_plane = CalibratedPlane(step.location, camera);
   const double calibration_tilt = plates_.at(step.location).tilt_rad;
-  const long long key = std::llround(step.turntable_rad / kRadPerDeg * 1e6);
+  const long long key = std::llround(core::DegreesFromRadians(step.turntable_rad) * 1e6);
   auto region = regions_.find({key, camera});
   if (region == regions_.end()) {
-    region = regions_
-                 .emplace(std::make_pair(key, camera),
-                          ReferenceRegion(rays_[camera], calibration::WorldFromSample(calibration_.turntable, step.turntable_rad),
-                                          rig_.sample_size_mm, options_.reference_margin_mm,
-                                          options_.reference_extent * rig_.sample_size_mm))
-                 .first;
+    calibration::PixelMask mask =
+        ReferenceRegion(rays_[camera], poses.world_from_sample, rig_.sample_size_mm, options_.reference_margin_mm,
+                        options_.reference_extent * rig_.sample_size_mm);
+    region = regions_.emplace(std::make_pair(key, camera), std::move(mask)).first;
   }
   geometry.reference_region = region->second;
-  geometry.tilt_axis = calibration::MountInWorld(calibration_, step.mount, step.arc_rad, 0.0).tilt_axis;
+  geometry.tilt_axis = poses.mount.tilt_axis;
   for (double t : step.tilts_rad) geometry.delta_tilt_rad.push_back(t - calibration_tilt);
   return geometry;
+}
+
+int SessionSweepGeometry::View(const core::SamplingSet& views, const SweepPoses& poses, int camera) const {
+  return views.Nearest(poses.sample_from_world.Apply(rays_[camera].centre()).normalized());
+}
+
+void SessionSweepGeometry::AddToMdf(MdfAssembler& assembler, int view, const formats::LaserSweepStep& step,
+                                    const SweepPoses& poses, int camera, const formats::SweepAnalysis& analysis) {
+  const calibration::CameraRays& rays = rays_[camera];
+  const double weight =
+      ScanWeight(poses.mount.source, rays.centre(), CalibratedPlane(step.location, camera), 0.5 * rig_.sample_size_mm);
+  assembler.AddSweep(view, analysis, rays, poses.world_from_sample, weight);
 }
 
 }  // namespace mesocap::mdf

@@ -1,12 +1,16 @@
 // The laser geometry of a capture session's sweeps (MDF paper Sec. 3.2):
-// each laser location's plane, per camera, from its two calibration plates,
-// and each sweep's reference region and per-frame tilts. `mesocap process
-// mdf` and the capture runner (which, for a rig that stores sweep analyses,
-// analyses every sweep while its frames arrive) share this, so both derive
-// the planes the same way.
+// each laser location's plane, per camera, from its two calibration plates;
+// each sweep's poses, reference region and per-frame tilts; and where a
+// camera's analysis of a sweep goes in the MDF (its view and merge weight).
+// `mesocap process mdf`, the capture runner (which, for a rig that stores
+// sweep analyses, analyses every sweep while its frames arrive) and the
+// simulated scan of the tests all go through this, so they derive the
+// planes and poses the same way.
 #pragma once
 
+#include <Eigen/Core>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <optional>
 #include <string>
@@ -15,11 +19,17 @@
 
 #include "calibration/camera_rays.h"
 #include "calibration/laser_line.h"
+#include "calibration/rig_frames.h"
+#include "core/image.h"
 #include "core/plane.h"
+#include "core/rigid_transform.h"
+#include "core/sampling_set.h"
 #include "formats/calibration.h"
+#include "formats/capture_plan_steps.h"
 #include "formats/capture_session.h"
 #include "formats/rig_description.h"
 #include "mdf/laser_sweep.h"
+#include "mdf/mdf_assembler.h"
 
 namespace mesocap::mdf {
 
@@ -33,31 +43,33 @@ struct SweepGeometryOptions {
   core::CheckResult Check() const;
 };
 
-// One laser_sweep step of a session's plan.
-struct SweepStep {
-  int location = 0;
-  int mount = 0;
-  double turntable_rad = 0.0;
-  double arc_rad = 0.0;
-  std::vector<double> tilts_rad;  // per frame
-  std::map<std::string, std::string> files;  // camera id -> path inside the session
-  // "stored_as": "analysis": each camera's file is a mesocap.sweep_analysis
-  // made during the capture; otherwise a frame sequence.
-  bool stores_analysis = false;
+// One sweep's poses in the calibrated rig, computed once per sweep: the
+// sample in the world at the sweep's turntable angle, and the laser mount on
+// the light arc at tilt 0 (the frames' tilts turn its plane about
+// mount.tilt_axis).
+struct SweepPoses {
+  core::RigidTransform world_from_sample;
+  core::RigidTransform sample_from_world;
+  calibration::LaserMountPose mount;
 };
-
-// Throws FormatError naming the manifest and the step's field.
-SweepStep ParseSweepStep(const formats::PlannedStep& step, std::size_t index, const formats::RigDescription& rig,
-                         const std::filesystem::path& manifest_file);
 
 class SessionSweepGeometry {
  public:
+  // Plate `plate` (0 or 1, in plan order) of laser location `location` as
+  // the rig's camera `camera` saw it: one grey frame.
+  using PlateFrame = std::function<core::Image(int location, int plate, int camera)>;
+
   // Matches every camera of the session's rig with the calibration's (by id,
   // at the size the rig records) and checks the laser mounts; throws Error
-  // naming what is missing. Plate frames are read when a location's plane
-  // is first needed.
+  // naming what is missing. Plate frames are read from the session folder
+  // when a location's plane is first needed.
   SessionSweepGeometry(std::filesystem::path session, const formats::SessionManifest& manifest,
                        formats::RigDescription rig, const formats::Calibration& calibration,
+                       SweepGeometryOptions options);
+  // The same for a capture that never reaches the disk (the simulated scan
+  // of the tests): the plan's laser_calibration steps and their frames.
+  SessionSweepGeometry(formats::RigDescription rig, const formats::Calibration& calibration,
+                       std::vector<formats::LaserCalibrationStep> plates, PlateFrame plate_frame,
                        SweepGeometryOptions options);
 
   // The rig's camera with this id; throws Error when there is none.
@@ -70,19 +82,33 @@ class SessionSweepGeometry {
   // lacks them, Error when the stripe is not found on a plate).
   const core::Plane& CalibratedPlane(int location, int camera);
 
+  SweepPoses Poses(const formats::LaserSweepStep& step) const;
+
   // The geometry of `step`'s sweep seen by `camera`, for analysing its
   // frames: the location's CalibratedPlane, the reference region at the
   // step's turntable angle, the tilts relative to the plates'.
-  SweepGeometry Geometry(const SweepStep& step, int camera);
+  SweepGeometry Geometry(const formats::LaserSweepStep& step, const SweepPoses& poses, int camera);
+
+  // The view `camera` measures in a sweep: the views' direction nearest to
+  // the camera's, seen from the sample.
+  int View(const core::SamplingSet& views, const SweepPoses& poses, int camera) const;
+  // Adds `camera`'s analysis of `step`'s sweep to the MDF in its View, with
+  // the sweep's ScanWeight (Sec. 3.3).
+  void AddToMdf(MdfAssembler& assembler, int view, const formats::LaserSweepStep& step, const SweepPoses& poses,
+                int camera, const formats::SweepAnalysis& analysis);
 
  private:
   struct Plates {
     double tilt_rad = 0.0;
-    std::vector<std::pair<double, std::map<std::string, std::string>>> heights;  // (height, files)
+    std::vector<formats::LaserCalibrationStep> heights;  // the plates' steps
   };
 
-  std::filesystem::path session_;
-  std::filesystem::path manifest_file_;
+  void AddPlate(formats::LaserCalibrationStep plate);
+  core::Image ReadPlateFrame(int location, int plate, int camera) const;
+
+  std::filesystem::path session_;        // empty for a capture that never reaches the disk
+  std::filesystem::path manifest_file_;  // for messages
+  PlateFrame plate_frame_;               // ReadPlateFrame when empty
   formats::RigDescription rig_;
   formats::Calibration calibration_;
   SweepGeometryOptions options_;

@@ -7,6 +7,8 @@
 
 #include "btf/ambient_term.h"
 #include "core/mdf.h"
+#include "formats/material_manifest.h"
+#include "formats/material_package_writer.h"
 #include "interop/bonn/bonn_btf_file.h"
 #include "interop/bonn/bonn_ubo2003.h"
 

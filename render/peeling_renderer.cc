@@ -9,6 +9,7 @@
 #include <numbers>
 #include <vector>
 
+#include "core/angles.h"
 #include "render/direction_blend_table.h"
 #include "render/peeling_shaders.h"
 
@@ -410,7 +411,7 @@ struct PeelingRenderer::Impl {
     Eye cam;
     const double camera_far = (camera.position - centre).norm() + 2.0 * radius;
     const double near = std::max(1e-4 * camera_far, (camera.position - centre).norm() - 1.5 * radius);
-    cam.view_proj = Perspective(camera.fov_y_deg * std::numbers::pi / 180, double(options.width) / options.height,
+    cam.view_proj = Perspective(core::RadiansFromDegrees(camera.fov_y_deg), double(options.width) / options.height,
                                 near, camera_far) *
                     LookAt(camera.position, camera.look_at, camera.up);
     cam.position = camera.position.cast<float>();

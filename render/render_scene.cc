@@ -5,13 +5,13 @@
 #include <cmath>
 #include <numbers>
 
+#include "core/angles.h"
 #include "core/error.h"
 #include "core/json_field_reader.h"
 
 namespace mesocap::render {
 namespace {
 
-constexpr double kDegree = std::numbers::pi / 180.0;
 
 Eigen::Vector3f Albedo(const core::JsonFieldReader& o, std::string_view key) {
   const Eigen::Vector3d albedo = o.Has(key) ? o.Vector3(key) : Eigen::Vector3d::Constant(0.5);
@@ -145,7 +145,8 @@ RenderScene ReadRenderScene(const std::filesystem::path& file, const MaterialRes
     }
     ComputeTangentFrames(&object.mesh, sample_size_mm);
     parts.insert(parts.begin(), std::move(object));
-    const Eigen::Vector3d r = o.Has("rotate_deg") ? Eigen::Vector3d(o.Vector3("rotate_deg") * kDegree) : Eigen::Vector3d::Zero();
+    const Eigen::Vector3d r = o.Has("rotate_deg") ? Eigen::Vector3d(o.Vector3("rotate_deg") * core::kRadiansPerDegree)
+                                                  : Eigen::Vector3d::Zero();
     const Eigen::Matrix3d rotation = (Eigen::AngleAxisd(r.z(), Eigen::Vector3d::UnitZ()) *
                                       Eigen::AngleAxisd(r.y(), Eigen::Vector3d::UnitY()) *
                                       Eigen::AngleAxisd(r.x(), Eigen::Vector3d::UnitX()))

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "apps/mesocap/command.h"
+#include "formats/material_manifest.h"
 #include "pipelines/import_bonn.h"
 
 namespace mesocap {

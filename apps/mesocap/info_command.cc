@@ -31,8 +31,6 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-constexpr double kDeg = 180.0 / std::numbers::pi;
-
 struct InfoOptions {
   fs::path path;
   bool json = false;

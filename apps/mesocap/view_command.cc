@@ -14,6 +14,7 @@
 
 #include "apps/mesocap/command.h"
 #include "apps/mesocap/render_scene_option.h"
+#include "core/angles.h"
 #include "render/gl_context.h"
 #include "render/peeling_renderer.h"
 
@@ -25,7 +26,7 @@ namespace {
 Eigen::Vector3d Orbit(const Eigen::Vector3d& point, const Eigen::Vector3d& centre, double yaw, double pitch) {
   Eigen::Vector3d d = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) * (point - centre);
   const double elevation = std::asin(std::clamp(d.normalized().z(), -1.0, 1.0));
-  const double limit = 89.0 * std::numbers::pi / 180.0;
+  const double limit = core::RadiansFromDegrees(89.0);
   pitch = std::clamp(elevation + pitch, -limit, limit) - elevation;
   const Eigen::Vector3d axis = d.cross(Eigen::Vector3d::UnitZ()).normalized();
   if (axis.allFinite()) d = Eigen::AngleAxisd(-pitch, axis) * d;

@@ -12,6 +12,7 @@
 #include <optional>
 #include <set>
 
+#include "core/angles.h"
 #include "core/error.h"
 #include "interop/bonn/ubo_sampling_sets.h"
 
@@ -19,13 +20,12 @@ namespace mesocap::bonn {
 namespace fs = std::filesystem;
 namespace {
 
-constexpr double kDegree = std::numbers::pi / 180.0;
 constexpr float kHalfMax = 65504.0f;
 
 // Degrees as a name writes them: three integer digits, and up to six
 // decimals only when the angle is not whole.
 std::string AngleText(double radians) {
-  double deg = std::round(radians / kDegree * 1e6) / 1e6;
+  double deg = std::round(core::DegreesFromRadians(radians) * 1e6) / 1e6;
   if (deg >= 360.0) deg -= 360.0;
   char text[32];
   if (deg == std::round(deg)) {
@@ -117,7 +117,7 @@ DegreePair Key(double theta_deg, double phi_deg) { return {theta_deg, theta_deg 
 
 core::SamplingSet SetOf(const fs::path& dir, const std::set<DegreePair>& keys, const char* what) {
   std::vector<core::SphericalAngles> angles;
-  for (const auto& [t, p] : keys) angles.push_back({t * kDegree, p * kDegree});
+  for (const auto& [t, p] : keys) angles.push_back({core::RadiansFromDegrees(t), core::RadiansFromDegrees(p)});
   const core::SamplingSet named = NamedSamplingSet("ubo2003");
   if (named.size() == static_cast<int>(angles.size())) {
     bool same = true;

@@ -1,15 +1,13 @@
 #include "interop/bonn/ubo_sampling_sets.h"
 
-#include <numbers>
 #include <optional>
 #include <vector>
 
+#include "core/angles.h"
 #include "core/error.h"
 
 namespace mesocap::bonn {
 namespace {
-
-constexpr double kDegree = std::numbers::pi / 180.0;
 
 const char* const kValidNames =
     "\"paper12x5\", \"paper12x8\", \"ubo2003\", \"ubo2014\", \"grid<A>x<P>\" (e.g. \"grid24x6\")";
@@ -25,7 +23,8 @@ std::vector<core::SphericalAngles> RingAngles(const std::vector<RingSpec>& rings
   std::vector<core::SphericalAngles> out;
   for (const auto& r : rings) {
     for (int k = 0; k < r.count; ++k) {
-      out.push_back({r.theta_deg * kDegree, (r.offset_deg + 360.0 * k / r.count) * kDegree});
+      out.push_back(
+          {core::RadiansFromDegrees(r.theta_deg), core::RadiansFromDegrees(r.offset_deg + 360.0 * k / r.count)});
     }
   }
   return out;

@@ -9,6 +9,7 @@
 #include "acquisition/capture_plan.h"
 #include "core/image_io.h"
 #include "formats/capture_journal.h"
+#include "formats/capture_plan_steps.h"
 #include "formats/capture_session.h"
 #include "formats/frame_sequence.h"
 #include "mdf/mdf_session.h"
@@ -88,9 +89,12 @@ void CreateSession(const fs::path& dir, const formats::RigDescription& rig) {
 std::map<std::string, std::vector<float>> SessionPixels(const fs::path& dir) {
   std::map<std::string, std::vector<float>> out;
   const formats::SessionManifest manifest = formats::ReadSessionManifest(dir);
-  for (const formats::PlannedStep& step : manifest.plan) {
-    for (const auto& f : step.params.at("files")) {
-      const std::string path = f.at("path").get<std::string>();
+  const formats::RigDescription rig = formats::ParseRigDescription(manifest.rig, dir / formats::kSessionManifestName);
+  for (std::size_t s = 0; s < manifest.plan.size(); ++s) {
+    const formats::PlannedStep& step = manifest.plan[s];
+    const formats::CaptureStep typed = formats::ReadCaptureStep(step, s, rig, dir / formats::kSessionManifestName);
+    for (const formats::CameraFile& f : formats::Files(typed)) {
+      const std::string& path = f.path;
       std::vector<float>& values = out[path];
       if (step.kind == formats::StepKind::kLaserSweep) {
         formats::FrameSequenceReader reader(dir / path);

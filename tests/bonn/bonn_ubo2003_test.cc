@@ -10,6 +10,7 @@
 #include <cmath>
 #include <numbers>
 
+#include "core/angles.h"
 #include "core/error.h"
 #include "interop/bonn/ubo_sampling_sets.h"
 #include "tests/common/temporary_directory.h"
@@ -17,7 +18,7 @@
 namespace mesocap::bonn {
 namespace {
 
-constexpr double kDeg = std::numbers::pi / 180.0;
+constexpr double kDeg = core::kRadiansPerDegree;
 
 core::SamplingSet Set(const std::vector<std::pair<double, double>>& degrees) {
   std::vector<core::SphericalAngles> a;

@@ -8,6 +8,7 @@
 #include <numbers>
 #include <random>
 
+#include "core/angles.h"
 #include "core/error.h"
 #include "tests/common/sampling_set_checks.h"
 

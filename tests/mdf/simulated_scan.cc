@@ -3,14 +3,12 @@
 #include <chrono>
 #include <cmath>
 
-#include "calibration/camera_rays.h"
-#include "calibration/laser_plane_calibration.h"
 #include "calibration/nominal_geometry.h"
-#include "calibration/rig_frames.h"
-#include "core/plane.h"
+#include "formats/capture_plan_steps.h"
 #include "formats/rig_description.h"
 #include "mdf/laser_sweep.h"
 #include "mdf/mdf_assembler.h"
+#include "mdf/session_sweeps.h"
 #include "sim/camera_renderer.h"
 #include "sim/camera_sensor.h"
 #include "sim/ground_truth.h"
@@ -52,7 +50,6 @@ ScanResult RunSimulatedScan(const ScanSetup& setup) {
   TriangulationOptions triangulation = setup.triangulation;
   triangulation.backing_depth_mm = rig.backing.depth_mm;
   MdfAssembler assembler(grid, views, triangulation, setup.merge);
-  const double outer_mm = 1.5 * rig.sample_size_mm;
   auto sense = [&](core::Image signal, int cam, std::uint64_t a, std::uint64_t b, std::uint64_t c) {
     if (setup.signal_gain != 1.0) {
       for (std::size_t i = 0; i < signal.size(); ++i) signal.data()[i] *= static_cast<float>(setup.signal_gain);
@@ -63,64 +60,70 @@ ScanResult RunSimulatedScan(const ScanSetup& setup) {
 
   const std::vector<int> cameras = AllOr(setup.cameras, static_cast<int>(rig.cameras.size()));
   const std::vector<int> locations = AllOr(setup.locations, static_cast<int>(laser.locations.size()));
-  std::vector<calibration::CameraRays> rays;
-  for (const auto& camera : calibration.cameras) rays.emplace_back(camera);
-  // Laser-plane calibration per location and camera (Sec. 3.2).
-  std::vector<std::vector<core::Plane>> calibrated(laser.locations.size(), std::vector<core::Plane>(rig.cameras.size()));
-  for (int li : locations) {
-    const auto& loc = laser.locations[li];
-    const calibration::LaserMountPose pose = calibration::MountInWorld(calibration, loc.mount, loc.arc_angle_rad, 0.0);
-    for (int cam : cameras) {
-      core::Image plates[2];
-      for (int hi = 0; hi < 2; ++hi) {
-        const sim::CameraView plate = renderer.TracePlate(cam, laser.calibration_heights_mm[hi]);
-        plates[hi] = sense(sim::LaserSweepRenderer(renderer, plate, loc.mount, loc.arc_angle_rad).Frame(0.0), cam,
-                           1000 + li, cam, hi);
-      }
-      calibrated[li][cam] = calibration::CalibrateLaserPlane(plates[0], laser.calibration_heights_mm[0], plates[1],
-                                                laser.calibration_heights_mm[1], rays[cam],
-                                                pose.normal.head<2>().normalized(), outer_mm, setup.line, "test");
+  // The plan's laser-plane calibration (Sec. 3.2): two plates per location,
+  // rendered when the geometry first needs a location's plane for a camera.
+  std::vector<formats::LaserCalibrationStep> plates;
+  for (std::size_t li = 0; li < laser.locations.size(); ++li) {
+    for (int hi = 0; hi < 2; ++hi) {
+      formats::LaserCalibrationStep plate;
+      plate.location = static_cast<int>(li);
+      plate.mount = laser.locations[li].mount;
+      plate.arc_rad = laser.locations[li].arc_angle_rad;
+      plate.height_mm = laser.calibration_heights_mm[hi];
+      plates.push_back(plate);
     }
   }
+  const auto plate_frame = [&](int li, int hi, int cam) {
+    const auto& loc = laser.locations[li];
+    const sim::CameraView plate = renderer.TracePlate(cam, laser.calibration_heights_mm[hi]);
+    return sense(sim::LaserSweepRenderer(renderer, plate, loc.mount, loc.arc_angle_rad).Frame(0.0), cam, 1000 + li,
+                 cam, hi);
+  };
+  SweepGeometryOptions geometry_options;
+  geometry_options.line = setup.line;
+  SessionSweepGeometry geometry(rig, calibration, std::move(plates), plate_frame, geometry_options);
+
   std::vector<bool> processed(views.size(), false);
   for (int ti : AllOr(setup.turntable_indices, static_cast<int>(rig.turntable.angles_rad.size()))) {
-    const double tt = rig.turntable.angles_rad[ti];
-    const core::RigidTransform world_from_sample = calibration::WorldFromSample(calibration.turntable, tt);
+    // The plan's sweeps at this turntable angle, their poses computed once.
+    std::vector<formats::LaserSweepStep> sweeps;
+    std::vector<SweepPoses> poses;
+    for (int li : locations) {
+      formats::LaserSweepStep step;
+      step.turntable_index = ti;
+      step.turntable_rad = rig.turntable.angles_rad[ti];
+      step.location = li;
+      step.mount = laser.locations[li].mount;
+      step.arc_rad = laser.locations[li].arc_angle_rad;
+      for (int f = 0; f < laser.frames_per_sweep; ++f) {
+        const double offset =
+            laser.sweep_min_mm + (laser.sweep_max_mm - laser.sweep_min_mm) * f / (laser.frames_per_sweep - 1);
+        step.offsets_mm.push_back(offset);
+        step.tilts_rad.push_back(calibration::LaserTiltForOffset(laser, step.mount, offset));
+      }
+      poses.push_back(geometry.Poses(step));
+      sweeps.push_back(std::move(step));
+    }
     for (int cam : cameras) {
-      const sim::CameraView view = renderer.TraceSample(cam, tt);
-      const Eigen::Vector3d to_camera =
-          world_from_sample.Inverse().rotation * (rays[cam].centre() - world_from_sample.translation);
-      const int view_index = views.Nearest(to_camera.normalized());
+      const sim::CameraView view = renderer.TraceSample(cam, rig.turntable.angles_rad[ti]);
+      const int view_index = geometry.View(views, poses.front(), cam);
       processed[view_index] = true;
-      const calibration::PixelMask region = ReferenceRegion(rays[cam], world_from_sample, rig.sample_size_mm, 1.0, outer_mm);
-      for (int li : locations) {
-        const auto& loc = laser.locations[li];
-        const calibration::LaserMountPose pose = calibration::MountInWorld(calibration, loc.mount, loc.arc_angle_rad, 0.0);
-        SweepGeometry geometry;
-        geometry.reference_region = region;
-        geometry.calibrated_plane = calibrated[li][cam];
-        geometry.tilt_axis = pose.tilt_axis;
-        std::vector<double> tilts;
-        for (int f = 0; f < laser.frames_per_sweep; ++f) {
-          const double offset =
-              laser.sweep_min_mm + (laser.sweep_max_mm - laser.sweep_min_mm) * f / (laser.frames_per_sweep - 1);
-          tilts.push_back(calibration::LaserTiltForOffset(laser, loc.mount, offset));
-        }
-        geometry.delta_tilt_rad = tilts;
-        LaserSweepProcessor processor(rays[cam], geometry, setup.line, setup.space_time);
-        const sim::LaserSweepRenderer sweep(renderer, view, loc.mount, loc.arc_angle_rad);
+      for (std::size_t s = 0; s < sweeps.size(); ++s) {
+        const formats::LaserSweepStep& step = sweeps[s];
+        LaserSweepProcessor processor(geometry.rays(cam), geometry.Geometry(step, poses[s], cam), setup.line,
+                                      setup.space_time);
+        const sim::LaserSweepRenderer sweep(renderer, view, step.mount, step.arc_rad);
         for (int f = 0; f < laser.frames_per_sweep; ++f) {
           if (setup.dropped_frames.count(f)) continue;
-          core::Image signal = sweep.Frame(tilts[f]);
+          core::Image signal = sweep.Frame(step.tilts_rad[f]);
           if (setup.tamper) setup.tamper(f, &signal);
-          const core::Image frame = sense(std::move(signal), cam, ti * 100 + li, cam, f);
+          const core::Image frame = sense(std::move(signal), cam, ti * 100 + step.location, cam, f);
           const auto start = Clock::now();
           processor.AddFrame(f, frame);
           result.processing_seconds += Seconds(Clock::now() - start);
         }
         const auto start = Clock::now();
-        const double weight = ScanWeight(pose.source, rays[cam].centre(), calibrated[li][cam], 0.5 * rig.sample_size_mm);
-        assembler.AddSweep(view_index, processor.Finish(), rays[cam], world_from_sample, weight);
+        geometry.AddToMdf(assembler, view_index, step, poses[s], cam, processor.Finish());
         result.processing_seconds += Seconds(Clock::now() - start);
       }
     }

@@ -10,6 +10,8 @@
 
 #include "btf/ambient_term.h"
 #include "btf/btf_compression.h"
+#include "formats/material_package_reader.h"
+#include "formats/material_package_writer.h"
 #include "pipelines/export_bonn.h"
 #include "pipelines/import_bonn.h"
 #include "tests/bonn/bonn_round_trip.h"

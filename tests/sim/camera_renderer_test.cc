@@ -12,9 +12,11 @@
 #include <filesystem>
 #include <numbers>
 
+#include "core/angles.h"
 #include "core/error.h"
 #include "core/image_io.h"
 #include "formats/capture_journal.h"
+#include "formats/capture_plan_steps.h"
 #include "formats/capture_session.h"
 #include "formats/frame_sequence.h"
 #include "sim/camera_sensor.h"
@@ -25,7 +27,7 @@ namespace mesocap::sim {
 namespace {
 
 namespace fs = std::filesystem;
-constexpr double kDeg = std::numbers::pi / 180.0;
+constexpr double kDeg = core::kRadiansPerDegree;
 
 Eigen::Vector3d SampleToWorld(const Eigen::Vector3d& p, double turntable_rad) {
   return Eigen::AngleAxisd(turntable_rad, Eigen::Vector3d::UnitZ()) * p;
@@ -688,15 +690,19 @@ TEST(SimulateCommandTest, TinySessionIsCompleteAndReadable) {
     EXPECT_EQ(r.files.size(), rig.cameras.size());
     for (const auto& f : r.files) EXPECT_EQ(fs::file_size(session / f.path), f.bytes) << f.path;
   }
-  for (const auto& step : manifest.plan) {
+  for (std::size_t s = 0; s < manifest.plan.size(); ++s) {
+    const formats::PlannedStep& step = manifest.plan[s];
     EXPECT_TRUE(done.count(step.id)) << step.id;
-    for (const auto& f : step.params.at("files")) {
-      const fs::path file = session / f.at("path").get<std::string>();
+    const formats::CaptureStep typed =
+        formats::ReadCaptureStep(step, s, rig, session / formats::kSessionManifestName);
+    for (const formats::CameraFile& f : formats::Files(typed)) {
+      const fs::path file = session / f.path;
       ASSERT_TRUE(fs::exists(file)) << file;
       if (step.kind == formats::StepKind::kLaserSweep) {
         const auto header = formats::ReadFrameSequenceHeader(file);
         EXPECT_EQ(header.frame_count, rig.laser.frames_per_sweep);
-        EXPECT_EQ(step.params.at("tilt_deg").size(), static_cast<std::size_t>(rig.laser.frames_per_sweep));
+        EXPECT_EQ(std::get<formats::LaserSweepStep>(typed).tilts_rad.size(),
+                  static_cast<std::size_t>(rig.laser.frames_per_sweep));
         EXPECT_EQ(header.width, 128);
         EXPECT_EQ(header.encoding, core::PixelEncoding::kUInt16);
       } else {

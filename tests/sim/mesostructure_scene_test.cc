@@ -10,6 +10,7 @@
 #include <numbers>
 #include <random>
 
+#include "core/angles.h"
 #include "core/error.h"
 #include "core/image_io.h"
 #include "sim/builtin_scenes.h"
@@ -25,7 +26,7 @@ using Vec = Eigen::Vector3d;
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kPi = std::numbers::pi;
-constexpr double kDeg = kPi / 180.0;
+constexpr double kDeg = core::kRadiansPerDegree;
 
 // The unit direction (theta, phi) in degrees, pointing away from the surface (DESIGN.md).
 Vec Omega(double theta_deg, double phi_deg) {

@@ -6,6 +6,7 @@
 #include <fstream>
 #include <numbers>
 
+#include "core/angles.h"
 #include "core/json_field_reader.h"
 #include "drivers/device_error.h"
 #include "drivers/rig.h"
@@ -16,7 +17,7 @@ namespace mesocap::sim {
 namespace {
 
 using std::chrono::milliseconds;
-constexpr double kDeg = std::numbers::pi / 180.0;
+constexpr double kDeg = core::kRadiansPerDegree;
 constexpr milliseconds kLong{600000};
 
 std::filesystem::path RigFile(const std::string& name) {

@@ -1,0 +1,171 @@
+#include "formats/capture_plan_steps.h"
+
+#include <cmath>
+
+#include "core/angles.h"
+#include "core/error.h"
+#include "core/json_field_reader.h"
+#include "formats/calibration.h"
+
+namespace mesocap::formats {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+// Degrees rounded to 1e-9, so that the same radians always print the same.
+double PlanDegrees(double rad) { return std::round(core::DegreesFromRadians(rad) * 1e9) / 1e9; }
+
+json FilesJson(const std::vector<CameraFile>& files) {
+  json list = json::array();
+  for (const CameraFile& f : files) list.push_back({{"camera", f.camera}, {"path", f.path}});
+  return list;
+}
+
+PlannedStep Planned(std::string id, StepKind kind, json params, const json& recording) {
+  if (!recording.is_null()) params["recording"] = recording;
+  return {std::move(id), kind, std::move(params)};
+}
+
+std::vector<CameraFile> ReadFiles(const core::JsonFieldReader& step) {
+  std::vector<CameraFile> files;
+  for (const auto& f : step.Objects("files", kMaxRigParts)) {
+    const std::string path = f.String("path");
+    if (!IsSessionPath(path)) f.Fail("path", "a relative path inside the session folder");
+    files.push_back({f.String("camera"), path});
+  }
+  return files;
+}
+
+core::JsonFieldReader StepFields(const PlannedStep& step, StepKind kind, std::size_t index, const fs::path& file) {
+  const std::string where = "plan[" + std::to_string(index) + "]";
+  if (step.kind != kind) {
+    throw core::FormatError(file, where + ".kind", std::string("expected \"") + StepKindName(kind) + "\"");
+  }
+  return core::JsonFieldReader(step.params, file, where);
+}
+
+int Location(const core::JsonFieldReader& fields, const RigDescription& rig) {
+  return static_cast<int>(fields.Integer("location", 0, static_cast<std::int64_t>(rig.laser.locations.size()) - 1));
+}
+
+int Mount(const core::JsonFieldReader& fields) {
+  return static_cast<int>(fields.Integer("mount", 0, static_cast<std::int64_t>(kMaxRigParts)));
+}
+
+int Index(const core::JsonFieldReader& fields, std::string_view key) {
+  return static_cast<int>(fields.Integer(key, 0, static_cast<std::int64_t>(kMaxPlanSteps)));
+}
+
+double Radians(const core::JsonFieldReader& fields, std::string_view key) {
+  return core::RadiansFromDegrees(fields.Number(key, -360, 360));
+}
+
+}  // namespace
+
+PlannedStep ToPlannedStep(std::string id, const LaserCalibrationStep& step, const json& recording) {
+  return Planned(std::move(id), StepKind::kLaserCalibration,
+                 {{"location", step.location},
+                  {"mount", step.mount},
+                  {"arc_deg", PlanDegrees(step.arc_rad)},
+                  {"height_mm", step.height_mm},
+                  {"tilt_deg", PlanDegrees(step.tilt_rad)},
+                  {"files", FilesJson(step.files)}},
+                 recording);
+}
+
+PlannedStep ToPlannedStep(std::string id, const BtfImageStep& step, const json& recording) {
+  return Planned(std::move(id), StepKind::kBtfImage,
+                 {{"turntable_index", step.turntable_index},
+                  {"turntable_deg", PlanDegrees(step.turntable_rad)},
+                  {"arc_index", step.arc_index},
+                  {"arc_deg", PlanDegrees(step.arc_rad)},
+                  {"lamp", step.lamp},
+                  {"lamp_elevation_deg", PlanDegrees(step.lamp_elevation_rad)},
+                  {"files", FilesJson(step.files)}},
+                 recording);
+}
+
+PlannedStep ToPlannedStep(std::string id, const LaserSweepStep& step, const json& recording) {
+  json offsets = json::array();
+  for (const double offset : step.offsets_mm) offsets.push_back(std::round(offset * 1e9) / 1e9);
+  json tilts = json::array();
+  for (const double tilt : step.tilts_rad) tilts.push_back(PlanDegrees(tilt));
+  json params = {{"turntable_index", step.turntable_index},
+                 {"turntable_deg", PlanDegrees(step.turntable_rad)},
+                 {"location", step.location},
+                 {"mount", step.mount},
+                 {"arc_deg", PlanDegrees(step.arc_rad)},
+                 {"offset_mm", std::move(offsets)},
+                 {"tilt_deg", std::move(tilts)},
+                 {"files", FilesJson(step.files)}};
+  if (step.stores_analysis) params["stored_as"] = "analysis";
+  return Planned(std::move(id), StepKind::kLaserSweep, std::move(params), recording);
+}
+
+LaserCalibrationStep ReadLaserCalibrationStep(const PlannedStep& step, std::size_t index, const RigDescription& rig,
+                                              const fs::path& manifest_file) {
+  const core::JsonFieldReader fields = StepFields(step, StepKind::kLaserCalibration, index, manifest_file);
+  LaserCalibrationStep out;
+  out.location = Location(fields, rig);
+  out.mount = Mount(fields);
+  out.arc_rad = Radians(fields, "arc_deg");
+  out.height_mm = fields.Number("height_mm");
+  out.tilt_rad = core::RadiansFromDegrees(fields.NumberOr("tilt_deg", 0.0, -90, 90));
+  out.files = ReadFiles(fields);
+  return out;
+}
+
+BtfImageStep ReadBtfImageStep(const PlannedStep& step, std::size_t index, const fs::path& manifest_file) {
+  const core::JsonFieldReader fields = StepFields(step, StepKind::kBtfImage, index, manifest_file);
+  BtfImageStep out;
+  out.turntable_index = Index(fields, "turntable_index");
+  out.turntable_rad = Radians(fields, "turntable_deg");
+  out.arc_index = Index(fields, "arc_index");
+  out.arc_rad = Radians(fields, "arc_deg");
+  out.lamp = static_cast<int>(fields.Integer("lamp", 0, static_cast<std::int64_t>(kMaxRigParts)));
+  out.lamp_elevation_rad = Radians(fields, "lamp_elevation_deg");
+  out.files = ReadFiles(fields);
+  return out;
+}
+
+LaserSweepStep ReadLaserSweepStep(const PlannedStep& step, std::size_t index, const RigDescription& rig,
+                                  const fs::path& manifest_file) {
+  const core::JsonFieldReader fields = StepFields(step, StepKind::kLaserSweep, index, manifest_file);
+  LaserSweepStep out;
+  out.turntable_index = Index(fields, "turntable_index");
+  out.turntable_rad = Radians(fields, "turntable_deg");
+  out.location = Location(fields, rig);
+  out.mount = Mount(fields);
+  out.arc_rad = Radians(fields, "arc_deg");
+  for (const double t : fields.Numbers("tilt_deg", fields.Raw("tilt_deg").size())) {
+    out.tilts_rad.push_back(core::RadiansFromDegrees(t));
+  }
+  if (out.tilts_rad.empty()) fields.Fail("tilt_deg", "at least one frame's tilt");
+  out.offsets_mm = fields.Numbers("offset_mm", out.tilts_rad.size());
+  out.stores_analysis = fields.Has("stored_as") && fields.Choice("stored_as", {"frames", "analysis"}) == "analysis";
+  out.files = ReadFiles(fields);
+  return out;
+}
+
+CaptureStep ReadCaptureStep(const PlannedStep& step, std::size_t index, const RigDescription& rig,
+                            const fs::path& manifest_file) {
+  switch (step.kind) {
+    case StepKind::kLaserCalibration:
+      return ReadLaserCalibrationStep(step, index, rig, manifest_file);
+    case StepKind::kBtfImage:
+      return ReadBtfImageStep(step, index, manifest_file);
+    case StepKind::kLaserSweep:
+      return ReadLaserSweepStep(step, index, rig, manifest_file);
+    case StepKind::kOther:
+      break;
+  }
+  throw core::FormatError(manifest_file, "plan[" + std::to_string(index) + "].kind",
+                          "a step the rig runs (laser_calibration, btf_image or laser_sweep)");
+}
+
+const std::vector<CameraFile>& Files(const CaptureStep& step) {
+  return std::visit([](const auto& s) -> const std::vector<CameraFile>& { return s.files; }, step);
+}
+
+}  // namespace mesocap::formats
