@@ -6,7 +6,7 @@
 // to the streaming code in memory; the reported time is the processing
 // alone (line detection, space-time analysis, triangulation, resampling,
 // merging), the rendering excluded. Errors in texel widths (0.3125 mm),
-// coverage inside the sample pocket (processing/mdf_evaluation.h).
+// coverage inside the sample pocket (mdf/mdf_evaluation.h).
 #include <benchmark/benchmark.h>
 
 #include <unistd.h>

@@ -81,7 +81,7 @@ TEST_F(MdfCliTest, ProcessAndEvaluate) {
   EXPECT_EQ(table["by_polar_angle"][2]["theta_max_deg"], 45.0);
   // The tiny rig's cameras are coarse (a pixel covers ~0.43 mm, 2.3 texel
   // widths of its 12 mm / 64 grid), so its bounds are looser than the small
-  // rig's acceptance (tests/processing/mdf_pipeline_test.cc). Measured:
+  // rig's acceptance (tests/mdf/mdf_pipeline_test.cc). Measured:
   // median 0.39 texels, coverage 0.875 (0.99 inside the sample pocket).
   const auto& overall = table["overall"];
   EXPECT_LT(overall["median_texels"].get<double>(), 0.5);

@@ -16,30 +16,17 @@
 #include "mdf/laser_sweep.h"
 #include "sim/camera_renderer.h"
 #include "sim/camera_sensor.h"
-#include "sim/mesostructure_scene.h"
-#include "sim/shipped_rigs.h"
-#include "sim/true_calibration.h"
+#include "tests/common/flat_small_rig.h"
 
 namespace mesocap::calibration {
 namespace {
 
-class LaserGeometryTest : public ::testing::Test {
+class LaserGeometryTest : public testing::FlatSmallRigTest {
  protected:
-  LaserGeometryTest()
-      : scene_(sim::MakeBuiltinScene("flat")),
-        rig_(sim::LoadRig("small")),
-        calibration_(sim::TrueCalibration(rig_)),
-        renderer_(*scene_, rig_) {}
-
   core::Image Sense(const core::Image& signal, int cam, std::uint64_t k) const {
     std::mt19937_64 rng = sim::ImageNoiseGenerator(11, {k});
     return sim::ApplySensor(signal, rig_.cameras[cam], rng, true);
   }
-
-  std::unique_ptr<sim::MesostructureScene> scene_;
-  formats::RigDescription rig_;
-  formats::Calibration calibration_;
-  sim::CameraRenderer renderer_;
 };
 
 // Distance (mm) of the true plane's trace on z = height from a detected

@@ -1,5 +1,5 @@
 // Resampling displacement images to the texture grid and merging them
-// (processing/displacement_image.h, displacement_merge.h) on synthetic
+// (mdf/displacement_image.h, displacement_merge.h) on synthetic
 // points whose every distance is known: "no hit" from points on the rig's
 // backing board, and the weighted vote between distances and "no hit".
 #include <gtest/gtest.h>

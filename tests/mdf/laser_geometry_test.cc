@@ -16,26 +16,12 @@
 #include "mdf/displacement_merge.h"
 #include "mdf/frame_plane.h"
 #include "sim/camera_renderer.h"
-#include "sim/mesostructure_scene.h"
-#include "sim/shipped_rigs.h"
-#include "sim/true_calibration.h"
+#include "tests/common/flat_small_rig.h"
 
 namespace mesocap::mdf {
 namespace {
 
-class LaserGeometryTest : public ::testing::Test {
- protected:
-  LaserGeometryTest()
-      : scene_(sim::MakeBuiltinScene("flat")),
-        rig_(sim::LoadRig("small")),
-        calibration_(sim::TrueCalibration(rig_)),
-        renderer_(*scene_, rig_) {}
-
-  std::unique_ptr<sim::MesostructureScene> scene_;
-  formats::RigDescription rig_;
-  formats::Calibration calibration_;
-  sim::CameraRenderer renderer_;
-};
+using LaserGeometryTest = testing::FlatSmallRigTest;
 
 TEST_F(LaserGeometryTest, FramePlaneFollowsTheTilt) {
   const auto& loc = rig_.laser.locations[3];

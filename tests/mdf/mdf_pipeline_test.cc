@@ -33,7 +33,7 @@ namespace {
 
 // The sim renders ~50 frames/s here; under the sanitizers it is ~20x slower,
 // so these tests carry the ctest label `accuracy`, which the sanitize preset
-// leaves out (tests/processing/CMakeLists.txt). The same code runs under the
+// leaves out (tests/mdf/CMakeLists.txt). The same code runs under the
 // sanitizers in the tiny-rig CLI test and the unit tests.
 
 MdfErrorRow Row(const ScanResult& r, double theta_max = 90) {

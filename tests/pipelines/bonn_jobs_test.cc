@@ -99,7 +99,7 @@ TEST(BonnJobs, PackageRoundTripsThroughEveryForm) {
                          return (2.1 * std::ldexp(1.0, -11) + 2e-6) * TermSum(dfile, x, y, v, l, c) + 1e-6;
                        }),
             1.0);
-  // The ambient term is the truth's (processing/ambient_term.h) within the
+  // The ambient term is the truth's (btf/ambient_term.h) within the
   // quantization integrated over the lights: sum_l cos(theta_l) w_l <= pi.
   const formats::AmbientTerm ambient = formats::ReadAmbientTerm(dir / "from_dfmf", di.manifest);
   const formats::AmbientTerm true_ambient = btf::ComputeAmbientTerm(truth);

@@ -414,7 +414,7 @@ TEST(CameraRendererTest, InterreflectionAddsGhostLightOnlyWhereSurfacesSeeEachOt
 
 // The laser planes follow the rig's conventions: tilt 0 aims at the origin
 // and LaserTiltForOffset(o) puts the stripe on the turntable plane at o
-// from the origin, away from the laser (drivers/rig_description.h).
+// from the origin, away from the laser (calibration/nominal_geometry.h).
 TEST(CameraRendererTest, LaserPlanesFollowTheRigConventions) {
   const auto rig = LoadRig("small");
   const auto scene = MakeBuiltinScene("flat");
