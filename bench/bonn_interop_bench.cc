@@ -41,8 +41,8 @@ fs::path WorkDir() {
 const core::FullBtf& Truth() {
   static const core::FullBtf btf = [] {
     sim::GroundTruthOptions gt;
-    gt.texture_width = gt.texture_height = 32;
-    gt.sample_size_mm = 12.0;
+    gt.texels.width = gt.texels.height = 32;
+    gt.texels.sample_size_mm = 12.0;
     gt.views = core::SamplingSet::Named("grid12x4");
     gt.lights = core::SamplingSet::Named("grid12x4");
     const auto scene = sim::MakeBuiltinScene("weave");

@@ -42,8 +42,8 @@ namespace {
 core::FullBtf SceneBtf(const std::string& name) {
   const auto scene = sim::MakeBuiltinScene(name);
   sim::GroundTruthOptions gt;
-  gt.texture_width = gt.texture_height = 32;
-  gt.sample_size_mm = 12.0;
+  gt.texels.width = gt.texels.height = 32;
+  gt.texels.sample_size_mm = 12.0;
   gt.views = core::SamplingSet::Named("paper12x8");
   gt.lights = core::SamplingSet::Named("paper12x8");
   return sim::RenderTrueBtf(*scene, gt);

@@ -70,8 +70,8 @@ core::Image ReadCapture(const BtfCaptureImage& image, const formats::CameraCalib
 }  // namespace
 
 core::CheckResult BtfAssemblyOptions::Check() const {
-  if (texture_width < 1 || texture_height < 1) return "texture size must be positive";
-  if (!(sample_size_mm > 0) || !std::isfinite(sample_size_mm)) return "sample size must be > 0 mm";
+  if (texels.width < 1 || texels.height < 1) return "texture size must be positive";
+  if (!(texels.sample_size_mm > 0) || !std::isfinite(texels.sample_size_mm)) return "sample size must be > 0 mm";
   if (views.size() < 1 || lights.size() < 1) return "the view and light sets must not be empty";
   for (double t : exposure_s) {
     if (!(t > 0) || !std::isfinite(t)) return "every camera's exposure must be > 0 s";
@@ -107,7 +107,7 @@ Eigen::Vector3d LampInWorld(const formats::Calibration& calibration, const BtfCa
 // T = L / E per texel (header: radiometry) of one rectified image.
 core::Image RadiometricTexture(const core::Image& rectified, const BtfCaptureImage& image, const formats::Calibration& calibration,
                          const core::RigidTransform& world_from_sample, const BtfAssemblyOptions& o) {
-  const calibration::TexelGrid grid = o.texel_grid();
+  const calibration::TexelGrid grid = o.texels;
   const int w = grid.width, h = grid.height;
   const Eigen::Vector3d normal = world_from_sample.rotation.col(2);
   const Eigen::Vector3d lamp = LampInWorld(calibration, image);
@@ -137,7 +137,7 @@ core::Image RadiometricTexture(const core::Image& rectified, const BtfCaptureIma
 // point to `target` (world), in the sample frame, minus `nominal`.
 std::vector<Eigen::Vector3d> TexelOffsets(const Eigen::Vector3d& target, const Eigen::Vector3d& nominal,
                                           const core::RigidTransform& world_from_sample, const BtfAssemblyOptions& o) {
-  const calibration::TexelGrid grid = o.texel_grid();
+  const calibration::TexelGrid grid = o.texels;
   const int w = grid.width, h = grid.height;
   const Eigen::Matrix3d to_sample = world_from_sample.rotation.transpose();
   std::vector<Eigen::Vector3d> out;
@@ -193,12 +193,12 @@ void AssembleOnGrid(const std::vector<BtfCaptureImage>& images, const formats::C
 
   std::vector<calibration::CameraRays> camera_rays;
   for (const formats::CameraCalibration& camera : calibration.cameras) camera_rays.emplace_back(camera);
-  const int w = o.texture_width, h = o.texture_height;
+  const int w = o.texels.width, h = o.texels.height;
   std::mutex report_mutex;
   tbb::parallel_for(0, o.views.size(), [&](int v) {
     const int cam = view_camera[v];
     const core::RigidTransform world_from_sample = calibration::WorldFromSample(calibration.turntable, view_turntable[v]);
-    const ReferencePlaneRectifier rectifier(calibration.cameras[cam], camera_rays[cam], world_from_sample, o.texel_grid(),
+    const ReferencePlaneRectifier rectifier(calibration.cameras[cam], camera_rays[cam], world_from_sample, o.texels,
                                             o.max_samples_per_side);
     core::Image out(w, h * o.lights.size(), 3);
     for (const Placed& placed : by_view[v]) {
@@ -267,7 +267,7 @@ void AssembleResampled(const std::vector<BtfCaptureImage>& images, const formats
   for (const CapturedView& c : captured) view_centres.push_back(directions[c.images.front()].view);
   const CapturedDirections captured_views = MakeCapturedDirections("BTF assembly: captured views", view_centres,
                                                                    core::RadiansFromDegrees(o.ring_tolerance_deg));
-  const int w = o.texture_width, h = o.texture_height;
+  const int w = o.texels.width, h = o.texels.height;
   const std::size_t texels = static_cast<std::size_t>(w) * h;
   std::vector<calibration::CameraRays> camera_rays;
   for (const formats::CameraCalibration& camera : calibration.cameras) camera_rays.emplace_back(camera);
@@ -280,7 +280,7 @@ void AssembleResampled(const std::vector<BtfCaptureImage>& images, const formats
     const CapturedView& view = captured[c];
     const core::RigidTransform world_from_sample = calibration::WorldFromSample(calibration.turntable, view.turntable_rad);
     const ReferencePlaneRectifier rectifier(calibration.cameras[view.camera], camera_rays[view.camera],
-                                            world_from_sample, o.texel_grid(), o.max_samples_per_side);
+                                            world_from_sample, o.texels, o.max_samples_per_side);
     std::vector<Eigen::Vector3d> light_centres;
     for (int k : view.images) light_centres.push_back(directions[k].light);
     const CapturedDirections lights = MakeCapturedDirections(
@@ -411,7 +411,7 @@ void AssembleBtfViews(const std::vector<BtfCaptureImage>& images, const formats:
 
 core::FullBtf AssembleBtf(const std::vector<BtfCaptureImage>& images, const formats::Calibration& calibration,
                     const BtfAssemblyOptions& o, BtfAssemblyReport* report) {
-  core::FullBtf btf = core::MakeFullBtf(o.texture_width, o.texture_height, o.views, o.lights);
+  core::FullBtf btf = core::MakeFullBtf(o.texels.width, o.texels.height, o.views, o.lights);
   AssembleBtfViews(images, calibration, o, [&](int v, core::Image&& values) { btf.view_images[v] = std::move(values); },
                    report);
   return btf;

@@ -54,9 +54,7 @@ struct BtfCaptureImage {
 };
 
 struct BtfAssemblyOptions {
-  int texture_width = 64;
-  int texture_height = 64;
-  double sample_size_mm = 0.0;  // side of the clipped square sample
+  calibration::TexelGrid texels{64, 64, 0.0};  // of the rectified images; the sample size must be set
   core::SamplingSet views;            // the session's direction sets
   core::SamplingSet lights;
   std::vector<double> exposure_s;                  // per calibration camera, > 0
@@ -75,8 +73,6 @@ struct BtfAssemblyOptions {
   // Captured polar angles within this share a ring when resampling.
   double ring_tolerance_deg = 0.5;
 
-  // The texels of the rectified images.
-  calibration::TexelGrid texel_grid() const { return {texture_width, texture_height, sample_size_mm}; }
   core::CheckResult Check() const;
 };
 

@@ -399,24 +399,20 @@ json CameraJson(const CameraCalibration& c) {
   return j;
 }
 
-json TurntableJson(const TurntableCalibration& t) {
-  json j = {{"axis_point_mm", NumberList(t.axis_point_mm)},
-            {"axis_direction", NumberList(t.axis_direction)},
-            {"sample_pose", PoseJson(t.sample_pose)}};
-  json d = json::object();
-  PutDeviation(d, "axis_point_mm", t.uncertainty.axis_point_mm);
-  PutDeviation(d, "axis_direction", t.uncertainty.axis_direction);
-  AttachDeviations(j, std::move(d));
-  return j;
-}
-
-json LightArcJson(const LightArcCalibration& a) {
-  json j = {{"axis_point_mm", NumberList(a.axis_point_mm)},
-            {"axis_direction", NumberList(a.axis_direction)}};
+// A rotation axis (the turntable's, the light arc's) with its deviations.
+template <typename Axis>
+json AxisJson(const Axis& a) {
+  json j = {{"axis_point_mm", NumberList(a.axis_point_mm)}, {"axis_direction", NumberList(a.axis_direction)}};
   json d = json::object();
   PutDeviation(d, "axis_point_mm", a.uncertainty.axis_point_mm);
   PutDeviation(d, "axis_direction", a.uncertainty.axis_direction);
   AttachDeviations(j, std::move(d));
+  return j;
+}
+
+json TurntableJson(const TurntableCalibration& t) {
+  json j = AxisJson(t);
+  j["sample_pose"] = PoseJson(t.sample_pose);
   return j;
 }
 
@@ -471,7 +467,7 @@ json ToJson(const Calibration& c) {
           {"units", {{"length", "mm"}, {"angle", "deg"}}},
           {"cameras", ListJson(c.cameras, CameraJson)},
           {"turntable", TurntableJson(c.turntable)},
-          {"light_arc", LightArcJson(c.light_arc)},
+          {"light_arc", AxisJson(c.light_arc)},
           {"lamps", ListJson(c.lamps, LampJson)},
           {"laser_mounts", ListJson(c.laser_mounts, LaserMountJson)}};
 }

@@ -31,14 +31,14 @@ GroundTruthReport RunGroundTruth(const GroundTruthOptions& o) {
   const auto scene = sim::LoadScene(o.scene);
   const formats::RigDescription rig = sim::LoadRig(o.rig);
   sim::GroundTruthOptions gt;
-  gt.texture_width = gt.texture_height = o.texture_size;
-  gt.sample_size_mm = rig.sample_size_mm;
+  gt.texels.width = gt.texels.height = o.texture_size;
+  gt.texels.sample_size_mm = rig.sample_size_mm;
   gt.views = DirectionSet(o.views, calibration::ViewDirections(rig));
   gt.lights = DirectionSet(o.lights, calibration::LightDirections(rig));
   if (const auto problem = gt.Check(); !problem.empty()) throw core::Error("groundtruth: " + problem);
   const formats::Calibration calibration = sim::TrueCalibration(rig);
   spdlog::info("ground truth of scene {} on rig {}: {}x{} texels, {} views x {} lights", scene->name(), rig.name,
-               gt.texture_width, gt.texture_height, gt.views.size(), gt.lights.size());
+               gt.texels.width, gt.texels.height, gt.views.size(), gt.lights.size());
   sim::WriteGroundTruthPackage(*scene, gt, &calibration, "groundtruth scene=" + scene->name() + " rig=" + rig.name,
                                o.out, o.replace);
   return {scene->name(), rig.name};

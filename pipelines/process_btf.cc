@@ -86,8 +86,8 @@ ProcessBtfReport RunProcessBtf(const ProcessBtfOptions& o) {
   const formats::Calibration calibration = formats::ReadCalibration(calibration_file);
 
   btf::BtfAssemblyOptions a;
-  a.texture_width = a.texture_height = o.texture_size;
-  a.sample_size_mm = rig.sample_size_mm;
+  a.texels.width = a.texels.height = o.texture_size;
+  a.texels.sample_size_mm = rig.sample_size_mm;
   a.views = calibration::ViewDirections(rig);
   a.lights = calibration::LightDirections(rig);
   a.resample = o.resample;

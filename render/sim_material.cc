@@ -9,8 +9,8 @@ namespace mesocap::render {
 sim::GroundTruthOptions SimMaterialGroundTruthOptions(const std::string& scene_name) {
   const sim::TileGeometry geometry = sim::BuiltinTileGeometry(scene_name);
   sim::GroundTruthOptions options;
-  options.sample_size_mm = geometry.tile_size_mm * std::ceil(12.0 / geometry.tile_size_mm);
-  options.texture_width = options.texture_height = 64;
+  options.texels.sample_size_mm = geometry.tile_size_mm * std::ceil(12.0 / geometry.tile_size_mm);
+  options.texels.width = options.texels.height = 64;
   // Polar rings every 90/8 degrees up to 84.4: the MDF near grazing decides
   // silhouettes (SamplingSet::Interpolate holds the last ring beyond it).
   // 24 azimuths (15 degrees apart), not 12: blocky mesostructure seen from a

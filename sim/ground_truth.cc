@@ -23,22 +23,22 @@ std::optional<SurfaceHit> FirstHitBelow(const MesostructureScene& scene, const E
 }  // namespace
 
 core::CheckResult GroundTruthOptions::Check() const {
-  if (auto problem = core::CheckImageSize(texture_width, texture_height, "texture size"); !problem.empty()) {
+  if (auto problem = core::CheckImageSize(texels.width, texels.height, "texture size"); !problem.empty()) {
     return problem;
   }
-  if (!(sample_size_mm > 0.0) || !std::isfinite(sample_size_mm)) return "sample size must be positive";
+  if (!(texels.sample_size_mm > 0.0) || !std::isfinite(texels.sample_size_mm)) return "sample size must be positive";
   if (views.size() == 0 || lights.size() == 0) return "view and light sets must not be empty";
   return {};
 }
 
 core::Mdf ComputeTrueMdf(const MesostructureScene& scene, const GroundTruthOptions& o) {
-  core::Mdf mdf = core::MakeMdf(o.texture_width, o.texture_height, o.views);
-  const calibration::TexelGrid grid = o.texel_grid();
-  tbb::parallel_for(0, o.views.size() * o.texture_height, [&](int row) {
-    const int v = row / o.texture_height;
-    const int j = row % o.texture_height;
+  core::Mdf mdf = core::MakeMdf(o.texels.width, o.texels.height, o.views);
+  const calibration::TexelGrid grid = o.texels;
+  tbb::parallel_for(0, o.views.size() * o.texels.height, [&](int row) {
+    const int v = row / o.texels.height;
+    const int j = row % o.texels.height;
     const Eigen::Vector3d& view = o.views.direction(v);
-    for (int i = 0; i < o.texture_width; ++i) {
+    for (int i = 0; i < o.texels.width; ++i) {
       const auto hit = FirstHitBelow(scene, grid.TexelCentre(i, j), view);
       mdf.at(i, j, v) = hit ? static_cast<float>(hit->distance) : core::MdfNoHit();
     }
@@ -47,17 +47,17 @@ core::Mdf ComputeTrueMdf(const MesostructureScene& scene, const GroundTruthOptio
 }
 
 core::FullBtf RenderTrueBtf(const MesostructureScene& scene, const GroundTruthOptions& options) {
-  core::FullBtf btf = core::MakeFullBtf(options.texture_width, options.texture_height, options.views, options.lights);
+  core::FullBtf btf = core::MakeFullBtf(options.texels.width, options.texels.height, options.views, options.lights);
   for (int v = 0; v < options.views.size(); ++v) btf.view_images[v] = RenderTrueBtfView(scene, options, v);
   return btf;
 }
 
 core::Image RenderTrueBtfView(const MesostructureScene& scene, const GroundTruthOptions& o, int v) {
-  const int w = o.texture_width;
-  const int h = o.texture_height;
+  const int w = o.texels.width;
+  const int h = o.texels.height;
   core::Image out(w, h * o.lights.size(), 3);
   const Eigen::Vector3d& view = o.views.direction(v);
-  const calibration::TexelGrid grid = o.texel_grid();
+  const calibration::TexelGrid grid = o.texels;
   tbb::parallel_for(0, h, [&](int j) {
     for (int i = 0; i < w; ++i) {
       const auto hit = FirstHitBelow(scene, grid.TexelCentre(i, j), view);
@@ -100,9 +100,9 @@ void WriteGroundTruthPackage(const MesostructureScene& scene, const GroundTruthO
   if (const auto problem = o.Check(); !problem.empty()) throw core::Error("ground truth: " + problem);
   formats::MaterialDescription d;
   d.name = scene.name();
-  d.width = o.texture_width;
-  d.height = o.texture_height;
-  d.physical_size_mm = {o.sample_size_mm, o.sample_size_mm};
+  d.width = o.texels.width;
+  d.height = o.texels.height;
+  d.physical_size_mm = {o.texels.sample_size_mm, o.texels.sample_size_mm};
   d.d_max_mm = scene.d_max_mm();
   d.view_directions = o.views;
   d.light_directions = o.lights;
@@ -113,8 +113,8 @@ void WriteGroundTruthPackage(const MesostructureScene& scene, const GroundTruthO
   writer.WriteMdf(ComputeTrueMdf(scene, o));
   progress.Advance();
 
-  formats::AmbientTerm ambient{o.texture_width, o.texture_height, o.views,
-                      core::Image(o.texture_width, o.texture_height * o.views.size(), 3)};
+  formats::AmbientTerm ambient{o.texels.width, o.texels.height, o.views,
+                      core::Image(o.texels.width, o.texels.height * o.views.size(), 3)};
   for (int v = 0; v < o.views.size(); ++v) {
     const core::Image view = RenderTrueBtfView(scene, o, v);
     AccumulateAmbientTerm(view, o.lights, v, &ambient);

@@ -24,14 +24,10 @@
 namespace mesocap::sim {
 
 struct GroundTruthOptions {
-  int texture_width = 64;
-  int texture_height = 64;
-  double sample_size_mm = 20.0;
+  calibration::TexelGrid texels;  // the texels the truth is computed at
   core::SamplingSet views = core::SamplingSet::Named("paper12x8");
   core::SamplingSet lights = core::SamplingSet::Named("paper12x8");
 
-  // The texels the truth is computed at.
-  calibration::TexelGrid texel_grid() const { return {texture_width, texture_height, sample_size_mm}; }
   core::CheckResult Check() const;
 };
 

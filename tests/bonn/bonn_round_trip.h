@@ -22,9 +22,9 @@ namespace mesocap::testing {
 inline const core::FullBtf& TrueBtf() {
   static const core::FullBtf btf = [] {
     sim::GroundTruthOptions gt;
-    gt.texture_width = 6;
-    gt.texture_height = 4;
-    gt.sample_size_mm = 12.0;
+    gt.texels.width = 6;
+    gt.texels.height = 4;
+    gt.texels.sample_size_mm = 12.0;
     gt.views = core::SamplingSet::Named("grid4x2");
     gt.lights = core::SamplingSet::Named("grid3x2");
     return sim::RenderTrueBtf(*sim::MakeBuiltinScene("blocks"), gt);

@@ -19,8 +19,8 @@ core::FullBtf TrueBtf(const std::string& scene_name, const sim::GroundTruthOptio
 
 sim::GroundTruthOptions Options(const std::string& views, const std::string& lights) {
   sim::GroundTruthOptions gt;
-  gt.texture_width = gt.texture_height = 8;
-  gt.sample_size_mm = 12.0;
+  gt.texels.width = gt.texels.height = 8;
+  gt.texels.sample_size_mm = 12.0;
   gt.views = core::SamplingSet::Named(views);
   gt.lights = core::SamplingSet::Named(lights);
   return gt;

@@ -74,8 +74,8 @@ class BtfAssemblyTest : public ::testing::Test {
     a.calibration = formats::ReadCalibration(session / *a.manifest.calibration);
     a.images = SessionBtfImages(session, a.manifest, a.calibration);
     const auto rig = formats::ParseRigDescription(a.manifest.rig, session / formats::kSessionManifestName);
-    a.options.texture_width = a.options.texture_height = texture_size;
-    a.options.sample_size_mm = rig.sample_size_mm;
+    a.options.texels.width = a.options.texels.height = texture_size;
+    a.options.texels.sample_size_mm = rig.sample_size_mm;
     // The tiny rig's sets, also for the off-grid rig.
     const auto tiny = sim::LoadRig("tiny");
     a.options.views = calibration::ViewDirections(tiny);
@@ -152,18 +152,18 @@ MeasuredFigures Measured(const core::FullBtf& estimate, const core::FullBtf& tru
 core::FullBtf Truth(const std::string& scene_name, const BtfAssemblyOptions& o, int supersample = 32) {
   const auto scene = sim::MakeBuiltinScene(scene_name);
   sim::GroundTruthOptions gt;
-  gt.texture_width = o.texture_width * supersample;
-  gt.texture_height = o.texture_height * supersample;
-  gt.sample_size_mm = o.sample_size_mm;
+  gt.texels.width = o.texels.width * supersample;
+  gt.texels.height = o.texels.height * supersample;
+  gt.texels.sample_size_mm = o.texels.sample_size_mm;
   gt.views = o.views;
   gt.lights = o.lights;
-  core::FullBtf btf = core::MakeFullBtf(o.texture_width, o.texture_height, o.views, o.lights);
-  const int w = o.texture_width, h = o.texture_height, fine_h = gt.texture_height;
+  core::FullBtf btf = core::MakeFullBtf(o.texels.width, o.texels.height, o.views, o.lights);
+  const int w = o.texels.width, h = o.texels.height, fine_h = gt.texels.height;
   for (int v = 0; v < gt.views.size(); ++v) {
     const core::Image fine = sim::RenderTrueBtfView(*scene, gt, v);
     for (int l = 0; l < gt.lights.size(); ++l)
       for (int y = 0; y < fine_h; ++y)
-        for (int x = 0; x < gt.texture_width; ++x)
+        for (int x = 0; x < gt.texels.width; ++x)
           for (int c = 0; c < 3; ++c) {
             btf.view_images[v].at(x / supersample, l * h + y / supersample, c) +=
                 fine.at(x, l * fine_h + y, c) / (supersample * supersample);
@@ -182,7 +182,7 @@ TEST_F(BtfAssemblyTest, FlatSampleMatchesTruthAndCountsPairs) {
   EXPECT_EQ(report.filled_pairs, 32) << "the tiny rig sees half of the light set per view";
   EXPECT_LT(report.max_view_offset_deg, 1e-6);
   EXPECT_LT(report.max_light_offset_deg, 1e-6);
-  const MeasuredFigures f = Measured(btf, Truth("flat", a.options), report, 1.0, a.options.sample_size_mm);
+  const MeasuredFigures f = Measured(btf, Truth("flat", a.options), report, 1.0, a.options.texels.sample_size_mm);
   EXPECT_GE(f.psnr_db, 44.0) << "relative RMS " << f.relative_rms;
   RecordProperty("flat_psnr_db", std::to_string(f.psnr_db));
 }
@@ -201,7 +201,7 @@ TEST_F(BtfAssemblyTest, WeaveUpToSixtyDegrees) {
   Assembled a = Prepare(Session("weave"), 8);
   BtfAssemblyReport report;
   const core::FullBtf btf = AssembleBtf(a.images, a.calibration, a.options, &report);
-  const MeasuredFigures f = Measured(btf, Truth("weave", a.options), report, 3.0, a.options.sample_size_mm);
+  const MeasuredFigures f = Measured(btf, Truth("weave", a.options), report, 3.0, a.options.texels.sample_size_mm);
   EXPECT_GE(f.psnr_db, 35.0) << "relative RMS " << f.relative_rms << " on " << f.texel_fraction << " of the texels";
   EXPECT_LT(f.relative_rms, 0.055);
   EXPECT_NEAR(report.min_pixels_per_texel, 1.7, 0.15);
@@ -326,7 +326,7 @@ TEST_F(BtfAssemblyTest, OffGridRigIsResampledOntoTheSets) {
     EXPECT_NEAR(report.max_light_offset_deg, 3.1, 0.1);
     report.measured = on_grid.measured;
     const double d_max = scene == "flat" ? 1.0 : 3.0;
-    const MeasuredFigures f = Measured(btf, Truth(scene, a.options), report, d_max, a.options.sample_size_mm);
+    const MeasuredFigures f = Measured(btf, Truth(scene, a.options), report, d_max, a.options.texels.sample_size_mm);
     EXPECT_GE(f.psnr_db, scene == "flat" ? 45.0 : 30.0) << scene << ": relative RMS " << f.relative_rms;
     RecordProperty(scene + "_off_grid_psnr_db", std::to_string(f.psnr_db));
   }
@@ -407,7 +407,7 @@ TEST_F(BtfAssemblyTest, EachCameraUsesItsOwnGain) {
     }
   }
   EXPECT_LT(worst, 1e-5);
-  const MeasuredFigures f = Measured(btf, Truth("flat", own), report, 1.0, own.sample_size_mm);
+  const MeasuredFigures f = Measured(btf, Truth("flat", own), report, 1.0, own.texels.sample_size_mm);
   EXPECT_GE(f.psnr_db, 44.0) << "relative RMS " << f.relative_rms;
 
   // Camera 0's gain for both: each view is either as it was (camera 0's) or

@@ -93,8 +93,8 @@ TEST(BtfCompression, OptionsAreChecked) {
 TEST(BtfCompression, FlatLambertianGroundTruthIsRankOne) {
   const auto scene = sim::MakeBuiltinScene("flat");
   sim::GroundTruthOptions gt;
-  gt.texture_width = gt.texture_height = 8;
-  gt.sample_size_mm = 6.0;
+  gt.texels.width = gt.texels.height = 8;
+  gt.texels.sample_size_mm = 6.0;
   gt.views = core::SamplingSet::Named("grid6x3");
   gt.lights = core::SamplingSet::Named("grid6x4");
   const core::FullBtf btf = sim::RenderTrueBtf(*scene, gt);

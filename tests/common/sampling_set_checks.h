@@ -19,23 +19,12 @@
 #include "core/error.h"
 #include "core/json_field_reader.h"
 #include "core/sampling_set.h"
+#include "tests/common/error_of.h"
 
 namespace mesocap::testing {
 
 inline constexpr double kPi = std::numbers::pi;
 inline constexpr double kDeg = kPi / 180.0;
-
-// Returns the message of the Error (of type E) `f` throws; fails if it throws none.
-template <typename E = core::Error, typename F>
-std::string ErrorOf(F&& f) {
-  try {
-    f();
-  } catch (const E& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "no error thrown";
-  return {};
-}
 
 inline bool Contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
 

@@ -5,6 +5,7 @@
 #include <fstream>
 
 #include "core/error.h"
+#include "tests/common/error_of.h"
 #include "tests/common/temporary_directory.h"
 
 namespace mesocap::core {
@@ -12,16 +13,10 @@ namespace {
 
 using nlohmann::json;
 
-// Returns the message of the FormatError `f` throws; fails if it throws none.
+// The message of the FormatError `f` throws.
 template <typename F>
 std::string ErrorOf(F&& f) {
-  try {
-    f();
-  } catch (const FormatError& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "no FormatError thrown";
-  return {};
+  return testing::ErrorOf<FormatError>(std::forward<F>(f));
 }
 
 TEST(JsonFieldReader, NamesFileAndFieldPath) {

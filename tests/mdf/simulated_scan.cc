@@ -39,8 +39,8 @@ ScanResult RunSimulatedScan(const ScanSetup& setup) {
   const auto& laser = rig.laser;
 
   sim::GroundTruthOptions gt;
-  gt.texture_width = gt.texture_height = setup.texture_size;
-  gt.sample_size_mm = rig.sample_size_mm;
+  gt.texels.width = gt.texels.height = setup.texture_size;
+  gt.texels.sample_size_mm = rig.sample_size_mm;
   gt.views = views;
   ScanResult result;
   result.truth = sim::ComputeTrueMdf(*scene, gt);

@@ -16,11 +16,11 @@ namespace mesocap::render {
 
 inline RenderMaterial LambertianSimMaterial(const std::string& scene_name, int texture_size) {
   sim::GroundTruthOptions options = SimMaterialGroundTruthOptions(scene_name);
-  options.texture_width = options.texture_height = texture_size;
+  options.texels.width = options.texels.height = texture_size;
   const auto scene = sim::MakeBuiltinScene(scene_name);
   RenderMaterial m;
   m.name = "sim:" + scene_name;
-  m.sample_size_mm = options.sample_size_mm;
+  m.sample_size_mm = options.texels.sample_size_mm;
   m.d_max_mm = scene->d_max_mm();
   m.mdf = sim::ComputeTrueMdf(*scene, options);
   const int w = texture_size, h = texture_size;

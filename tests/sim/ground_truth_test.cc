@@ -23,8 +23,8 @@ core::SamplingSet Directions(std::vector<std::pair<double, double>> deg) {
 TEST(GroundTruth, FlatSampleHasZeroMdfAndAlbedoOverPiBtf) {
   const auto scene = MakeBuiltinScene("flat");
   GroundTruthOptions o;
-  o.texture_width = o.texture_height = 12;
-  o.sample_size_mm = 7.0;
+  o.texels.width = o.texels.height = 12;
+  o.texels.sample_size_mm = 7.0;
   o.views = core::SamplingSet::Named("paper12x8");
   o.lights = core::SamplingSet::Named("paper12x5");
   const core::Mdf mdf = ComputeTrueMdf(*scene, o);
@@ -42,7 +42,7 @@ TEST(GroundTruth, FlatSampleHasZeroMdfAndAlbedoOverPiBtf) {
 TEST(GroundTruth, AmbientTermIsTheLightQuadratureOfTheBtf) {
   const auto scene = MakeBuiltinScene("flat");
   GroundTruthOptions o;
-  o.texture_width = o.texture_height = 4;
+  o.texels.width = o.texels.height = 4;
   o.views = core::SamplingSet::Named("grid4x2");
   o.lights = core::SamplingSet::Named("grid24x12");
   formats::AmbientTerm ambient{4, 4, o.views, core::Image(4, 4 * o.views.size(), 3)};
@@ -91,8 +91,8 @@ double BoxMdf(double x, double y, double theta, double phi) {
 TEST(GroundTruth, BoxMdfMatchesTheAnalyticAnswerEverywhere) {
   const auto scene = MakeBuiltinScene("box");
   GroundTruthOptions o;
-  o.texture_width = o.texture_height = 40;
-  o.sample_size_mm = 13.0;  // not a multiple of the tile: texels fall everywhere in it
+  o.texels.width = o.texels.height = 40;
+  o.texels.sample_size_mm = 13.0;  // not a multiple of the tile: texels fall everywhere in it
   o.views = core::SamplingSet::Named("paper12x8");  // up to 84.4 degrees
   const core::Mdf mdf = ComputeTrueMdf(*scene, o);
   int beside_box = 0;
@@ -100,7 +100,7 @@ TEST(GroundTruth, BoxMdfMatchesTheAnalyticAnswerEverywhere) {
     const auto a = o.views.angles(v);
     for (int j = 0; j < 40; ++j) {
       for (int i = 0; i < 40; ++i) {
-        const Eigen::Vector3d p = o.texel_grid().TexelCentre(i, j);
+        const Eigen::Vector3d p = o.texels.TexelCentre(i, j);
         const double expected = BoxMdf(p.x(), p.y(), a.theta, a.phi);
         ASSERT_NEAR(mdf.at(i, j, v), expected, 1e-5 * expected + 1e-6) << "texel " << i << "," << j << " view " << v;
         beside_box += std::abs(expected - 1.0 / std::cos(a.theta)) < 1e-12;
@@ -113,7 +113,7 @@ TEST(GroundTruth, BoxMdfMatchesTheAnalyticAnswerEverywhere) {
 TEST(GroundTruth, BoxShadowsTheBaseAtGrazingLight) {
   const auto scene = MakeBuiltinScene("box");
   GroundTruthOptions o;
-  o.texture_width = o.texture_height = 1;  // one texel, centred on the base at (0, 0)
+  o.texels.width = o.texels.height = 1;  // one texel, centred on the base at (0, 0)
   o.views = Directions({{0, 0}});
   // Towards the box copy at [1.5, 3.5]^2: at 75 degrees the light ray meets
   // the box side below its top; at 45 degrees it clears z = 0 before the box.
@@ -128,8 +128,8 @@ TEST(GroundTruth, BoxShadowsTheBaseAtGrazingLight) {
 TEST(GroundTruth, SpongeThroughHolesAreNoHit) {
   const auto scene = MakeBuiltinScene("sponge");
   GroundTruthOptions o;
-  o.texture_width = o.texture_height = 48;
-  o.sample_size_mm = 8.0;
+  o.texels.width = o.texels.height = 48;
+  o.texels.sample_size_mm = 8.0;
   o.views = Directions({{0, 0}, {70, 30}});
   const core::Mdf mdf = ComputeTrueMdf(*scene, o);
   int no_hit_vertical = 0, no_hit_grazing = 0;
