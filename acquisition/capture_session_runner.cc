@@ -41,7 +41,8 @@ class SessionRun {
     for (std::size_t i = 0; i < rig_.cameras.size(); ++i) camera_index_[rig_.cameras[i]->info().id] = i;
     for (const formats::PlannedStep& step : manifest_.plan) {
       if (step.kind == formats::StepKind::kOther) {
-        throw core::Error(dir_.string() + ": step \"" + step.id + "\" is of kind \"other\", which a capture cannot run");
+        throw core::Error(dir_.string() + ": step \"" + step.id +
+                          "\" is of kind \"other\", which a capture cannot run");
       }
     }
     const fs::path manifest_file = dir_ / formats::kSessionManifestName;
@@ -317,7 +318,8 @@ core::CheckResult CaptureRunnerOptions::Check() const {
 
 CaptureRunReport RunCaptureSession(const fs::path& dir, drivers::Rig& rig, drivers::RigOperator& rig_operator,
                                    const CaptureRunnerOptions& options) {
-  if (const core::CheckResult problem = options.Check(); !problem.empty()) throw core::Error("capture options: " + problem);
+  if (const core::CheckResult problem = options.Check(); !problem.empty())
+    throw core::Error("capture options: " + problem);
   return SessionRun(dir, rig, rig_operator, options).Run();
 }
 

@@ -46,7 +46,8 @@ const core::FullBtf& Truth() {
     gt.views = core::SamplingSet::Named("grid12x4");
     gt.lights = core::SamplingSet::Named("grid12x4");
     const auto scene = sim::MakeBuiltinScene("weave");
-    sim::WriteGroundTruthPackage(*scene, gt, nullptr, "bench", WorkDir() / "weave", true, core::Progress::Style::kSilent);
+    sim::WriteGroundTruthPackage(*scene, gt, nullptr, "bench", WorkDir() / "weave", true,
+                                 core::Progress::Style::kSilent);
     return sim::RenderTrueBtf(*scene, gt);
   }();
   return btf;
@@ -148,7 +149,8 @@ void Import(benchmark::State& state, const std::string& name) {
     ImportBonn(float_file, WorkDir() / (name + ".float.imported"), o);
     const fs::path float_out = WorkDir() / (name + ".float.imported");
     double q_worst = 0.0;
-    state.counters["half_vs_float_rel_rms"] = compare(got, formats::ReadFullBtf(float_out, formats::ReadMaterialManifest(float_out)), &q_worst);
+    state.counters["half_vs_float_rel_rms"] =
+        compare(got, formats::ReadFullBtf(float_out, formats::ReadMaterialManifest(float_out)), &q_worst);
     state.counters["half_vs_float_max_abs"] = q_worst;
   }
 }

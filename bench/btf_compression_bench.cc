@@ -130,7 +130,8 @@ void ReportPaperSize(benchmark::State& state, const btf::BtfCompressionReport& r
   state.counters["gflops"] = gflops;
   state.counters["gemm_gflops_1thread"] = gemm;
   state.counters["threads"] = static_cast<double>(std::thread::hardware_concurrency());
-  state.counters["ratio_to_gemm_all_threads"] = gflops / (gemm * static_cast<double>(std::thread::hardware_concurrency()));
+  state.counters["ratio_to_gemm_all_threads"] =
+      gflops / (gemm * static_cast<double>(std::thread::hardware_concurrency()));
   state.counters["relative_rms"] = r.measured_relative_rms_error;
 }
 

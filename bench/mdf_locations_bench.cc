@@ -68,8 +68,8 @@ void ErrorAgainstNoiseAndResolution(benchmark::State& state) {
                             std::lround(camera["image_size"][1].get<double>() * scale)};
     camera["focal_px"] = camera["focal_px"].get<double>() * scale;
   }
-  const auto file = std::filesystem::temp_directory_path() /
-                    ("mesocap-bench-rig-" + std::to_string(::getpid()) + "-" + std::to_string(state.range(1)) + ".json");
+  const auto file = std::filesystem::temp_directory_path() / ("mesocap-bench-rig-" + std::to_string(::getpid()) + "-" +
+                                                              std::to_string(state.range(1)) + ".json");
   std::ofstream(file) << rig.dump();
   mesocap::mdf::ScanSetup setup;
   setup.scene = "blocks";
@@ -81,7 +81,8 @@ void ErrorAgainstNoiseAndResolution(benchmark::State& state) {
   std::filesystem::remove(file);
   state.counters["noise"] = noise;
   // A pixel's footprint on the sample at normal incidence: distance / focal length.
-  state.counters["pixel_mm"] = rig["cameras"][1]["distance_mm"].get<double>() / rig["cameras"][1]["focal_px"].get<double>();
+  state.counters["pixel_mm"] =
+      rig["cameras"][1]["distance_mm"].get<double>() / rig["cameras"][1]["focal_px"].get<double>();
 }
 BENCHMARK(ErrorAgainstNoiseAndResolution)
     ->Args({0, 100})

@@ -63,7 +63,8 @@ void StripeFrame(benchmark::State& state) {
     f = (f + 1) % s.tilts.size();
   }
   state.SetItemsProcessed(state.iterations());
-  state.counters["frames_per_s"] = benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+  state.counters["frames_per_s"] =
+      benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
 }
 BENCHMARK(StripeFrame)->Arg(1)->Arg(3)->Unit(benchmark::kMillisecond)->UseRealTime();
 
@@ -87,7 +88,8 @@ void SensorOnSweepFrame(benchmark::State& state) {
     benchmark::DoNotOptimize(out.data());
   }
   state.SetItemsProcessed(state.iterations());
-  state.counters["frames_per_s"] = benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+  state.counters["frames_per_s"] =
+      benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
 }
 BENCHMARK(SensorOnSweepFrame)->Unit(benchmark::kMillisecond)->UseRealTime();
 
@@ -117,9 +119,16 @@ void RenderedSweepFrame(benchmark::State& state) {
     f = (f + 1) % s.tilts.size();
   }
   state.SetItemsProcessed(state.iterations());
-  state.counters["frames_per_s"] = benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+  state.counters["frames_per_s"] =
+      benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
 }
-BENCHMARK(RenderedSweepFrame)->Args({1, 3})->Args({3, 3})->Args({1, 1})->Args({3, 1})->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(RenderedSweepFrame)
+    ->Args({1, 3})
+    ->Args({3, 3})
+    ->Args({1, 1})
+    ->Args({3, 1})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 }  // namespace
 

@@ -15,16 +15,18 @@ formats::AmbientTerm MakeAmbientTerm(int width, int height, const core::Sampling
   return ambient;
 }
 
-void AddAmbientView(const core::Image& btf_view, const core::SamplingSet& lights, int view, formats::AmbientTerm* ambient) {
+void AddAmbientView(const core::Image& btf_view, const core::SamplingSet& lights, int view,
+                    formats::AmbientTerm* ambient) {
   const int w = ambient->width;
   const int h = ambient->height;
   if (view < 0 || view >= ambient->view_count()) {
-    throw core::Error("ambient term: view " + std::to_string(view) + " outside 0.." + std::to_string(ambient->view_count() - 1));
+    throw core::Error("ambient term: view " + std::to_string(view) + " outside 0.." +
+                      std::to_string(ambient->view_count() - 1));
   }
   if (btf_view.width() != w || btf_view.height() != h * lights.size() || btf_view.channels() != 3) {
-    throw core::Error("ambient term: BTF view " + std::to_string(view) + " image is " + std::to_string(btf_view.width()) +
-                "x" + std::to_string(btf_view.height()) + ", expected " + std::to_string(w) + "x" +
-                std::to_string(h * lights.size()) + " with 3 channels");
+    throw core::Error("ambient term: BTF view " + std::to_string(view) + " image is " +
+                      std::to_string(btf_view.width()) + "x" + std::to_string(btf_view.height()) + ", expected " +
+                      std::to_string(w) + "x" + std::to_string(h * lights.size()) + " with 3 channels");
   }
   float* out = ambient->values.pixel(0, view * h);
   for (int l = 0; l < lights.size(); ++l) {

@@ -22,7 +22,8 @@ formats::AmbientTerm MakeAmbientTerm(int width, int height, const core::Sampling
 // Adds view `view`'s contribution from its full-BTF view image (3 channels,
 // W x H * Nlight), so a large BTF can be integrated view by view as it is
 // read or assembled. Throws Error on a size mismatch or a view out of range.
-void AddAmbientView(const core::Image& btf_view, const core::SamplingSet& lights, int view, formats::AmbientTerm* ambient);
+void AddAmbientView(const core::Image& btf_view, const core::SamplingSet& lights, int view,
+                    formats::AmbientTerm* ambient);
 
 // La of a whole BTF in memory.
 formats::AmbientTerm ComputeAmbientTerm(const core::FullBtf& btf);

@@ -40,9 +40,9 @@ int MatchDirection(const core::SamplingSet& set, const Eigen::Vector3d& d, const
   const int i = set.Nearest(d);
   const double offset = OffsetDeg(set, i, d);
   if (offset > tolerance_deg) {
-    throw core::Error(image.file.string() + ": its " + what + " direction " + Degrees(core::AnglesFromDirection(d)) + " is " +
-                std::to_string(offset) + " deg from the nearest of the set '" + set.name() +
-                "' (at most " + std::to_string(tolerance_deg) + " deg" + hint + ")");
+    throw core::Error(image.file.string() + ": its " + what + " direction " + Degrees(core::AnglesFromDirection(d)) +
+                      " is " + std::to_string(offset) + " deg from the nearest of the set '" + set.name() +
+                      "' (at most " + std::to_string(tolerance_deg) + " deg" + hint + ")");
   }
   *offset_deg = std::max(*offset_deg, offset);
   return i;
@@ -101,12 +101,14 @@ struct CapturedView {
 };
 
 Eigen::Vector3d LampInWorld(const formats::Calibration& calibration, const BtfCaptureImage& image) {
-  return calibration::LightArcPointToWorld(calibration.light_arc, image.arc_rad, calibration.lamps[image.lamp].position_mm);
+  return calibration::LightArcPointToWorld(calibration.light_arc, image.arc_rad,
+                                           calibration.lamps[image.lamp].position_mm);
 }
 
 // T = L / E per texel (header: radiometry) of one rectified image.
-core::Image RadiometricTexture(const core::Image& rectified, const BtfCaptureImage& image, const formats::Calibration& calibration,
-                         const core::RigidTransform& world_from_sample, const BtfAssemblyOptions& o) {
+core::Image RadiometricTexture(const core::Image& rectified, const BtfCaptureImage& image,
+                               const formats::Calibration& calibration, const core::RigidTransform& world_from_sample,
+                               const BtfAssemblyOptions& o) {
   const calibration::TexelGrid grid = o.texels;
   const int w = grid.width, h = grid.height;
   const Eigen::Vector3d normal = world_from_sample.rotation.col(2);
@@ -197,7 +199,8 @@ void AssembleOnGrid(const std::vector<BtfCaptureImage>& images, const formats::C
   std::mutex report_mutex;
   tbb::parallel_for(0, o.views.size(), [&](int v) {
     const int cam = view_camera[v];
-    const core::RigidTransform world_from_sample = calibration::WorldFromSample(calibration.turntable, view_turntable[v]);
+    const core::RigidTransform world_from_sample =
+        calibration::WorldFromSample(calibration.turntable, view_turntable[v]);
     const ReferencePlaneRectifier rectifier(calibration.cameras[cam], camera_rays[cam], world_from_sample, o.texels,
                                             o.max_samples_per_side);
     core::Image out(w, h * o.lights.size(), 3);
@@ -278,7 +281,8 @@ void AssembleResampled(const std::vector<BtfCaptureImage>& images, const formats
   std::mutex report_mutex;
   tbb::parallel_for(0, static_cast<int>(captured.size()), [&](int c) {
     const CapturedView& view = captured[c];
-    const core::RigidTransform world_from_sample = calibration::WorldFromSample(calibration.turntable, view.turntable_rad);
+    const core::RigidTransform world_from_sample =
+        calibration::WorldFromSample(calibration.turntable, view.turntable_rad);
     const ReferencePlaneRectifier rectifier(calibration.cameras[view.camera], camera_rays[view.camera],
                                             world_from_sample, o.texels, o.max_samples_per_side);
     std::vector<Eigen::Vector3d> light_centres;
@@ -377,11 +381,13 @@ void AssembleBtfViews(const std::vector<BtfCaptureImage>& images, const formats:
         image.lamp >= static_cast<int>(calibration.lamps.size())) {
       throw core::Error(image.file.string() + ": camera or lamp index outside the calibration");
     }
-    const core::RigidTransform world_from_sample = calibration::WorldFromSample(calibration.turntable, image.turntable_rad);
+    const core::RigidTransform world_from_sample =
+        calibration::WorldFromSample(calibration.turntable, image.turntable_rad);
     const Eigen::Matrix3d to_sample = world_from_sample.rotation.transpose();
     const Eigen::Vector3d origin = world_from_sample.translation;
     const Eigen::Vector3d camera_centre = calibration.cameras[image.camera].pose.transform.translation;
-    directions.push_back({to_sample * (camera_centre - origin), to_sample * (LampInWorld(calibration, image) - origin)});
+    directions.push_back(
+        {to_sample * (camera_centre - origin), to_sample * (LampInWorld(calibration, image) - origin)});
   }
   if (o.resample) {
     AssembleResampled(images, calibration, o, directions, sink, &r);
@@ -417,8 +423,9 @@ core::FullBtf AssembleBtf(const std::vector<BtfCaptureImage>& images, const form
   return btf;
 }
 
-std::vector<BtfCaptureImage> SessionBtfImages(const std::filesystem::path& session, const formats::SessionManifest& manifest,
-                                           const formats::Calibration& calibration) {
+std::vector<BtfCaptureImage> SessionBtfImages(const std::filesystem::path& session,
+                                              const formats::SessionManifest& manifest,
+                                              const formats::Calibration& calibration) {
   const std::filesystem::path manifest_file = session / formats::kSessionManifestName;
   std::map<std::string, int> camera_index;
   for (int c = 0; c < static_cast<int>(calibration.cameras.size()); ++c) camera_index[calibration.cameras[c].id] = c;

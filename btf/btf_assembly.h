@@ -100,7 +100,8 @@ struct BtfAssemblyReport {
 // angle and lamp (turntable_deg, arc_deg, lamp), one file per camera
 // ({camera: id, path}). Cameras are matched to the calibration by id; throws
 // FormatError naming the manifest and the step for a bad step.
-std::vector<BtfCaptureImage> SessionBtfImages(const std::filesystem::path& session, const formats::SessionManifest& manifest,
+std::vector<BtfCaptureImage> SessionBtfImages(const std::filesystem::path& session,
+                                              const formats::SessionManifest& manifest,
                                               const formats::Calibration& calibration);
 
 // Receives each assembled view image of the BTF (3 channels, W x H * Nlight,

@@ -317,7 +317,8 @@ struct FactorsFromSvd {
     if (tall) {
       for (int ch = 0; ch < 3; ++ch)
         for (int j = 0; j < usable[ch]; ++j)
-          for (long long c = 0; c < n; ++c) out.columns.pixel(static_cast<int>(c), j)[ch] = static_cast<float>(right[ch](c, j));
+          for (long long c = 0; c < n; ++c)
+            out.columns.pixel(static_cast<int>(c), j)[ch] = static_cast<float>(right[ch](c, j));
       // r_k = A v_k, from the data (see the header).
       ForEachProduct(s, weights, right, [&](int ch, long long first, const MatrixXd& rv) {
         for (int j = 0; j < usable[ch]; ++j) {
@@ -359,7 +360,8 @@ core::CheckResult BtfCompressionOptions::Check() const {
   return {};
 }
 
-core::FactoredBtf CompressBtf(core::FullBtfReader& btf, const BtfCompressionOptions& options, BtfCompressionReport* report) {
+core::FactoredBtf CompressBtf(core::FullBtfReader& btf, const BtfCompressionOptions& options,
+                              BtfCompressionReport* report) {
   const auto start = std::chrono::steady_clock::now();
   if (const auto problem = options.Check(); !problem.empty()) throw core::Error("compress: " + problem);
 
@@ -416,7 +418,8 @@ core::FactoredBtf CompressBtf(core::FullBtfReader& btf, const BtfCompressionOpti
   return out;
 }
 
-core::FactoredBtf CompressBtf(const core::FullBtf& btf, const BtfCompressionOptions& options, BtfCompressionReport* report) {
+core::FactoredBtf CompressBtf(const core::FullBtf& btf, const BtfCompressionOptions& options,
+                              BtfCompressionReport* report) {
   core::InMemoryFullBtfReader reader(btf);
   return CompressBtf(reader, options, report);
 }
@@ -426,7 +429,8 @@ nlohmann::json ToJson(const BtfCompressionReport& report, const core::FactoredBt
   nlohmann::json spectrum = nlohmann::json::object();
   for (int ch = 0; ch < 3; ++ch) {
     const Eigen::VectorXd& s = report.singular_values[ch];
-    spectrum[names[factored.color == core::BtfFactorColor::kYCbCr][ch]] = std::vector<double>(s.data(), s.data() + s.size());
+    spectrum[names[factored.color == core::BtfFactorColor::kYCbCr][ch]] =
+        std::vector<double>(s.data(), s.data() + s.size());
   }
   return {{"layout", ToString(factored.layout)},
           {"color", ToString(factored.color)},
@@ -442,7 +446,8 @@ nlohmann::json ToJson(const BtfCompressionReport& report, const core::FactoredBt
 
 core::Image ReconstructBtfView(const core::FactoredBtf& f, int view) {
   f.CheckShape();
-  if (view < 0 || view >= f.view_count()) throw core::Error("factored BTF: view " + std::to_string(view) + " out of range");
+  if (view < 0 || view >= f.view_count())
+    throw core::Error("factored BTF: view " + std::to_string(view) + " out of range");
   Eigen::Matrix3d to_rgb = Eigen::Matrix3d::Identity();
   if (f.color == core::BtfFactorColor::kYCbCr) to_rgb = f.rgb_to_factored.inverse();
   const int nl = f.light_count();

@@ -24,7 +24,8 @@ BtfErrorAccumulator::BtfErrorAccumulator(core::SamplingSet views, double band_de
 }
 
 void BtfErrorAccumulator::Add(int view, const core::Image& truth, const core::Image& estimate) {
-  if (view < 0 || view >= views_.size()) throw core::Error("BTF evaluation: view " + std::to_string(view) + " out of range");
+  if (view < 0 || view >= views_.size())
+    throw core::Error("BTF evaluation: view " + std::to_string(view) + " out of range");
   if (truth.width() != estimate.width() || truth.height() != estimate.height() ||
       truth.channels() != estimate.channels()) {
     throw core::Error("BTF evaluation: view " + std::to_string(view) + " images differ in size");
@@ -32,7 +33,8 @@ void BtfErrorAccumulator::Add(int view, const core::Image& truth, const core::Im
   Sums& s = per_view_[view];
   for (std::size_t i = 0; i < truth.size(); ++i) {
     const double t = truth.data()[i], e = estimate.data()[i];
-    if (!std::isfinite(e)) throw core::Error("BTF evaluation: the estimate's view " + std::to_string(view) + " is not finite");
+    if (!std::isfinite(e))
+      throw core::Error("BTF evaluation: the estimate's view " + std::to_string(view) + " is not finite");
     s.error += (t - e) * (t - e);
     s.truth += t * t;
     peak_ = std::max(peak_, std::abs(t));

@@ -20,7 +20,8 @@ std::array<double, 4> CatmullRomWeights(double t) {
 
 }  // namespace
 
-ReferencePlaneRectifier::ReferencePlaneRectifier(const formats::CameraCalibration& camera, const calibration::CameraRays& rays,
+ReferencePlaneRectifier::ReferencePlaneRectifier(const formats::CameraCalibration& camera,
+                                                 const calibration::CameraRays& rays,
                                                  const core::RigidTransform& world_from_sample,
                                                  const calibration::TexelGrid& grid, int max_samples_per_side)
     : width_(grid.width), height_(grid.height), image_width_(camera.width), image_height_(camera.height) {
@@ -38,11 +39,14 @@ ReferencePlaneRectifier::ReferencePlaneRectifier(const formats::CameraCalibratio
     for (int i = 0; i < width_; ++i) {
       const Eigen::Vector3d p = grid.TexelCentre(i, j);
       // Footprint: the images of the texel's edges' midpoints.
-      const Eigen::Vector2d du = project(p + Eigen::Vector3d(dx / 2, 0, 0)) - project(p - Eigen::Vector3d(dx / 2, 0, 0));
-      const Eigen::Vector2d dv = project(p + Eigen::Vector3d(0, dy / 2, 0)) - project(p - Eigen::Vector3d(0, dy / 2, 0));
+      const Eigen::Vector2d du =
+          project(p + Eigen::Vector3d(dx / 2, 0, 0)) - project(p - Eigen::Vector3d(dx / 2, 0, 0));
+      const Eigen::Vector2d dv =
+          project(p + Eigen::Vector3d(0, dy / 2, 0)) - project(p - Eigen::Vector3d(0, dy / 2, 0));
       Eigen::Matrix2d jacobian;
       jacobian << du, dv;
-      min_pixels_per_texel_ = std::min(min_pixels_per_texel_, Eigen::JacobiSVD<Eigen::Matrix2d>(jacobian).singularValues()[1]);
+      min_pixels_per_texel_ =
+          std::min(min_pixels_per_texel_, Eigen::JacobiSVD<Eigen::Matrix2d>(jacobian).singularValues()[1]);
       const double extent = std::max(du.cwiseAbs().maxCoeff(), dv.cwiseAbs().maxCoeff());
       const int n = std::clamp(static_cast<int>(std::ceil(extent - 1e-9)), 1, max_samples_per_side);
       samples_per_side_max_ = std::max(samples_per_side_max_, n);
@@ -87,8 +91,9 @@ ReferencePlaneRectifier::ReferencePlaneRectifier(const formats::CameraCalibratio
 
 core::Image ReferencePlaneRectifier::Rectify(const core::Image& image) const {
   if (image.width() != image_width_ || image.height() != image_height_) {
-    throw core::Error("rectification: image is " + std::to_string(image.width()) + "x" + std::to_string(image.height()) +
-                ", the calibrated camera " + std::to_string(image_width_) + "x" + std::to_string(image_height_));
+    throw core::Error("rectification: image is " + std::to_string(image.width()) + "x" +
+                      std::to_string(image.height()) + ", the calibrated camera " + std::to_string(image_width_) + "x" +
+                      std::to_string(image_height_));
   }
   const int channels = image.channels();
   core::Image out(width_, height_, channels);

@@ -48,7 +48,8 @@ CapturedDirections MakeCapturedDirections(const std::string& what, const std::ve
 // The blend of captures for target t; offset(i) is capture i's actual
 // direction minus its nominal one (at the texel being resampled).
 template <typename Offset>
-core::SamplingSet::Blend ResampleBlend(const core::SamplingSet& nominal, const Eigen::Vector3d& target, const Offset& offset) {
+core::SamplingSet::Blend ResampleBlend(const core::SamplingSet& nominal, const Eigen::Vector3d& target,
+                                       const Offset& offset) {
   const core::SamplingSet::Blend first = nominal.Interpolate(target);
   Eigen::Vector3d shift = Eigen::Vector3d::Zero();
   for (int b = 0; b < first.count; ++b) shift += first.weight[b] * offset(first.index[b]);

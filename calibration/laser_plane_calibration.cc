@@ -11,7 +11,8 @@
 namespace mesocap::calibration {
 
 core::Plane PlaneThroughLines(const ReferenceLine& lower, const ReferenceLine& upper) {
-  if (!lower.valid || !upper.valid) throw core::Error("laser plane calibration: the stripe was not found on both plates");
+  if (!lower.valid || !upper.valid)
+    throw core::Error("laser plane calibration: the stripe was not found on both plates");
   if (std::abs(upper.height - lower.height) < 1.0) {
     throw core::Error("laser plane calibration: plate heights must differ by at least 1 mm");
   }
@@ -32,9 +33,9 @@ core::Plane PlaneThroughLines(const ReferenceLine& lower, const ReferenceLine& u
 
 double AngleToReferencePlane(const core::Plane& plane) { return std::acos(std::min(1.0, std::abs(plane.normal.z()))); }
 
-core::Plane CalibrateLaserPlane(const core::Image& lower, double lower_height_mm, const core::Image& upper, double upper_height_mm,
-                          const CameraRays& rays, const Eigen::Vector2d& scan_direction, double outer_mm,
-                          const LaserLineOptions& options, const std::string& what) {
+core::Plane CalibrateLaserPlane(const core::Image& lower, double lower_height_mm, const core::Image& upper,
+                                double upper_height_mm, const CameraRays& rays, const Eigen::Vector2d& scan_direction,
+                                double outer_mm, const LaserLineOptions& options, const std::string& what) {
   auto detect = [&](const core::Image& frame, double height) {
     PixelMask plate(static_cast<std::size_t>(rays.width()) * rays.height(), 0);
     for (int y = 0; y < rays.height(); ++y) {

@@ -29,8 +29,8 @@ double AngleToReferencePlane(const core::Plane& plane);
 // stripe on flat plates at two heights (Sec. 3.2); the stripe is searched on
 // the whole plate within outer_mm of the turntable axis. Throws Error when
 // the stripe is not found in either frame (naming `what`).
-core::Plane CalibrateLaserPlane(const core::Image& lower, double lower_height_mm, const core::Image& upper, double upper_height_mm,
-                          const CameraRays& rays, const Eigen::Vector2d& scan_direction, double outer_mm,
-                          const LaserLineOptions& options, const std::string& what);
+core::Plane CalibrateLaserPlane(const core::Image& lower, double lower_height_mm, const core::Image& upper,
+                                double upper_height_mm, const CameraRays& rays, const Eigen::Vector2d& scan_direction,
+                                double outer_mm, const LaserLineOptions& options, const std::string& what);
 
 }  // namespace mesocap::calibration

@@ -29,7 +29,8 @@ Eigen::Vector3d LaserTiltAxis(const formats::LaserLocation& location) {
   return Eigen::AngleAxisd(location.arc_angle_rad, Eigen::Vector3d::UnitZ()) * Eigen::Vector3d::UnitY();
 }
 
-Eigen::Vector3d LaserPlaneNormalAtZeroTilt(const formats::LaserDescription& laser, const formats::LaserLocation& location) {
+Eigen::Vector3d LaserPlaneNormalAtZeroTilt(const formats::LaserDescription& laser,
+                                           const formats::LaserLocation& location) {
   return LaserTiltAxis(location).cross(-LaserSource(laser, location)).normalized();
 }
 

@@ -26,7 +26,8 @@ Eigen::Vector3d LaserSource(const formats::LaserDescription& laser, const format
 Eigen::Vector3d LaserTiltAxis(const formats::LaserLocation& location);
 // The unit normal of the location's laser plane at tilt 0, which holds the
 // tilt axis and passes through the source and the turntable centre.
-Eigen::Vector3d LaserPlaneNormalAtZeroTilt(const formats::LaserDescription& laser, const formats::LaserLocation& location);
+Eigen::Vector3d LaserPlaneNormalAtZeroTilt(const formats::LaserDescription& laser,
+                                           const formats::LaserLocation& location);
 // Tilt 0 aims the laser plane at the origin; a positive tilt moves the stripe
 // on the turntable plane away from the laser by `offset_mm`.
 double LaserTiltForOffset(const formats::LaserDescription& laser, int mount, double offset_mm);

@@ -19,12 +19,14 @@ core::RigidTransform WorldFromSample(const formats::TurntableCalibration& turnta
   return turn.Compose(pose);
 }
 
-Eigen::Vector3d LightArcPointToWorld(const formats::LightArcCalibration& arc, double angle_rad, const Eigen::Vector3d& p) {
+Eigen::Vector3d LightArcPointToWorld(const formats::LightArcCalibration& arc, double angle_rad,
+                                     const Eigen::Vector3d& p) {
   const Eigen::AngleAxisd turn(angle_rad, arc.axis_direction.normalized());
   return arc.axis_point_mm + turn * (p - arc.axis_point_mm);
 }
 
-Eigen::Vector3d LightArcDirectionToWorld(const formats::LightArcCalibration& arc, double angle_rad, const Eigen::Vector3d& d) {
+Eigen::Vector3d LightArcDirectionToWorld(const formats::LightArcCalibration& arc, double angle_rad,
+                                         const Eigen::Vector3d& d) {
   return Eigen::AngleAxisd(angle_rad, arc.axis_direction.normalized()) * d;
 }
 

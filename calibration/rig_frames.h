@@ -14,8 +14,10 @@ namespace mesocap::calibration {
 // the rotation about the calibrated turntable axis.
 core::RigidTransform WorldFromSample(const formats::TurntableCalibration& turntable, double angle_rad);
 // A light-arc-frame point or direction in the world with the arc at angle_rad.
-Eigen::Vector3d LightArcPointToWorld(const formats::LightArcCalibration& arc, double angle_rad, const Eigen::Vector3d& p);
-Eigen::Vector3d LightArcDirectionToWorld(const formats::LightArcCalibration& arc, double angle_rad, const Eigen::Vector3d& d);
+Eigen::Vector3d LightArcPointToWorld(const formats::LightArcCalibration& arc, double angle_rad,
+                                     const Eigen::Vector3d& p);
+Eigen::Vector3d LightArcDirectionToWorld(const formats::LightArcCalibration& arc, double angle_rad,
+                                         const Eigen::Vector3d& d);
 
 // A laser mount at a light-arc angle and emitter tilt, in the world frame
 // (core/calibration.h: the tilt turns the plane's normal about tilt_axis).

@@ -20,7 +20,8 @@ Plane PlaneFromJson(const nlohmann::json& value, const std::filesystem::path& fi
     plane.normal = Eigen::Vector3d(n[0].get<double>(), n[1].get<double>(), n[2].get<double>());
     plane.offset = value.at("offset_mm").get<double>();
   } catch (const std::exception& e) {
-    throw FormatError(file, field, std::string("expected null or {\"normal\": [3 numbers], \"offset_mm\": number}: ") + e.what());
+    throw FormatError(file, field,
+                      std::string("expected null or {\"normal\": [3 numbers], \"offset_mm\": number}: ") + e.what());
   }
   if (!plane.valid() || std::abs(plane.normal.norm() - 1) > 1e-6) {
     throw FormatError(file, field + ".normal", "a finite unit vector");

@@ -24,10 +24,16 @@ RigBackend& Find(const std::map<std::string, RigBackend*>& backends, const std::
 }  // namespace
 
 std::unique_ptr<Camera> RigBackend::MakeCamera(const formats::RigDescription&, int) { CannotMake(*this, "cameras"); }
-std::unique_ptr<RotaryStage> RigBackend::MakeTurntable(const formats::RigDescription&) { CannotMake(*this, "turntable"); }
-std::unique_ptr<RotaryStage> RigBackend::MakeLightArc(const formats::RigDescription&) { CannotMake(*this, "light arc"); }
+std::unique_ptr<RotaryStage> RigBackend::MakeTurntable(const formats::RigDescription&) {
+  CannotMake(*this, "turntable");
+}
+std::unique_ptr<RotaryStage> RigBackend::MakeLightArc(const formats::RigDescription&) {
+  CannotMake(*this, "light arc");
+}
 std::unique_ptr<LampBank> RigBackend::MakeLampBank(const formats::RigDescription&) { CannotMake(*this, "lamps"); }
-std::unique_ptr<LaserUnit> RigBackend::MakeLaserUnit(const formats::RigDescription&) { CannotMake(*this, "laser unit"); }
+std::unique_ptr<LaserUnit> RigBackend::MakeLaserUnit(const formats::RigDescription&) {
+  CannotMake(*this, "laser unit");
+}
 
 Rig BuildRig(const formats::RigDescription& d, const std::map<std::string, RigBackend*>& backends) {
   Rig rig;

@@ -51,10 +51,11 @@ FrameSequenceWriter::FrameSequenceWriter(fs::path file, int width, int height, i
                                          core::PixelEncoding encoding)
     : file_(std::move(file)), atomic_(file_) {
   if (!IsTiff(file_)) throw core::Error(file_.string() + ": a frame sequence is a .tif or .tiff file");
-  if (encoding == core::PixelEncoding::kHalf) throw core::Error(file_.string() + ": TIFF frame sequences cannot store half");
+  if (encoding == core::PixelEncoding::kHalf)
+    throw core::Error(file_.string() + ": TIFF frame sequences cannot store half");
   if (width <= 0 || height <= 0 || channels < 1 || channels > 4) {
-    throw core::Error(file_.string() + ": bad frame size " + std::to_string(width) + "x" + std::to_string(height) + "x" +
-                std::to_string(channels));
+    throw core::Error(file_.string() + ": bad frame size " + std::to_string(width) + "x" + std::to_string(height) +
+                      "x" + std::to_string(channels));
   }
   header_ = {width, height, channels, encoding, 0};
   output_ = std::make_unique<Output>();
@@ -77,16 +78,17 @@ FrameSequenceWriter::~FrameSequenceWriter() {
 void FrameSequenceWriter::Append(const core::Image& frame) {
   if (committed_) throw core::Error(file_.string() + ": frame sequence already committed");
   if (frame.width() != header_.width || frame.height() != header_.height || frame.channels() != header_.channels) {
-    throw core::Error(file_.string() + ": frame " + std::to_string(frame_count_) + " is " + std::to_string(frame.width()) +
-                "x" + std::to_string(frame.height()) + "x" + std::to_string(frame.channels()) +
-                ", the sequence is " + std::to_string(header_.width) + "x" + std::to_string(header_.height) + "x" +
-                std::to_string(header_.channels));
+    throw core::Error(file_.string() + ": frame " + std::to_string(frame_count_) + " is " +
+                      std::to_string(frame.width()) + "x" + std::to_string(frame.height()) + "x" +
+                      std::to_string(frame.channels()) + ", the sequence is " + std::to_string(header_.width) + "x" +
+                      std::to_string(header_.height) + "x" + std::to_string(header_.channels));
   }
   auto& out = *output_->out;
   const auto mode = frame_count_ == 0 ? OIIO::ImageOutput::Create : OIIO::ImageOutput::AppendSubimage;
   if (!out.open(atomic_.temp_path().string(), output_->spec, mode) ||
       !out.write_image(OIIO::TypeDesc::FLOAT, frame.data())) {
-    throw core::Error(file_.string() + ": writing frame " + std::to_string(frame_count_) + " failed: " + out.geterror());
+    throw core::Error(file_.string() + ": writing frame " + std::to_string(frame_count_) +
+                      " failed: " + out.geterror());
   }
   ++frame_count_;
   header_.frame_count = frame_count_;
@@ -134,8 +136,8 @@ FrameSequenceReader::FrameSequenceReader(fs::path file, int max_frames, std::siz
       } else if (spec.format == OIIO::TypeDesc::FLOAT) {
         header_.encoding = core::PixelEncoding::kFloat32;
       } else {
-        throw core::FormatError(file_, FrameField(f, "pixel type"), std::string("expected uint8, uint16 or float, got ") +
-                                                                   spec.format.c_str());
+        throw core::FormatError(file_, FrameField(f, "pixel type"),
+                                std::string("expected uint8, uint16 or float, got ") + spec.format.c_str());
       }
       header_.width = spec.width;
       header_.height = spec.height;
@@ -147,7 +149,8 @@ FrameSequenceReader::FrameSequenceReader(fs::path file, int max_frames, std::siz
       }
     } else {
       if (spec.width != header_.width) throw core::FormatError(file_, FrameField(f, "width"), "differs from frame 0");
-      if (spec.height != header_.height) throw core::FormatError(file_, FrameField(f, "height"), "differs from frame 0");
+      if (spec.height != header_.height)
+        throw core::FormatError(file_, FrameField(f, "height"), "differs from frame 0");
       if (spec.nchannels != header_.channels) {
         throw core::FormatError(file_, FrameField(f, "channels"), "differs from frame 0");
       }
@@ -173,7 +176,8 @@ bool FrameSequenceReader::Next(core::Image* frame) {
   if (next_ >= header_.frame_count) return false;
   auto& in = *input_->in;
   core::Image image(header_.width, header_.height, header_.channels);
-  if (!in.seek_subimage(next_, 0) || !in.read_image(next_, 0, 0, header_.channels, OIIO::TypeDesc::FLOAT, image.data()) || in.has_error()) {
+  if (!in.seek_subimage(next_, 0) ||
+      !in.read_image(next_, 0, 0, header_.channels, OIIO::TypeDesc::FLOAT, image.data()) || in.has_error()) {
     std::string why = in.geterror();
     if (why.empty()) why = "read failed";
     throw core::FormatError(file_, FrameField(next_, "pixels"), "cannot read (truncated or corrupt?): " + why);

@@ -93,7 +93,8 @@ RigDescription ParseRigDescription(const nlohmann::json& json, const std::filesy
   std::set<std::string> ids;
   for (const auto& c : root.Objects("cameras", kMaxDevices)) {
     rig.cameras.push_back(ParseCamera(c));
-    if (!ids.insert(rig.cameras.back().id).second) c.Fail("id", "duplicate camera id \"" + rig.cameras.back().id + "\"");
+    if (!ids.insert(rig.cameras.back().id).second)
+      c.Fail("id", "duplicate camera id \"" + rig.cameras.back().id + "\"");
   }
   if (rig.cameras.empty()) root.Fail("cameras", "expected at least one camera");
   rig.turntable = ParseStage(root.Object("turntable"));

@@ -48,8 +48,8 @@ void WriteSweepAnalysis(const std::filesystem::path& file, const SweepAnalysis& 
 SweepAnalysis ReadSweepAnalysis(const std::filesystem::path& file) {
   const nlohmann::json doc = core::ReadJsonFile(file, 64ull << 20);
   auto integer = [&](const char* field, int max) {
-    if (!doc.is_object() || !doc.contains(field) || !doc[field].is_number_integer() || doc[field].get<long long>() < 1 ||
-        doc[field].get<long long>() > max) {
+    if (!doc.is_object() || !doc.contains(field) || !doc[field].is_number_integer() ||
+        doc[field].get<long long>() < 1 || doc[field].get<long long>() > max) {
       throw core::FormatError(file, field, "an integer in 1.." + std::to_string(max));
     }
     return doc[field].get<int>();

@@ -327,7 +327,8 @@ DisplacementImage ResampleToTexture(const SweepPoints& points, int pixel_width, 
   if (points.first.size() != n || (!points.second.empty() && points.second.size() != n)) {
     throw core::Error("displacement image: point count does not match the image size");
   }
-  if (!(view.z() > 1e-6)) throw core::Error("displacement image: the view direction must point above the reference plane");
+  if (!(view.z() > 1e-6))
+    throw core::Error("displacement image: the view direction must point above the reference plane");
   DisplacementImage out;
   out.width = grid.width;
   out.height = grid.height;

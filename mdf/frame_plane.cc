@@ -5,8 +5,8 @@
 
 namespace mesocap::mdf {
 
-core::Plane FramePlane(const calibration::ReferenceLine& line, const core::Plane& calibrated, const Eigen::Vector3d& tilt_axis,
-                 double delta_tilt_rad) {
+core::Plane FramePlane(const calibration::ReferenceLine& line, const core::Plane& calibrated,
+                       const Eigen::Vector3d& tilt_axis, double delta_tilt_rad) {
   core::Plane plane;
   if (!line.valid || !calibrated.valid()) return plane;
   plane.normal = Eigen::AngleAxisd(delta_tilt_rad, tilt_axis.normalized()) * calibrated.normal;

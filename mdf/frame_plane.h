@@ -17,8 +17,8 @@ namespace mesocap::mdf {
 // the paper's "all laser planes in one scan are parallel"; the commanded
 // tilt removes that approximation's error (~d tan(tilt) at depth d).
 // Invalid when the line is.
-core::Plane FramePlane(const calibration::ReferenceLine& line, const core::Plane& calibrated, const Eigen::Vector3d& tilt_axis,
-                 double delta_tilt_rad);
+core::Plane FramePlane(const calibration::ReferenceLine& line, const core::Plane& calibrated,
+                       const Eigen::Vector3d& tilt_axis, double delta_tilt_rad);
 
 // The plane at fractional frame time t: normal and offset blended linearly
 // between the nearest valid planes before and after t (adjacent planes

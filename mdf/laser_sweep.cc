@@ -8,8 +8,9 @@
 
 namespace mesocap::mdf {
 
-calibration::PixelMask ReferenceRegion(const calibration::CameraRays& rays, const core::RigidTransform& world_from_sample, double sample_size_mm,
-                          double margin_mm, double outer_mm) {
+calibration::PixelMask ReferenceRegion(const calibration::CameraRays& rays,
+                                       const core::RigidTransform& world_from_sample, double sample_size_mm,
+                                       double margin_mm, double outer_mm) {
   calibration::PixelMask mask(static_cast<std::size_t>(rays.width()) * rays.height(), 0);
   const core::RigidTransform sample_from_world = world_from_sample.Inverse();
   const double half = 0.5 * sample_size_mm + margin_mm;
@@ -45,7 +46,8 @@ LaserSweepProcessor::LaserSweepProcessor(const calibration::CameraRays& rays, Sw
 
 void LaserSweepProcessor::AddFrame(int index, const core::Image& frame) {
   analyzer_.AddFrame(index, frame);  // validates size and order first
-  lines_[index] = calibration::DetectLaserLine(frame, geometry_.reference_region, rays_, 0.0, scan_direction_, line_options_);
+  lines_[index] =
+      calibration::DetectLaserLine(frame, geometry_.reference_region, rays_, 0.0, scan_direction_, line_options_);
 }
 
 formats::SweepAnalysis LaserSweepProcessor::Finish() const {

@@ -21,8 +21,9 @@ namespace mesocap::mdf {
 // The reference region (Sec. 3.2): pixels whose ray meets the turntable
 // plane outside the sample's bounding square grown by margin_mm and within
 // outer_mm of the centre, i.e. that see only the flat turntable.
-calibration::PixelMask ReferenceRegion(const calibration::CameraRays& rays, const core::RigidTransform& world_from_sample, double sample_size_mm,
-                          double margin_mm, double outer_mm);
+calibration::PixelMask ReferenceRegion(const calibration::CameraRays& rays,
+                                       const core::RigidTransform& world_from_sample, double sample_size_mm,
+                                       double margin_mm, double outer_mm);
 
 struct SweepGeometry {
   calibration::PixelMask reference_region;
@@ -36,8 +37,8 @@ class LaserSweepProcessor {
  public:
   // Keeps a reference to `rays`. Throws Error on bad options or a mask or
   // tilt list that does not fit.
-  LaserSweepProcessor(const calibration::CameraRays& rays, SweepGeometry geometry, const calibration::LaserLineOptions& line_options,
-                      const SpaceTimeOptions& space_time_options);
+  LaserSweepProcessor(const calibration::CameraRays& rays, SweepGeometry geometry,
+                      const calibration::LaserLineOptions& line_options, const SpaceTimeOptions& space_time_options);
 
   // Frame `index` (1 channel); skipped indices are dropped frames.
   void AddFrame(int index, const core::Image& frame);

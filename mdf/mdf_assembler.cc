@@ -4,7 +4,8 @@
 
 namespace mesocap::mdf {
 
-MdfAssembler::MdfAssembler(calibration::TexelGrid grid, core::SamplingSet views, TriangulationOptions triangulation, MergeOptions merge)
+MdfAssembler::MdfAssembler(calibration::TexelGrid grid, core::SamplingSet views, TriangulationOptions triangulation,
+                           MergeOptions merge)
     : grid_(grid), views_(std::move(views)), triangulation_(triangulation), merge_(merge) {
   for (const auto& problem : {grid_.Check(), triangulation_.Check(), merge_.Check()}) {
     if (!problem.empty()) throw core::Error("MDF assembly: " + problem);
@@ -16,7 +17,8 @@ MdfAssembler::MdfAssembler(calibration::TexelGrid grid, core::SamplingSet views,
 
 void MdfAssembler::AddSweep(int view, const formats::SweepAnalysis& analysis, const calibration::CameraRays& rays,
                             const core::RigidTransform& world_from_sample, double weight) {
-  if (view < 0 || view >= views_.size()) throw core::Error("MDF assembly: view " + std::to_string(view) + " out of range");
+  if (view < 0 || view >= views_.size())
+    throw core::Error("MDF assembly: view " + std::to_string(view) + " out of range");
   const SweepPoints points = TriangulateSweep(analysis, rays, world_from_sample, triangulation_);
   AddDisplacementImage(view,
                        ResampleToTexture(points, analysis.width, analysis.height, views_.direction(view), grid_,
@@ -25,7 +27,8 @@ void MdfAssembler::AddSweep(int view, const formats::SweepAnalysis& analysis, co
 }
 
 void MdfAssembler::AddDisplacementImage(int view, DisplacementImage image, double weight) {
-  if (view < 0 || view >= views_.size()) throw core::Error("MDF assembly: view " + std::to_string(view) + " out of range");
+  if (view < 0 || view >= views_.size())
+    throw core::Error("MDF assembly: view " + std::to_string(view) + " out of range");
   if (image.width != grid_.width || image.height != grid_.height) {
     throw core::Error("MDF assembly: displacement image size differs from the texture grid");
   }

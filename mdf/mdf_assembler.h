@@ -22,7 +22,8 @@ namespace mesocap::mdf {
 class MdfAssembler {
  public:
   // Throws Error on bad options or an empty view set.
-  MdfAssembler(calibration::TexelGrid grid, core::SamplingSet views, TriangulationOptions triangulation, MergeOptions merge);
+  MdfAssembler(calibration::TexelGrid grid, core::SamplingSet views, TriangulationOptions triangulation,
+               MergeOptions merge);
 
   // One sweep seen in `view` (an index into the view set) with scan weight
   // `weight` (> 0, ScanWeight). Sweeps may come in any order.

@@ -38,7 +38,8 @@ void CheckComparable(const core::Mdf& truth, const core::Mdf& estimate) {
 
 }  // namespace
 
-MdfErrorRow EvaluateMdfViews(const core::Mdf& truth, const core::Mdf& estimate, double texel_mm, const MdfEvaluationScope& scope) {
+MdfErrorRow EvaluateMdfViews(const core::Mdf& truth, const core::Mdf& estimate, double texel_mm,
+                             const MdfEvaluationScope& scope) {
   CheckComparable(truth, estimate);
   const double theta_min_deg = scope.theta_min_deg, theta_max_deg = scope.theta_max_deg;
   const double half_x = 0.5 * texel_mm * truth.width, half_y = 0.5 * texel_mm * truth.height;
@@ -55,8 +56,9 @@ MdfErrorRow EvaluateMdfViews(const core::Mdf& truth, const core::Mdf& estimate, 
         const float t = truth.at(i, j, v), e = estimate.at(i, j, v);
         if (core::IsUnknown(t)) continue;
         if (scope.inside_sample_only && std::isfinite(t)) {
-          const Eigen::Vector3d hit = Eigen::Vector3d(-half_x + (i + 0.5) * texel_mm, -half_y + (j + 0.5) * texel_mm, 0) -
-                                      static_cast<double>(t) * truth.views.direction(v);
+          const Eigen::Vector3d hit =
+              Eigen::Vector3d(-half_x + (i + 0.5) * texel_mm, -half_y + (j + 0.5) * texel_mm, 0) -
+              static_cast<double>(t) * truth.views.direction(v);
           if (std::abs(hit.x()) > half_x || std::abs(hit.y()) > half_y) continue;
         }
         if (core::IsNoHit(t)) {

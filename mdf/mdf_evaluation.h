@@ -45,9 +45,11 @@ struct MdfEvaluationScope {
   bool inside_sample_only = false;
 };
 
-MdfErrorRow EvaluateMdfViews(const core::Mdf& truth, const core::Mdf& estimate, double texel_mm, const MdfEvaluationScope& scope);
+MdfErrorRow EvaluateMdfViews(const core::Mdf& truth, const core::Mdf& estimate, double texel_mm,
+                             const MdfEvaluationScope& scope);
 // Throws Error when the two differ in texel grid or view directions (to 1e-6 rad).
-MdfErrorTable EvaluateMdf(const core::Mdf& truth, const core::Mdf& estimate, double texel_mm, bool inside_sample_only = false);
+MdfErrorTable EvaluateMdf(const core::Mdf& truth, const core::Mdf& estimate, double texel_mm,
+                          bool inside_sample_only = false);
 
 // {"overall": {...}, "by_polar_angle": [{...}, ...]}, NaN as null.
 nlohmann::json ToJson(const MdfErrorTable& table);

@@ -23,8 +23,8 @@ namespace fs = std::filesystem;
 
 // A sweep stored as frames: streamed through line detection and the
 // space-time analysis.
-formats::SweepAnalysis AnalyseFrames(const fs::path& file, const calibration::CameraRays& rays, const SweepGeometry& geometry,
-                            const MdfProcessingOptions& options) {
+formats::SweepAnalysis AnalyseFrames(const fs::path& file, const calibration::CameraRays& rays,
+                                     const SweepGeometry& geometry, const MdfProcessingOptions& options) {
   formats::FrameSequenceReader reader(file);
   const formats::FrameSequenceHeader& header = reader.header();
   if (header.width != rays.width() || header.height != rays.height()) {
@@ -48,8 +48,8 @@ formats::SweepAnalysis AnalyseFrames(const fs::path& file, const calibration::Ca
 // A sweep the capture analysed as its frames arrived: peaks under this
 // run's threshold become unknown (a stored analysis keeps every peak above
 // half the capture's threshold).
-formats::SweepAnalysis ReadStoredAnalysis(const fs::path& file, const calibration::CameraRays& rays, std::size_t frame_count,
-                                 const SpaceTimeOptions& space_time) {
+formats::SweepAnalysis ReadStoredAnalysis(const fs::path& file, const calibration::CameraRays& rays,
+                                          std::size_t frame_count, const SpaceTimeOptions& space_time) {
   formats::SweepAnalysis analysis = formats::ReadSweepAnalysis(file);
   if (analysis.width != rays.width() || analysis.height != rays.height()) {
     throw core::FormatError(file, "width, height",
@@ -63,7 +63,8 @@ formats::SweepAnalysis ReadStoredAnalysis(const fs::path& file, const calibratio
                           std::to_string(analysis.frame_count));
   }
   for (std::size_t p = 0; p < analysis.peak_time.size(); ++p) {
-    if (!(analysis.peak_value[p] >= space_time.threshold)) analysis.peak_time[p] = std::numeric_limits<float>::quiet_NaN();
+    if (!(analysis.peak_value[p] >= space_time.threshold))
+      analysis.peak_time[p] = std::numeric_limits<float>::quiet_NaN();
     if (!(analysis.second_value[p] >= space_time.threshold)) {
       analysis.second_time[p] = std::numeric_limits<float>::quiet_NaN();
     }

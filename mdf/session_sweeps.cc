@@ -62,7 +62,8 @@ SessionSweepGeometry::SessionSweepGeometry(formats::RigDescription rig, const fo
     }
     rays_.emplace_back(*match);
   }
-  for (const auto& loc : rig_.laser.locations) calibration::MountInWorld(calibration_, loc.mount, 0.0, 0.0);  // throws if missing
+  for (const auto& loc : rig_.laser.locations)
+    calibration::MountInWorld(calibration_, loc.mount, 0.0, 0.0);  // throws if missing
   for (auto& plate : plates) AddPlate(std::move(plate));
 }
 
@@ -108,7 +109,8 @@ const core::Plane& SessionSweepGeometry::CalibratedPlane(int location, int camer
                       "two laser_calibration steps (two plate heights) for laser location " + std::to_string(location));
   }
   const auto& loc = rig_.laser.locations.at(location);
-  const calibration::LaserMountPose pose = calibration::MountInWorld(calibration_, loc.mount, loc.arc_angle_rad, it->second.tilt_rad);
+  const calibration::LaserMountPose pose =
+      calibration::MountInWorld(calibration_, loc.mount, loc.arc_angle_rad, it->second.tilt_rad);
   core::Image frames[2];
   for (int h = 0; h < 2; ++h) {
     frames[h] = plate_frame_ ? plate_frame_(location, h, camera) : ReadPlateFrame(location, h, camera);

@@ -11,9 +11,10 @@ namespace {
 
 void ExpectSameShape(const core::Image& a, const core::Image& b, bool same_channels = true) {
   if (a.width() != b.width() || a.height() != b.height() || (same_channels && a.channels() != b.channels())) {
-    throw core::Error("image comparison: sizes differ (" + std::to_string(a.width()) + "x" + std::to_string(a.height()) +
-                "x" + std::to_string(a.channels()) + " vs " + std::to_string(b.width()) + "x" +
-                std::to_string(b.height()) + "x" + std::to_string(b.channels()) + ")");
+    throw core::Error("image comparison: sizes differ (" + std::to_string(a.width()) + "x" +
+                      std::to_string(a.height()) + "x" + std::to_string(a.channels()) + " vs " +
+                      std::to_string(b.width()) + "x" + std::to_string(b.height()) + "x" +
+                      std::to_string(b.channels()) + ")");
   }
 }
 

@@ -227,8 +227,9 @@ struct PeelTargets {
     glNamedFramebufferRenderbuffer(front_fbo, GL_DEPTH_STENCIL_ATTACHMENT, GL_RENDERBUFFER, depth_stencil);
     glNamedFramebufferDrawBuffers(front_fbo, 2, two);
     if (glCheckNamedFramebufferStatus(front_fbo, GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
-      throw core::Error("peeling renderer: the OpenGL driver cannot render to float colour with a float depth + stencil "
-                  "buffer (GL_DEPTH32F_STENCIL8)");
+      throw core::Error(
+          "peeling renderer: the OpenGL driver cannot render to float colour with a float depth + stencil "
+          "buffer (GL_DEPTH32F_STENCIL8)");
     }
   }
   void Destroy() {
@@ -279,7 +280,9 @@ struct PeelingRenderer::Impl {
   GLint Uniform(const char* name) const { return glGetUniformLocation(program, name); }
   void Set(const char* name, int v) const { glProgramUniform1i(program, Uniform(name), v); }
   void Set(const char* name, float v) const { glProgramUniform1f(program, Uniform(name), v); }
-  void Set(const char* name, const Eigen::Vector3f& v) const { glProgramUniform3fv(program, Uniform(name), 1, v.data()); }
+  void Set(const char* name, const Eigen::Vector3f& v) const {
+    glProgramUniform3fv(program, Uniform(name), 1, v.data());
+  }
   void Set(const char* name, const Eigen::Matrix4f& m) const {
     glProgramUniformMatrix4fv(program, Uniform(name), 1, GL_FALSE, m.data());
   }

@@ -146,7 +146,8 @@ struct ReferenceRenderer::Impl {
       v.base_tangent = m.tangents[i];
       AddVertex(v);
     }
-    for (const Eigen::Vector3i& t : m.triangles) triangles.push_back({{base + t[0], base + t[1], base + t[2]}, index, -1});
+    for (const Eigen::Vector3i& t : m.triangles)
+      triangles.push_back({{base + t[0], base + t[1], base + t[2]}, index, -1});
   }
 
   // Maps the material's tiles onto the mesh: for each base triangle and
@@ -159,7 +160,8 @@ struct ReferenceRenderer::Impl {
     const int first = static_cast<int>(surface_positions.size());
     surface_positions.insert(surface_positions.end(), m.positions.begin(), m.positions.end());
     surface_normals.insert(surface_normals.end(), m.normals.begin(), m.normals.end());
-    for (const Eigen::Vector3i& t : m.triangles) surface_triangles.push_back({first + t[0], first + t[1], first + t[2]});
+    for (const Eigen::Vector3i& t : m.triangles)
+      surface_triangles.push_back({first + t[0], first + t[1], first + t[2]});
     std::vector<int> stamp(square.triangles.size(), -1);
     int stamp_value = 0;
     for (const Eigen::Vector3i& tri : m.triangles) {
@@ -387,8 +389,8 @@ struct ReferenceRenderer::Impl {
         const RenderMaterial& m = scene->materials[object.material];
         const Eigen::Vector2f cell = w * a.cell + u * b.cell + v * c.cell;
         const double half = m.sample_size_mm / 2;
-        const sim::Reflectance r =
-            sim::ReflectanceAt(*m.geometry, tri.part, cell.x() * m.sample_size_mm - half, cell.y() * m.sample_size_mm - half);
+        const sim::Reflectance r = sim::ReflectanceAt(*m.geometry, tri.part, cell.x() * m.sample_size_mm - half,
+                                                      cell.y() * m.sample_size_mm - half);
         radiance = r.Evaluate(n.cast<double>(), wi.cast<double>(), wo.cast<double>()) * cos_true * irradiance;
       }
     }

@@ -19,11 +19,13 @@ RenderMaterial LoadRenderMaterial(const std::filesystem::path& package) {
                                         : "the renderer needs the SVD-factored BTF; the package has none");
   }
   if (!manifest.mdf) throw core::FormatError(file, "mdf", "the renderer needs the MDF; the package has none");
-  if (!manifest.ambient) throw core::FormatError(file, "ambient", "the renderer needs the ambient term; the package has none");
+  if (!manifest.ambient)
+    throw core::FormatError(file, "ambient", "the renderer needs the ambient term; the package has none");
   const Eigen::Vector2d size = manifest.description.physical_size_mm;
   if (std::abs(size.x() - size.y()) > 1e-6 * size.x()) {
-    throw core::FormatError(file, "physical_size_mm", "the renderer maps square samples onto meshes; got " +
-                                                    std::to_string(size.x()) + " x " + std::to_string(size.y()) + " mm");
+    throw core::FormatError(file, "physical_size_mm",
+                            "the renderer maps square samples onto meshes; got " + std::to_string(size.x()) + " x " +
+                                std::to_string(size.y()) + " mm");
   }
   RenderMaterial material;
   material.name = manifest.description.name;

@@ -239,7 +239,8 @@ RenderMesh LoadObjRenderMesh(const std::filesystem::path& file, double scale, Ei
     Eigen::Vector3i triangle;
     for (int k = 0; k < 3; ++k) {
       const formats::ObjMesh::Corner& c = t[k];
-      if (c.texcoord < 0) throw core::FormatError(file, "f", "every face corner needs a texture coordinate (v/vt or v/vt/vn)");
+      if (c.texcoord < 0)
+        throw core::FormatError(file, "f", "every face corner needs a texture coordinate (v/vt or v/vt/vn)");
       const auto key = std::make_tuple(c.position, c.texcoord, c.normal);
       auto [it, inserted] = vertex_of.try_emplace(key, mesh.vertex_count());
       if (inserted) {

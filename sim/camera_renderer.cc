@@ -249,7 +249,8 @@ std::optional<ViewSample> CameraRenderer::BounceHit(const CameraView& view, cons
   return out;
 }
 
-core::Image CameraRenderer::RenderLamps(const CameraView& view, double arc_rad, const std::vector<bool>& lamps_on) const {
+core::Image CameraRenderer::RenderLamps(const CameraView& view, double arc_rad,
+                                        const std::vector<bool>& lamps_on) const {
   const Eigen::Matrix3d arc = RotationZ(arc_rad);
   struct Lamp {
     Eigen::Vector3d position;

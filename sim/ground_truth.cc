@@ -79,7 +79,8 @@ core::Image RenderTrueBtfView(const MesostructureScene& scene, const GroundTruth
   return out;
 }
 
-void AccumulateAmbientTerm(const core::Image& btf_view, const core::SamplingSet& lights, int view, formats::AmbientTerm* ambient) {
+void AccumulateAmbientTerm(const core::Image& btf_view, const core::SamplingSet& lights, int view,
+                           formats::AmbientTerm* ambient) {
   const int w = ambient->width;
   const int h = ambient->height;
   for (int l = 0; l < lights.size(); ++l) {

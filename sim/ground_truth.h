@@ -47,7 +47,8 @@ core::FullBtf RenderTrueBtf(const MesostructureScene& scene, const GroundTruthOp
 // La(x, y, v) = sum over lights of T(x, y, v, l) cos(theta_l) w_l (the
 // light set's solid-angle weights): the radiance under a uniform sky of unit
 // radiance. Adds one view's contribution from its BTF view image.
-void AccumulateAmbientTerm(const core::Image& btf_view, const core::SamplingSet& lights, int view, formats::AmbientTerm* ambient);
+void AccumulateAmbientTerm(const core::Image& btf_view, const core::SamplingSet& lights, int view,
+                           formats::AmbientTerm* ambient);
 
 // Writes the whole ground-truth material package (MDF in both forms, full
 // BTF, ambient term and, when given, the rig's true calibration) into `out`;

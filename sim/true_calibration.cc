@@ -44,7 +44,8 @@ formats::Calibration TrueCalibration(const formats::RigDescription& rig) {
     out.pose.transform.rotation = LookAtOrigin(centre);
     out.pose.transform.translation = centre;
     // Every simulated camera renders with the same exact gain.
-    out.radiometry = formats::CameraRadiometry{.signal_per_radiance_second = kSignalPerRadianceSecond, .uncertainty = {}};
+    out.radiometry =
+        formats::CameraRadiometry{.signal_per_radiance_second = kSignalPerRadianceSecond, .uncertainty = {}};
     c.cameras.push_back(out);
   }
   c.turntable.sample_pose.transform.parent_frame = "turntable";

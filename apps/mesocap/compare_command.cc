@@ -43,8 +43,8 @@ void WriteRenderImages(const std::filesystem::path& dir, const std::string& name
 void WriteComparisonImages(const std::filesystem::path& dir, const std::string& name, const render::RenderResult& r,
                            const render::ReferenceImage& truth) {
   WriteRenderImages(dir, name, r.color, r.coverage, r.shadow);
-  core::WriteImage(dir / (name + "_coverage_difference.png"), render::MaskDifference(r.coverage, truth.coverage, truth.color),
-             core::PixelEncoding::kUInt8);
+  core::WriteImage(dir / (name + "_coverage_difference.png"),
+                   render::MaskDifference(r.coverage, truth.coverage, truth.color), core::PixelEncoding::kUInt8);
   core::WriteImage(dir / (name + "_shadow_difference.png"), render::MaskDifference(r.shadow, truth.shadow, truth.color),
              core::PixelEncoding::kUInt8);
 }

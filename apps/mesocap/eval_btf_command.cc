@@ -33,11 +33,13 @@ bool SameDirections(const core::SamplingSet& a, const core::SamplingSet& b) {
   return true;
 }
 
-void ExpectComparable(const EvalBtfCommandOptions& o, const formats::MaterialDescription& t, const formats::MaterialDescription& e) {
+void ExpectComparable(const EvalBtfCommandOptions& o, const formats::MaterialDescription& t,
+                      const formats::MaterialDescription& e) {
   const auto mismatch = [&](const std::string& what) {
-    throw core::Error("eval btf: " + o.estimate.string() + " and " + o.truth.string() + " differ in " + what +
-                "; evaluate against a ground truth on the estimate's grid (mesocap groundtruth --texture-size, --views, "
-                "--lights)");
+    throw core::Error(
+        "eval btf: " + o.estimate.string() + " and " + o.truth.string() + " differ in " + what +
+        "; evaluate against a ground truth on the estimate's grid (mesocap groundtruth --texture-size, --views, "
+        "--lights)");
   };
   if (t.width != e.width || t.height != e.height) mismatch("texture size");
   if (!SameDirections(t.view_directions, e.view_directions)) mismatch("view directions");
@@ -58,7 +60,8 @@ void RunEvalBtf(const EvalBtfCommandOptions& o) {
   btf::BtfErrorAccumulator errors(truth.description.view_directions);
   for (int v = 0; v < truth.description.view_directions.size(); ++v) {
     const core::Image t = formats::ReadFullBtfView(o.truth, truth, v);
-    errors.Add(v, t, factored ? btf::ReconstructBtfView(*factored, v) : formats::ReadFullBtfView(o.estimate, estimate, v));
+    errors.Add(v, t,
+               factored ? btf::ReconstructBtfView(*factored, v) : formats::ReadFullBtfView(o.estimate, estimate, v));
   }
   nlohmann::json result = ToJson(errors, factored ? std::optional<int>(factored->rank()) : std::nullopt);
   result["form"] = factored ? "factored" : "full";

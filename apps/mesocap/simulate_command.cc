@@ -117,7 +117,8 @@ void RunSimulate(const SimulateCommandOptions& o) {
                o.no_noise ? ", no sensor noise" : "", faults.empty() ? "" : ", with faults");
   acquisition::CaptureRunnerOptions run_options;
   run_options.calibration = &calibration;  // for sweeps the rig analyses as they are captured
-  const acquisition::CaptureRunReport report = acquisition::RunCaptureSession(o.out, devices, rig_operator, run_options);
+  const acquisition::CaptureRunReport report =
+      acquisition::RunCaptureSession(o.out, devices, rig_operator, run_options);
   if (report.steps_done_before > 0) spdlog::info("resumed: {} steps were already done", report.steps_done_before);
   if (report.stale_temporaries_removed > 0) {
     spdlog::info("removed {} temporary files an interrupted run left", report.stale_temporaries_removed);

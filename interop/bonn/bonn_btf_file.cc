@@ -128,7 +128,8 @@ BonnDirection ReadDirection(ByteReader& in, const std::string& field) {
     throw core::FormatError(in.file(), field + ".theta",
                       "expected a polar angle in [0, pi/2) rad (upper hemisphere), got " + Num(d.theta));
   }
-  if (!std::isfinite(d.phi)) throw core::FormatError(in.file(), field + ".phi", "expected a finite azimuth, got " + Num(d.phi));
+  if (!std::isfinite(d.phi))
+    throw core::FormatError(in.file(), field + ".phi", "expected a finite azimuth, got " + Num(d.phi));
   return d;
 }
 
@@ -144,7 +145,8 @@ void ReadMeta(ByteReader& in, BonnBtfFile* btf) {
   btf->light_source = Trimmed(in.Chars(kMetaStringBytes, "meta.light_source"));
   btf->pixels_per_mm = in.Get<float>("meta.pixels_per_mm");
   if (!std::isfinite(btf->pixels_per_mm)) {
-    throw core::FormatError(in.file(), "meta.pixels_per_mm", "expected a finite number, got " + Num(btf->pixels_per_mm));
+    throw core::FormatError(in.file(), "meta.pixels_per_mm",
+                            "expected a finite number, got " + Num(btf->pixels_per_mm));
   }
   for (int c = 0; c < 3; ++c) btf->rgb_scale_factor[c] = in.Get<float>("meta.rgb_scale_factor");
   btf->cosine_flag = version > 1 ? in.Get<std::uint32_t>("meta.cosine_flag") != 0 : false;
@@ -251,7 +253,8 @@ BonnScalar ScalarOf(ByteReader& in, std::uint8_t size, const std::string& field)
   if (size == 2) return BonnScalar::kHalf;
   if (size == 4) return BonnScalar::kFloat;
   if (size == 8) return BonnScalar::kDouble;
-  throw core::FormatError(in.file(), field, "expected 2 (half), 4 (float) or 8 (double) bytes, got " + std::to_string(size));
+  throw core::FormatError(in.file(), field,
+                          "expected 2 (half), 4 (float) or 8 (double) bytes, got " + std::to_string(size));
 }
 
 // Which way round a matrix of `rows` x `columns` lies; `channels` is 3 for
@@ -265,10 +268,11 @@ BonnRowSpace RowSpaceOf(const ByteReader& in, const BonnBtfFile& btf, std::uint6
   if (rows == channels * texels && columns == directions) return BonnRowSpace::kTexels;
   const std::string c = channels == 1 ? "" : std::to_string(channels) + " x ";
   throw core::FormatError(in.file(), field,
-                    "expected " + c + "width x height = " + std::to_string(channels * texels) + " rows and lights x views = " +
-                        std::to_string(directions) + " columns, or " + c + "lights x views = " +
-                        std::to_string(channels * directions) + " rows and width x height = " + std::to_string(texels) +
-                        " columns; got " + std::to_string(rows) + " x " + std::to_string(columns));
+                          "expected " + c + "width x height = " + std::to_string(channels * texels) +
+                              " rows and lights x views = " + std::to_string(directions) + " columns, or " + c +
+                              "lights x views = " + std::to_string(channels * directions) +
+                              " rows and width x height = " + std::to_string(texels) + " columns; got " +
+                              std::to_string(rows) + " x " + std::to_string(columns));
 }
 
 BonnFactors ReadFactors(ByteReader& in, BonnScalar scalar, int rank, std::uint64_t rows, std::uint64_t columns,
@@ -313,7 +317,8 @@ class ByteWriter {
 
 void PutFixedString(ByteWriter& out, const std::string& s, const std::string& field) {
   if (s.size() > kMetaStringBytes) {
-    throw core::Error("Bonn BTF " + field + " \"" + s + "\" is longer than " + std::to_string(kMetaStringBytes) + " bytes");
+    throw core::Error("Bonn BTF " + field + " \"" + s + "\" is longer than " + std::to_string(kMetaStringBytes) +
+                      " bytes");
   }
   std::string padded = s;
   padded.resize(kMetaStringBytes, '\0');
@@ -327,7 +332,8 @@ void PutDirection(ByteWriter& out, const BonnDirection& d) {
 
 void PutCommonHeader(ByteWriter& out, const BonnBtfFile& btf, const char* signature) {
   out.Write(signature, std::strlen(signature));
-  std::uint32_t meta_size = 4 + 4 + 3 * kMetaStringBytes + 4 + 12 + 4 + 4 + static_cast<std::uint32_t>(btf.xml.size()) + 4;
+  std::uint32_t meta_size =
+      4 + 4 + 3 * kMetaStringBytes + 4 + 12 + 4 + 4 + static_cast<std::uint32_t>(btf.xml.size()) + 4;
   for (const auto& name : btf.channel_names) meta_size += 4 + static_cast<std::uint32_t>(name.size());
   out.Put<std::uint32_t>(meta_size);
   out.Put<std::uint32_t>(kMetaVersion);
@@ -394,9 +400,9 @@ void CheckForWriting(const BonnBtfFile& btf) {
   for (const auto& f : btf.factors) {
     if (f.rank() < 1 || f.u.rows() != rows || f.sxv.rows() != columns || f.sxv.cols() != f.rank() ||
         f.singular_values.size() != f.rank()) {
-      throw core::Error("Bonn BTF: factor sizes " + std::to_string(f.u.rows()) + "x" + std::to_string(f.u.cols()) + " and " +
-                  std::to_string(f.sxv.rows()) + "x" + std::to_string(f.sxv.cols()) + " do not match " +
-                  std::to_string(rows) + " rows and " + std::to_string(columns) + " columns");
+      throw core::Error("Bonn BTF: factor sizes " + std::to_string(f.u.rows()) + "x" + std::to_string(f.u.cols()) +
+                        " and " + std::to_string(f.sxv.rows()) + "x" + std::to_string(f.sxv.cols()) + " do not match " +
+                        std::to_string(rows) + " rows and " + std::to_string(columns) + " columns");
     }
   }
 }

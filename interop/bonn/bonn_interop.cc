@@ -111,7 +111,8 @@ BonnBtfFile BonnDfmfFromFactored(const core::FactoredBtf& btf) {
   return b;
 }
 
-BonnBtfFile BonnFmfFromFullBtf(const core::FullBtf& btf, const btf::BtfCompressionOptions& options, btf::BtfCompressionReport* report) {
+BonnBtfFile BonnFmfFromFullBtf(const core::FullBtf& btf, const btf::BtfCompressionOptions& options,
+                               btf::BtfCompressionReport* report) {
   const int w = btf.width, h = btf.height, nl = btf.light_count(), nv = btf.view_count();
   // The FMF matrix has rows (channel, x, y): stack the channels along y in
   // channel 0 of a BTF three times as tall, so that CompressBtf's per_texel
@@ -122,7 +123,8 @@ BonnBtfFile BonnFmfFromFullBtf(const core::FullBtf& btf, const btf::BtfCompressi
     for (int l = 0; l < nl; ++l)
       for (int c = 0; c < 3; ++c)
         for (int y = 0; y < h; ++y)
-          for (int x = 0; x < w; ++x) stacked.view_images[v].pixel(x, l * 3 * h + c * h + y)[0] = btf.view_images[v].pixel(x, l * h + y)[c];
+          for (int x = 0; x < w; ++x)
+            stacked.view_images[v].pixel(x, l * 3 * h + c * h + y)[0] = btf.view_images[v].pixel(x, l * h + y)[c];
   btf::BtfCompressionOptions o = options;
   o.layout = core::BtfFactorLayout::kPerTexel;
   o.color = core::BtfFactorColor::kRgb;
@@ -148,8 +150,12 @@ BonnBtfFile BonnFmfFromFullBtf(const core::FullBtf& btf, const btf::BtfCompressi
   return b;
 }
 
-core::SamplingSet BonnViewSet(const BonnBtfFile& btf, const fs::path& file) { return BonnSet(btf.views, file, "views"); }
-core::SamplingSet BonnLightSet(const BonnBtfFile& btf, const fs::path& file) { return BonnSet(btf.lights, file, "lights"); }
+core::SamplingSet BonnViewSet(const BonnBtfFile& btf, const fs::path& file) {
+  return BonnSet(btf.views, file, "views");
+}
+core::SamplingSet BonnLightSet(const BonnBtfFile& btf, const fs::path& file) {
+  return BonnSet(btf.lights, file, "lights");
+}
 
 core::FactoredBtf FactoredFromBonn(const BonnBtfFile& btf, const fs::path& file) {
   if (btf.dynamic_range_reduction != 0) {
@@ -168,8 +174,9 @@ core::FactoredBtf FactoredFromBonn(const BonnBtfFile& btf, const fs::path& file)
   for (const auto& f : btf.factors) rank = std::max(rank, f.rank());
   rank += has_offset ? 1 : 0;
   if (rank > core::kMaxBtfRank) {
-    throw core::Error(file.string() + ": " + std::to_string(rank) + " components, more than a material package holds (" +
-                std::to_string(core::kMaxBtfRank) + "); import it as a full BTF (--btf full) and factor it with `mesocap compress`");
+    throw core::Error(file.string() + ": " + std::to_string(rank) +
+                      " components, more than a material package holds (" + std::to_string(core::kMaxBtfRank) +
+                      "); import it as a full BTF (--btf full) and factor it with `mesocap compress`");
   }
   const int w = btf.width, h = btf.height, nl = btf.light_count(), nv = btf.view_count();
   core::FactoredBtf out;
@@ -203,7 +210,8 @@ core::FactoredBtf FactoredFromBonn(const BonnBtfFile& btf, const fs::path& file)
     const int direction_channels = texel_rows ? 1 : channels, direction_offset = texel_rows ? 0 : offset;
     for (int k = 0; k < f.rank(); ++k) {
       for (int y = 0; y < h; ++y)
-        for (int x = 0; x < w; ++x) out.rows[k].at(x, y, c) = texel_side(texel_offset + texel_channels * (x + w * y), k);
+        for (int x = 0; x < w; ++x)
+          out.rows[k].at(x, y, c) = texel_side(texel_offset + texel_channels * (x + w * y), k);
       for (int j = 0; j < nl * nv; ++j) {
         out.columns.at(j, k, c) = direction_side(direction_offset + direction_channels * j, k) * column_scale(j);
       }

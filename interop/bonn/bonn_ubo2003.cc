@@ -79,7 +79,8 @@ NameAngles ParseName(const fs::path& file) {
     const char* first = part.data() + std::min<std::size_t>(2, part.size());
     const char* last = part.data() + part.size();
     const auto parsed = std::from_chars(first, last, value, std::chars_format::fixed);
-    const bool digits_only = std::all_of(first, last, [](char c) { return std::isdigit(static_cast<unsigned char>(c)) || c == '.'; });
+    const bool digits_only =
+        std::all_of(first, last, [](char c) { return std::isdigit(static_cast<unsigned char>(c)) || c == '.'; });
     if (it == kTokens.end() || first == last || parsed.ec != std::errc() || parsed.ptr != last || !digits_only) {
       throw core::FormatError(file, "name",
                         "expected tl<deg>_pl<deg>_tv<deg>_pv<deg> (e.g. tl015_pl060_tv030_pv090), got part \"" + part +
@@ -92,7 +93,8 @@ NameAngles ParseName(const fs::path& file) {
     start = end + 1;
   }
   for (int i = 0; i < 4; ++i) {
-    if (!seen[i]) throw core::FormatError(file, "name", std::string("no ") + kTokens[i] + " angle (expected tl, pl, tv, pv)");
+    if (!seen[i])
+      throw core::FormatError(file, "name", std::string("no ") + kTokens[i] + " angle (expected tl, pl, tv, pv)");
   }
   if (parts != 4) throw core::FormatError(file, "name", "expected exactly the four parts tl, pl, tv, pv");
   for (int i : {0, 2}) {
@@ -136,7 +138,8 @@ core::SamplingSet SetOf(const fs::path& dir, const std::set<DegreePair>& keys, c
 
 }  // namespace
 
-std::string Ubo2003ImageName(const core::SphericalAngles& light, const core::SphericalAngles& view, Ubo2003Encoding encoding) {
+std::string Ubo2003ImageName(const core::SphericalAngles& light, const core::SphericalAngles& view,
+                             Ubo2003Encoding encoding) {
   return "tl" + AngleText(light.theta) + "_pl" + AngleText(light.phi) + "_tv" + AngleText(view.theta) + "_pv" +
          AngleText(view.phi) + Extension(encoding);
 }
@@ -145,7 +148,8 @@ Ubo2003ImageSet ScanUbo2003Folder(const fs::path& dir) {
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) throw core::Error(dir.string() + ": not a folder of Bonn BTF images");
   std::vector<fs::path> candidates;
-  for (auto it = fs::recursive_directory_iterator(dir, ec); it != fs::recursive_directory_iterator(); it.increment(ec)) {
+  for (auto it = fs::recursive_directory_iterator(dir, ec); it != fs::recursive_directory_iterator();
+       it.increment(ec)) {
     if (ec) throw core::Error(dir.string() + ": cannot list: " + ec.message());
     if (it.depth() >= 1) it.disable_recursion_pending();  // the folder and its direct subfolders
     if (!it->is_regular_file()) continue;
@@ -227,7 +231,8 @@ Ubo2003ImageSet ScanUbo2003Folder(const fs::path& dir) {
 }
 
 core::Image ReadUbo2003View(const Ubo2003ImageSet& set, int view, double scale) {
-  if (view < 0 || view >= set.views.size()) throw core::Error("Bonn image view " + std::to_string(view) + " out of range");
+  if (view < 0 || view >= set.views.size())
+    throw core::Error("Bonn image view " + std::to_string(view) + " out of range");
   if (!(scale > 0.0) || !std::isfinite(scale)) throw core::Error("Bonn image scale must be a positive number");
   const int w = set.width, h = set.height;
   core::Image out(w, h * set.lights.size(), 3);
@@ -256,8 +261,8 @@ core::Image ReadUbo2003View(const Ubo2003ImageSet& set, int view, double scale) 
   return out;
 }
 
-long long WriteUbo2003View(const fs::path& dir, const core::SamplingSet& views, const core::SamplingSet& lights, int view,
-                           const core::Image& values, Ubo2003Encoding encoding, double scale) {
+long long WriteUbo2003View(const fs::path& dir, const core::SamplingSet& views, const core::SamplingSet& lights,
+                           int view, const core::Image& values, Ubo2003Encoding encoding, double scale) {
   if (!(scale > 0.0) || !std::isfinite(scale)) throw core::Error("Bonn image scale must be a positive number");
   const int h = lights.size() > 0 ? values.height() / lights.size() : 0;
   if (values.channels() != 3 || h <= 0 || h * lights.size() != values.height()) {
@@ -287,7 +292,8 @@ long long WriteUbo2003View(const fs::path& dir, const core::SamplingSet& views, 
       }
     }
     const fs::path file = dir / Ubo2003ImageName(lights.angles(l), views.angles(view), encoding);
-    core::WriteImage(file, image, encoding == Ubo2003Encoding::kSrgb8Png ? core::PixelEncoding::kUInt8 : core::PixelEncoding::kHalf);
+    core::WriteImage(file, image,
+                     encoding == Ubo2003Encoding::kSrgb8Png ? core::PixelEncoding::kUInt8 : core::PixelEncoding::kHalf);
   }
   return clipped;
 }

@@ -42,7 +42,8 @@ namespace mesocap::bonn {
 enum class Ubo2003Encoding { kSrgb8Png, kHalfExr };
 
 // "tl015_pl060_tv030_pv090.png" (angles in degrees as described above).
-std::string Ubo2003ImageName(const core::SphericalAngles& light, const core::SphericalAngles& view, Ubo2003Encoding encoding);
+std::string Ubo2003ImageName(const core::SphericalAngles& light, const core::SphericalAngles& view,
+                             Ubo2003Encoding encoding);
 
 // The images of a folder, validated from their names and headers only.
 struct Ubo2003ImageSet {
@@ -69,7 +70,8 @@ core::Image ReadUbo2003View(const Ubo2003ImageSet& set, int view, double scale);
 // Writes the Nlight images of view `view` (a full-BTF view image) into
 // `dir`. Returns how many values fell outside [0, 1] after scaling and were
 // clipped (8-bit form). Throws Error for a value that does not fit a half.
-long long WriteUbo2003View(const std::filesystem::path& dir, const core::SamplingSet& views, const core::SamplingSet& lights,
-                           int view, const core::Image& values, Ubo2003Encoding encoding, double scale);
+long long WriteUbo2003View(const std::filesystem::path& dir, const core::SamplingSet& views,
+                           const core::SamplingSet& lights, int view, const core::Image& values,
+                           Ubo2003Encoding encoding, double scale);
 
 }  // namespace mesocap::bonn

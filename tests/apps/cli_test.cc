@@ -193,7 +193,8 @@ TEST(Cli, CompressFactorsAGroundTruthPackage) {
 
   // Both --rank and --max-error, or a package without a full BTF: refused,
   // nothing written.
-  EXPECT_NE(Mesocap("compress --in " + gt + " --out " + (dir / "x").string() + " --rank 2 --max-error 0.1").exit_code, 0);
+  EXPECT_NE(Mesocap("compress --in " + gt + " --out " + (dir / "x").string() + " --rank 2 --max-error 0.1").exit_code,
+            0);
   const CommandResult again = Mesocap("compress --in " + out + " --out " + (dir / "y").string());
   EXPECT_EQ(again.exit_code, 1);
   EXPECT_NE(again.err.find("no full BTF"), std::string::npos) << again.err;
@@ -212,12 +213,14 @@ TEST(Cli, EvalBtfPrintsTheErrorOfACompressedPackage) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j["rank"], 2);
-  const double measured = formats::ReadErrorReport(out, formats::ReadMaterialManifest(out))["btf_compression"]["measured_relative_rms"];
+  const double measured =
+      formats::ReadErrorReport(out, formats::ReadMaterialManifest(out))["btf_compression"]["measured_relative_rms"];
   EXPECT_NEAR(j["overall"]["relative_rms"].get<double>(), measured, 1e-6 * measured);
   EXPECT_GT(j["overall"]["psnr_db"].get<double>(), 0.0);
   ASSERT_FALSE(j["by_polar_angle"].empty());
   for (const auto& band : j["by_polar_angle"]) {
-    for (const char* key : {"theta_min_deg", "theta_max_deg", "psnr_db", "relative_rms"}) EXPECT_TRUE(band.contains(key)) << key;
+    for (const char* key : {"theta_min_deg", "theta_max_deg", "psnr_db", "relative_rms"})
+      EXPECT_TRUE(band.contains(key)) << key;
   }
   // The truth against itself is exact: PSNR infinite (null), error 0, no rank.
   const auto self = nlohmann::json::parse(Mesocap("eval btf --json --truth " + gt + " --estimate " + gt).out);
@@ -225,7 +228,8 @@ TEST(Cli, EvalBtfPrintsTheErrorOfACompressedPackage) {
   EXPECT_TRUE(self["overall"]["psnr_db"].is_null());
   EXPECT_TRUE(self["rank"].is_null());
   // A truth on another grid is refused with the reason.
-  ASSERT_EQ(Mesocap("-q groundtruth --scene weave --rig tiny --texture-size 4 --out " + (dir / "gt4").string()).exit_code, 0);
+  ASSERT_EQ(
+      Mesocap("-q groundtruth --scene weave --rig tiny --texture-size 4 --out " + (dir / "gt4").string()).exit_code, 0);
   const CommandResult bad = Mesocap("eval btf --truth " + (dir / "gt4").string() + " --estimate " + out);
   EXPECT_EQ(bad.exit_code, 1);
   EXPECT_NE(bad.err.find("texture size"), std::string::npos) << bad.err;
@@ -262,7 +266,8 @@ TEST(Cli, ProcessBtfTurnsASessionIntoAMaterial) {
   const core::FactoredBtf with_full = formats::ReadFactoredBtf(out, m), without = formats::ReadFactoredBtf(compact, mc);
   ASSERT_EQ(with_full.rank(), without.rank());
   for (int k = 0; k < with_full.rank(); ++k) {
-    for (std::size_t i = 0; i < with_full.rows[k].size(); ++i) ASSERT_EQ(with_full.rows[k].data()[i], without.rows[k].data()[i]);
+    for (std::size_t i = 0; i < with_full.rows[k].size(); ++i)
+      ASSERT_EQ(with_full.rows[k].data()[i], without.rows[k].data()[i]);
   }
   for (const auto& entry : std::filesystem::directory_iterator(dir.path())) {
     EXPECT_EQ(entry.path().filename().string().find("assembled"), std::string::npos) << entry.path();

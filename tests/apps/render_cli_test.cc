@@ -51,7 +51,8 @@ TEST(RenderCli, RendersAFactoredPackageHeadless) {
   testing::TemporaryDirectory dir;
   WriteScene(dir.path(), "blocks");
   const auto out = dir / "torus.png";
-  const testing::CommandResult r = Mesocap("render " + (dir / "scene.json").string() + " --size 64x48 --out " + out.string());
+  const testing::CommandResult r =
+      Mesocap("render " + (dir / "scene.json").string() + " --size 64x48 --out " + out.string());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const core::Image image = core::ReadImage(out);
   EXPECT_EQ(image.width(), 64);
@@ -63,7 +64,8 @@ TEST(RenderCli, RendersAFactoredPackageHeadless) {
 TEST(RenderCli, MissingMaterialNamesTheManifest) {
   testing::TemporaryDirectory dir;
   WriteScene(dir.path(), "no-such-package");
-  const testing::CommandResult r = Mesocap("render " + (dir / "scene.json").string() + " --out " + (dir / "x.png").string());
+  const testing::CommandResult r =
+      Mesocap("render " + (dir / "scene.json").string() + " --out " + (dir / "x.png").string());
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.err.find("no-such-package"), std::string::npos) << r.err;
   EXPECT_FALSE(std::filesystem::exists(dir / "x.png"));
@@ -74,7 +76,8 @@ TEST(RenderCli, MalformedSceneNamesTheField) {
   std::ofstream(dir / "bad.json") << R"({"format": "mesocap.scene", "version": 1,
     "camera": {"position": [0, -1, 0], "look_at": [0, 0, 0]}, "light": {"position": [0, 0, 9], "intensity": 1},
     "objects": [{"shape": "torus", "major_radius": 5, "minor_radius": 9}]})";
-  const testing::CommandResult r = Mesocap("render " + (dir / "bad.json").string() + " --out " + (dir / "x.png").string());
+  const testing::CommandResult r =
+      Mesocap("render " + (dir / "bad.json").string() + " --out " + (dir / "x.png").string());
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.err.find("objects[0].minor_radius"), std::string::npos) << r.err;
 }
@@ -131,7 +134,8 @@ TEST(RenderCli, CompareReportsEveryModeAndWritesTheDifferences) {
 TEST(RenderCli, ViewWithoutADisplaySaysSo) {
   testing::TemporaryDirectory dir;
   WriteScene(dir.path(), "blocks");
-  const testing::CommandResult r = Mesocap("view " + (dir / "scene.json").string(), "env -u DISPLAY -u WAYLAND_DISPLAY");
+  const testing::CommandResult r =
+      Mesocap("view " + (dir / "scene.json").string(), "env -u DISPLAY -u WAYLAND_DISPLAY");
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.err.find("no display"), std::string::npos) << r.err;
 }

@@ -47,7 +47,8 @@ core::Image ViewImage(int v) {
     for (int y = 0; y < kH; ++y)
       for (int x = 0; x < kW; ++x)
         for (int c = 0; c < 3; ++c)
-          img.at(x, l * kH + y, c) = 0.02f + 0.9f * static_cast<float>(((x * 7 + y * 5 + v * 11 + l * 3 + c * 13) % 97) / 97.0);
+          img.at(x, l * kH + y, c) =
+              0.02f + 0.9f * static_cast<float>(((x * 7 + y * 5 + v * 11 + l * 3 + c * 13) % 97) / 97.0);
   return img;
 }
 
@@ -151,7 +152,8 @@ TEST(Ubo2003Images, BadFoldersNameTheFile) {
 
   // The same pair again, in a view subfolder and with the tokens reordered.
   std::filesystem::create_directories(dir / "tv030_pv180");
-  core::WriteImage(dir / "tv030_pv180" / "tv30_pv180_tl45_pl90.png", core::Image(kW, kH, 3), core::PixelEncoding::kUInt8);
+  core::WriteImage(dir / "tv030_pv180" / "tv30_pv180_tl45_pl90.png", core::Image(kW, kH, 3),
+                   core::PixelEncoding::kUInt8);
   ExpectScanError(dir.path(), "tv30_pv180_tl45_pl90.png", "the same light and view directions");
   std::filesystem::remove_all(dir / "tv030_pv180");
 

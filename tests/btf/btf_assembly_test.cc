@@ -104,7 +104,8 @@ bool InsideSample(const core::FullBtf& truth, int x, int y, int v, int l, double
                           -size_mm / 2 + (y + 0.5) * size_mm / truth.height);
   const Eigen::Vector3d vd = truth.views.direction(v), ld = truth.lights.direction(l);
   const Eigen::Vector2d down = -d_max_mm * vd.head<2>() / vd.z(), up = d_max_mm * ld.head<2>() / ld.z();
-  for (const Eigen::Vector2d& q : {p, Eigen::Vector2d(p + down), Eigen::Vector2d(p + up), Eigen::Vector2d(p + down + up)}) {
+  for (const Eigen::Vector2d& q :
+       {p, Eigen::Vector2d(p + down), Eigen::Vector2d(p + up), Eigen::Vector2d(p + down + up)}) {
     if (q.cwiseAbs().maxCoeff() > size_mm / 2) return false;
   }
   return true;

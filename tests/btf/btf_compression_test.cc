@@ -54,7 +54,8 @@ double MaxAbsError(const core::FullBtf& btf, const core::FactoredBtf& f) {
   });
 }
 
-BtfCompressionOptions Options(core::BtfFactorLayout layout, core::BtfFactorColor color, int rank, double budget = 0.01) {
+BtfCompressionOptions Options(core::BtfFactorLayout layout, core::BtfFactorColor color, int rank,
+                              double budget = 0.01) {
   BtfCompressionOptions o;
   o.layout = layout;
   o.color = color;
@@ -113,7 +114,8 @@ TEST(BtfCompression, FlatLambertianGroundTruthIsRankOne) {
 
 TEST(BtfCompression, ExactlyRankDeficientDataHasZeroTailAndRankThreeIsExact) {
   // 12 views, 16 x 16 texels, 10 lights: paper matrix 2560 x 12 of rank 3.
-  const core::FullBtf btf = MakeBtf(16, core::SamplingSet::Named("grid6x2"), core::SamplingSet::Named("grid5x2"), IntegerRank3);
+  const core::FullBtf btf =
+      MakeBtf(16, core::SamplingSet::Named("grid6x2"), core::SamplingSet::Named("grid5x2"), IntegerRank3);
   for (auto layout : {core::BtfFactorLayout::kPaper, core::BtfFactorLayout::kPerTexel}) {
     BtfCompressionReport report;
     const core::FactoredBtf f = CompressBtf(btf, Options(layout, core::BtfFactorColor::kRgb, 0, 1e-6), &report);
@@ -205,7 +207,8 @@ TEST(BtfCompression, ConstantZeroChannelGivesZeroFactorsAndNoNaN) {
   // All zero: every error is 0 and rank 1 is chosen.
   const core::FullBtf zero = MakeBtf(4, views, lights, [](int, int, int, int) { return Eigen::Vector3f::Zero(); });
   BtfCompressionReport report;
-  const core::FactoredBtf f = CompressBtf(zero, Options(core::BtfFactorLayout::kPaper, core::BtfFactorColor::kRgb, 0), &report);
+  const core::FactoredBtf f =
+      CompressBtf(zero, Options(core::BtfFactorLayout::kPaper, core::BtfFactorColor::kRgb, 0), &report);
   EXPECT_EQ(f.rank(), 1);
   EXPECT_EQ(report.measured_relative_rms_error, 0.0);
 }
@@ -219,8 +222,10 @@ TEST(BtfCompression, LayoutsAgreeAtFullRank) {
     return Eigen::Vector3f(u(rng), u(rng), u(rng));
   });
   // paper: 80 x 6, full rank 6; per_texel: 16 x 30 (wide), full rank 16.
-  const core::FactoredBtf paper = CompressBtf(btf, Options(core::BtfFactorLayout::kPaper, core::BtfFactorColor::kRgb, 6));
-  const core::FactoredBtf texel = CompressBtf(btf, Options(core::BtfFactorLayout::kPerTexel, core::BtfFactorColor::kYCbCr, 16));
+  const core::FactoredBtf paper =
+      CompressBtf(btf, Options(core::BtfFactorLayout::kPaper, core::BtfFactorColor::kRgb, 6));
+  const core::FactoredBtf texel =
+      CompressBtf(btf, Options(core::BtfFactorLayout::kPerTexel, core::BtfFactorColor::kYCbCr, 16));
   for (int v = 0; v < 6; ++v)
     for (int l = 0; l < 5; ++l)
       for (int y = 0; y < 4; ++y)
@@ -278,7 +283,8 @@ double MaxAbsDifference(const core::FactoredBtf& a, const core::FactoredBtf& b) 
   });
 }
 
-core::FullBtf RandomSmoothBtf(int size, const core::SamplingSet& views, const core::SamplingSet& lights, unsigned seed) {
+core::FullBtf RandomSmoothBtf(int size, const core::SamplingSet& views, const core::SamplingSet& lights,
+                              unsigned seed) {
   std::mt19937 rng(seed);
   std::normal_distribution<float> g(0.0f, 1.0f);
   return MakeBtf(size, views, lights, [&](int x, int y, int v, int l) {
@@ -293,7 +299,8 @@ TEST(BtfCompression, BandsOfAnySizeGiveTheSameFactors) {
   // and in bands of one texture line or one column: the same spectrum and
   // reconstruction up to rounding.
   for (const int size : {8, 4}) {
-    const core::FullBtf btf = RandomSmoothBtf(size, core::SamplingSet::Named("grid3x2"), core::SamplingSet::Named("grid3x2"), 5);
+    const core::FullBtf btf =
+        RandomSmoothBtf(size, core::SamplingSet::Named("grid3x2"), core::SamplingSet::Named("grid3x2"), 5);
     for (const core::BtfFactorLayout layout : {core::BtfFactorLayout::kPaper, core::BtfFactorLayout::kPerTexel}) {
       BtfCompressionOptions whole = Options(layout, core::BtfFactorColor::kYCbCr, 5);
       BtfCompressionOptions banded = whole;

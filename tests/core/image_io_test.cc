@@ -112,7 +112,8 @@ TEST(ImageIo, TruncatedFilesAreErrorsNotCrashes) {
     for (double keep : {0.0, 0.1, 0.5, 0.9}) {
       std::filesystem::resize_file(file, static_cast<std::uintmax_t>(size * keep));
       EXPECT_THROW(ReadImage(file), FormatError) << ext << " truncated to " << keep;
-      WriteImage(file, Gradient(64, 64, 3), std::string(ext) == ".png" ? PixelEncoding::kUInt8 : PixelEncoding::kFloat32);
+      WriteImage(file, Gradient(64, 64, 3),
+                 std::string(ext) == ".png" ? PixelEncoding::kUInt8 : PixelEncoding::kFloat32);
     }
   }
 }

@@ -18,7 +18,8 @@ core::Image Frame(int w, int h, int c, int index) {
   core::Image image(w, h, c);
   for (int y = 0; y < h; ++y) {
     for (int x = 0; x < w; ++x) {
-      for (int k = 0; k < c; ++k) image.at(x, y, k) = static_cast<float>(((x + 3 * y + 7 * k + 11 * index) % 97) / 96.0);
+      for (int k = 0; k < c; ++k)
+        image.at(x, y, k) = static_cast<float>(((x + 3 * y + 7 * k + 11 * index) % 97) / 96.0);
     }
   }
   return image;

@@ -37,7 +37,8 @@ TEST(DisplacementImageTest, PointsOnTheBackingAreNoHitAndTheRimStaysUnknown) {
   TriangulationOptions options;
   options.backing_depth_mm = kBackingMm;
   const auto points = HoleyPlane(side, 3.0);
-  const DisplacementImage image = ResampleToTexture({points, {}, {}}, side, side, Eigen::Vector3d::UnitZ(), grid, options);
+  const DisplacementImage image =
+      ResampleToTexture({points, {}, {}}, side, side, Eigen::Vector3d::UnitZ(), grid, options);
   int no_hit = 0, surface = 0, unknown = 0;
   for (int j = 0; j < grid.height; ++j) {
     for (int i = 0; i < grid.width; ++i) {

@@ -208,8 +208,8 @@ TEST(CameraRendererTest, StripePeaksLieOnTheTrueLaserPlane) {
         };
         for (const double offset : {-4.0, 0.0, 2.5}) {
           const double tilt = calibration::LaserTiltForOffset(rig.laser, loc.mount, offset);
-          const StripeCheck check =
-              CheckStripe(sweep.Frame(tilt), renderer.LaserPlaneAt(loc.mount, loc.arc_angle_rad, tilt), on_sample, face);
+          const StripeCheck check = CheckStripe(
+              sweep.Frame(tilt), renderer.LaserPlaneAt(loc.mount, loc.arc_angle_rad, tilt), on_sample, face);
           EXPECT_GT(check.peaks, 40) << "camera " << c << " offset " << offset;
           EXPECT_LT(check.worst_mm, tolerance_mm) << "side " << side << " camera " << c << " offset " << offset;
         }
@@ -221,9 +221,10 @@ TEST(CameraRendererTest, StripePeaksLieOnTheTrueLaserPlane) {
           return o + ((height - o.z()) / d.z()) * d;
         };
         for (const auto& loc : rig.laser.locations) {
-          const StripeCheck check = CheckStripe(LaserSweepRenderer(renderer, plate, loc.mount, loc.arc_angle_rad).Frame(0),
-                                                renderer.LaserPlaneAt(loc.mount, loc.arc_angle_rad, 0.0), on_plate,
-                                                [](int, int) { return std::optional<double>(0.0); });
+          const StripeCheck check =
+              CheckStripe(LaserSweepRenderer(renderer, plate, loc.mount, loc.arc_angle_rad).Frame(0),
+                          renderer.LaserPlaneAt(loc.mount, loc.arc_angle_rad, 0.0), on_plate,
+                          [](int, int) { return std::optional<double>(0.0); });
           EXPECT_GT(check.peaks, 20) << "camera " << c << " plate " << height;
           EXPECT_LT(check.worst_mm, tolerance_mm) << "side " << side << " camera " << c << " plate " << height;
         }
@@ -242,8 +243,8 @@ TEST(CameraRendererTest, StripePeaksLieOnTheTrueLaserPlane) {
 // its footprint, 1 / side of a pixel on each axis (camera_renderer.h), here
 // by central differences of pinhole rays met with the sample's tangent
 // plane; NaN where that plane is within kMinFootprintCosine of edge-on.
-double FootprintVarianceByDifferences(const formats::CameraCalibration& c, const ViewSample& s, const Eigen::Vector3d& normal,
-                                      int side) {
+double FootprintVarianceByDifferences(const formats::CameraCalibration& c, const ViewSample& s,
+                                      const Eigen::Vector3d& normal, int side) {
   const Eigen::Vector3d centre = c.pose.transform.translation;
   const Eigen::Matrix3d& rotation = c.pose.transform.rotation;
   const Eigen::Vector3d local = rotation.transpose() * (s.point - centre);
@@ -270,12 +271,14 @@ TEST(CameraRendererTest, SweepFramesEqualTheSumOverEveryLitSample) {
   const LaserSweepRenderer sweep(renderer, view, loc.mount, loc.arc_angle_rad);
   const Eigen::Vector3d source = renderer.LaserPlaneAt(loc.mount, loc.arc_angle_rad, 0.0).source;
   const Eigen::Vector3d centre = renderer.CameraCentre(camera);
-  const double gain = rig.cameras[camera].exposure_us * 1e-6 * kSignalPerRadianceSecond * renderer.LaserPeakIrradiance();
+  const double gain =
+      rig.cameras[camera].exposure_us * 1e-6 * kSignalPerRadianceSecond * renderer.LaserPeakIrradiance();
   const double sigma = rig.laser.stripe_sigma_mm;
   const formats::CameraCalibration& calibration = renderer.calibration().cameras.at(camera);
   const Eigen::Vector3d plane_at_zero = renderer.LaserPlaneAt(loc.mount, loc.arc_angle_rad, 0.0).normal;
   std::vector<double> tilts;
-  for (const double offset : {-7.0, -2.0, 0.0, 0.3, 4.0, 7.0}) tilts.push_back(calibration::LaserTiltForOffset(rig.laser, loc.mount, offset));
+  for (const double offset : {-7.0, -2.0, 0.0, 0.3, 4.0, 7.0})
+    tilts.push_back(calibration::LaserTiltForOffset(rig.laser, loc.mount, offset));
   for (const double t : {-3.14159, -1.2, 0.9, 3.1415926}) tilts.push_back(t);
   int lit_pixels = 0, edge_on_pixels = 0, widened_pixels = 0;
   for (const double tilt : tilts) {
@@ -286,7 +289,8 @@ TEST(CameraRendererTest, SweepFramesEqualTheSumOverEveryLitSample) {
         double expected = 0.0;
         bool edge_on = false, widened = false;
         for (int k = 0; k < view.samples_per_pixel; ++k) {
-          const ViewSample& s = view.samples[(static_cast<std::size_t>(y) * view.width + x) * view.samples_per_pixel + k];
+          const ViewSample& s =
+              view.samples[(static_cast<std::size_t>(y) * view.width + x) * view.samples_per_pixel + k];
           if (s.surface == ViewSample::Surface::kNothing) continue;
           const Eigen::Vector3d l = (source - s.point).normalized();
           const double n_dot_l = s.normal.dot(l);
@@ -422,8 +426,8 @@ TEST(CameraRendererTest, LaserPlanesFollowTheRigConventions) {
   for (const auto& loc : rig.laser.locations) {
     const Eigen::Vector3d away(-std::cos(loc.arc_angle_rad), -std::sin(loc.arc_angle_rad), 0.0);
     for (const double offset : {-13.0, 0.0, 5.0, 13.0}) {
-      const LaserPlane plane =
-          renderer.LaserPlaneAt(loc.mount, loc.arc_angle_rad, calibration::LaserTiltForOffset(rig.laser, loc.mount, offset));
+      const LaserPlane plane = renderer.LaserPlaneAt(loc.mount, loc.arc_angle_rad,
+                                                     calibration::LaserTiltForOffset(rig.laser, loc.mount, offset));
       EXPECT_NEAR(plane.normal.dot(offset * away - plane.source), 0.0, 1e-9) << offset;
       EXPECT_NEAR((plane.source - calibration::LaserSource(rig.laser, loc)).norm(), 0.0, 1e-9);
     }
@@ -559,7 +563,9 @@ TEST(CameraSensorTest, DarkPixelsReadTheRoundedClampedReadNoise) {
     const std::vector<double> dark = histogram(0.0f), faint = histogram(1e-9f);
     const double n = 512.0 * 512.0;
     for (int k = 0; k < 80; ++k) {
-      auto phi = [&](double x) { return sigma > 0 ? 0.5 * std::erfc(-x / (sigma * std::numbers::sqrt2)) : (x > 0 ? 1.0 : 0.0); };
+      auto phi = [&](double x) {
+        return sigma > 0 ? 0.5 * std::erfc(-x / (sigma * std::numbers::sqrt2)) : (x > 0 ? 1.0 : 0.0);
+      };
       const double p = k == 0 ? phi(0.5) : phi(k + 0.5) - phi(k - 0.5);
       const double tolerance = 5.0 * std::sqrt(p * (1 - p) / n) + 1e-9;
       EXPECT_NEAR(dark[k], p, tolerance) << "read noise " << read_noise << " code " << k;
@@ -668,11 +674,13 @@ TEST(CameraRendererTest, SignalsLandInTheSensorsRange) {
 TEST(SimulateCommandTest, TinySessionIsCompleteAndReadable) {
   testing::TemporaryDirectory dir;
   const fs::path session = dir / "session";
-  const std::string cmd = std::string(MESOCAP_BINARY) + " -q simulate --scene flat --rig tiny --seed 3 --samples-per-pixel-side 1 --out " +
+  const std::string cmd = std::string(MESOCAP_BINARY) +
+                          " -q simulate --scene flat --rig tiny --seed 3 --samples-per-pixel-side 1 --out " +
                           session.string() + " 2>" + (dir / "err").string();
   ASSERT_EQ(std::system(cmd.c_str()), 0);
   const formats::SessionManifest manifest = formats::ReadSessionManifest(session);
-  const formats::JournalContents journal = formats::ReadCaptureJournal(session / formats::kSessionJournalName, &manifest);
+  const formats::JournalContents journal =
+      formats::ReadCaptureJournal(session / formats::kSessionJournalName, &manifest);
   const auto rig = LoadRig("tiny");
   EXPECT_EQ(manifest.rig, rig.json);
   ASSERT_TRUE(manifest.calibration);
@@ -715,7 +723,8 @@ TEST(SimulateCommandTest, TinySessionIsCompleteAndReadable) {
   // A second run refuses the existing session; --resume finds nothing to do.
   EXPECT_NE(std::system(cmd.c_str()), 0);
   ASSERT_EQ(std::system((cmd + " --resume").c_str()), 0);
-  EXPECT_EQ(formats::ReadCaptureJournal(session / formats::kSessionJournalName, &manifest).records.size(), expected_steps);
+  EXPECT_EQ(formats::ReadCaptureJournal(session / formats::kSessionJournalName, &manifest).records.size(),
+            expected_steps);
 }
 
 }  // namespace

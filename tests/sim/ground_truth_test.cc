@@ -46,7 +46,8 @@ TEST(GroundTruth, AmbientTermIsTheLightQuadratureOfTheBtf) {
   o.views = core::SamplingSet::Named("grid4x2");
   o.lights = core::SamplingSet::Named("grid24x12");
   formats::AmbientTerm ambient{4, 4, o.views, core::Image(4, 4 * o.views.size(), 3)};
-  for (int v = 0; v < o.views.size(); ++v) AccumulateAmbientTerm(RenderTrueBtfView(*scene, o, v), o.lights, v, &ambient);
+  for (int v = 0; v < o.views.size(); ++v)
+    AccumulateAmbientTerm(RenderTrueBtfView(*scene, o, v), o.lights, v, &ambient);
   double quadrature = 0;  // sum of cos(theta_l) w_l ~ integral of cos over the hemisphere = pi
   for (int l = 0; l < o.lights.size(); ++l) quadrature += o.lights.direction(l).z() * o.lights.weight(l);
   EXPECT_NEAR(quadrature, kPi, 0.01 * kPi);

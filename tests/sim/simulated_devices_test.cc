@@ -83,7 +83,8 @@ FaultPlan RatePlan(FaultKind kind, double rate, std::string device = "") {
 // One simulated rig: the backend, its renderer and the devices of `rig`.
 struct SimRig {
   explicit SimRig(formats::RigDescription description, FaultPlan faults = {}, std::uint64_t seed = 1)
-      : backend(renderer, std::move(faults), seed, SensorModel::kIdeal), rig(drivers::BuildRig(description, {{"sim", &backend}})) {
+      : backend(renderer, std::move(faults), seed, SensorModel::kIdeal),
+        rig(drivers::BuildRig(description, {{"sim", &backend}})) {
     renderer.rig = std::move(description);
   }
 
