@@ -113,6 +113,7 @@ MdfProcessingResult ProcessMdfSession(const fs::path& session, const formats::Ca
   MdfAssembler assembler(grid, views, triangulation, options.merge);
   MdfProcessingResult result;
   result.sample_size_mm = sample_size;
+  result.light_directions = calibration::LightDirections(rig);
   core::Progress progress("process mdf", sweeps.size() * rig.cameras.size(), progress_style);
   for (const formats::LaserSweepStep& step : sweeps) {
     const SweepPoses poses = geometry.Poses(step);

@@ -11,6 +11,7 @@
 #include "core/image.h"
 #include "core/mdf.h"
 #include "core/progress.h"
+#include "core/sampling_set.h"
 #include "formats/calibration.h"
 #include "mdf/displacement_image.h"
 #include "mdf/displacement_merge.h"
@@ -36,6 +37,7 @@ struct MdfProcessingResult {
   core::Mdf mdf;
   core::Image confidence;      // per texel and view, MDF layout (MdfAssembler)
   double sample_size_mm = 0;
+  core::SamplingSet light_directions;  // the session rig's, for the package's description
   double deepest_mm = 0;  // deepest measured point below the reference plane
   int sweeps = 0;         // camera sequences analysed
 };

@@ -3,12 +3,9 @@
 #include <algorithm>
 #include <cmath>
 
-#include "calibration/nominal_geometry.h"
 #include "formats/calibration.h"
-#include "formats/capture_session.h"
 #include "formats/material_manifest.h"
 #include "formats/material_package_writer.h"
-#include "formats/rig_description.h"
 
 namespace mesocap::pipelines {
 
@@ -26,9 +23,6 @@ ProcessMdfReport RunProcessMdf(const ProcessMdfOptions& o) {
   }
   const formats::Calibration calibration = formats::ReadCalibration(o.calibration);
   const mdf::MdfProcessingResult result = mdf::ProcessMdfSession(o.session, calibration, o.processing);
-  const formats::SessionManifest manifest = formats::ReadSessionManifest(o.session);
-  const formats::RigDescription rig =
-      formats::ParseRigDescription(manifest.rig, o.session / formats::kSessionManifestName);
   formats::MaterialDescription description;
   description.name = o.out.filename().string();
   description.width = description.height = o.processing.texture_size;
@@ -37,7 +31,7 @@ ProcessMdfReport RunProcessMdf(const ProcessMdfOptions& o) {
   // 0.1 mm (the 8-bit scale follows the largest distance either way).
   description.d_max_mm = o.d_max_mm > 0 ? o.d_max_mm : std::max(0.1, std::ceil(result.deepest_mm * 10.0) / 10.0);
   description.view_directions = result.mdf.views;
-  description.light_directions = calibration::LightDirections(rig);
+  description.light_directions = result.light_directions;
   description.provenance.source = "process mdf session=" + o.session.string();
   formats::MaterialPackageWriter writer(o.out, description, o.replace);
   writer.WriteMdf(result.mdf);
