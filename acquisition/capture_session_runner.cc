@@ -16,6 +16,7 @@
 #include "formats/capture_journal.h"
 #include "formats/capture_plan_steps.h"
 #include "formats/capture_session.h"
+#include "formats/captured_session.h"
 #include "formats/frame_sequence.h"
 #include "formats/sweep_analysis.h"
 #include "mdf/laser_sweep.h"
@@ -57,7 +58,15 @@ class SessionRun {
                     "\" stores a sweep analysis, which needs the rig's calibration (none was given)");
       }
     }
-    report_.steps_done_before = journal_.records().size();
+    // A resumed session's finished steps must still hold what they captured:
+    // a damaged file is captured again rather than processed later.
+    for (const formats::DamagedFile& damaged : formats::DamagedSessionFiles(dir_, manifest_, journal_.records())) {
+      if (damaged.step.empty() || !journal_.IsDone(damaged.step)) continue;
+      spdlog::warn("{}: {} {}; capturing step {} again", dir_.string(), damaged.path, damaged.problem, damaged.step);
+      journal_.Redo(damaged.step);
+      ++report_.steps_redone;
+    }
+    for (const formats::PlannedStep& step : manifest_.plan) report_.steps_done_before += journal_.IsDone(step.id);
     // The journal's lock keeps other writers out, so what looks like a
     // temporary file was left by a writer that died.
     report_.stale_temporaries_removed = core::RemoveStaleTemporaries(dir_);
@@ -265,8 +274,10 @@ class SessionRun {
   // the plan captures before any sweep.
   std::vector<std::unique_ptr<mdf::LaserSweepProcessor>> SweepProcessors(const formats::LaserSweepStep& sweep) {
     if (!sweep_geometry_) {
-      sweep_geometry_ = std::make_unique<mdf::SessionSweepGeometry>(dir_, manifest_, rig_description_,
-                                                                    *options_.calibration, options_.sweep_geometry);
+      // The plates' files were journaled (and, on a resume, checked) before any sweep.
+      sweep_geometry_ = std::make_unique<mdf::SessionSweepGeometry>(
+          dir_ / formats::kSessionManifestName, manifest_, [this](const std::string& path) { return dir_ / path; }, rig_description_,
+          *options_.calibration, options_.sweep_geometry);
     }
     const mdf::SweepPoses poses = sweep_geometry_->Poses(sweep);
     std::vector<std::unique_ptr<mdf::LaserSweepProcessor>> processors;
@@ -284,8 +295,13 @@ class SessionRun {
     record.seq = journal_.next_seq();
     record.step = step.id;
     record.time_utc = formats::UtcTimestamp(std::chrono::system_clock::now());
+    const auto* sweep = std::get_if<formats::LaserSweepStep>(&typed);
     for (const formats::CameraFile& f : formats::Files(typed)) {
-      record.files.push_back({f.path, fs::file_size(dir_ / f.path)});
+      record.files.push_back({f.path, fs::file_size(dir_ / f.path), std::nullopt});
+      if (sweep && sweep->stores_analysis) {
+        const std::string image = formats::SweepAnalysisImagePath(f.path);
+        record.files.push_back({image, fs::file_size(dir_ / image), std::nullopt});
+      }
     }
     journal_.Append(record);
   }

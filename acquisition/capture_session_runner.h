@@ -50,7 +50,8 @@ struct CaptureRunnerOptions {
 
 // What a run did, for the log and for tests.
 struct CaptureRunReport {
-  std::size_t steps_done_before = 0;  // journaled when the run began
+  std::size_t steps_done_before = 0;  // journaled and intact when the run began
+  std::size_t steps_redone = 0;       // journaled, but a file was damaged: captured again
   std::size_t steps_run = 0;
   std::size_t stale_temporaries_removed = 0;
   std::uint64_t frames = 0;

@@ -50,6 +50,7 @@ int MatchDirection(const core::SamplingSet& set, const Eigen::Vector3d& d, const
 
 core::Image ReadCapture(const BtfCaptureImage& image, const formats::CameraCalibration& camera) {
   if (!std::filesystem::is_regular_file(image.file)) throw core::Error(image.file.string() + ": missing BTF image");
+  if (image.checksum) core::ExpectFileChecksum(image.file, *image.checksum);
   core::ImageReadOptions o;
   o.expected_width = camera.width;
   o.expected_height = camera.height;
@@ -423,26 +424,29 @@ core::FullBtf AssembleBtf(const std::vector<BtfCaptureImage>& images, const form
   return btf;
 }
 
-std::vector<BtfCaptureImage> SessionBtfImages(const std::filesystem::path& session,
-                                              const formats::SessionManifest& manifest,
+std::vector<BtfCaptureImage> SessionBtfImages(const formats::CapturedSession& session,
                                               const formats::Calibration& calibration) {
-  const std::filesystem::path manifest_file = session / formats::kSessionManifestName;
+  const formats::SessionManifest& manifest = session.manifest();
+  const std::filesystem::path manifest_file = session.manifest_file();
   std::map<std::string, int> camera_index;
   for (int c = 0; c < static_cast<int>(calibration.cameras.size()); ++c) camera_index[calibration.cameras[c].id] = c;
   std::vector<BtfCaptureImage> images;
   for (std::size_t s = 0; s < manifest.plan.size(); ++s) {
     const formats::PlannedStep& step = manifest.plan[s];
-    if (step.kind != formats::StepKind::kBtfImage) continue;
+    if (step.kind != formats::StepKind::kBtfImage || !session.IsDone(step.id)) continue;
     const formats::BtfImageStep btf = formats::ReadBtfImageStep(step, s, manifest_file);
     for (const formats::CameraFile& file : btf.files) {
       if (!camera_index.count(file.camera)) {
         throw core::FormatError(manifest_file, "plan step " + step.id + ".files",
                                 "camera '" + file.camera + "' not in the calibration");
       }
-      images.push_back({session / file.path, camera_index[file.camera], btf.turntable_rad, btf.arc_rad, btf.lamp});
+      images.push_back({session.dir() / file.path, session.RecordedChecksum(file.path), camera_index[file.camera],
+                        btf.turntable_rad, btf.arc_rad, btf.lamp});
     }
   }
-  if (images.empty()) throw core::Error("BTF assembly: the session " + session.string() + " plans no BTF images");
+  if (images.empty()) {
+    throw core::Error("BTF assembly: the session " + session.dir().string() + " holds no BTF images");
+  }
   return images;
 }
 

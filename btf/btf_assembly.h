@@ -41,12 +41,14 @@
 #include "core/error.h"
 #include "core/image.h"
 #include "formats/calibration.h"
+#include "formats/captured_session.h"
 #include "formats/capture_session.h"
 
 namespace mesocap::btf {
 
 struct BtfCaptureImage {
   std::filesystem::path file;
+  std::optional<core::FileChecksum> checksum;  // checked before the image is decoded, when known
   int camera = 0;  // index into Calibration::cameras
   double turntable_rad = 0.0;
   double arc_rad = 0.0;
@@ -95,13 +97,13 @@ struct BtfAssemblyReport {
   double min_pixels_per_texel = 0.0;
 };
 
-// The BTF images a capture session plans (core/capture_session.h; written by
-// `mesocap simulate` or a rig): one "btf_image" step per turntable angle, arc
-// angle and lamp (turntable_deg, arc_deg, lamp), one file per camera
-// ({camera: id, path}). Cameras are matched to the calibration by id; throws
-// FormatError naming the manifest and the step for a bad step.
-std::vector<BtfCaptureImage> SessionBtfImages(const std::filesystem::path& session,
-                                              const formats::SessionManifest& manifest,
+// The BTF images of a capture session's done steps (formats/captured_session.h;
+// written by `mesocap simulate` or a rig): one "btf_image" step per turntable
+// angle, arc angle and lamp (turntable_deg, arc_deg, lamp), one file per
+// camera ({camera: id, path}), each with the checksum its journal records.
+// Cameras are matched to the calibration by id; throws FormatError naming
+// the manifest and the step for a bad step.
+std::vector<BtfCaptureImage> SessionBtfImages(const formats::CapturedSession& session,
                                               const formats::Calibration& calibration);
 
 // Receives each assembled view image of the BTF (3 channels, W x H * Nlight,

@@ -1,15 +1,20 @@
 #include "core/atomic_file.h"
 
 #include <fcntl.h>
+#include <signal.h>
+#include <spdlog/spdlog.h>
+#include <stdio.h>
 #include <unistd.h>
 
 #include <atomic>
 #include <cctype>
-#include <vector>
 #include <cerrno>
+#include <charconv>
 #include <cstring>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <optional>
+#include <vector>
 
 #include "core/error.h"
 
@@ -27,7 +32,103 @@ fs::path ParentOrDot(const fs::path& p) {
   return p.has_parent_path() ? p.parent_path() : fs::path(".");
 }
 
+// "out/" names the folder "out".
+fs::path WithoutTrailingSlash(fs::path p) { return p.filename().empty() ? p.parent_path() : p; }
+
+// The writer's process id when `name` is "." + base + ".tmp-PID-N" + ext.
+std::optional<long> TemporaryWriterPid(std::string_view name, std::string_view base, std::string_view ext) {
+  const std::string prefix = "." + std::string(base) + ".tmp-";
+  if (name.size() <= prefix.size() + ext.size() || name.substr(0, prefix.size()) != prefix) return std::nullopt;
+  if (name.substr(name.size() - ext.size()) != ext) return std::nullopt;
+  const std::string_view rest = name.substr(prefix.size(), name.size() - prefix.size() - ext.size());
+  const std::size_t dash = rest.find('-');
+  if (dash == std::string_view::npos || dash == 0 || dash + 1 == rest.size()) return std::nullopt;
+  long pid = 0;
+  const auto [end, ec] = std::from_chars(rest.data(), rest.data() + dash, pid);
+  if (ec != std::errc() || end != rest.data() + dash || pid <= 0) return std::nullopt;
+  for (const char c : rest.substr(dash + 1)) {
+    if (!std::isdigit(static_cast<unsigned char>(c))) return std::nullopt;
+  }
+  return pid;
+}
+
+// A process id that no longer exists. A pid the system gave to another
+// process since keeps its temporaries until that process ends too: never a
+// live writer's file removed.
+bool ProcessIsGone(long pid) { return ::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH; }
+
+bool HoldsOrIs(const fs::path& folder, const fs::path& input) {
+  std::error_code ec;
+  const fs::path a = fs::weakly_canonical(folder, ec);
+  const fs::path b = fs::weakly_canonical(input, ec);
+  if (ec) return false;
+  auto f = a.begin();
+  auto i = b.begin();
+  for (; f != a.end(); ++f, ++i) {
+    if (f->empty()) continue;  // a trailing separator
+    if (i == b.end() || *f != *i) return false;
+  }
+  return true;
+}
+
 }  // namespace
+
+void ExpectReplaceable(const fs::path& target_in, const OutputReplacement& r) {
+  const fs::path target = WithoutTrailingSlash(target_in);
+  std::error_code ec;
+  if (!fs::exists(fs::symlink_status(target, ec))) return;
+  for (const fs::path& input : r.inputs) {
+    if (!input.empty() && fs::exists(input, ec) && HoldsOrIs(target, input)) {
+      throw Error(target.string() + ": is " + (fs::equivalent(target, input, ec) ? "" : "a folder holding ") +
+                  "this command's input " + input.string() + "; choose another output");
+    }
+  }
+  if (!r.allowed) {
+    throw Error(target.string() + ": already exists; choose another output, or --replace to replace " +
+                (r.kind.empty() ? "it" : r.kind + " there"));
+  }
+  const bool is_kind = !fs::is_symlink(fs::symlink_status(target, ec)) && r.holds_kind && r.holds_kind(target);
+  if (!is_kind) {
+    throw Error(target.string() + ": --replace replaces only " + r.kind +
+                ", and this is not one; move it away or choose another output");
+  }
+}
+
+std::size_t RemoveStaleTemporariesOf(const fs::path& target_in) {
+  const fs::path target = WithoutTrailingSlash(target_in);
+  const fs::path parent = ParentOrDot(target);
+  const std::string name = target.filename().string();
+  const std::string stem = target.stem().string();
+  const std::string ext = target.extension().string();
+  std::error_code ec;
+  std::size_t count = 0;
+  for (auto it = fs::directory_iterator(parent, ec); !ec && it != fs::directory_iterator(); it.increment(ec)) {
+    const std::string entry = it->path().filename().string();
+    std::optional<long> pid = TemporaryWriterPid(entry, name, "");
+    const std::optional<long> moved_aside_by = TemporaryWriterPid(entry, name + ".old", "");
+    if (!pid && !ext.empty()) pid = TemporaryWriterPid(entry, stem, ext);
+    if (moved_aside_by && ProcessIsGone(*moved_aside_by)) {
+      std::error_code io;
+      // A writer killed between moving the old folder aside and moving the
+      // new one in: the old one is still the target.
+      if (!fs::exists(fs::symlink_status(target, io))) {
+        fs::rename(it->path(), target, io);
+        if (!io) spdlog::warn("{}: restored from {}, which a killed run had moved aside", target.string(), entry);
+      } else {
+        fs::remove_all(it->path(), io);
+      }
+      if (!io) ++count;
+    } else if (pid && ProcessIsGone(*pid)) {
+      std::error_code io;
+      fs::remove_all(it->path(), io);
+      if (!io) {
+        spdlog::info("removed {}, left by a killed run writing {}", (parent / entry).string(), target.string());
+        ++count;
+      }
+    }
+  }
+  return count;
+}
 
 bool IsAtomicTemporaryName(std::string_view name) {
   // "." then a name, then ".tmp-" digits "-" digits, then an optional extension.
@@ -89,14 +190,13 @@ void AtomicFile::Commit() {
   SyncPath(ParentOrDot(target_));
 }
 
-AtomicDirectory::AtomicDirectory(fs::path target, bool replace)
-    : target_(std::move(target)), replace_(replace) {
-  if (target_.filename().empty()) target_ = target_.parent_path();  // "out/" -> "out"
-  if (fs::exists(target_) && !replace_) {
-    throw Error(target_.string() + ": already exists; choose another output or allow replacing it");
-  }
-  temp_ = ParentOrDot(target_) / ("." + target_.filename().string() + TemporarySuffix());
+AtomicDirectory::AtomicDirectory(fs::path target, const OutputReplacement& replacement)
+    : target_(WithoutTrailingSlash(std::move(target))), replacement_(replacement) {
+  RemoveStaleTemporariesOf(target_);
+  ExpectReplaceable(target_, replacement_);
   std::error_code ec;
+  existed_ = fs::exists(fs::symlink_status(target_, ec));
+  temp_ = ParentOrDot(target_) / ("." + target_.filename().string() + TemporarySuffix());
   fs::create_directories(temp_, ec);
   if (ec) throw Error(temp_.string() + ": cannot create folder: " + ec.message());
 }
@@ -114,21 +214,40 @@ void AtomicDirectory::Commit() {
   }
   SyncPath(temp_);
   std::error_code ec;
-  fs::path old;
-  if (fs::exists(target_)) {
-    if (!replace_) throw Error(target_.string() + ": appeared while writing; not replaced");
-    old = ParentOrDot(target_) / ("." + target_.filename().string() + ".old" + TemporarySuffix());
-    fs::rename(target_, old, ec);
-    if (ec) throw Error(target_.string() + ": cannot move old folder aside: " + ec.message());
+  const bool exists = fs::exists(fs::symlink_status(target_, ec));
+  if (exists && !existed_) throw Error(target_.string() + ": appeared while writing; not replaced");
+  if (exists) ExpectReplaceable(target_, replacement_);  // it may have changed meanwhile
+  if (!exists) {
+    fs::rename(temp_, target_, ec);
+    if (ec) throw Error(target_.string() + ": cannot move new folder into place: " + ec.message());
+    committed_ = true;
+    SyncPath(ParentOrDot(target_));
+    return;
   }
+  // One atomic swap: at no moment is there no package at the target. The
+  // temporary name then holds the old folder, removed below (or, if this
+  // process dies first, at the next start of a writer of this target).
+  if (::renameat2(AT_FDCWD, temp_.c_str(), AT_FDCWD, target_.c_str(), RENAME_EXCHANGE) == 0) {
+    committed_ = true;
+    SyncPath(ParentOrDot(target_));
+    fs::remove_all(temp_, ec);
+    return;
+  }
+  if (errno != EINVAL && errno != ENOSYS) {
+    throw Error(target_.string() + ": cannot swap the new folder into place: " + std::strerror(errno));
+  }
+  // A file system without the swap: move the old folder aside first.
+  const fs::path old = ParentOrDot(target_) / ("." + target_.filename().string() + ".old" + TemporarySuffix());
+  fs::rename(target_, old, ec);
+  if (ec) throw Error(target_.string() + ": cannot move old folder aside: " + ec.message());
   fs::rename(temp_, target_, ec);
   if (ec) {
-    if (!old.empty()) fs::rename(old, target_, ec);  // put the old one back
+    fs::rename(old, target_, ec);  // put the old one back
     throw Error(target_.string() + ": cannot move new folder into place: " + ec.message());
   }
   committed_ = true;
   SyncPath(ParentOrDot(target_));
-  if (!old.empty()) fs::remove_all(old, ec);
+  fs::remove_all(old, ec);
 }
 
 void WriteTextFileAtomically(const fs::path& target, std::string_view contents) {

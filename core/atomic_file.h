@@ -4,7 +4,10 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
+#include <string>
 #include <string_view>
+#include <vector>
 
 #include <nlohmann/json_fwd.hpp>
 
@@ -31,13 +34,30 @@ class AtomicFile {
   bool committed_ = false;
 };
 
+// When a command's output (a folder or a file) exists: what it may replace.
+// A command's --replace never removes anything but what that command writes
+// (a material package, an exported database), and never its own input.
+struct OutputReplacement {
+  bool allowed = false;  // the user asked for it (--replace)
+  std::string kind;      // what the command writes, for messages: "a material package"
+  // Whether an existing output holds `kind`; required when `allowed`.
+  std::function<bool(const std::filesystem::path&)> holds_kind;
+  // The command's inputs: neither they nor a folder holding one is replaced.
+  std::vector<std::filesystem::path> inputs;
+};
+
+// Throws Error naming `target` and what is there unless `target` does not
+// exist, or `replacement` allows replacing what it holds.
+void ExpectReplaceable(const std::filesystem::path& target, const OutputReplacement& replacement);
+
 // A folder being written (a material package, an exported database). Fill
-// temp_path(); Commit() renames it to the target. An existing target is an
-// error unless `replace` is set, in which case the old folder is moved aside
-// and removed only after the new one is in place.
+// temp_path(); Commit() renames it to the target. An existing target must
+// pass ExpectReplaceable; it is swapped out in one atomic rename and removed
+// only after the new folder is in place. Creating one first removes the
+// temporaries a killed writer of the same target left beside it.
 class AtomicDirectory {
  public:
-  AtomicDirectory(std::filesystem::path target, bool replace);
+  AtomicDirectory(std::filesystem::path target, const OutputReplacement& replacement);
   ~AtomicDirectory();
   AtomicDirectory(const AtomicDirectory&) = delete;
   AtomicDirectory& operator=(const AtomicDirectory&) = delete;
@@ -48,7 +68,8 @@ class AtomicDirectory {
  private:
   std::filesystem::path target_;
   std::filesystem::path temp_;
-  bool replace_;
+  OutputReplacement replacement_;
+  bool existed_ = false;
   bool committed_ = false;
 };
 
@@ -59,6 +80,12 @@ void WriteJsonFileAtomically(const std::filesystem::path& target, const nlohmann
 // Whether `name` is a temporary name that AtomicFile or AtomicDirectory
 // makes (".stem.tmp-PID-N.ext", ".name.tmp-PID-N", ".name.old.tmp-PID-N").
 bool IsAtomicTemporaryName(std::string_view name);
+// Removes the temporaries that writers of `target` (AtomicFile or
+// AtomicDirectory) left beside it when they were killed: only names made
+// for this target, and only those whose writing process is gone. A folder
+// that was moved aside to be replaced comes back when the target is
+// missing. Returns how many entries it removed or restored.
+std::size_t RemoveStaleTemporariesOf(const std::filesystem::path& target);
 // Removes what AtomicFile / AtomicDirectory left behind under `dir`
 // (recursively) when a process died mid-write; returns how many entries it
 // removed. Only for a folder no other process is writing (a locked capture

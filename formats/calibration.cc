@@ -476,10 +476,16 @@ Calibration ReadCalibration(const fs::path& file) {
   return ParseCalibration(core::ReadJsonFile(file, kMaxCalibrationBytes, kMaxDepth), file);
 }
 
+std::string CalibrationText(const Calibration& calibration) {
+  const json document = ToJson(calibration);
+  ParseCalibration(document, "calibration");
+  return document.dump(2) + "\n";
+}
+
 void WriteCalibration(const fs::path& file, const Calibration& calibration) {
   const json document = ToJson(calibration);
   ParseCalibration(document, file);
-  core::WriteJsonFileAtomically(file, document);
+  core::WriteTextFileAtomically(file, document.dump(2) + "\n");
 }
 
 }  // namespace mesocap::formats

@@ -134,6 +134,9 @@ Calibration ReadCalibration(const std::filesystem::path& file);
 // Validates as ReadCalibration would (so it never writes a file it would
 // reject), then replaces `file` atomically.
 void WriteCalibration(const std::filesystem::path& file, const Calibration& calibration);
+// The exact bytes WriteCalibration writes (validated the same way), so that a
+// session can record the file's checksum before writing it.
+std::string CalibrationText(const Calibration& calibration);
 nlohmann::json ToJson(const Calibration& calibration);
 
 // Ids of rig parts (and of capture steps, core/capture_session.h): 1 to 128

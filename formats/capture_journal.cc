@@ -11,6 +11,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/file_checksum.h"
 #include "core/json_field_reader.h"
 #include "formats/calibration.h"
 
@@ -31,17 +32,33 @@ std::string SystemError() { return std::strerror(errno); }
 
 json RecordJson(const JournalRecord& r) {
   json files = json::array();
-  for (const auto& f : r.files) files.push_back({{"path", f.path}, {"bytes", f.bytes}});
-  return {{"seq", r.seq}, {"step", r.step}, {"time_utc", r.time_utc}, {"files", std::move(files)}};
+  for (const auto& f : r.files) {
+    json entry = {{"path", f.path}, {"bytes", f.bytes}};
+    if (f.xxh3) entry["xxh3_64"] = core::ChecksumText(*f.xxh3);
+    files.push_back(std::move(entry));
+  }
+  json record = {{"seq", r.seq}, {"step", r.step}, {"time_utc", r.time_utc}, {"files", std::move(files)}};
+  if (r.replaces) record["replaces"] = *r.replaces;
+  return record;
 }
 
 // One record's own content; `where` names its line.
-JournalRecord ParseRecord(const json& document, const fs::path& file, const std::string& where) {
+using Hashes = JournalHashes;
+
+Hashes HashesOf(const SessionManifest* manifest) {
+  if (!manifest) return Hashes::kEither;
+  return manifest->version >= 2 ? Hashes::kRequired : Hashes::kAbsent;
+}
+
+JournalRecord ParseRecord(const json& document, const fs::path& file, const std::string& where, Hashes hashes) {
   core::RejectDeepNesting(document, file, kMaxDepth, where);
   const core::JsonFieldReader fields(document, file, where);
-  fields.RejectUnknownMembers({"seq", "step", "time_utc", "files"});
+  fields.RejectUnknownMembers({"seq", "step", "time_utc", "files", "replaces"});
   JournalRecord r;
   r.seq = static_cast<std::uint64_t>(fields.Integer("seq", 0, kMaxSeq));
+  if (fields.Has("replaces")) {
+    r.replaces = static_cast<std::uint64_t>(fields.Integer("replaces", 0, static_cast<std::int64_t>(r.seq) - 1));
+  }
   r.step = fields.String("step");
   if (!IsValidId(r.step)) {
     fields.Fail("step", "expected a step id (1 to 128 characters from A-Z a-z 0-9 . _ -)");
@@ -52,7 +69,11 @@ JournalRecord ParseRecord(const json& document, const fs::path& file, const std:
   }
   std::set<std::string> paths;
   for (const auto& f : fields.Objects("files", kMaxFilesPerRecord)) {
-    f.RejectUnknownMembers({"path", "bytes"});
+    if (hashes == Hashes::kAbsent) {
+      f.RejectUnknownMembers({"path", "bytes"});  // version 1: sizes only
+    } else {
+      f.RejectUnknownMembers({"path", "bytes", "xxh3_64"});
+    }
     JournalFile jf;
     jf.path = f.String("path");
     if (!IsSessionPath(jf.path)) {
@@ -60,7 +81,13 @@ JournalRecord ParseRecord(const json& document, const fs::path& file, const std:
                      "leading '/', no empty parts)");
     }
     if (!paths.insert(jf.path).second) f.Fail("path", "listed twice in this record");
-    jf.bytes = static_cast<std::uint64_t>(f.Integer("bytes", 0, kMaxFileBytes));
+    if (hashes == Hashes::kRequired || (hashes == Hashes::kEither && f.Has("xxh3_64"))) {
+      const core::FileChecksum sum = ReadChecksum(f);
+      jf.bytes = sum.bytes;
+      jf.xxh3 = sum.xxh3;
+    } else {
+      jf.bytes = static_cast<std::uint64_t>(f.Integer("bytes", 0, kMaxFileBytes));
+    }
     r.files.push_back(std::move(jf));
   }
   return r;
@@ -69,8 +96,8 @@ JournalRecord ParseRecord(const json& document, const fs::path& file, const std:
 // How the journal so far constrains the next record.
 struct JournalState {
   std::uint64_t next_seq = 0;
-  const std::set<std::string>* done = nullptr;
-  const std::set<std::string>* plan = nullptr;  // null: any step id
+  const std::map<std::string, std::uint64_t>* last_seq = nullptr;  // step -> its latest record
+  const std::set<std::string>* plan = nullptr;                     // null: any step id
 };
 
 // Throws FormatError when `r` cannot be the next record.
@@ -81,8 +108,15 @@ void CheckOrder(const JournalRecord& r, const JournalState& state, const fs::pat
                       "expected " + std::to_string(state.next_seq) + " (records are numbered "
                       "0, 1, 2, ... in order), got " + std::to_string(r.seq));
   }
-  if (state.done->count(r.step)) {
-    throw core::FormatError(file, where + ".step", "step \"" + r.step + "\" is already recorded");
+  const auto last = state.last_seq->find(r.step);
+  if (last != state.last_seq->end() && r.replaces != last->second) {
+    throw core::FormatError(file, where + ".step",
+                            "step \"" + r.step + "\" is already recorded (line " + std::to_string(last->second + 1) +
+                                "); a record that does it again says \"replaces\": " + std::to_string(last->second));
+  }
+  if (last == state.last_seq->end() && r.replaces) {
+    throw core::FormatError(file, where + ".replaces",
+                            "step \"" + r.step + "\" has no earlier record to replace");
   }
   if (state.plan && !state.plan->count(r.step)) {
     throw core::FormatError(file, where + ".step", "step \"" + r.step + "\" is not in the plan");
@@ -144,7 +178,7 @@ JournalContents ReadCaptureJournal(const fs::path& file, const SessionManifest* 
                                     std::to_string(kMaxJournalBytes) + " expected");
   }
   const std::set<std::string> plan = manifest ? PlanIds(*manifest) : std::set<std::string>();
-  std::set<std::string> done;
+  std::map<std::string, std::uint64_t> last_seq;
   JournalContents contents;
   std::uint64_t line_number = 0;
 
@@ -163,9 +197,9 @@ JournalContents ReadCaptureJournal(const fs::path& file, const SessionManifest* 
       if (last) return;
       throw core::FormatError(file, where, "not valid JSON");
     }
-    JournalRecord r = ParseRecord(document, file, where);
-    CheckOrder(r, {contents.records.size(), &done, manifest ? &plan : nullptr}, file, where);
-    done.insert(r.step);
+    JournalRecord r = ParseRecord(document, file, where, HashesOf(manifest));
+    CheckOrder(r, {contents.records.size(), &last_seq, manifest ? &plan : nullptr}, file, where);
+    last_seq[r.step] = r.seq;
     contents.records.push_back(std::move(r));
     contents.intact_bytes = end;
   };
@@ -201,10 +235,14 @@ CaptureJournal::CaptureJournal(fs::path file, const SessionManifest* manifest)
       }
     }
     records_ = std::move(contents.records);
-    for (const auto& r : records_) done_.insert(r.step);
+    for (const auto& r : records_) {
+      done_.insert(r.step);
+      last_seq_[r.step] = r.seq;
+    }
     if (manifest) {
       plan_ = PlanIds(*manifest);
       has_plan_ = true;
+      hashes_ = HashesOf(manifest);
     }
     size_ = contents.intact_bytes;
     dropped_bytes_ = contents.dropped_bytes;
@@ -218,13 +256,32 @@ CaptureJournal::~CaptureJournal() { ::close(fd_); }
 
 void CaptureJournal::Check(const JournalRecord& record) const {
   const std::string where = LineName(records_.size() + 1);
-  ParseRecord(RecordJson(record), file_, where);
-  CheckOrder(record, {records_.size(), &done_, has_plan_ ? &plan_ : nullptr}, file_, where);
+  ParseRecord(RecordJson(record), file_, where, hashes_);
+  if (done_.count(record.step)) {
+    throw core::FormatError(file_, where + ".step", "step \"" + record.step + "\" is already done");
+  }
+  CheckOrder(record, {records_.size(), &last_seq_, has_plan_ ? &plan_ : nullptr}, file_, where);
 }
 
-void CaptureJournal::Append(const JournalRecord& record) {
+void CaptureJournal::Redo(const std::string& step) {
+  const auto last = last_seq_.find(step);
+  if (last == last_seq_.end()) throw core::Error(file_.string() + ": step \"" + step + "\" was never recorded");
+  done_.erase(step);
+  redo_[step] = last->second;
+}
+
+void CaptureJournal::Append(const JournalRecord& given) {
   if (broken_) {
     throw core::Error(file_.string() + ": an earlier append failed; reopen the journal to go on");
+  }
+  JournalRecord record = given;
+  if (const auto redo = redo_.find(record.step); redo != redo_.end()) record.replaces = redo->second;
+  const fs::path session_dir = file_.has_parent_path() ? file_.parent_path() : fs::path(".");
+  for (JournalFile& f : record.files) {
+    if (hashes_ != Hashes::kAbsent && !f.xxh3 && IsSessionPath(f.path)) {
+      std::error_code ec;
+      if (fs::is_regular_file(session_dir / f.path, ec)) f.xxh3 = core::ComputeFileChecksum(session_dir / f.path).xxh3;
+    }
   }
   Check(record);
 
@@ -284,6 +341,14 @@ void CaptureJournal::Append(const JournalRecord& record) {
   size_ += line.size();
   records_.push_back(record);
   done_.insert(record.step);
+  last_seq_[record.step] = record.seq;
+  redo_.erase(record.step);
+}
+
+std::map<std::string, const JournalRecord*> LatestRecords(const std::vector<JournalRecord>& records) {
+  std::map<std::string, const JournalRecord*> latest;
+  for (const JournalRecord& r : records) latest[r.step] = &r;
+  return latest;
 }
 
 }  // namespace mesocap::formats

@@ -18,7 +18,8 @@ using nlohmann::json;
 namespace {
 
 constexpr const char* kFormat = "mesocap.session";
-constexpr int kVersion = 1;
+constexpr int kVersion = 2;  // version 1: no checksums
+constexpr int kOldestVersion = 1;
 // The rig snapshot and step params are free-form; 64 levels is far more than
 // any rig description needs and keeps recursive JSON walks safe.
 constexpr int kMaxDepth = 64;
@@ -55,6 +56,19 @@ std::string ShortText(const core::JsonFieldReader& fields, std::string_view key)
   return s;
 }
 
+}  // namespace
+
+core::FileChecksum ReadChecksum(const core::JsonFieldReader& fields) {
+  core::FileChecksum sum;
+  sum.bytes = static_cast<std::uint64_t>(fields.Integer("bytes", 0, kMaxSessionFileBytes));
+  const auto hash = core::ParseChecksumText(fields.String("xxh3_64"));
+  if (!hash) fields.Fail("xxh3_64", "expected 16 lowercase hexadecimal digits (the file's XXH3-64 hash)");
+  sum.xxh3 = *hash;
+  return sum;
+}
+
+namespace {
+
 PlannedStep ReadStep(const core::JsonFieldReader& fields) {
   PlannedStep step;
   step.id = fields.String("id");
@@ -71,10 +85,10 @@ PlannedStep ReadStep(const core::JsonFieldReader& fields) {
 SessionManifest ParseSessionManifest(const json& document, const fs::path& file) {
   core::RejectDeepNesting(document, file, kMaxDepth);  // again, for manifests about to be written
   const core::JsonFieldReader root(document, file);
-  root.ExpectFormat(kFormat, kVersion);
+  SessionManifest m;
+  m.version = root.ExpectFormat(kFormat, kOldestVersion, kVersion);
   root.RejectUnknownMembers({"format", "version", "software_version", "created_utc", "rig",
                               "calibration", "plan"});
-  SessionManifest m;
   m.software_version = ShortText(root, "software_version");
   m.created_utc = root.String("created_utc");
   if (!IsUtcTimestamp(m.created_utc)) {
@@ -83,11 +97,19 @@ SessionManifest ParseSessionManifest(const json& document, const fs::path& file)
   const core::JsonFieldReader rig = root.Object("rig");
   ShortText(rig, "name");
   m.rig = rig.json();
-  if (root.Has("calibration")) {
+  if (root.Has("calibration") && m.version == 1) {
     m.calibration = root.String("calibration");
     if (!IsSessionPath(*m.calibration)) {
       root.Fail("calibration", "expected a relative path inside the session folder");
     }
+  } else if (root.Has("calibration")) {
+    const core::JsonFieldReader calibration = root.Object("calibration");
+    calibration.RejectUnknownMembers({"path", "bytes", "xxh3_64"});
+    m.calibration = calibration.String("path");
+    if (!IsSessionPath(*m.calibration)) {
+      calibration.Fail("path", "expected a relative path inside the session folder");
+    }
+    m.calibration_checksum = ReadChecksum(calibration);
   }
   const core::JsonFieldReader plan = root.Object("plan");
   plan.RejectUnknownMembers({"steps"});
@@ -184,7 +206,14 @@ json ToJson(const SessionManifest& m) {
             {"created_utc", m.created_utc},
             {"rig", m.rig},
             {"plan", {{"steps", std::move(steps)}}}};
-  if (m.calibration) j["calibration"] = *m.calibration;
+  if (m.calibration && !m.calibration_checksum) {
+    throw core::Error("session manifest: the calibration " + *m.calibration + " needs its size and hash");
+  }
+  if (m.calibration) {
+    j["calibration"] = {{"path", *m.calibration},
+                        {"bytes", m.calibration_checksum->bytes},
+                        {"xxh3_64", core::ChecksumText(m.calibration_checksum->xxh3)}};
+  }
   return j;
 }
 

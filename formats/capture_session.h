@@ -15,6 +15,9 @@
 #include <string_view>
 #include <vector>
 
+#include "core/file_checksum.h"
+#include "core/json_field_reader.h"
+
 namespace mesocap::formats {
 
 inline constexpr const char* kSessionManifestName = "manifest.json";
@@ -38,13 +41,17 @@ struct PlannedStep {
 };
 
 struct SessionManifest {
+  int version = 2;  // of the manifest read; version 1 records no checksums
   std::string software_version;  // CreateCaptureSession fills an empty one with Version()
   std::string created_utc;       // UtcTimestamp(); CreateCaptureSession fills an empty one
   // The rig as configured for this session, kept as given; must hold a
   // non-empty string "name".
   nlohmann::json rig = nlohmann::json::object();
-  // The calibration in use, as a path inside the session folder.
+  // The calibration in use, as a path inside the session folder, with its
+  // size and hash (version 2: required with the path; the file is written
+  // after the manifest, so its checksum is known before it exists).
   std::optional<std::string> calibration;
+  std::optional<core::FileChecksum> calibration_checksum;
   std::vector<PlannedStep> plan;
 };
 
@@ -56,6 +63,11 @@ void CreateCaptureSession(const std::filesystem::path& dir, SessionManifest mani
 // Reads and validates dir/manifest.json.
 SessionManifest ReadSessionManifest(const std::filesystem::path& dir);
 nlohmann::json ToJson(const SessionManifest& manifest);
+
+inline constexpr std::int64_t kMaxSessionFileBytes = std::int64_t{1} << 62;
+// {"bytes": N, "xxh3_64": "16 hex digits"} inside `fields` (a calibration
+// entry, a journal file); FormatError naming the field otherwise.
+core::FileChecksum ReadChecksum(const core::JsonFieldReader& fields);
 
 // "2025-06-01T12:34:56.789Z": ISO 8601, UTC, milliseconds.
 std::string UtcTimestamp(std::chrono::system_clock::time_point time);

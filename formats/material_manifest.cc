@@ -4,12 +4,14 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <vector>
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/file_checksum.h"
 #include "core/image.h"
 #include "core/json_field_reader.h"
 #include "core/mdf.h"
@@ -20,7 +22,8 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr char kFormat[] = "mesocap.material";
-constexpr int kVersion = 1;
+constexpr int kVersion = 2;  // version 1: no "files" checksums
+constexpr int kOldestVersion = 1;
 constexpr char kBtfValues[] = "linear_rgb_reflectance";
 constexpr char kSingularValues[] = "folded_into_rows";
 
@@ -91,6 +94,11 @@ nlohmann::ordered_json ManifestJson(const MaterialManifest& m) {
   if (m.ambient) j["ambient"] = {{"file", kAmbientFile}};
   if (m.error_report) j["error_report"] = {{"file", kErrorReportFile}};
   if (m.calibration) j["calibration"] = {{"file", kCalibrationFile}};
+  nlohmann::ordered_json files = nlohmann::ordered_json::object();
+  for (const auto& [name, sum] : m.checksums) {
+    files[name] = {{"bytes", sum.bytes}, {"xxh3_64", core::ChecksumText(sum.xxh3)}};
+  }
+  j["files"] = files;
   return j;
 }
 
@@ -147,13 +155,18 @@ Eigen::Matrix3d ReadMatrix3(const core::JsonFieldReader& r, const char* key) {
 
 MaterialManifest::MdfPart ReadMdfPart(const core::JsonFieldReader& mdf) {
   MaterialManifest::MdfPart part;
+  mdf.RejectUnknownMembers({"float32", "uint8", "confidence"});
   part.forms.float32 = mdf.Has("float32");
   part.forms.uint8 = mdf.Has("uint8");
   if (!part.forms.float32 && !part.forms.uint8)
     mdf.Fail("", "expected a \"float32\" and/or a \"uint8\" form");
-  if (part.forms.float32) mdf.Object("float32").Choice("file", {kMdfFloatFile});
+  if (part.forms.float32) {
+    mdf.Object("float32").RejectUnknownMembers({"file"});
+    mdf.Object("float32").Choice("file", {kMdfFloatFile});
+  }
   if (part.forms.uint8) {
     const core::JsonFieldReader u = mdf.Object("uint8");
+    u.RejectUnknownMembers({"file", "scale_mm", "max_distance_code", "no_hit_code", "unknown_code"});
     u.Choice("file", {kMdfUint8File});
     part.scale_mm = ReadPositive(u, "scale_mm", u.Number("scale_mm"));
     u.Integer("max_distance_code", core::QuantizedMdf::kMaxDistanceCode, core::QuantizedMdf::kMaxDistanceCode);
@@ -161,12 +174,16 @@ MaterialManifest::MdfPart ReadMdfPart(const core::JsonFieldReader& mdf) {
     u.Integer("unknown_code", core::QuantizedMdf::kUnknownCode, core::QuantizedMdf::kUnknownCode);
   }
   part.confidence = mdf.Has("confidence");
-  if (part.confidence) mdf.Object("confidence").Choice("file", {kMdfConfidenceFile});
+  if (part.confidence) {
+    mdf.Object("confidence").RejectUnknownMembers({"file"});
+    mdf.Object("confidence").Choice("file", {kMdfConfidenceFile});
+  }
   return part;
 }
 
 MaterialManifest::FactoredBtfPart ReadFactoredPart(const core::JsonFieldReader& f, const MaterialDescription& d) {
   MaterialManifest::FactoredBtfPart part;
+  f.RejectUnknownMembers({"layout", "color", "rank", "singular_values", "row_files", "column_file", "rgb_to_factored"});
   part.layout = f.Choice("layout", {"paper", "per_texel"}) == "paper" ? core::BtfFactorLayout::kPaper
                                                                       : core::BtfFactorLayout::kPerTexel;
   part.color = f.Choice("color", {"rgb", "ycbcr"}) == "rgb" ? core::BtfFactorColor::kRgb : core::BtfFactorColor::kYCbCr;
@@ -188,33 +205,63 @@ MaterialManifest::FactoredBtfPart ReadFactoredPart(const core::JsonFieldReader& 
   return part;
 }
 
-void ExpectFile(const core::JsonFieldReader& r, const std::string& key, const fs::path& dir, const fs::path& name) {
-  std::error_code ec;
-  if (!fs::is_regular_file(dir / name, ec)) {
-    r.Fail(key, "the package has no file " + name.string() + " (" + (dir / name).string() + ")");
-  }
-}
-
-void ExpectFiles(const core::JsonFieldReader& root, const MaterialManifest& m, const fs::path& dir) {
+// The data files a manifest lists, each with the manifest field that names it.
+std::vector<std::pair<std::string, std::string>> FieldsAndFiles(const MaterialManifest& m) {
+  std::vector<std::pair<std::string, std::string>> files;
   if (m.mdf) {
-    if (m.mdf->forms.float32) ExpectFile(root, "mdf.float32.file", dir, kMdfFloatFile);
-    if (m.mdf->forms.uint8) ExpectFile(root, "mdf.uint8.file", dir, kMdfUint8File);
-    if (m.mdf->confidence) ExpectFile(root, "mdf.confidence.file", dir, kMdfConfidenceFile);
+    if (m.mdf->forms.float32) files.emplace_back("mdf.float32.file", kMdfFloatFile);
+    if (m.mdf->forms.uint8) files.emplace_back("mdf.uint8.file", kMdfUint8File);
+    if (m.mdf->confidence) files.emplace_back("mdf.confidence.file", kMdfConfidenceFile);
   }
   if (m.full_btf) {
     for (int v = 0; v < m.description.view_directions.size(); ++v) {
-      ExpectFile(root, "btf.full.files", dir, FullBtfViewFile(v));
+      files.emplace_back("btf.full.files", FullBtfViewFile(v).generic_string());
     }
   }
   if (m.factored_btf) {
     for (int k = 0; k < m.factored_btf->rank; ++k) {
-      ExpectFile(root, "btf.factored.row_files", dir, BtfRowFactorFile(k));
+      files.emplace_back("btf.factored.row_files", BtfRowFactorFile(k).generic_string());
     }
-    ExpectFile(root, "btf.factored.column_file", dir, kColumnFactorFile);
+    files.emplace_back("btf.factored.column_file", kColumnFactorFile);
   }
-  if (m.ambient) ExpectFile(root, "ambient.file", dir, kAmbientFile);
-  if (m.error_report) ExpectFile(root, "error_report.file", dir, kErrorReportFile);
-  if (m.calibration) ExpectFile(root, "calibration.file", dir, kCalibrationFile);
+  if (m.ambient) files.emplace_back("ambient.file", kAmbientFile);
+  if (m.error_report) files.emplace_back("error_report.file", kErrorReportFile);
+  if (m.calibration) files.emplace_back("calibration.file", kCalibrationFile);
+  return files;
+}
+
+void ExpectFiles(const core::JsonFieldReader& root, const MaterialManifest& m, const fs::path& dir) {
+  for (const auto& [field, name] : FieldsAndFiles(m)) {
+    std::error_code ec;
+    if (!fs::is_regular_file(dir / name, ec)) {
+      root.Fail(field, "the package has no file " + name + " (" + (dir / name).string() + ")");
+    }
+  }
+}
+
+// "files": every data file the manifest lists, with its size and hash.
+std::map<std::string, core::FileChecksum> ReadChecksums(const core::JsonFieldReader& root,
+                                                        const MaterialManifest& m) {
+  const nlohmann::json& files = root.Raw("files");
+  if (!files.is_object()) root.Fail("files", "expected an object: file name -> {\"bytes\", \"xxh3_64\"}");
+  std::map<std::string, core::FileChecksum> sums;
+  for (const auto& [field, name] : FieldsAndFiles(m)) {
+    if (!files.contains(name)) root.Fail("files", "no checksum of " + name + ", which " + field + " lists");
+    const core::JsonFieldReader entry = root.Object("files").Object(name);
+    entry.RejectUnknownMembers({"bytes", "xxh3_64"});
+    core::FileChecksum sum;
+    sum.bytes = static_cast<std::uint64_t>(entry.Integer("bytes", 0, std::int64_t{1} << 62));
+    const auto hash = core::ParseChecksumText(entry.String("xxh3_64"));
+    if (!hash) entry.Fail("xxh3_64", "expected 16 lowercase hexadecimal digits");
+    sum.xxh3 = *hash;
+    sums.emplace(name, sum);
+  }
+  if (files.size() != sums.size()) {
+    for (const auto& [name, value] : files.items()) {
+      if (!sums.count(name)) root.Fail("files", "lists " + name + ", which is no part of this package");
+    }
+  }
+  return sums;
 }
 
 fs::path ManifestPath(const fs::path& dir) { return dir / kManifestFile; }
@@ -257,12 +304,16 @@ MaterialManifest ReadMaterialManifest(const fs::path& dir) {
   const fs::path file = ManifestPath(dir);
   const nlohmann::json doc = core::ReadJsonFile(file, kMaxJsonBytes);
   const core::JsonFieldReader root(doc, file);
-  root.ExpectFormat(kFormat, kVersion);
+  MaterialManifest m;
+  m.version = root.ExpectFormat(kFormat, kOldestVersion, kVersion);
+  root.RejectUnknownMembers({"format", "version", "units", "name", "texture_size", "physical_size_mm", "d_max_mm",
+                             "view_directions", "light_directions", "provenance", "mdf", "btf", "ambient",
+                             "error_report", "calibration", "files"});
   const core::JsonFieldReader units = root.Object("units");
+  units.RejectUnknownMembers({"length", "angle"});
   units.Choice("length", {"mm"});
   units.Choice("angle", {"deg"});
 
-  MaterialManifest m;
   MaterialDescription& d = m.description;
   d.name = root.String("name");
   const Eigen::Vector2i texels = ReadTextureSize(root);
@@ -275,6 +326,7 @@ MaterialManifest ReadMaterialManifest(const fs::path& dir) {
   d.view_directions = ReadDirections(root, "view_directions");
   d.light_directions = ReadDirections(root, "light_directions");
   const core::JsonFieldReader provenance = root.Object("provenance");
+  provenance.RejectUnknownMembers({"software_version", "created_utc", "source"});
   d.provenance.software_version = provenance.String("software_version");
   d.provenance.created_utc = provenance.String("created_utc");
   d.provenance.source = provenance.String("source");
@@ -285,29 +337,61 @@ MaterialManifest ReadMaterialManifest(const fs::path& dir) {
   }
   if (root.Has("btf")) {
     const core::JsonFieldReader btf = root.Object("btf");
+    btf.RejectUnknownMembers({"values", "full", "factored"});
     btf.Choice("values", {kBtfValues});
     m.full_btf = btf.Has("full");
-    if (m.full_btf) btf.Object("full").Choice("files", {kFullBtfFiles});
+    if (m.full_btf) {
+      btf.Object("full").RejectUnknownMembers({"files"});
+      btf.Object("full").Choice("files", {kFullBtfFiles});
+    }
     if (btf.Has("factored")) m.factored_btf = ReadFactoredPart(btf.Object("factored"), d);
     if (!m.full_btf && !m.factored_btf) btf.Fail("", "expected a \"full\" and/or a \"factored\" form");
     if (auto problem = OversizeProblem(d, "BTF", true, 3); !problem.empty()) root.Fail("btf", problem);
   }
   if (root.Has("ambient")) {
+    root.Object("ambient").RejectUnknownMembers({"file"});
     root.Object("ambient").Choice("file", {kAmbientFile});
     m.ambient = true;
     if (auto problem = OversizeProblem(d, "ambient term", false, 3); !problem.empty())
       root.Fail("ambient", problem);
   }
   if (root.Has("error_report")) {
+    root.Object("error_report").RejectUnknownMembers({"file"});
     root.Object("error_report").Choice("file", {kErrorReportFile});
     m.error_report = true;
   }
   if (root.Has("calibration")) {
+    root.Object("calibration").RejectUnknownMembers({"file"});
     root.Object("calibration").Choice("file", {kCalibrationFile});
     m.calibration = true;
   }
+  if (m.version >= 2) {
+    m.checksums = ReadChecksums(root, m);
+  } else if (root.Has("files")) {
+    root.Fail("files", "checksums are a version 2 member; this manifest says version 1");
+  }
   ExpectFiles(root, m, dir);
   return m;
+}
+
+std::vector<std::string> PackageDataFiles(const MaterialManifest& manifest) {
+  std::vector<std::string> names;
+  for (auto& [field, name] : FieldsAndFiles(manifest)) names.push_back(std::move(name));
+  return names;
+}
+
+void ExpectPackageFileIntact(const fs::path& dir, const MaterialManifest& manifest, const std::string& name) {
+  const auto it = manifest.checksums.find(name);
+  if (it != manifest.checksums.end()) core::ExpectFileChecksum(dir / name, it->second);
+}
+
+bool IsMaterialPackageFolder(const fs::path& dir) {
+  try {
+    const nlohmann::json doc = core::ReadJsonFile(ManifestPath(dir), kMaxJsonBytes);
+    return doc.is_object() && doc.value("format", "") == kFormat;
+  } catch (const core::Error&) {
+    return false;
+  }
 }
 
 }  // namespace mesocap::formats

@@ -7,10 +7,13 @@
 
 #include <Eigen/Core>
 #include <filesystem>
+#include <map>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "core/btf.h"
+#include "core/file_checksum.h"
 #include "core/image.h"
 #include "core/sampling_set.h"
 
@@ -66,12 +69,28 @@ struct MaterialManifest {
   bool ambient = false;
   bool error_report = false;
   bool calibration = false;  // calibration.json: the rig the material was captured with
+
+  int version = 2;  // of the manifest read; version 1 has no checksums
+  // Size and hash of every data file above, by name in the package ("mdf.exr",
+  // "btf/view_0003.exr"); empty for a version 1 package. The writer fills it.
+  std::map<std::string, core::FileChecksum> checksums;
 };
 
 // Validates manifest.json (format, version, units, every field's type and
-// range, implied sizes) and that every file it references exists. Reads no
-// pixel data.
+// range, implied sizes, a checksum for every file it references) and that
+// every such file exists. Reads no pixel data and hashes nothing.
 MaterialManifest ReadMaterialManifest(const std::filesystem::path& dir);
+
+// The data files the manifest references, by name in the package, in the
+// manifest's order.
+std::vector<std::string> PackageDataFiles(const MaterialManifest& manifest);
+// Throws FormatError(file, "checksum") when the package file `name` no longer
+// has the size and hash the manifest records (nothing to check for version 1).
+void ExpectPackageFileIntact(const std::filesystem::path& dir, const MaterialManifest& manifest,
+                             const std::string& name);
+// Whether `dir` holds a material package: a manifest.json of this format
+// (valid or not otherwise). What --replace of a package-writing command may replace.
+bool IsMaterialPackageFolder(const std::filesystem::path& dir);
 
 // File names inside a package, relative to its folder.
 std::filesystem::path FullBtfViewFile(int view);  // "btf/view_0007.exr"

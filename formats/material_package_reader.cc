@@ -12,9 +12,13 @@ namespace mesocap::formats {
 namespace fs = std::filesystem;
 namespace {
 
-// Reads an image of a part, rejecting another pixel type, size or channel
-// count before any pixel is allocated.
-core::Image ReadPartImage(const fs::path& file, core::PixelEncoding encoding, int width, int height, int channels) {
+// Reads the image `name` of a part: its checksum first (a flipped bit in a
+// compressed block can decode without error), then another pixel type, size
+// or channel count is refused before any pixel is allocated.
+core::Image ReadPartImage(const fs::path& dir, const MaterialManifest& manifest, const std::string& name,
+                          core::PixelEncoding encoding, int width, int height, int channels) {
+  ExpectPackageFileIntact(dir, manifest, name);
+  const fs::path file = dir / name;
   const core::ImageHeader header = core::ReadImageHeader(file);
   if (header.encoding != encoding) {
     throw core::FormatError(file, "pixel type",
@@ -52,7 +56,7 @@ core::Mdf ReadMdf(const fs::path& dir, const MaterialManifest& manifest) {
   mdf.height = d.height;
   mdf.views = d.view_directions;
   mdf.distance_mm =
-      ReadPartImage(file, core::PixelEncoding::kFloat32, d.width, PackedHeight(d, d.view_directions), 1);
+      ReadPartImage(dir, manifest, kMdfFloatFile, core::PixelEncoding::kFloat32, d.width, PackedHeight(d, d.view_directions), 1);
   const float* values = mdf.distance_mm.data();
   for (std::size_t i = 0; i < mdf.distance_mm.size(); ++i) {
     if (!core::IsValidMdfValue(values[i])) {
@@ -72,7 +76,8 @@ core::Image ReadMdfConfidence(const fs::path& dir, const MaterialManifest& manif
   const MaterialDescription& d = manifest.description;
   const fs::path file = dir / kMdfConfidenceFile;
   core::Image confidence =
-      ReadPartImage(file, core::PixelEncoding::kFloat32, d.width, PackedHeight(d, d.view_directions), 1);
+      ReadPartImage(dir, manifest, kMdfConfidenceFile, core::PixelEncoding::kFloat32, d.width,
+                    PackedHeight(d, d.view_directions), 1);
   if (const std::size_t i = FirstOutsideUnitInterval(confidence); i < confidence.size()) {
     const std::size_t row = i / d.width;
     throw core::FormatError(file, "pixels",
@@ -86,7 +91,7 @@ core::Image ReadMdfConfidence(const fs::path& dir, const MaterialManifest& manif
 core::QuantizedMdf ReadQuantizedMdf(const fs::path& dir, const MaterialManifest& manifest) {
   if (!manifest.mdf || !manifest.mdf->forms.uint8) ThrowMissingPart(dir, "mdf.uint8", "8-bit MDF");
   const MaterialDescription& d = manifest.description;
-  const core::Image image = ReadPartImage(dir / kMdfUint8File, core::PixelEncoding::kUInt8, d.width,
+  const core::Image image = ReadPartImage(dir, manifest, kMdfUint8File, core::PixelEncoding::kUInt8, d.width,
                                     PackedHeight(d, d.view_directions), 1);
   core::QuantizedMdf q;
   q.width = d.width;
@@ -109,8 +114,8 @@ core::Image ReadFullBtfView(const fs::path& dir, const MaterialManifest& manifes
                 std::to_string(d.view_directions.size() - 1));
   }
   const fs::path file = dir / FullBtfViewFile(view);
-  core::Image image =
-      ReadPartImage(file, core::PixelEncoding::kFloat32, d.width, PackedHeight(d, d.light_directions), 3);
+  core::Image image = ReadPartImage(dir, manifest, FullBtfViewFile(view).generic_string(),
+                                    core::PixelEncoding::kFloat32, d.width, PackedHeight(d, d.light_directions), 3);
   ExpectFiniteInFile(file, image);
   return image;
 }
@@ -143,11 +148,13 @@ core::FactoredBtf ReadFactoredBtf(const fs::path& dir, const MaterialManifest& m
   btf.rgb_to_factored = part.rgb_to_factored;
   for (int k = 0; k < part.rank; ++k) {
     const fs::path file = dir / BtfRowFactorFile(k);
-    btf.rows.push_back(ReadPartImage(file, core::PixelEncoding::kFloat32, d.width, btf.row_image_height(), 3));
+    btf.rows.push_back(ReadPartImage(dir, manifest, BtfRowFactorFile(k).generic_string(),
+                                     core::PixelEncoding::kFloat32, d.width, btf.row_image_height(), 3));
     ExpectFiniteInFile(file, btf.rows.back());
   }
   const fs::path columns = dir / kColumnFactorFile;
-  btf.columns = ReadPartImage(columns, core::PixelEncoding::kFloat32, btf.column_count(), part.rank, 3);
+  btf.columns = ReadPartImage(dir, manifest, kColumnFactorFile, core::PixelEncoding::kFloat32, btf.column_count(),
+                              part.rank, 3);
   ExpectFiniteInFile(columns, btf.columns);
   return btf;
 }
@@ -160,8 +167,8 @@ AmbientTerm ReadAmbientTerm(const fs::path& dir, const MaterialManifest& manifes
   ambient.width = d.width;
   ambient.height = d.height;
   ambient.views = d.view_directions;
-  ambient.values =
-      ReadPartImage(file, core::PixelEncoding::kFloat32, d.width, PackedHeight(d, d.view_directions), 3);
+  ambient.values = ReadPartImage(dir, manifest, kAmbientFile, core::PixelEncoding::kFloat32, d.width,
+                                 PackedHeight(d, d.view_directions), 3);
   ExpectFiniteInFile(file, ambient.values);
   return ambient;
 }
@@ -169,6 +176,7 @@ AmbientTerm ReadAmbientTerm(const fs::path& dir, const MaterialManifest& manifes
 nlohmann::json ReadErrorReport(const fs::path& dir, const MaterialManifest& manifest) {
   if (!manifest.error_report) ThrowMissingPart(dir, "error_report", "error report");
   const fs::path file = dir / kErrorReportFile;
+  ExpectPackageFileIntact(dir, manifest, kErrorReportFile);
   nlohmann::json report = core::ReadJsonFile(file, kMaxJsonBytes);
   if (!report.is_object()) throw core::FormatError(file, "", "expected a JSON object");
   return report;
@@ -176,6 +184,7 @@ nlohmann::json ReadErrorReport(const fs::path& dir, const MaterialManifest& mani
 
 Calibration ReadPackageCalibration(const fs::path& dir, const MaterialManifest& manifest) {
   if (!manifest.calibration) ThrowMissingPart(dir, "calibration", "calibration");
+  ExpectPackageFileIntact(dir, manifest, kCalibrationFile);
   return ReadCalibration(dir / kCalibrationFile);
 }
 

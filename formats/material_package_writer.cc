@@ -6,6 +6,7 @@
 #include <ctime>
 
 #include "core/error.h"
+#include "core/file_checksum.h"
 #include "core/image_io.h"
 #include "core/version.h"
 #include "formats/material_package_layout.h"
@@ -105,9 +106,9 @@ void ThrowIfOversize(const fs::path& dir, const std::string& problem) {
 // ---------------------------------------------------------------------------
 // MaterialPackageWriter
 
-MaterialPackageWriter::MaterialPackageWriter(const fs::path& dir, MaterialDescription description,
-                                             bool replace)
-    : dir_(dir), folder_(dir, replace) {
+MaterialPackageWriter::MaterialPackageWriter(const fs::path& dir, MaterialDescription description, bool replace,
+                                             std::vector<fs::path> inputs)
+    : dir_(dir), folder_(dir, PackageReplacement(replace, std::move(inputs))) {
   CheckDescription(dir_, description);
   if (description.provenance.software_version.empty()) description.provenance.software_version = core::Version();
   if (description.provenance.created_utc.empty()) description.provenance.created_utc = CurrentUtcTime();
@@ -257,6 +258,10 @@ MaterialManifest MaterialPackageWriter::Commit() {
     }
   }
   manifest_.full_btf = !full_btf_views_written_.empty();
+  manifest_.checksums.clear();
+  for (const std::string& name : PackageDataFiles(manifest_)) {
+    manifest_.checksums.emplace(name, core::ComputeFileChecksum(folder_.temp_path() / name));
+  }
   WriteMaterialManifest(folder_.temp_path(), manifest_);
   // Never publish a package this build cannot read back.
   MaterialManifest written = ReadMaterialManifest(folder_.temp_path());
@@ -265,8 +270,13 @@ MaterialManifest MaterialPackageWriter::Commit() {
   return written;
 }
 
-void WriteMaterialPackage(const fs::path& dir, const MaterialPackage& package, bool replace) {
-  MaterialPackageWriter writer(dir, package.description, replace);
+core::OutputReplacement PackageReplacement(bool replace, std::vector<fs::path> inputs) {
+  return {replace, "a material package", IsMaterialPackageFolder, std::move(inputs)};
+}
+
+void WriteMaterialPackage(const fs::path& dir, const MaterialPackage& package, bool replace,
+                          std::vector<fs::path> inputs) {
+  MaterialPackageWriter writer(dir, package.description, replace, std::move(inputs));
   const MaterialDescription& d = writer.description();
   if (package.mdf) writer.WriteMdf(*package.mdf, package.mdf_forms);
   if (package.full_btf) {

@@ -25,10 +25,13 @@ namespace mesocap::formats {
 // throws Error.
 class MaterialPackageWriter {
  public:
-  // Throws Error when `dir` exists and `replace` is false, or when the
-  // description is invalid. Empty provenance.software_version and
-  // created_utc are filled in with Version() and the current time.
-  MaterialPackageWriter(const std::filesystem::path& dir, MaterialDescription description, bool replace);
+  // Throws Error when `dir` exists and `replace` is false, when it holds
+  // anything but a material package or holds one of `inputs` (the command's
+  // inputs, never replaced), or when the description is invalid. Empty
+  // provenance.software_version and created_utc are filled in with
+  // Version() and the current time.
+  MaterialPackageWriter(const std::filesystem::path& dir, MaterialDescription description, bool replace,
+                        std::vector<std::filesystem::path> inputs = {});
 
   void WriteMdf(const core::Mdf& mdf, MdfForms forms = {});
   // A measured MDF's per-texel confidence in [0, 1] (the share of a view's
@@ -50,8 +53,9 @@ class MaterialPackageWriter {
   // the true one), as calibration.json beside the manifest.
   void WriteCalibration(const Calibration& calibration);
 
-  // Writes manifest.json, re-reads it as a reader would, and moves the
-  // package into place. Returns the manifest.
+  // Records every data file's size and hash, writes manifest.json, re-reads
+  // it as a reader would, and moves the package into place. Returns the
+  // manifest.
   MaterialManifest Commit();
 
   const MaterialDescription& description() const { return manifest_.description; }
@@ -66,7 +70,12 @@ class MaterialPackageWriter {
   bool committed_ = false;
 };
 
+// The --replace rule of a command that writes a package at `dir`: only a
+// material package is replaced, never one of the command's `inputs`.
+core::OutputReplacement PackageReplacement(bool replace, std::vector<std::filesystem::path> inputs = {});
+
 // All of `package` in one go.
-void WriteMaterialPackage(const std::filesystem::path& dir, const MaterialPackage& package, bool replace);
+void WriteMaterialPackage(const std::filesystem::path& dir, const MaterialPackage& package, bool replace,
+                          std::vector<std::filesystem::path> inputs = {});
 
 }  // namespace mesocap::formats

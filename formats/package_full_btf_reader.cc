@@ -10,12 +10,14 @@ namespace fs = std::filesystem;
 PackageFullBtfReader::PackageFullBtfReader(const fs::path& dir, const MaterialManifest& manifest)
     : PackageFullBtfReader(dir, manifest.description) {
   if (!manifest.full_btf) ThrowMissingPart(dir, "btf.full", "full BTF");
+  manifest_ = &manifest;
 }
 
 PackageFullBtfReader::PackageFullBtfReader(const fs::path& dir, const MaterialDescription& description)
     : core::FullBtfReader(description.width, description.height, description.view_directions,
                     description.light_directions),
       dir_(dir),
+      checked_(description.view_directions.size(), 0),
       open_(description.view_directions.size()),
       view_mutex_(description.view_directions.size()) {}
 
@@ -38,11 +40,16 @@ std::unique_ptr<core::ImageRowReader> PackageFullBtfReader::Open(int view) const
 }
 
 void PackageFullBtfReader::ReadRowsFromSource(int view, int first_row, int rows, float* out) {
+  std::unique_lock lock(view_mutex_[view]);
+  if (manifest_ && !checked_[view]) {
+    ExpectPackageFileIntact(dir_, *manifest_, FullBtfViewFile(view).generic_string());
+    checked_[view] = 1;
+  }
   if (view_count() > kMaxOpenViews) {
+    lock.unlock();
     Open(view)->Read(first_row, rows, out);
     return;
   }
-  std::lock_guard lock(view_mutex_[view]);
   if (!open_[view]) open_[view] = Open(view);
   open_[view]->Read(first_row, rows, out);
 }

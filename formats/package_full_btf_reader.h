@@ -17,8 +17,9 @@ namespace mesocap::formats {
 
 // Keeps each view's file open between reads (up to kMaxOpenViews views; with
 // more, each read opens and closes its file); FormatError (naming the file)
-// for a view file of another size, channel count or pixel type, or a
-// truncated one.
+// for a view file of another size, channel count or pixel type, a truncated
+// one, or one whose checksum differs from the manifest's (checked once per
+// view, at its first read). The manifest must outlive the reader.
 class PackageFullBtfReader : public core::FullBtfReader {
  public:
   static constexpr int kMaxOpenViews = 256;
@@ -36,6 +37,8 @@ class PackageFullBtfReader : public core::FullBtfReader {
   std::unique_ptr<core::ImageRowReader> Open(int view) const;
 
   std::filesystem::path dir_;
+  const MaterialManifest* manifest_ = nullptr;  // null for a package being written (nothing to check yet)
+  std::vector<char> checked_;                     // per view: its checksum matched; guarded by view_mutex_
   std::vector<std::unique_ptr<core::ImageRowReader>> open_;  // per view; null until first read
   std::vector<std::mutex> view_mutex_;                       // guards open_[view] and its reads
 };

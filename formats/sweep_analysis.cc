@@ -20,6 +20,8 @@ std::filesystem::path ImageFile(const std::filesystem::path& file) {
 
 }  // namespace
 
+std::string SweepAnalysisImagePath(const std::string& path) { return ImageFile(path).string(); }
+
 void WriteSweepAnalysis(const std::filesystem::path& file, const SweepAnalysis& analysis) {
   const std::size_t n = static_cast<std::size_t>(analysis.width) * analysis.height;
   if (analysis.peak_time.size() != n || analysis.peak_value.size() != n || analysis.second_time.size() != n ||

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <filesystem>
+#include <string>
 #include <vector>
 
 #include "core/plane.h"
@@ -40,6 +41,8 @@ struct SweepAnalysis {
 // Both written atomically, the EXR first, so the JSON only ever names a
 // complete image.
 void WriteSweepAnalysis(const std::filesystem::path& file, const SweepAnalysis& analysis);
+// The image file beside a sweep analysis "laser/x.sweep.json": "laser/x.sweep.json.exr".
+std::string SweepAnalysisImagePath(const std::string& path);
 // Throws FormatError naming the file and field on anything malformed.
 SweepAnalysis ReadSweepAnalysis(const std::filesystem::path& file);
 

@@ -82,13 +82,15 @@ core::CheckResult MdfProcessingOptions::Check() const {
   return {};
 }
 
-MdfProcessingResult ProcessMdfSession(const fs::path& session, const formats::Calibration& calibration,
+MdfProcessingResult ProcessMdfSession(const formats::CapturedSession& session, const formats::Calibration& calibration,
                                       const MdfProcessingOptions& options, core::Progress::Style progress_style) {
   if (const auto problem = options.Check(); !problem.empty()) throw core::Error("process mdf: " + problem);
-  const formats::SessionManifest manifest = formats::ReadSessionManifest(session);
-  const fs::path manifest_file = session / formats::kSessionManifestName;
+  const formats::SessionManifest& manifest = session.manifest();
+  const fs::path manifest_file = session.manifest_file();
   const formats::RigDescription rig = formats::ParseRigDescription(manifest.rig, manifest_file);
-  SessionSweepGeometry geometry(session, manifest, rig, calibration, options.geometry);
+  SessionSweepGeometry geometry(
+      manifest_file, manifest, [&session](const std::string& path) { return session.IntactFile(path); }, rig, calibration,
+      options.geometry);
 
   std::vector<bool> use_location(rig.laser.locations.size(), options.locations.empty());
   for (int li : options.locations) {
@@ -100,7 +102,7 @@ MdfProcessingResult ProcessMdfSession(const fs::path& session, const formats::Ca
   }
   std::vector<formats::LaserSweepStep> sweeps;
   for (std::size_t s = 0; s < manifest.plan.size(); ++s) {
-    if (manifest.plan[s].kind != formats::StepKind::kLaserSweep) continue;
+    if (manifest.plan[s].kind != formats::StepKind::kLaserSweep || !session.IsDone(manifest.plan[s].id)) continue;
     formats::LaserSweepStep step = formats::ReadLaserSweepStep(manifest.plan[s], s, rig, manifest_file);
     if (use_location[step.location]) sweeps.push_back(std::move(step));
   }
@@ -126,9 +128,12 @@ MdfProcessingResult ProcessMdfSession(const fs::path& session, const formats::Ca
         throw core::FormatError(manifest_file, "plan", "a laser sweep file of camera " + id + " for location " +
                                                      std::to_string(step.location));
       }
-      const fs::path file = session / file_entry->path;
+      const fs::path file = session.IntactFile(file_entry->path);
       // A stored analysis needs no reference region: only the plane, for the weight.
       const int camera = static_cast<int>(c);
+      if (step.stores_analysis && session.Journaled(formats::SweepAnalysisImagePath(file_entry->path))) {
+        session.IntactFile(formats::SweepAnalysisImagePath(file_entry->path));
+      }
       const formats::SweepAnalysis analysis =
           step.stores_analysis ? ReadStoredAnalysis(file, rays, step.tilts_rad.size(), options.space_time)
                                : AnalyseFrames(file, rays, geometry.Geometry(step, poses, camera), options);

@@ -13,6 +13,7 @@
 #include "core/progress.h"
 #include "core/sampling_set.h"
 #include "formats/calibration.h"
+#include "formats/captured_session.h"
 #include "mdf/displacement_image.h"
 #include "mdf/displacement_merge.h"
 #include "mdf/session_sweeps.h"
@@ -42,11 +43,12 @@ struct MdfProcessingResult {
   int sweeps = 0;         // camera sequences analysed
 };
 
-// Reads the session's manifest and data. Throws FormatError / Error naming
+// Reads the scans of the session's done steps, each file checked against its
+// journal record. Throws FormatError / Error naming
 // the file and field for a missing calibration entry (a camera or laser
 // mount of the session's rig), a sequence whose frame size or count does not
 // match the calibration and plan, or a missing file; nothing is written.
-MdfProcessingResult ProcessMdfSession(const std::filesystem::path& session, const formats::Calibration& calibration,
+MdfProcessingResult ProcessMdfSession(const formats::CapturedSession& session, const formats::Calibration& calibration,
                                       const MdfProcessingOptions& options,
                                       core::Progress::Style progress = core::Progress::Style::kAuto);
 

@@ -23,12 +23,12 @@ core::CheckResult SweepGeometryOptions::Check() const {
   return {};
 }
 
-SessionSweepGeometry::SessionSweepGeometry(fs::path session, const formats::SessionManifest& manifest,
-                                           formats::RigDescription rig, const formats::Calibration& calibration,
-                                           SweepGeometryOptions options)
+SessionSweepGeometry::SessionSweepGeometry(const fs::path& manifest_file, const formats::SessionManifest& manifest,
+                                           SessionFiles files, formats::RigDescription rig,
+                                           const formats::Calibration& calibration, SweepGeometryOptions options)
     : SessionSweepGeometry(std::move(rig), calibration, {}, nullptr, std::move(options)) {
-  session_ = std::move(session);
-  manifest_file_ = session_ / formats::kSessionManifestName;
+  files_ = std::move(files);
+  manifest_file_ = manifest_file;
   for (std::size_t s = 0; s < manifest.plan.size(); ++s) {
     const formats::PlannedStep& step = manifest.plan[s];
     if (step.kind != formats::StepKind::kLaserCalibration) continue;
@@ -97,7 +97,7 @@ core::Image SessionSweepGeometry::ReadPlateFrame(int location, int plate, int ca
   read.expected_width = rays_[camera].width();
   read.expected_height = rays_[camera].height();
   read.expected_channels = 1;
-  return core::ReadImage(session_ / f->path, read);
+  return core::ReadImage(files_(f->path), read);
 }
 
 const core::Plane& SessionSweepGeometry::CalibratedPlane(int location, int camera) {

@@ -63,8 +63,11 @@ class SessionSweepGeometry {
   // at the size the rig records) and checks the laser mounts; throws Error
   // naming what is missing. Plate frames are read from the session folder
   // when a location's plane is first needed.
-  SessionSweepGeometry(std::filesystem::path session, const formats::SessionManifest& manifest,
-                       formats::RigDescription rig, const formats::Calibration& calibration,
+  // A session file's full path, once checked (CapturedSession::IntactFile
+  // when processing; the capture itself reads what it has just journaled).
+  using SessionFiles = std::function<std::filesystem::path(const std::string& path)>;
+  SessionSweepGeometry(const std::filesystem::path& manifest_file, const formats::SessionManifest& manifest,
+                       SessionFiles files, formats::RigDescription rig, const formats::Calibration& calibration,
                        SweepGeometryOptions options);
   // The same for a capture that never reaches the disk (the simulated scan
   // of the tests): the plan's laser_calibration steps and their frames.
@@ -106,7 +109,7 @@ class SessionSweepGeometry {
   void AddPlate(formats::LaserCalibrationStep plate);
   core::Image ReadPlateFrame(int location, int plate, int camera) const;
 
-  std::filesystem::path session_;        // empty for a capture that never reaches the disk
+  SessionFiles files_;                   // empty for a capture that never reaches the disk
   std::filesystem::path manifest_file_;  // for messages
   PlateFrame plate_frame_;               // ReadPlateFrame when empty
   formats::RigDescription rig_;

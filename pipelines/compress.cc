@@ -6,6 +6,7 @@
 #include "formats/material_package_reader.h"
 #include "formats/material_package_writer.h"
 #include "formats/package_full_btf_reader.h"
+#include "core/atomic_file.h"
 
 namespace mesocap::pipelines {
 
@@ -17,6 +18,7 @@ core::CheckResult CompressOptions::Check() const {
 
 btf::BtfCompressionReport RunCompress(const CompressOptions& o) {
   if (const auto problem = o.Check(); !problem.empty()) throw core::Error("compress: " + problem);
+  core::ExpectReplaceable(o.out, formats::PackageReplacement(o.replace, {o.in}));
   const formats::MaterialManifest manifest = formats::ReadMaterialManifest(o.in);
   if (!manifest.full_btf) {
     throw core::Error("compress: " + o.in.string() + " holds no full BTF to factor (manifest.json has no btf.full)");
@@ -35,7 +37,7 @@ btf::BtfCompressionReport RunCompress(const CompressOptions& o) {
   description.provenance.created_utc.clear();
   description.provenance.source =
       "compress of " + o.in.string() + " (" + manifest.description.provenance.source + ")";
-  formats::MaterialPackageWriter writer(o.out, description, o.replace);
+  formats::MaterialPackageWriter writer(o.out, description, o.replace, {o.in});
   if (manifest.mdf) writer.WriteMdf(formats::ReadMdf(o.in, manifest), manifest.mdf->forms);
   writer.WriteFactoredBtf(factored);
   if (manifest.ambient) writer.WriteAmbientTerm(formats::ReadAmbientTerm(o.in, manifest));

@@ -31,11 +31,13 @@ core::FullBtf FullBtfOfPackage(const fs::path& package, const formats::MaterialM
   return full;
 }
 
-void ExpectNoTarget(const fs::path& out, bool replace) {
-  std::error_code ec;
-  if (!replace && fs::exists(out, ec)) {
-    throw core::Error(out.string() + " already exists (use --replace to overwrite it)");
+// Only what this command writes is replaced, never the package it reads.
+core::OutputReplacement ExportReplacement(const ExportBonnOptions& o) {
+  if (o.form == bonn::BonnForm::kUbo2003) {
+    return {o.replace, "a UBO2003 image folder (only tl..._pl..._tv..._pv... images)", bonn::IsUbo2003ExportFolder,
+            {o.in}};
   }
+  return {o.replace, "a Bonn BTF file (FMF or DFMF)", bonn::IsBonnBtfFile, {o.in}};
 }
 
 // The UBO2003 image folder, one view at a time.
@@ -44,7 +46,7 @@ void ExportUbo2003(const ExportBonnOptions& o, const formats::MaterialManifest& 
   report->source = manifest.full_btf ? "full BTF" : "factored BTF, reconstructed";
   std::optional<core::FactoredBtf> factored;
   if (!manifest.full_btf) factored = formats::ReadFactoredBtf(o.in, manifest);
-  core::AtomicDirectory folder(o.out, o.replace);
+  core::AtomicDirectory folder(o.out, ExportReplacement(o));
   for (int v = 0; v < d.view_directions.size(); ++v) {
     const core::Image view =
         factored ? btf::ReconstructBtfView(*factored, v) : formats::ReadFullBtfView(o.in, manifest, v);
@@ -63,7 +65,7 @@ void ExportUbo2003(const ExportBonnOptions& o, const formats::MaterialManifest& 
 // A UBO2014 FMF or DFMF file, factored here unless the package holds a
 // per_texel factored BTF (what a DFMF stores as it is).
 void ExportBonnFile(const ExportBonnOptions& o, const formats::MaterialManifest& manifest, ExportBonnReport* report) {
-  ExpectNoTarget(o.out, o.replace);
+  core::RemoveStaleTemporariesOf(o.out);
   bonn::BonnBtfFile file;
   if (o.form == bonn::BonnForm::kDfmf) {
     if (manifest.factored_btf && manifest.factored_btf->layout == core::BtfFactorLayout::kPerTexel) {
@@ -104,6 +106,7 @@ core::CheckResult ExportBonnOptions::Check() const {
 ExportBonnReport RunExportBonn(const ExportBonnOptions& o) {
   const auto start = std::chrono::steady_clock::now();
   if (const auto problem = o.Check(); !problem.empty()) throw core::Error("export bonn: " + problem);
+  core::ExpectReplaceable(o.out, ExportReplacement(o));
   const formats::MaterialManifest manifest = formats::ReadMaterialManifest(o.in);
   if (!manifest.full_btf && !manifest.factored_btf) {
     throw core::Error("export bonn: " + o.in.string() + " holds no BTF (manifest.json has no btf part)");

@@ -8,6 +8,8 @@
 #include "sim/ground_truth.h"
 #include "sim/shipped_rigs.h"
 #include "sim/true_calibration.h"
+#include "formats/material_package_writer.h"
+#include "core/atomic_file.h"
 
 namespace mesocap::pipelines {
 namespace {
@@ -28,6 +30,7 @@ core::CheckResult GroundTruthOptions::Check() const {
 
 GroundTruthReport RunGroundTruth(const GroundTruthOptions& o) {
   if (const auto problem = o.Check(); !problem.empty()) throw core::Error("groundtruth: " + problem);
+  core::ExpectReplaceable(o.out, formats::PackageReplacement(o.replace, {o.scene.scene, o.rig}));
   const auto scene = sim::LoadScene(o.scene);
   const formats::RigDescription rig = sim::LoadRig(o.rig);
   sim::GroundTruthOptions gt;

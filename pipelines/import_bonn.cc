@@ -11,6 +11,7 @@
 #include "formats/material_package_writer.h"
 #include "interop/bonn/bonn_btf_file.h"
 #include "interop/bonn/bonn_ubo2003.h"
+#include "core/atomic_file.h"
 
 namespace mesocap::pipelines {
 namespace {
@@ -52,7 +53,7 @@ void ImportUbo2003(const ImportBonnOptions& o, const std::string& name, ImportBo
   const bonn::Ubo2003ImageSet set = bonn::ScanUbo2003Folder(o.in);
   const formats::MaterialDescription d = DescriptionFor(name, set.width, set.height, o.width_mm, o.d_max_mm, set.views,
                                                         set.lights, "import bonn ubo2003 " + o.in.string());
-  formats::MaterialPackageWriter writer(o.out, d, o.replace);
+  formats::MaterialPackageWriter writer(o.out, d, o.replace, {o.in});
   formats::AmbientTerm ambient = btf::MakeAmbientTerm(d.width, d.height, d.view_directions);
   for (int v = 0; v < d.view_directions.size(); ++v) {
     const core::Image view = bonn::ReadUbo2003View(set, v, o.scale);
@@ -98,7 +99,7 @@ void ImportBonnFile(const ImportBonnOptions& o, const std::string& name, ImportB
       DescriptionFor(name, btf.width, btf.height, width_mm, o.d_max_mm, bonn::BonnViewSet(btf, o.in),
                      bonn::BonnLightSet(btf, o.in),
                      std::string("import bonn ") + ToString(report->form) + " " + o.in.string());
-  formats::MaterialPackageWriter writer(o.out, d, o.replace);
+  formats::MaterialPackageWriter writer(o.out, d, o.replace, {o.in});
   formats::AmbientTerm ambient = btf::MakeAmbientTerm(d.width, d.height, d.view_directions);
   for (int v = 0; v < d.view_directions.size(); ++v) {
     // With a full BTF the ambient term integrates the exact decode; else
@@ -139,6 +140,7 @@ core::CheckResult ImportBonnOptions::Check() const {
 ImportBonnReport RunImportBonn(const ImportBonnOptions& o) {
   const auto start = std::chrono::steady_clock::now();
   if (const auto problem = o.Check(); !problem.empty()) throw core::Error("import bonn: " + problem);
+  core::ExpectReplaceable(o.out, formats::PackageReplacement(o.replace, {o.in}));
   std::error_code ec;
   fs::path named = o.in;
   if (named.filename().empty()) named = named.parent_path();  // "folder/"

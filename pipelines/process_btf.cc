@@ -11,11 +11,12 @@
 #include "calibration/nominal_geometry.h"
 #include "core/image.h"
 #include "formats/calibration.h"
-#include "formats/capture_session.h"
+#include "formats/captured_session.h"
 #include "formats/material_manifest.h"
 #include "formats/material_package.h"
 #include "formats/material_package_writer.h"
 #include "formats/rig_description.h"
+#include "core/atomic_file.h"
 
 namespace mesocap::pipelines {
 namespace {
@@ -75,14 +76,15 @@ core::CheckResult ProcessBtfOptions::Check() const {
 
 ProcessBtfReport RunProcessBtf(const ProcessBtfOptions& o) {
   if (const auto problem = o.Check(); !problem.empty()) throw core::Error("process btf: " + problem);
-  const formats::SessionManifest manifest = formats::ReadSessionManifest(o.session);
-  const formats::RigDescription rig =
-      formats::ParseRigDescription(manifest.rig, o.session / formats::kSessionManifestName);
-  fs::path calibration_file = o.calibration;
-  if (calibration_file.empty()) {
-    if (!manifest.calibration) throw core::Error("process btf: give --calibration (the session names none)");
-    calibration_file = o.session / *manifest.calibration;
+  core::ExpectReplaceable(o.out, formats::PackageReplacement(o.replace, {o.session, o.calibration}));
+  const formats::CapturedSession session(o.session, {o.allow_incomplete, "process btf"});
+  if (!session.missing_steps().empty()) {
+    spdlog::warn("{}: skipping {} steps the journal lacks (--allow-incomplete)", o.session.string(),
+                 session.missing_steps().size());
   }
+  const formats::SessionManifest& manifest = session.manifest();
+  const formats::RigDescription rig = formats::ParseRigDescription(manifest.rig, session.manifest_file());
+  const fs::path calibration_file = o.calibration.empty() ? session.IntactCalibrationFile() : o.calibration;
   const formats::Calibration calibration = formats::ReadCalibration(calibration_file);
 
   btf::BtfAssemblyOptions a;
@@ -92,7 +94,7 @@ ProcessBtfReport RunProcessBtf(const ProcessBtfOptions& o) {
   a.lights = calibration::LightDirections(rig);
   a.resample = o.resample;
   AddCameraRadiometry(rig, calibration, calibration_file, o.gain, &a);
-  const std::vector<btf::BtfCaptureImage> images = btf::SessionBtfImages(o.session, manifest, calibration);
+  const std::vector<btf::BtfCaptureImage> images = btf::SessionBtfImages(session, calibration);
   spdlog::info("assembling the BTF of {}: {} images, {} views x {} lights, {}x{} texels", o.session.string(),
                images.size(), a.views.size(), a.lights.size(), o.texture_size, o.texture_size);
   formats::MaterialDescription d;
@@ -105,7 +107,7 @@ ProcessBtfReport RunProcessBtf(const ProcessBtfOptions& o) {
   d.view_directions = a.views;
   d.light_directions = a.lights;
   d.provenance.source = "process btf session=" + o.session.string();
-  formats::MaterialPackageWriter writer(o.out, d, o.replace);
+  formats::MaterialPackageWriter writer(o.out, d, o.replace, {o.session, calibration_file});
 
   // Each assembled view goes to disk as soon as it is made, and the SVD
   // streams it back in bands, so the BTF (1.5 GB of float for a paper rig at
@@ -113,7 +115,7 @@ ProcessBtfReport RunProcessBtf(const ProcessBtfOptions& o) {
   // scratch package beside the output that is never committed: it is
   // removed when the job ends, however it ends.
   std::optional<formats::MaterialPackageWriter> scratch;
-  if (!o.full) scratch.emplace(fs::path(o.out.string() + ".assembled"), d, true);
+  if (!o.full) scratch.emplace(fs::path(o.out.string() + ".assembled"), d, true, std::vector<fs::path>{o.session});
   formats::MaterialPackageWriter& views = o.full ? writer : *scratch;
   formats::AmbientTerm ambient = btf::MakeAmbientTerm(o.texture_size, o.texture_size, a.views);
   btf::BtfAssemblyReport assembly;

@@ -7,6 +7,7 @@
 
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "btf/btf_compression.h"
 #include "core/error.h"
@@ -24,6 +25,9 @@ struct ProcessBtfOptions {
   bool full = false;      // also store the full (uncompressed) BTF
   bool resample = false;  // resample captures off the session's sets instead of requiring them within 1 degree
   bool replace = false;   // replace an existing package at `out`
+  // Plan steps the session may lack (ids or shell patterns; "*": any), whose
+  // images are then left out; empty: the session must be complete.
+  std::vector<std::string> allow_incomplete;
   btf::BtfCompressionOptions compression;
 
   core::CheckResult Check() const;

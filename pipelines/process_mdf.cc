@@ -3,26 +3,35 @@
 #include <algorithm>
 #include <cmath>
 
+#include <spdlog/spdlog.h>
+
 #include "formats/calibration.h"
+#include "formats/captured_session.h"
 #include "formats/material_manifest.h"
 #include "formats/material_package_writer.h"
+#include "core/atomic_file.h"
 
 namespace mesocap::pipelines {
 
+namespace fs = std::filesystem;
+
 core::CheckResult ProcessMdfOptions::Check() const {
   if (session.empty()) return "session: give the capture session folder";
-  if (calibration.empty()) return "calibration: give the rig calibration file";
   if (out.empty()) return "out: give the material package folder to write";
   return processing.Check();
 }
 
 ProcessMdfReport RunProcessMdf(const ProcessMdfOptions& o) {
   if (const auto problem = o.Check(); !problem.empty()) throw core::Error("process mdf: " + problem);
-  if (!o.replace && std::filesystem::exists(o.out)) {
-    throw core::Error("process mdf: " + o.out.string() + " exists (use --replace to replace it)");
+  core::ExpectReplaceable(o.out, formats::PackageReplacement(o.replace, {o.session, o.calibration}));
+  const formats::CapturedSession session(o.session, {o.allow_incomplete, "process mdf"});
+  if (!session.missing_steps().empty()) {
+    spdlog::warn("{}: skipping {} steps the journal lacks (--allow-incomplete)", o.session.string(),
+                 session.missing_steps().size());
   }
-  const formats::Calibration calibration = formats::ReadCalibration(o.calibration);
-  const mdf::MdfProcessingResult result = mdf::ProcessMdfSession(o.session, calibration, o.processing);
+  const fs::path calibration_file = o.calibration.empty() ? session.IntactCalibrationFile() : o.calibration;
+  const formats::Calibration calibration = formats::ReadCalibration(calibration_file);
+  const mdf::MdfProcessingResult result = mdf::ProcessMdfSession(session, calibration, o.processing);
   formats::MaterialDescription description;
   description.name = o.out.filename().string();
   description.width = description.height = o.processing.texture_size;
@@ -33,7 +42,7 @@ ProcessMdfReport RunProcessMdf(const ProcessMdfOptions& o) {
   description.view_directions = result.mdf.views;
   description.light_directions = result.light_directions;
   description.provenance.source = "process mdf session=" + o.session.string();
-  formats::MaterialPackageWriter writer(o.out, description, o.replace);
+  formats::MaterialPackageWriter writer(o.out, description, o.replace, {o.session, calibration_file});
   writer.WriteMdf(result.mdf);
   writer.WriteMdfConfidence(result.confidence);
   writer.WriteCalibration(calibration);

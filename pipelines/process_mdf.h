@@ -5,6 +5,8 @@
 #pragma once
 
 #include <filesystem>
+#include <string>
+#include <vector>
 
 #include "core/error.h"
 #include "mdf/mdf_session.h"
@@ -13,10 +15,13 @@ namespace mesocap::pipelines {
 
 struct ProcessMdfOptions {
   std::filesystem::path session;      // capture session folder
-  std::filesystem::path calibration;  // rig calibration file
+  std::filesystem::path calibration;  // rig calibration file; empty: the one the session names
   std::filesystem::path out;          // material package folder to write
   double d_max_mm = 0;                // slab depth of the package; 0: the deepest measured point
   bool replace = false;               // replace an existing package at `out`
+  // Plan steps the session may lack (ids or shell patterns; "*": any), whose
+  // scans are then left out; empty: the session must be complete.
+  std::vector<std::string> allow_incomplete;
   mdf::MdfProcessingOptions processing;
 
   core::CheckResult Check() const;

@@ -9,6 +9,8 @@ packages=(
   build-essential cmake ninja-build pkg-config git
   # numerics and vision
   libeigen3-dev libceres-dev libopencv-dev libtbb-dev
+  # content checksums of captured and processed files
+  libxxhash-dev
   # images
   libopenimageio-dev openimageio-tools libopenexr-dev
   # ray tracing (simulated rig, CPU reference renderer)

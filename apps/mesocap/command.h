@@ -32,5 +32,6 @@ inline CLI::App* GroupCommand(CLI::App& app, const std::string& name, const std:
 void RegisterRenderCommand(CLI::App& app);
 void RegisterCompareCommand(CLI::App& app);
 void RegisterViewCommand(CLI::App& app);
+void RegisterVerifyCommand(CLI::App& app);
 
 }  // namespace mesocap

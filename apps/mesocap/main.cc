@@ -46,6 +46,7 @@ int main(int argc, char** argv) {
   mesocap::RegisterRenderCommand(app);
   mesocap::RegisterCompareCommand(app);
   mesocap::RegisterViewCommand(app);
+  mesocap::RegisterVerifyCommand(app);
 
   // Subcommands report failure by throwing; every failure is one line on
   // stderr and a non-zero exit (1 for errors, CLI11's codes for usage).

@@ -39,6 +39,9 @@ void RegisterProcessBtfCommand(CLI::App& app) {
                 "resample captures whose directions are off the session's sets (each texel with its own view and "
                 "light directions) instead of requiring them within 1 degree");
   sub->add_flag("--replace", o->replace, "replace an existing package at --out");
+  sub->add_option("--allow-incomplete", o->allow_incomplete,
+                  "plan steps the session may lack, left out (step ids or patterns such as 'btf-t3_*'; '*': any)")
+      ->delimiter(',');
   sub->callback([o] {
     pipelines::RunProcessBtf(*o);
     spdlog::info("wrote {}", o->out.string());

@@ -14,7 +14,7 @@ void RegisterProcessMdfCommand(CLI::App& app) {
   CLI::App* group = GroupCommand(app, "process", "Process a capture session into material package parts");
   CLI::App* sub = group->add_subcommand("mdf", "The MDF from a session's laser scans (space-time analysis)");
   sub->add_option("--session", o->session, "capture session folder")->required();
-  sub->add_option("--calibration", o->calibration, "rig calibration file")->required();
+  sub->add_option("--calibration", o->calibration, "rig calibration file (default: the one the session names)");
   sub->add_option("--out", o->out, "material package folder to write")->required();
   sub->add_option("--texture-size", o->processing.texture_size, "texels per side")
       ->check(CLI::Range(1, 4096))
@@ -25,6 +25,10 @@ void RegisterProcessMdfCommand(CLI::App& app) {
       ->capture_default_str();
   sub->add_option("--d-max-mm", o->d_max_mm, "slab depth of the package (default: deepest measured point)");
   sub->add_flag("--replace", o->replace, "replace an existing package at --out");
+  sub->add_option("--allow-incomplete", o->allow_incomplete,
+                  "plan steps the session may lack, left out (step ids or patterns such as 'laser-sweep-t3_*'; "
+                  "'*': any)")
+      ->delimiter(',');
   sub->callback([o] {
     const pipelines::ProcessMdfReport r = pipelines::RunProcessMdf(*o);
     spdlog::info("wrote {}: {} sweeps, {}x{} texels x {} views", o->out.string(), r.sweeps, r.texels_per_side,

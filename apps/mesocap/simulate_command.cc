@@ -24,7 +24,9 @@
 #include "acquisition/capture_session_runner.h"
 #include "apps/mesocap/command.h"
 #include "apps/mesocap/scene_option.h"
+#include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/file_checksum.h"
 #include "drivers/rig.h"
 #include "formats/capture_session.h"
 #include "sim/camera_renderer.h"
@@ -89,6 +91,8 @@ void RunSimulate(const SimulateCommandOptions& o) {
                           {"interreflection_rays_per_pixel", o.interreflection_rays}};
   const std::vector<formats::PlannedStep> plan = acquisition::MakeCapturePlan(rig, recording);
 
+  const std::string calibration_text = formats::CalibrationText(calibration);
+  const core::FileChecksum calibration_checksum = core::ComputeChecksum(calibration_text);
   const bool existing = fs::exists(o.out / formats::kSessionManifestName);
   if (existing && !o.resume) {
     throw core::Error(o.out.string() + ": already holds a capture session; use --resume to complete it");
@@ -100,14 +104,25 @@ void RunSimulate(const SimulateCommandOptions& o) {
     if (manifest.rig != rig.json || PlanJson(manifest.plan) != PlanJson(plan)) {
       throw core::Error(o.out.string() + ": the session was started with a different rig, scene, seed or options");
     }
+    if (manifest.calibration_checksum && *manifest.calibration_checksum != calibration_checksum) {
+      throw core::Error(o.out.string() + ": the session records another calibration than this rig's true one (" +
+                        formats::kSessionManifestName + " calibration.xxh3_64)");
+    }
   } else {
     formats::SessionManifest manifest;
     manifest.rig = rig.json;
     manifest.calibration = kCalibrationFile;
+    manifest.calibration_checksum = calibration_checksum;
     manifest.plan = plan;
     formats::CreateCaptureSession(o.out, manifest);
   }
-  if (!fs::exists(o.out / kCalibrationFile)) formats::WriteCalibration(o.out / kCalibrationFile, calibration);
+  // The session's calibration is the rig's true one: written after the
+  // manifest, and written again when a resume finds it missing or damaged.
+  if (const std::string problem = core::ChecksumProblem(o.out / kCalibrationFile, calibration_checksum);
+      !problem.empty()) {
+    if (existing) spdlog::warn("{}: {} {}; writing it again", o.out.string(), kCalibrationFile, problem);
+    core::WriteTextFileAtomically(o.out / kCalibrationFile, calibration_text);
+  }
 
   sim::SimulatedRigBackend backend(renderer, faults, o.seed,
                                    o.no_noise ? sim::SensorModel::kNoiseless : sim::SensorModel::kNoisy);

@@ -520,6 +520,19 @@ BonnBtfFile ReadBonnBtfFile(const fs::path& file) {
   return btf;
 }
 
+bool IsBonnBtfFile(const fs::path& file) {
+  std::error_code ec;
+  if (!fs::is_regular_file(fs::symlink_status(file, ec))) return false;
+  std::ifstream in(file, std::ios::binary);
+  char start[16] = {};
+  in.read(start, sizeof start);
+  const std::string_view head(start, static_cast<std::size_t>(in.gcount()));
+  for (const Signature& s : kSignatures) {
+    if (head.substr(0, std::strlen(s.text)) == s.text) return true;
+  }
+  return false;
+}
+
 void WriteBonnBtfFile(const fs::path& file, const BonnBtfFile& btf, BonnScalar scalar) {
   if (scalar == BonnScalar::kDouble) throw core::Error("Bonn BTF: mesocap writes half or float factors, not double");
   CheckForWriting(btf);

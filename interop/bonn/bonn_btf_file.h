@@ -128,6 +128,10 @@ struct BonnBtfFile {
 // FormatError naming the file, the field and what was expected.
 BonnBtfFile ReadBonnBtfFile(const std::filesystem::path& file);
 
+// Whether `file` is a regular file that starts with the signature of one of
+// the forms above (what `export bonn --replace` may replace).
+bool IsBonnBtfFile(const std::filesystem::path& file);
+
 // Writes "!FMF12FCER" (header version 2, no height map) or "!DFMF08FCR" with
 // meta version 4 and no rotations, atomically. Throws Error on inconsistent
 // sizes or when a value does not fit `scalar` (half: |v| <= 65504). When

@@ -62,6 +62,27 @@ bool LooksLikeBonnName(const std::string& stem) {
   return (p == "tl" || p == "pl" || p == "tv" || p == "pv") && std::isdigit(static_cast<unsigned char>(stem[2]));
 }
 
+NameAngles ParseName(const fs::path& file);
+
+}  // namespace
+
+bool IsUbo2003ExportFolder(const fs::path& dir) {
+  std::error_code ec;
+  if (!fs::is_directory(fs::symlink_status(dir, ec))) return false;
+  for (auto it = fs::directory_iterator(dir, ec); !ec && it != fs::directory_iterator(); it.increment(ec)) {
+    const std::string extension = Lower(it->path().extension().string());
+    if (!it->is_regular_file() || (extension != ".png" && extension != ".exr")) return false;
+    try {
+      ParseName(it->path());
+    } catch (const core::Error&) {
+      return false;
+    }
+  }
+  return !ec;
+}
+
+namespace {
+
 NameAngles ParseName(const fs::path& file) {
   static const std::array<const char*, 4> kTokens{"tl", "pl", "tv", "pv"};
   const std::string stem = file.stem().string();

@@ -63,6 +63,10 @@ struct Ubo2003ImageSet {
 // no image is found.
 Ubo2003ImageSet ScanUbo2003Folder(const std::filesystem::path& dir);
 
+// Whether `dir` is a folder holding only what an export writes: image files
+// named as above, nothing else (what `export bonn --replace` may replace).
+bool IsUbo2003ExportFolder(const std::filesystem::path& dir);
+
 // View `view` as a full-BTF view image (3 channels, W x H * Nlight, light l
 // in rows [l*H, (l+1)*H)): linear, divided by `scale`.
 core::Image ReadUbo2003View(const Ubo2003ImageSet& set, int view, double scale);

@@ -11,6 +11,7 @@
 #include "formats/capture_journal.h"
 #include "formats/capture_plan_steps.h"
 #include "formats/capture_session.h"
+#include "formats/captured_session.h"
 #include "formats/frame_sequence.h"
 #include "mdf/mdf_session.h"
 #include "sim/camera_renderer.h"
@@ -197,9 +198,11 @@ TEST(CaptureSessionRunner, SweepsStoredAsAnalysesProcessToTheSameMdf) {
 
   auto compare = [&](const mdf::MdfProcessingOptions& options) {
     const mdf::MdfProcessingResult a =
-        mdf::ProcessMdfSession(dir / "frames", calibration, options, core::Progress::Style::kSilent);
+        mdf::ProcessMdfSession(formats::CapturedSession(dir / "frames"), calibration, options,
+                               core::Progress::Style::kSilent);
     const mdf::MdfProcessingResult b =
-        mdf::ProcessMdfSession(dir / "analysis", calibration, options, core::Progress::Style::kSilent);
+        mdf::ProcessMdfSession(formats::CapturedSession(dir / "analysis"), calibration, options,
+                               core::Progress::Style::kSilent);
     EXPECT_EQ(a.mdf.distance_mm.size(), b.mdf.distance_mm.size());
     std::size_t measured = 0, disagree = 0;
     double worst = 0.0;

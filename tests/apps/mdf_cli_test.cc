@@ -9,8 +9,10 @@
 #include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <string>
 
+#include "core/file_checksum.h"
 #include "core/json_field_reader.h"
 #include "formats/frame_sequence.h"
 #include "formats/material_manifest.h"
@@ -136,7 +138,23 @@ TEST_F(MdfCliTest, SequenceWithWrongFrameSizeWritesNothingAndKeepsExistingOutput
     for (int f = 0; f < 64; ++f) writer.Append(core::Image(64, 48, 1, 0.1f));
     writer.Commit();
   }
-  fs::create_directories(out / "m");
+  // Journaled as it is now, so that the frame size itself is what is refused.
+  const core::FileChecksum sum = core::ComputeFileChecksum(bad);
+  std::string journal;
+  std::istringstream lines(Slurp(session / "journal.jsonl"));
+  for (std::string line; std::getline(lines, line);) {
+    nlohmann::json record = nlohmann::json::parse(line);
+    for (auto& file : record["files"]) {
+      if (file["path"] == "laser/t3_loc2_cam0.tif") {
+        file["bytes"] = sum.bytes;
+        file["xxh3_64"] = core::ChecksumText(sum.xxh3);
+      }
+    }
+    journal += record.dump() + "\n";
+  }
+  std::ofstream(session / "journal.jsonl", std::ios::binary | std::ios::trunc) << journal;
+  // An existing package (what --replace may replace), with a file of the user's.
+  ASSERT_EQ(Mesocap("groundtruth --rig tiny --texture-size 4 --out " + (out / "m").string()).exit_code, 0);
   std::ofstream(out / "m" / "keep.txt") << "old";
   const CommandResult p = Mesocap("process mdf --session " + session.string() + " --calibration " +
                                   (session / "calibration.json").string() + " --out " + (out / "m").string() +

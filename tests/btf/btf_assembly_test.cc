@@ -16,6 +16,7 @@
 #include "calibration/rig_frames.h"
 #include "core/image_io.h"
 #include "formats/capture_session.h"
+#include "formats/captured_session.h"
 #include "formats/rig_description.h"
 #include "mdf/laser_sweep.h"
 #include "sim/camera_renderer.h"
@@ -70,9 +71,10 @@ class BtfAssemblyTest : public ::testing::Test {
   };
   static Assembled Prepare(const fs::path& session, int texture_size) {
     Assembled a;
-    a.manifest = formats::ReadSessionManifest(session);
-    a.calibration = formats::ReadCalibration(session / *a.manifest.calibration);
-    a.images = SessionBtfImages(session, a.manifest, a.calibration);
+    const formats::CapturedSession captured(session);
+    a.manifest = captured.manifest();
+    a.calibration = formats::ReadCalibration(captured.IntactCalibrationFile());
+    a.images = SessionBtfImages(captured, a.calibration);
     const auto rig = formats::ParseRigDescription(a.manifest.rig, session / formats::kSessionManifestName);
     a.options.texels.width = a.options.texels.height = texture_size;
     a.options.texels.sample_size_mm = rig.sample_size_mm;
@@ -353,10 +355,25 @@ TEST_F(BtfAssemblyTest, MissingNanAndNegativeImagesAreErrorsNamingTheImage) {
   core::WriteImage(dir / "nan.exr", bad, core::PixelEncoding::kFloat32);
   images = a.images;
   images[5].file = dir / "nan.exr";
+  images[5].checksum.reset();  // not the session's file: nothing recorded to check
   expect_error(images, "nan.exr: pixel (40, 50) channel 1");
   bad.at(40, 50, 1) = -0.25f;
   core::WriteImage(dir / "negative.exr", bad, core::PixelEncoding::kFloat32);
   images[5].file = dir / "negative.exr";
+  // The session's own file changed after it was captured: the journal's
+  // checksum refuses it before it is decoded.
+  std::vector<BtfCaptureImage> flipped = a.images;
+  {
+    std::string bytes;
+    {
+      std::ifstream in(a.images[6].file, std::ios::binary);
+      bytes.assign(std::istreambuf_iterator<char>(in), {});
+    }
+    bytes[bytes.size() / 2] ^= 0x04;
+    flipped[6].file = dir / "flipped.png";
+    std::ofstream(flipped[6].file, std::ios::binary) << bytes;
+  }
+  expect_error(flipped, "flipped.png: field 'checksum': content changed after it was written");
   expect_error(images, "negative.exr: pixel (40, 50) channel 1 is -0.25");
 
   // A view no image shows.
@@ -395,6 +412,7 @@ TEST_F(BtfAssemblyTest, EachCameraUsesItsOwnGain) {
     core::Image scaled = core::ReadImage(images[i].file);
     for (std::size_t k = 0; k < scaled.size(); ++k) scaled.data()[k] *= kScale;
     images[i].file = dir / ("scaled" + std::to_string(i) + ".exr");
+    images[i].checksum.reset();
     core::WriteImage(images[i].file, scaled, core::PixelEncoding::kFloat32);
   }
   BtfAssemblyOptions own = a.options;

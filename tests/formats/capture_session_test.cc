@@ -38,6 +38,7 @@ SessionManifest ExampleManifest() {
            {"cameras", {{{"id", "cam0"}, {"model", "Dragonfly"}, {"exposure_ms", 12.5}}}},
            {"notes", nullptr}};
   m.calibration = "calibration/rig.json";
+  m.calibration_checksum = core::FileChecksum{12, 0x0123456789abcdef};
   m.plan.push_back({"btf-t000-a000-l0", StepKind::kBtfImage,
                     {{"turntable_deg", 0}, {"arc_deg", 0}, {"lamp", "halogen0"}}});
   m.plan.push_back({"laser-cal-m0", StepKind::kLaserCalibration, json::object()});
@@ -85,7 +86,8 @@ TEST(CaptureSession, CreateThenReadKeepsEveryField) {
   ExpectSame(ReadSessionManifest(session), ExampleManifest());
   const json j = json::parse(Slurp(session / kSessionManifestName));
   EXPECT_EQ(j["format"], "mesocap.session");
-  EXPECT_EQ(j["version"], 1);
+  EXPECT_EQ(j["version"], 2);
+  EXPECT_EQ(j["calibration"]["xxh3_64"], "0123456789abcdef");
   EXPECT_EQ(j["plan"]["steps"][2]["frames"], 400);  // params sit beside id and kind
   EXPECT_EQ(j["plan"]["steps"][2]["kind"], "laser_sweep");
 }
@@ -164,7 +166,7 @@ std::vector<Edit> HostileManifestEdits() {
   for (std::size_t i = 0; i <= kMaxPlanSteps; ++i) many_steps.push_back(json::object());
   return {
       {"other format", set("/format", "mesocap.calibration"), "format"},
-      {"version 2", set("/version", 2), "version"},
+      {"version 3", set("/version", 3), "version"},
       {"version null", set("/version", nullptr), "version"},
       {"unknown member", set("/extra", true), "extra"},
       {"no software version", erase("", "software_version"), "software_version"},
@@ -178,10 +180,16 @@ std::vector<Edit> HostileManifestEdits() {
       {"rig without name", erase("/rig", "name"), "rig.name"},
       {"rig name number", set("/rig/name", 42), "rig.name"},
       {"rig name empty", set("/rig/name", ""), "rig.name"},
-      {"absolute calibration", set("/calibration", "/etc/calibration.json"), "calibration"},
-      {"escaping calibration", set("/calibration", "a/../../b.json"), "calibration"},
-      {"empty calibration", set("/calibration", ""), "calibration"},
+      {"absolute calibration", set("/calibration/path", "/etc/calibration.json"), "calibration.path"},
+      {"escaping calibration", set("/calibration/path", "a/../../b.json"), "calibration.path"},
+      {"empty calibration", set("/calibration/path", ""), "calibration.path"},
       {"calibration null", set("/calibration", nullptr), "calibration"},
+      {"calibration path only", set("/calibration", "calibration.json"), "calibration"},
+      {"calibration without hash", erase("/calibration", "xxh3_64"), "calibration.xxh3_64"},
+      {"calibration short hash", set("/calibration/xxh3_64", "0123"), "calibration.xxh3_64"},
+      {"calibration upper-case hash", set("/calibration/xxh3_64", "0123456789ABCDEF"), "calibration.xxh3_64"},
+      {"calibration negative size", set("/calibration/bytes", -1), "calibration.bytes"},
+      {"calibration unknown member", set("/calibration/sha1", "x"), "calibration.sha1"},
       {"no plan", erase("", "plan"), "plan"},
       {"plan unknown member", set("/plan/order", "random"), "plan.order"},
       {"steps not list", set("/plan/steps", json::object()), "plan.steps"},
@@ -314,8 +322,11 @@ struct ExampleSession {
 
 JournalRecord Record(std::uint64_t seq, std::string step, std::vector<JournalFile> files = {}) {
   return {seq, std::move(step), "2025-06-01T13:00:0" + std::to_string(seq % 10) + "Z",
-          std::move(files)};
+          std::move(files), std::nullopt};
 }
+
+// A journaled file by size; the journal adds its hash.
+JournalFile F(std::string path, std::uint64_t bytes) { return {std::move(path), bytes, std::nullopt}; }
 
 void ExpectSameRecords(const std::vector<JournalRecord>& a, const std::vector<JournalRecord>& b) {
   ASSERT_EQ(a.size(), b.size());
@@ -332,8 +343,8 @@ void ExpectSameRecords(const std::vector<JournalRecord>& a, const std::vector<Jo
 }
 
 std::vector<JournalRecord> ExampleRecords() {
-  return {Record(0, "btf-t000-a000-l0", {{"btf/000.exr", 1000}, {"btf/001.exr", 1234}}),
-          Record(1, "laser-cal-m0", {{"laser.json", 2}}), Record(2, "dark-frame")};
+  return {Record(0, "btf-t000-a000-l0", {F("btf/000.exr", 1000), F("btf/001.exr", 1234)}),
+          Record(1, "laser-cal-m0", {F("laser.json", 2)}), Record(2, "dark-frame")};
 }
 
 TEST(CaptureJournal, AppendThenReadBack) {
@@ -373,22 +384,22 @@ TEST(CaptureJournal, AppendRefusesBadRecordsAndLeavesTheFileAsItWas) {
       Record(1, "btf-t000-a000-l0"),                             // step done already
       Record(1, "not-in-plan"),                                  // step outside the plan
       Record(1, "bad id"),                                       // not an id
-      {1, "laser-cal-m0", "13:00", {}},                          // not a UTC time
-      Record(1, "laser-cal-m0", {{"/etc/passwd", 100}}),         // absolute
-      Record(1, "laser-cal-m0", {{"../outside", 100}}),          // escapes the session
-      Record(1, "laser-cal-m0", {{"", 0}}),                      // empty
-      Record(1, "laser-cal-m0", {{"laser.json", 2}, {"laser.json", 2}}),  // twice
-      Record(1, "laser-cal-m0", {{"missing.exr", 10}}),          // no such file
-      Record(1, "laser-cal-m0", {{"laser.json", 3}}),            // wrong size
-      Record(1, "laser-cal-m0", {{"btf", 0}}),                   // a folder
-      Record(1, "laser-cal-m0", {{"laser.json", std::uint64_t{1} << 63}}),  // absurd size
+      {1, "laser-cal-m0", "13:00", {}, std::nullopt},            // not a UTC time
+      Record(1, "laser-cal-m0", {F("/etc/passwd", 100)}),         // absolute
+      Record(1, "laser-cal-m0", {F("../outside", 100)}),          // escapes the session
+      Record(1, "laser-cal-m0", {F("", 0)}),                      // empty
+      Record(1, "laser-cal-m0", {F("laser.json", 2), F("laser.json", 2)}),  // twice
+      Record(1, "laser-cal-m0", {F("missing.exr", 10)}),          // no such file
+      Record(1, "laser-cal-m0", {F("laser.json", 3)}),            // wrong size
+      Record(1, "laser-cal-m0", {F("btf", 0)}),                   // a folder
+      Record(1, "laser-cal-m0", {F("laser.json", std::uint64_t{1} << 63)}),  // absurd size
   };
   for (std::size_t i = 0; i < bad.size(); ++i) {
     SCOPED_TRACE(i);
     const std::string message = ErrorOf<core::Error>([&] { journal.Append(bad[i]); }, s.journal);
     EXPECT_EQ(Slurp(s.journal), before);
   }
-  journal.Append(Record(1, "laser-cal-m0", {{"laser.json", 2}}));
+  journal.Append(Record(1, "laser-cal-m0", {F("laser.json", 2)}));
   EXPECT_EQ(ReadCaptureJournal(s.journal, &s.manifest).records.size(), 2u);
 }
 

@@ -533,8 +533,11 @@ TEST(MaterialPackage, MdfConfidenceRoundTripsAndIsChecked) {
   core::Image mutated = confidence;
   mutated.at(1, kH + 2) = 2.0f;  // view 1, texel (1, 2)
   core::WriteImage(dir / "pkg" / "mdf_confidence.exr", mutated, core::PixelEncoding::kFloat32);
+  EXPECT_THROW(ReadMdfConfidence(dir / "pkg", m), core::FormatError) << "the checksum differs";
+  MaterialManifest unchecked = m;  // as a version 1 package, without checksums
+  unchecked.checksums.clear();
   try {
-    ReadMdfConfidence(dir / "pkg", m);
+    ReadMdfConfidence(dir / "pkg", unchecked);
     ADD_FAILURE() << "expected a FormatError";
   } catch (const core::FormatError& e) {
     const std::string what = e.what();
@@ -701,6 +704,16 @@ class HostilePackage : public ::testing::Test {
 
   void RestoreManifest() { WriteBytes(pkg_ / "manifest.json", manifest_text_); }
 
+  // The package as a version 1 manifest describes it: no checksums, so a
+  // replaced image reaches the decoders' own checks (what also guards a
+  // version 2 package whose manifest was edited to match).
+  void UseVersion1() {
+    manifest_["version"] = 1;
+    manifest_.erase("files");
+    manifest_text_ = manifest_.dump(2);
+    RestoreManifest();
+  }
+
   testing::TemporaryDirectory dir_;
   fs::path pkg_;
   std::string manifest_text_;
@@ -765,7 +778,7 @@ TEST_F(HostilePackage, WrongFormatOrVersionOrUnits) {
   m["format"] = "mesocap.session";
   ExpectManifestRejected(m, "format");
   m = manifest_;
-  m["version"] = 2;
+  m["version"] = 3;
   ExpectManifestRejected(m, "version");
   m["version"] = "1";
   ExpectManifestRejected(m, "version");
@@ -813,6 +826,7 @@ TEST_F(HostilePackage, BadSizes) {
 }
 
 TEST_F(HostilePackage, AbsurdImpliedSizesAreRefusedBeforeReading) {
+  UseVersion1();
   // 16384^2 texels x 96 views x 96 lights x RGB: 29 TiB.
   auto m = manifest_;
   m["texture_size"] = {16384, 16384};
@@ -838,6 +852,7 @@ TEST_F(HostilePackage, AbsurdImpliedSizesAreRefusedBeforeReading) {
 }
 
 TEST_F(HostilePackage, BadDirectionSets) {
+  UseVersion1();
   auto m = manifest_;
   m.erase("view_directions");
   ExpectManifestRejected(m, "view_directions");
@@ -856,6 +871,7 @@ TEST_F(HostilePackage, BadDirectionSets) {
 }
 
 TEST_F(HostilePackage, BadPartEntries) {
+  UseVersion1();
   auto m = manifest_;
   m["mdf"] = nlohmann::json::object();
   ExpectManifestRejected(m, "mdf");
@@ -929,6 +945,7 @@ TEST_F(HostilePackage, MissingFiles) {
 }
 
 TEST_F(HostilePackage, ImagesThatDisagreeWithTheManifest) {
+  UseVersion1();
   core::WriteImage(pkg_ / "mdf.exr", core::Image(kW, kH, 1));  // one view's worth
   ExpectRejected("height", "mdf.exr");
   core::WriteImage(pkg_ / "mdf.exr", core::Image(kW, kH * 3, 1), core::PixelEncoding::kHalf);
@@ -949,6 +966,7 @@ TEST_F(HostilePackage, ImagesThatDisagreeWithTheManifest) {
 }
 
 TEST_F(HostilePackage, InvalidValuesInImages) {
+  UseVersion1();
   core::Mdf mdf = TestMdf();
   mdf.at(1, 2, 2) = -0.5f;
   core::WriteImage(pkg_ / "mdf.exr", mdf.distance_mm);
@@ -971,6 +989,30 @@ TEST_F(HostilePackage, InvalidValuesInImages) {
   ExpectRejected("", "error_report.json");
   WriteBytes(pkg_ / "error_report.json", "{\"rms\": ");
   ExpectRejected("", "error_report.json");
+}
+
+// A version 2 package records every data file's size and hash: any change
+// of one byte (a bit flip in a compressed EXR block decodes without error)
+// is refused by the reader that reads the file, naming it.
+TEST_F(HostilePackage, EveryByteChangeOfADataFileIsDetected) {
+  const MaterialManifest manifest = ReadMaterialManifest(pkg_);
+  ASSERT_EQ(manifest.version, 2);
+  ASSERT_EQ(manifest.checksums.size(), PackageDataFiles(manifest).size());
+  std::mt19937 rng(7);
+  for (const std::string& name : PackageDataFiles(manifest)) {
+    SCOPED_TRACE(name);
+    const std::string original = Slurp(pkg_ / name);
+    std::uniform_int_distribution<std::size_t> offset(0, original.size() - 1);
+    std::uniform_int_distribution<int> bit(0, 7);
+    for (int i = 0; i < 20; ++i) {
+      std::string bytes = original;
+      bytes[offset(rng)] ^= static_cast<char>(1 << bit(rng));
+      WriteBytes(pkg_ / name, bytes);
+      ExpectRejected("checksum", name);
+    }
+    WriteBytes(pkg_ / name, original);
+  }
+  EXPECT_EQ(ReadAndJudge(), "");
 }
 
 TEST_F(HostilePackage, TruncatedImages) {
