@@ -24,6 +24,8 @@ packages=(
   libcli11-dev nlohmann-json3-dev libspdlog-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
+  # fuzzing (scripts/fuzz.sh): clang and its runtimes, libFuzzer's among them
+  clang libclang-rt-14-dev
 )
 
 missing=()

@@ -92,6 +92,7 @@ class ByteReader {
     return v;
   }
   std::string Chars(std::uint64_t bytes, const std::string& field) {
+    Need(bytes, field);  // before allocating what the file claims
     std::string s(bytes, '\0');
     Read(s.data(), bytes, field);
     return s;

@@ -12,6 +12,7 @@
 #include <numbers>
 
 #include "core/error.h"
+#include "tests/common/largest_allocation.h"
 #include "tests/common/temporary_directory.h"
 
 namespace mesocap::bonn {
@@ -260,6 +261,21 @@ TEST(BonnBtfFile, BadFilesNameTheFieldAndWhatWasExpected) {
     }
   }
   EXPECT_THROW(ReadBonnBtfFile(dir / "missing.btf"), core::FormatError);
+}
+
+// A string length (the XML block's) beyond the file is refused before the
+// string is allocated: a 1 KB file must not cost gigabytes.
+TEST(BonnBtfFile, StringLengthBeyondTheFileIsRefusedBeforeAllocating) {
+  testing::TemporaryDirectory dir;
+  WriteBonnBtfFile(dir / "good.btf", SmallDfmf(), BonnScalar::kHalf);
+  std::string s = Slurp(dir / "good.btf");
+  // signature 10, meta size and version 8, three 80-char strings, pixels per
+  // mm 4, RGB scale 12, cosine flag 4: then the XML length.
+  Patch<std::uint32_t>(&s, 10 + 8 + 240 + 4 + 12 + 4, 0xfffffff0u);
+  Spit(dir / "bad.btf", s);
+  g_largest_allocation = 0;
+  ExpectBad(dir / "bad.btf", "meta.xml", "truncated");
+  EXPECT_LT(g_largest_allocation.load(), std::size_t{1} << 20);
 }
 
 TEST(BonnBtfFile, OlderFmfSignaturesAreRead) {
