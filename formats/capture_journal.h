@@ -24,7 +24,7 @@ struct JournalFile {
   std::uint64_t bytes = 0;
   // XXH3-64 of the contents; required in a version 2 session (the writer
   // fills it in when it is missing), absent in version 1.
-  std::optional<std::uint64_t> xxh3;
+  std::optional<std::uint64_t> xxh3 = std::nullopt;
 };
 
 struct JournalRecord {
@@ -34,7 +34,7 @@ struct JournalRecord {
   std::vector<JournalFile> files;
   // A step done again (its files were found damaged) names the seq of the
   // record it supersedes; the latest record of a step is the one that counts.
-  std::optional<std::uint64_t> replaces;
+  std::optional<std::uint64_t> replaces = std::nullopt;
 };
 
 // Whether records carry file hashes: a version 2 session's must, a version 1

@@ -79,8 +79,8 @@ ProcessBtfReport RunProcessBtf(const ProcessBtfOptions& o) {
   core::ExpectReplaceable(o.out, formats::PackageReplacement(o.replace, {o.session, o.calibration}));
   const formats::CapturedSession session(o.session, {o.allow_incomplete, "process btf"});
   if (!session.missing_steps().empty()) {
-    spdlog::warn("{}: skipping {} steps the journal lacks (--allow-incomplete)", o.session.string(),
-                 session.missing_steps().size());
+    spdlog::warn("{}: leaving out {} of {} planned steps, which the journal lacks (--allow-incomplete)",
+                 o.session.string(), session.missing_steps().size(), session.manifest().plan.size());
   }
   const formats::SessionManifest& manifest = session.manifest();
   const formats::RigDescription rig = formats::ParseRigDescription(manifest.rig, session.manifest_file());

@@ -26,8 +26,8 @@ ProcessMdfReport RunProcessMdf(const ProcessMdfOptions& o) {
   core::ExpectReplaceable(o.out, formats::PackageReplacement(o.replace, {o.session, o.calibration}));
   const formats::CapturedSession session(o.session, {o.allow_incomplete, "process mdf"});
   if (!session.missing_steps().empty()) {
-    spdlog::warn("{}: skipping {} steps the journal lacks (--allow-incomplete)", o.session.string(),
-                 session.missing_steps().size());
+    spdlog::warn("{}: leaving out {} of {} planned steps, which the journal lacks (--allow-incomplete)",
+                 o.session.string(), session.missing_steps().size(), session.manifest().plan.size());
   }
   const fs::path calibration_file = o.calibration.empty() ? session.IntactCalibrationFile() : o.calibration;
   const formats::Calibration calibration = formats::ReadCalibration(calibration_file);

@@ -9,6 +9,7 @@
 #include "core/error.h"
 #include "core/version.h"
 #include "formats/capture_journal.h"
+#include "formats/captured_session.h"
 #include "tests/common/temporary_directory.h"
 
 namespace mesocap::formats {
@@ -600,6 +601,124 @@ TEST(CaptureJournalFuzz, MutatedBytesAreReadOrRejectedNeverCrash) {
   }
   EXPECT_GT(rejected, 1000);
   EXPECT_GT(read, 100);  // a damaged last line is a torn tail
+}
+
+// ---- a session opened for processing ------------------------------------
+
+TEST(CapturedSession, RefusesASessionBeingWrittenAndAnIncompleteOne) {
+  ExampleSession s;
+  {
+    CaptureJournal writer(s.journal, &s.manifest);
+    writer.Append(ExampleRecords()[0]);
+    const std::string message = ErrorOf<core::Error>([&] { CapturedSession open(s.root); }, s.root);
+    EXPECT_NE(message.find("being written"), std::string::npos) << message;
+  }
+  std::string message = ErrorOf<core::Error>([&] { CapturedSession open(s.root, {{}, "process btf"}); }, s.root);
+  EXPECT_NE(message.find("1 of 4 steps done (missing laser-cal-m0, sweep-t000-m0, dark-frame)"), std::string::npos)
+      << message;
+  message = ErrorOf<core::Error>([&] { CapturedSession open(s.root, {{"laser-*", "dark-frame"}}); }, s.root);
+  EXPECT_NE(message.find("(missing sweep-t000-m0)"), std::string::npos) << message;
+  const CapturedSession open(s.root, {{"*"}});
+  EXPECT_EQ(open.missing_steps(), (std::vector<std::string>{"laser-cal-m0", "sweep-t000-m0", "dark-frame"}));
+  EXPECT_TRUE(open.IsDone("btf-t000-a000-l0"));
+  // While it is open for reading, no capture can write it.
+  EXPECT_NE(ErrorOf<core::Error>([&] { CaptureJournal writer(s.journal, &s.manifest); }, s.journal).find("another"),
+            std::string::npos);
+}
+
+// Every byte of every journaled file is covered: a change anywhere is named
+// by IntactFile (what the readers use) and by DamagedSessionFiles (verify).
+TEST(CapturedSession, AnyChangedByteOfAJournaledFileIsDetected) {
+  ExampleSession s;
+  {
+    CaptureJournal writer(s.journal, &s.manifest);
+    for (const auto& r : ExampleRecords()) writer.Append(r);
+  }
+  ASSERT_TRUE(ReadCaptureJournal(s.journal, &s.manifest).records[0].files[0].xxh3.has_value());
+  std::mt19937 rng(3);
+  for (const char* path : {"btf/000.exr", "btf/001.exr", "laser.json"}) {
+    SCOPED_TRACE(path);
+    const std::string original = Slurp(s.root / path);
+    for (std::size_t at = 0; at < original.size(); at += 1 + rng() % 97) {
+      std::string bytes = original;
+      bytes[at] = static_cast<char>(bytes[at] ^ (1 << (rng() % 8)));
+      Spit(s.root / path, bytes);
+      const CapturedSession open(s.root, {{"*"}});
+      const std::string message = ErrorOf([&] { open.IntactFile(path); }, s.root / path);
+      EXPECT_NE(message.find("'checksum': content changed after it was written"), std::string::npos) << message;
+      const auto damaged = DamagedSessionFiles(s.root, s.manifest, ReadCaptureJournal(s.journal, &s.manifest).records);
+      ASSERT_EQ(damaged.size(), 2u);
+      EXPECT_EQ(damaged[0].path, "calibration/rig.json") << "the example's calibration was never written";
+      EXPECT_EQ(damaged[1].path, path);
+    }
+    Spit(s.root / path, original.substr(0, original.size() - 1));
+    EXPECT_NE(ErrorOf([&] { CapturedSession(s.root, {{"*"}}).IntactFile(path); }, s.root / path).find("bytes, expected"),
+              std::string::npos);
+    Spit(s.root / path, original);
+  }
+  EXPECT_EQ(DamagedSessionFiles(s.root, s.manifest, ReadCaptureJournal(s.journal, &s.manifest).records).size(), 1u);
+  EXPECT_THROW(CapturedSession(s.root, {{"*"}}).IntactFile("btf/002.exr"), core::Error) << "not journaled";
+}
+
+// A step done again (its files were damaged) supersedes its record with
+// "replaces"; a repeat without it, or one that replaces another record, is
+// refused.
+TEST(CaptureJournal, RedoneStepsReplaceTheirRecord) {
+  ExampleSession s;
+  {
+    CaptureJournal writer(s.journal, &s.manifest);
+    for (const auto& r : ExampleRecords()) writer.Append(r);
+    EXPECT_THROW(writer.Append(Record(3, "laser-cal-m0", {F("laser.json", 2)})), core::Error);
+    writer.Redo("laser-cal-m0");
+    EXPECT_FALSE(writer.IsDone("laser-cal-m0"));
+    Spit(s.root / "laser.json", "{ }");
+    writer.Append(Record(3, "laser-cal-m0", {F("laser.json", 3)}));
+    EXPECT_TRUE(writer.IsDone("laser-cal-m0"));
+  }
+  const JournalContents read = ReadCaptureJournal(s.journal, &s.manifest);
+  ASSERT_EQ(read.records.size(), 4u);
+  EXPECT_EQ(read.records[3].replaces, 1u);
+  EXPECT_EQ(LatestRecords(read.records).at("laser-cal-m0")->files[0].bytes, 3u);
+  EXPECT_EQ(CapturedSession(s.root, {{"*"}}).IntactFile("laser.json"), s.root / "laser.json");
+
+  const std::string text = Slurp(s.journal);
+  const auto line = [&](std::uint64_t seq, const std::string& step, const std::string& extra) {
+    return "{\"seq\":" + std::to_string(seq) + ",\"step\":\"" + step +
+           "\",\"time_utc\":\"2025-06-01T13:00:05Z\",\"files\":[]" + extra + "}\n";
+  };
+  for (const auto& [bad, field] : std::vector<std::pair<std::string, std::string>>{
+           {line(4, "laser-cal-m0", ""), "line 5.step"},
+           {line(4, "laser-cal-m0", ",\"replaces\":1"), "line 5.step"},
+           {line(4, "sweep-t000-m0", ",\"replaces\":2"), "line 5.replaces"},
+           {line(4, "laser-cal-m0", ",\"replaces\":4"), "line 5.replaces"}}) {
+    SCOPED_TRACE(bad);
+    Spit(s.journal, text + bad);
+    const std::string message = ErrorOf([&] { ReadCaptureJournal(s.journal, &s.manifest); }, s.journal);
+    EXPECT_NE(message.find("'" + field + "'"), std::string::npos) << message;
+  }
+}
+
+// A version 2 session's journal must carry each file's hash; a version 1
+// session (sizes only, the calibration a plain path) still reads.
+TEST(CaptureJournal, HashesAreRequiredInVersion2AndAbsentInVersion1) {
+  ExampleSession s;
+  Spit(s.journal, "{\"seq\":0,\"step\":\"laser-cal-m0\",\"time_utc\":\"2025-06-01T13:00:05Z\","
+                  "\"files\":[{\"path\":\"laser.json\",\"bytes\":2}]}\n");
+  EXPECT_NE(ErrorOf([&] { ReadCaptureJournal(s.journal, &s.manifest); }, s.journal).find("'line 1.files[0].xxh3_64'"),
+            std::string::npos);
+  json v1 = json::parse(Slurp(s.root / kSessionManifestName));
+  v1["version"] = 1;
+  v1["calibration"] = "calibration/rig.json";
+  Spit(s.root / kSessionManifestName, v1.dump());
+  const SessionManifest old = ReadSessionManifest(s.root);
+  EXPECT_EQ(old.version, 1);
+  EXPECT_EQ(old.calibration, "calibration/rig.json");
+  EXPECT_FALSE(old.calibration_checksum.has_value());
+  ASSERT_EQ(ReadCaptureJournal(s.journal, &old).records.size(), 1u);
+  const CapturedSession open(s.root, {{"*"}});
+  EXPECT_EQ(open.IntactFile("laser.json"), s.root / "laser.json");
+  Spit(s.root / "laser.json", "{}}");
+  EXPECT_THROW(open.IntactFile("laser.json"), core::FormatError) << "sizes are still checked";
 }
 
 }  // namespace
