@@ -189,6 +189,9 @@ void WriteImage(const fs::path& file, const Image& image, PixelEncoding encoding
   // writes 9216 of them).
   if (container == Container::kPng) spec.attribute("png:compressionLevel", 1);
   spec.attribute("oiio:UnassociatedAlpha", 1);
+  // No write time in the file (OpenImageIO's TIFF writer adds one unless
+  // told otherwise): the same data give the same bytes and checksum.
+  spec.attribute("DateTime", "");
   if (!out->open(atomic.temp_path().string(), spec) ||
       !out->write_image(OIIO::TypeDesc::FLOAT, image.data()) || !out->close()) {
     throw Error(file.string() + ": write failed: " + out->geterror());

@@ -236,6 +236,8 @@ void CreateCaptureSession(const fs::path& dir, SessionManifest manifest) {
   std::error_code ec;
   if (fs::exists(dir, ec)) {
     if (!fs::is_directory(dir, ec)) throw core::Error(dir.string() + ": exists and is not a folder");
+    // A run killed while creating the session left at most its manifest's temporary.
+    core::RemoveStaleTemporariesOf(manifest_file);
     if (!fs::is_empty(dir, ec) || ec) {
       throw core::Error(dir.string() + ": already holds files; a new session needs an empty folder");
     }

@@ -67,6 +67,7 @@ FrameSequenceWriter::FrameSequenceWriter(fs::path file, int width, int height, i
   output_->spec = OIIO::ImageSpec(width, height, channels, TypeOf(encoding));
   output_->spec.attribute("compression", "zip");  // TIFF deflate
   output_->spec.attribute("oiio:UnassociatedAlpha", 1);
+  output_->spec.attribute("DateTime", "");  // the same frames give the same bytes (core/image_io.cc)
 }
 
 FrameSequenceWriter::~FrameSequenceWriter() {

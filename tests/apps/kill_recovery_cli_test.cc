@@ -1,0 +1,199 @@
+// kill -9 at seeded random moments of simulate, process mdf, process btf and
+// compress: the next run (simulate --resume, the others with --replace)
+// completes, its output equals an uninterrupted run's byte for byte apart
+// from timestamps and timings, and no temporary is left. The moments are
+// uniform over the uninterrupted run's duration. MESOCAP_KILL_TRIALS sets the
+// trials per command (default 2; docs/BENCHMARKS.md reports a run of 10).
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <random>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "tests/common/mesocap_command.h"
+#include "tests/common/temporary_directory.h"
+
+namespace mesocap {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::Slurp;
+
+// Starts the binary with `args`, output discarded; returns its pid.
+pid_t Start(const std::vector<std::string>& args) {
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    std::vector<char*> argv{const_cast<char*>(MESOCAP_BINARY)};
+    for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+    argv.push_back(nullptr);
+    if (std::freopen("/dev/null", "w", stdout) == nullptr || std::freopen("/dev/null", "w", stderr) == nullptr) {
+      ::_exit(126);
+    }
+    ::execv(MESOCAP_BINARY, argv.data());
+    ::_exit(127);
+  }
+  return pid;
+}
+
+int Wait(pid_t pid) {
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+// Seconds an uninterrupted run takes.
+double Timed(const std::vector<std::string>& args) {
+  const auto start = std::chrono::steady_clock::now();
+  EXPECT_EQ(Wait(Start(args)), 0);
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+// JSON without what differs from run to run: creation and step times, the
+// compression's seconds, and the checksum of the file that holds them.
+nlohmann::json WithoutTimes(nlohmann::json j) {
+  if (j.is_object()) {
+    for (const char* key : {"created_utc", "time_utc", "seconds"}) j.erase(key);
+    if (j.contains("files") && j["files"].is_object()) j["files"].erase("error_report.json");
+    for (auto& [key, value] : j.items()) value = WithoutTimes(value);
+  } else if (j.is_array()) {
+    for (auto& value : j) value = WithoutTimes(value);
+  }
+  return j;
+}
+
+// Every file under `dir`: data files by their bytes, JSON and JSON lines
+// without times.
+std::map<std::string, std::string> Normalized(const fs::path& dir) {
+  std::map<std::string, std::string> files;
+  for (const auto& e : fs::recursive_directory_iterator(dir)) {
+    if (!e.is_regular_file()) continue;
+    const std::string name = fs::relative(e.path(), dir).generic_string();
+    std::string bytes = Slurp(e.path());
+    const std::string ext = e.path().extension().string();
+    if (ext == ".json" || ext == ".jsonl") {
+      std::istringstream lines(bytes);
+      bytes.clear();
+      for (std::string line; std::getline(lines, line, ext == ".jsonl" ? '\n' : '\0');) {
+        bytes += WithoutTimes(nlohmann::json::parse(line)).dump() + "\n";
+      }
+    }
+    files[name] = bytes;
+  }
+  return files;
+}
+
+// The files that differ between two Normalized() trees, by name; empty when equal.
+std::string Differences(const std::map<std::string, std::string>& a, const std::map<std::string, std::string>& b) {
+  std::string names;
+  for (const auto& [name, bytes] : a) {
+    const auto it = b.find(name);
+    if (it == b.end() || it->second != bytes) names += " " + name;
+  }
+  for (const auto& [name, bytes] : b) {
+    if (!a.count(name)) names += " " + name + " (only in the second)";
+  }
+  return names;
+}
+
+int Temporaries(const fs::path& dir) {
+  int n = 0;
+  for (const auto& e : fs::recursive_directory_iterator(dir)) n += e.path().filename().string().find(".tmp-") != std::string::npos;
+  return n;
+}
+
+int Trials() {
+  const char* env = std::getenv("MESOCAP_KILL_TRIALS");
+  return env ? std::max(1, std::atoi(env)) : 2;
+}
+
+struct Job {
+  std::string name;
+  // The command writing `out`, and the one that completes it after a kill.
+  std::vector<std::string> (*run)(const fs::path& inputs, const fs::path& out);
+  std::vector<std::string> (*rerun)(const fs::path& inputs, const fs::path& out);
+};
+
+std::vector<std::string> Simulate(const fs::path&, const fs::path& out) {
+  return {"-q", "simulate", "--rig", "tiny", "--seed", "4", "--out", out.string()};
+}
+std::vector<std::string> SimulateResume(const fs::path& in, const fs::path& out) {
+  auto args = Simulate(in, out);
+  args.push_back("--resume");
+  return args;
+}
+std::vector<std::string> ProcessMdf(const fs::path& in, const fs::path& out) {
+  return {"-q", "process", "mdf", "--session", (in / "S").string(), "--out", out.string()};
+}
+std::vector<std::string> ProcessBtf(const fs::path& in, const fs::path& out) {
+  return {"-q", "process", "btf", "--session", (in / "S").string(), "--out", out.string()};
+}
+std::vector<std::string> Compress(const fs::path& in, const fs::path& out) {
+  return {"-q", "compress", "--in", (in / "T").string(), "--out", out.string()};
+}
+template <std::vector<std::string> (*F)(const fs::path&, const fs::path&)>
+std::vector<std::string> Replacing(const fs::path& in, const fs::path& out) {
+  auto args = F(in, out);
+  args.push_back("--replace");
+  return args;
+}
+
+class KillRecoveryTest : public ::testing::TestWithParam<Job> {
+ protected:
+  static void SetUpTestSuite() {
+    inputs_ = new testing::TemporaryDirectory();
+    ASSERT_EQ(Wait(Start(Simulate({}, *inputs_ / "S"))), 0);
+    ASSERT_EQ(Wait(Start({"-q", "groundtruth", "--rig", "tiny", "--texture-size", "16", "--out",
+                          (*inputs_ / "T").string()})),
+              0);
+  }
+  static void TearDownTestSuite() { delete inputs_; }
+  static testing::TemporaryDirectory* inputs_;
+};
+
+testing::TemporaryDirectory* KillRecoveryTest::inputs_ = nullptr;
+
+TEST_P(KillRecoveryTest, NextRunCompletesBitIdenticalWithNoTemporaryLeft) {
+  const Job& job = GetParam();
+  testing::TemporaryDirectory work;
+  // The same output name everywhere: a package is named after its folder.
+  const fs::path reference = work / "reference" / "out";
+  fs::create_directories(reference.parent_path());
+  const double seconds = Timed(job.run(inputs_->path(), reference));
+  const auto expected = Normalized(reference);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> moment(0.0, seconds);
+  for (int trial = 0; trial < Trials(); ++trial) {
+    const double at = moment(rng);
+    SCOPED_TRACE("killed after " + std::to_string(at) + " s of " + std::to_string(seconds));
+    const fs::path out = work / ("trial" + std::to_string(trial)) / "out";
+    fs::create_directories(out.parent_path());
+    const pid_t pid = Start(job.run(inputs_->path(), out));
+    std::this_thread::sleep_for(std::chrono::duration<double>(at));
+    ::kill(pid, SIGKILL);
+    Wait(pid);
+    ASSERT_EQ(Wait(Start(job.rerun(inputs_->path(), out))), 0);
+    EXPECT_EQ(Differences(Normalized(out), expected), "");
+    EXPECT_EQ(Temporaries(work.path()), 0);
+    fs::remove_all(out);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Jobs, KillRecoveryTest,
+                         ::testing::Values(Job{"simulate", Simulate, SimulateResume},
+                                           Job{"process_mdf", ProcessMdf, Replacing<ProcessMdf>},
+                                           Job{"process_btf", ProcessBtf, Replacing<ProcessBtf>},
+                                           Job{"compress", Compress, Replacing<Compress>}),
+                         [](const auto& info) { return info.param.name; });
+
+}  // namespace
+}  // namespace mesocap
