@@ -10,7 +10,7 @@ namespace fs = std::filesystem;
 PackageFullBtfReader::PackageFullBtfReader(const fs::path& dir, const MaterialManifest& manifest)
     : PackageFullBtfReader(dir, manifest.description) {
   if (!manifest.full_btf) ThrowMissingPart(dir, "btf.full", "full BTF");
-  manifest_ = &manifest;
+  checks_.checksums = manifest.checksums;
 }
 
 PackageFullBtfReader::PackageFullBtfReader(const fs::path& dir, const MaterialDescription& description)
@@ -41,8 +41,8 @@ std::unique_ptr<core::ImageRowReader> PackageFullBtfReader::Open(int view) const
 
 void PackageFullBtfReader::ReadRowsFromSource(int view, int first_row, int rows, float* out) {
   std::unique_lock lock(view_mutex_[view]);
-  if (manifest_ && !checked_[view]) {
-    ExpectPackageFileIntact(dir_, *manifest_, FullBtfViewFile(view).generic_string());
+  if (!checked_[view]) {
+    ExpectPackageFileIntact(dir_, checks_, FullBtfViewFile(view).generic_string());
     checked_[view] = 1;
   }
   if (view_count() > kMaxOpenViews) {

@@ -19,7 +19,7 @@ namespace mesocap::formats {
 // more, each read opens and closes its file); FormatError (naming the file)
 // for a view file of another size, channel count or pixel type, a truncated
 // one, or one whose checksum differs from the manifest's (checked once per
-// view, at its first read). The manifest must outlive the reader.
+// view, at its first read).
 class PackageFullBtfReader : public core::FullBtfReader {
  public:
   static constexpr int kMaxOpenViews = 256;
@@ -37,8 +37,8 @@ class PackageFullBtfReader : public core::FullBtfReader {
   std::unique_ptr<core::ImageRowReader> Open(int view) const;
 
   std::filesystem::path dir_;
-  const MaterialManifest* manifest_ = nullptr;  // null for a package being written (nothing to check yet)
-  std::vector<char> checked_;                     // per view: its checksum matched; guarded by view_mutex_
+  MaterialManifest checks_;  // its checksums; none for a package being written (nothing to check yet)
+  std::vector<char> checked_;  // per view: its checksum matched; guarded by view_mutex_
   std::vector<std::unique_ptr<core::ImageRowReader>> open_;  // per view; null until first read
   std::vector<std::mutex> view_mutex_;                       // guards open_[view] and its reads
 };

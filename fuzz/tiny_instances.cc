@@ -99,6 +99,7 @@ formats::SessionManifest TinySessionManifest() {
   m.created_utc = "2025-06-01T12:00:00.000Z";
   m.rig = {{"name", "tiny"}};
   m.calibration = "calibration.json";
+  m.calibration_checksum = core::FileChecksum{3668, 0x1d0cae9f0528d597};
   m.plan.push_back({"btf-t000-a000-l0", formats::StepKind::kBtfImage, nlohmann::json::object()});
   m.plan.push_back({"laser-cal-loc0-h0", formats::StepKind::kLaserCalibration, nlohmann::json::object()});
   m.plan.push_back({"sweep-t000-loc0", formats::StepKind::kLaserSweep, nlohmann::json::object()});

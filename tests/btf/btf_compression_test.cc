@@ -347,9 +347,13 @@ TEST(BtfCompression, StreamsAPackagesViewFilesWithoutReadingThemWhole) {
   EXPECT_LT(MaxAbsDifference(in_memory, streamed), 1e-5);
   EXPECT_NEAR(report.measured_relative_rms_error, RelativeRmsError(btf, in_memory), 1e-9);
 
-  // Compressing the package as it now is fails with an error naming every part.
+  // Compressing the package as it now is fails with an error naming every
+  // part. Without its checksums (a version 1 package), so that the view
+  // file's own checks are what refuses it.
   auto expect_error_naming = [&](std::initializer_list<std::string> parts) {
-    formats::PackageFullBtfReader reader(dir / "pkg", formats::ReadMaterialManifest(dir / "pkg"));
+    formats::MaterialManifest unchecked = formats::ReadMaterialManifest(dir / "pkg");
+    unchecked.checksums.clear();
+    formats::PackageFullBtfReader reader(dir / "pkg", unchecked);
     try {
       CompressBtf(reader, o);
       FAIL() << "expected an error";
@@ -362,6 +366,10 @@ TEST(BtfCompression, StreamsAPackagesViewFilesWithoutReadingThemWhole) {
   bad.pixel(2, 8 * 1 + 5)[2] = std::numeric_limits<float>::infinity();
   core::WriteImage(dir / "pkg" / formats::FullBtfViewFile(4), bad);
   expect_error_naming({"view_0004.exr", "texel (2, 5), light 1, channel 2"});
+  {
+    formats::PackageFullBtfReader reader(dir / "pkg", formats::ReadMaterialManifest(dir / "pkg"));
+    EXPECT_THROW(CompressBtf(reader, o), core::FormatError) << "its checksum differs";
+  }
   // A view file of another size: named before any value is used.
   core::WriteImage(dir / "pkg" / formats::FullBtfViewFile(2), core::Image(8, 8, 3));
   expect_error_naming({"view_0002.exr", "height"});
