@@ -296,6 +296,7 @@ nlohmann::json ToJson(const SamplingSet& set) {
 }
 
 SamplingSet ReadSamplingSet(const JsonFieldReader& fields) {
+  fields.RejectUnknownMembers({"name", "directions_deg"});
   const std::string name = fields.String("name");
   const nlohmann::json& list = fields.Raw("directions_deg");
   if (!list.is_array()) {

@@ -39,7 +39,7 @@ FaultRule ParseRule(const core::JsonFieldReader& f, FaultKind kind) {
     const auto counts = f.Numbers("at", raw.size());
     for (std::size_t i = 0; i < counts.size(); ++i) {
       if (counts[i] < 1 || counts[i] > kMaxCount || counts[i] != std::floor(counts[i])) {
-        f.Fail("at[" + std::to_string(i) + "]", "expected a whole operation count >= 1 (the first operation is 1)");
+        f.Fail("at[" + std::to_string(i) + "]", "expected a whole operation count in [1, 2^53] (the first operation is 1), got " + core::JsonExcerpt(f.Raw("at")[i]));
       }
       rule.at.push_back(static_cast<std::uint64_t>(counts[i]));
     }
