@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "core/atomic_file.h"
+#include "core/error.h"
 #include "core/image.h"
 #include "core/image_io.h"
 #include "core/progress.h"
@@ -76,31 +77,45 @@ class SessionRun {
     core::Progress progress("capture " + manifest_.rig.value("name", std::string()), manifest_.plan.size(),
                       options_.show_progress ? core::Progress::Style::kAuto : core::Progress::Style::kSilent);
     progress.Advance(report_.steps_done_before);
-    for (auto& camera : rig_.cameras) camera->SetTrigger(drivers::TriggerMode::kSoftware);
-    for (std::size_t s = 0; s < manifest_.plan.size(); ++s) {
-      const formats::PlannedStep& step = manifest_.plan[s];
-      if (journal_.IsDone(step.id)) continue;
-      try {
+    // The step under way, or before the first, the first still to do.
+    std::size_t s = 0;
+    while (s < manifest_.plan.size() && journal_.IsDone(manifest_.plan[s].id)) ++s;
+    try {
+      for (auto& camera : rig_.cameras) camera->SetTrigger(drivers::TriggerMode::kSoftware);
+      for (; s < manifest_.plan.size(); ++s) {
+        const formats::PlannedStep& step = manifest_.plan[s];
+        if (journal_.IsDone(step.id)) continue;
         RunStep(step, steps_[s]);
-      } catch (const drivers::DeviceError& e) {
-        throw core::Error(dir_.string() + ": step \"" + step.id + "\": " + e.what() +
-                    " (finished steps are journaled; run again to resume)");
+        Journal(step, steps_[s]);
+        ++report_.steps_run;
+        progress.Advance();
       }
-      Journal(step, steps_[s]);
-      ++report_.steps_run;
-      progress.Advance();
+      AllOff();
+    } catch (const drivers::DeviceError& e) {
+      throw core::Error(Stopped(s, e.what()));
     }
-    AllOff();
     progress.Finish();
     return report_;
   }
 
  private:
+  // The error line of a capture that device trouble stopped at step `s`:
+  // where, why, what is kept, and how to go on.
+  std::string Stopped(std::size_t s, const std::string& why) const {
+    const std::size_t total = manifest_.plan.size();
+    const std::string where = s < total ? "step \"" + manifest_.plan[s].id + "\" (" + std::to_string(s + 1) + " of " +
+                                              std::to_string(total) + ")"
+                                        : "after the last step";
+    const std::string resume =
+        options_.resume_command.empty() ? "run the capture again to resume" : "resume with: " + options_.resume_command;
+    return dir_.string() + ": " + where + ": " + why + "; " + std::to_string(journal_.records().size()) + " of " +
+           std::to_string(total) + " steps are journaled; " + resume;
+  }
+
   drivers::Camera& CameraFor(const formats::PlannedStep& step, const formats::CameraFile& file) {
     const auto it = camera_index_.find(file.camera);
     if (it == camera_index_.end()) {
-      throw core::Error(dir_.string() + ": step \"" + step.id + "\" names camera \"" + file.camera +
-                        "\", which the rig lacks");
+      throw core::Error(dir_.string() + ": step \"" + step.id + "\" names camera " + core::Quoted(file.camera) + ", which the rig lacks");
     }
     return *rig_.cameras[it->second];
   }

@@ -20,6 +20,7 @@
 #include <chrono>
 #include <cstdint>
 #include <filesystem>
+#include <string>
 
 #include "core/error.h"
 #include "drivers/rig.h"
@@ -44,6 +45,10 @@ struct CaptureRunnerOptions {
   const formats::Calibration* calibration = nullptr;
   mdf::SweepGeometryOptions sweep_geometry;
   mdf::SpaceTimeOptions space_time;
+  // How the user resumes this session ("mesocap simulate --resume ..."),
+  // for the error when a device stops the capture; empty: "run the capture
+  // again".
+  std::string resume_command;
 
   core::CheckResult Check() const;
 };

@@ -16,9 +16,11 @@
 #include "calibration/camera_rays.h"
 #include "calibration/rig_frames.h"
 #include "core/angles.h"
+#include "core/error.h"
 #include "core/image_io.h"
 #include "formats/capture_plan_steps.h"
 #include "formats/capture_session.h"
+#include "formats/rig_description.h"
 
 namespace mesocap::btf {
 namespace {
@@ -431,14 +433,15 @@ std::vector<BtfCaptureImage> SessionBtfImages(const formats::CapturedSession& se
   std::map<std::string, int> camera_index;
   for (int c = 0; c < static_cast<int>(calibration.cameras.size()); ++c) camera_index[calibration.cameras[c].id] = c;
   std::vector<BtfCaptureImage> images;
+  const formats::RigDescription rig = formats::ParseRigDescription(manifest.rig, manifest_file);
   for (std::size_t s = 0; s < manifest.plan.size(); ++s) {
     const formats::PlannedStep& step = manifest.plan[s];
     if (step.kind != formats::StepKind::kBtfImage || !session.IsDone(step.id)) continue;
-    const formats::BtfImageStep btf = formats::ReadBtfImageStep(step, s, manifest_file);
+    const formats::BtfImageStep btf = formats::ReadBtfImageStep(step, s, rig, manifest_file);
     for (const formats::CameraFile& file : btf.files) {
       if (!camera_index.count(file.camera)) {
         throw core::FormatError(manifest_file, "plan step " + step.id + ".files",
-                                "camera '" + file.camera + "' not in the calibration");
+                                "camera " + core::Quoted(file.camera) + " not in the calibration");
       }
       images.push_back({session.dir() / file.path, session.RecordedChecksum(file.path), camera_index[file.camera],
                         btf.turntable_rad, btf.arc_rad, btf.lamp});

@@ -2,9 +2,11 @@
 // Every message is one readable line; the CLI prints it and exits non-zero.
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 
 namespace mesocap::core {
 
@@ -15,7 +17,9 @@ class Error : public std::runtime_error {
 
 // A file that exists but does not hold what its format requires. The message
 // names the file, the field (a JSON path such as "cameras[1].intrinsics.fx",
-// or an image property such as "width") and what was expected.
+// or an image property such as "width") and what was expected. The field is
+// cut as Cut() does (it may be a hostile file's member name), and a path
+// longer than that keeps its end.
 class FormatError : public Error {
  public:
   FormatError(std::filesystem::path file, std::string field, const std::string& problem);
@@ -31,5 +35,23 @@ class FormatError : public Error {
 // Options structs' Check() return this on failure; empty means valid.
 // Kept as a string (not an exception) so callers can collect several.
 using CheckResult = std::string;
+
+// A value echoed in a message (a name read from a file, a flag's text) is
+// cut to this many characters, so a 3 MB name still gives a readable line.
+inline constexpr std::size_t kMaxEchoedCharacters = 200;
+
+// `text` on one line (control characters as '?') and at most `max`
+// bytes (never inside a UTF-8 character), followed by "... (N bytes in all)"
+// when it was cut.
+std::string Cut(std::string_view text, std::size_t max = kMaxEchoedCharacters);
+// `value` cut as Cut() does, in double quotes: how messages quote a value.
+std::string Quoted(std::string_view value);
+
+// An allocation the inputs allow but the machine cannot hold: "needs N bytes
+// for WHAT; limit L bytes (this machine's memory)", in place of bad_alloc.
+// Throws when `bytes` exceed the machine's physical memory.
+void CheckMemoryFor(std::uint64_t bytes, std::string_view what);
+// The same message for an allocation of `bytes` that failed.
+[[noreturn]] void ThrowOutOfMemory(std::uint64_t bytes, std::string_view what);
 
 }  // namespace mesocap::core

@@ -22,8 +22,7 @@ Container ContainerOf(const fs::path& file) {
   if (ext == ".exr") return Container::kExr;
   if (ext == ".png") return Container::kPng;
   if (ext == ".tif" || ext == ".tiff") return Container::kTiff;
-  throw Error(file.string() + ": unsupported image extension \"" + ext +
-              "\"; expected .exr, .png, .tif or .tiff");
+  throw Error(file.string() + ": unsupported image extension " + Quoted(ext) + "; expected .exr, .png, .tif or .tiff");
 }
 
 OIIO::TypeDesc TypeOf(PixelEncoding e) {
@@ -78,7 +77,7 @@ std::unique_ptr<OIIO::ImageInput> OpenInput(const fs::path& file) {
   } catch (const std::bad_alloc&) {
     throw FormatError(file, "size", "the header declares a size that cannot be allocated (corrupt file?)");
   }
-  if (!in) throw FormatError(file, "", "not a readable image: " + OIIO::geterror());
+  if (!in) throw FormatError(file, "", "not a readable image: " + ImageLibraryMessage(OIIO::geterror()));
   return in;
 }
 
@@ -109,12 +108,14 @@ ImageHeader ExpectedHeader(const fs::path& file, const OIIO::ImageInput& in, con
 }
 
 [[noreturn]] void ThrowReadFailure(const fs::path& file, OIIO::ImageInput& in) {
-  std::string why = in.geterror();
+  std::string why = ImageLibraryMessage(in.geterror());
   if (why.empty()) why = "read failed";
   throw FormatError(file, "pixels", "cannot read (truncated or corrupt?): " + why);
 }
 
 }  // namespace
+
+std::string ImageLibraryMessage(const std::string& error) { return Cut(error.substr(0, error.find('\n'))); }
 
 const char* ToString(PixelEncoding e) {
   switch (e) {
@@ -181,7 +182,7 @@ void WriteImage(const fs::path& file, const Image& image, PixelEncoding encoding
   }
   AtomicFile atomic(file);
   auto out = OIIO::ImageOutput::create(file.string());
-  if (!out) throw Error(file.string() + ": no image writer: " + OIIO::geterror());
+  if (!out) throw Error(file.string() + ": no image writer: " + ImageLibraryMessage(OIIO::geterror()));
   OIIO::ImageSpec spec(image.width(), image.height(), image.channels(), TypeOf(encoding));
   if (container == Container::kExr) spec.attribute("compression", "zip");
   // zlib level 1: a noisy 16-bit 1024 x 768 RGB capture image writes 3x
@@ -194,7 +195,7 @@ void WriteImage(const fs::path& file, const Image& image, PixelEncoding encoding
   spec.attribute("DateTime", "");
   if (!out->open(atomic.temp_path().string(), spec) ||
       !out->write_image(OIIO::TypeDesc::FLOAT, image.data()) || !out->close()) {
-    throw Error(file.string() + ": write failed: " + out->geterror());
+    throw Error(file.string() + ": write failed: " + ImageLibraryMessage(out->geterror()));
   }
   atomic.Commit();
 }

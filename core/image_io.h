@@ -41,6 +41,10 @@ void WriteImage(const std::filesystem::path& file, const Image& image,
 
 const char* ToString(PixelEncoding encoding);
 
+// An OpenImageIO error for a message: its first line (OpenImageIO appends
+// the image library's own lines, "PNG library error"), cut as core::Cut().
+std::string ImageLibraryMessage(const std::string& error);
+
 // Reads an image a range of rows at a time, the file kept open between
 // reads: how a pass over data larger than memory (a paper-rig BTF, 1.5 GB)
 // holds only the rows it works on. Opening checks the header against

@@ -11,11 +11,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::string Describe(const nlohmann::json& v) {
-  std::string text = v.dump();
-  if (text.size() > 40) text = text.substr(0, 37) + "...";
-  return std::string(v.type_name()) + " " + text;
-}
+std::string Describe(const nlohmann::json& v) { return std::string(v.type_name()) + " " + JsonExcerpt(v); }
 
 std::string RangeText(double min, double max) {
   std::ostringstream s;
@@ -25,6 +21,12 @@ std::string RangeText(double min, double max) {
 }
 
 }  // namespace
+
+std::string JsonExcerpt(const nlohmann::json& value) {
+  // Replacing invalid UTF-8 keeps dump() from throwing on a string read from
+  // a file that is not UTF-8 throughout.
+  return Cut(value.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace), 40);
+}
 
 nlohmann::json ReadJsonFile(const fs::path& file, std::uintmax_t max_bytes, int max_depth) {
   std::error_code ec;
@@ -51,8 +53,10 @@ nlohmann::json ReadJsonFile(const fs::path& file, std::uintmax_t max_bytes, int 
     document = nlohmann::json::parse(text);
   } catch (const nlohmann::json::parse_error& e) {
     throw FormatError(file, "", "not valid JSON (at byte " + std::to_string(e.byte) + ")");
-  } catch (const nlohmann::json::exception& e) {  // e.g. out_of_range for 1e400
-    throw FormatError(file, "", std::string("not valid JSON: ") + e.what());
+  } catch (const nlohmann::json::out_of_range&) {  // 1e400
+    throw FormatError(file, "", "not valid JSON: a number beyond the range of a double");
+  } catch (const nlohmann::json::exception&) {
+    throw FormatError(file, "", "not valid JSON");
   }
   RejectDeepNesting(document, file, max_depth, "");
   return document;
@@ -156,10 +160,11 @@ std::string JsonFieldReader::Choice(std::string_view key,
   }
   std::string list;
   for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + ("\"" + a + "\"");
-  Fail(key, "expected one of " + list + ", got \"" + s + "\"");
+  Fail(key, "expected one of " + list + ", got " + Quoted(s));
 }
 
-std::vector<double> JsonFieldReader::Numbers(std::string_view key, std::size_t count) const {
+std::vector<double> JsonFieldReader::Numbers(std::string_view key, std::size_t count, double min,
+                                             double max) const {
   const auto& v = Member(key);
   if (!v.is_array() || v.size() != count) {
     Fail(key, "expected a list of " + std::to_string(count) + " numbers, got " + Describe(v));
@@ -168,21 +173,21 @@ std::vector<double> JsonFieldReader::Numbers(std::string_view key, std::size_t c
   out.reserve(count);
   for (std::size_t i = 0; i < count; ++i) {
     const auto& e = v[i];
-    if (!e.is_number() || !std::isfinite(e.get<double>())) {
-      Fail(std::string(key) + "[" + std::to_string(i) + "]", "expected a finite number, got " + Describe(e));
+    if (!e.is_number() || !std::isfinite(e.get<double>()) || e.get<double>() < min || e.get<double>() > max) {
+      Fail(std::string(key) + "[" + std::to_string(i) + "]", "expected " + RangeText(min, max) + ", got " + Describe(e));
     }
     out.push_back(e.get<double>());
   }
   return out;
 }
 
-Eigen::Vector3d JsonFieldReader::Vector3(std::string_view key) const {
-  const auto n = Numbers(key, 3);
+Eigen::Vector3d JsonFieldReader::Vector3(std::string_view key, double min, double max) const {
+  const auto n = Numbers(key, 3, min, max);
   return {n[0], n[1], n[2]};
 }
 
-Eigen::Vector2d JsonFieldReader::Vector2(std::string_view key) const {
-  const auto n = Numbers(key, 2);
+Eigen::Vector2d JsonFieldReader::Vector2(std::string_view key, double min, double max) const {
+  const auto n = Numbers(key, 2, min, max);
   return {n[0], n[1]};
 }
 
@@ -228,7 +233,7 @@ void JsonFieldReader::ExpectFormat(std::string_view format, int version) const {
 
 int JsonFieldReader::ExpectFormat(std::string_view format, int oldest, int newest) const {
   const std::string f = String("format");
-  if (f != format) Fail("format", "expected \"" + std::string(format) + "\", got \"" + f + "\"");
+  if (f != format) Fail("format", "expected \"" + std::string(format) + "\", got " + Quoted(f));
   const auto v = Integer("version", 0, 1 << 30);
   if (v < oldest || v > newest) {
     const std::string readable = oldest == newest ? "version " + std::to_string(newest)

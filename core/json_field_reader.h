@@ -28,6 +28,10 @@ nlohmann::json ReadJsonFile(const std::filesystem::path& file,
 void RejectDeepNesting(const nlohmann::json& document, const std::filesystem::path& file,
                        int max_depth, const std::string& where = "");
 
+// A JSON value as text for a message: at most 40 characters, cut as
+// core::Cut() does.
+std::string JsonExcerpt(const nlohmann::json& value);
+
 // A view of one JSON object inside a file. Cheap to copy; holds a reference
 // to the document, which must outlive it.
 class JsonFieldReader {
@@ -48,10 +52,11 @@ class JsonFieldReader {
   // One of `allowed`.
   std::string Choice(std::string_view key, const std::vector<std::string>& allowed) const;
 
-  // A list of exactly `count` finite numbers.
-  std::vector<double> Numbers(std::string_view key, std::size_t count) const;
-  Eigen::Vector3d Vector3(std::string_view key) const;
-  Eigen::Vector2d Vector2(std::string_view key) const;
+  // A list of exactly `count` finite numbers, each inside [min, max].
+  std::vector<double> Numbers(std::string_view key, std::size_t count, double min = -1e300,
+                              double max = 1e300) const;
+  Eigen::Vector3d Vector3(std::string_view key, double min = -1e300, double max = 1e300) const;
+  Eigen::Vector2d Vector2(std::string_view key, double min = -1e300, double max = 1e300) const;
 
   JsonFieldReader Object(std::string_view key) const;
   // A list of objects, at most `max_count` of them.

@@ -1,10 +1,18 @@
 #include "core/plane.h"
 
-#include <exception>
+#include <cmath>
 
 #include "core/error.h"
+#include "core/json_field_reader.h"
 
 namespace mesocap::core {
+namespace {
+
+constexpr double kUnitTolerance = 1e-6;
+// As a calibration's positions.
+constexpr double kMaxOffsetMm = 1e6;
+
+}  // namespace
 
 nlohmann::json ToJson(const Plane& plane) {
   if (!plane.valid()) return nullptr;
@@ -14,18 +22,15 @@ nlohmann::json ToJson(const Plane& plane) {
 Plane PlaneFromJson(const nlohmann::json& value, const std::filesystem::path& file, const std::string& field) {
   Plane plane;
   if (value.is_null()) return plane;
-  try {
-    const auto& n = value.at("normal");
-    if (!n.is_array() || n.size() != 3) throw Error("normal must hold 3 numbers");
-    plane.normal = Eigen::Vector3d(n[0].get<double>(), n[1].get<double>(), n[2].get<double>());
-    plane.offset = value.at("offset_mm").get<double>();
-  } catch (const std::exception& e) {
-    throw FormatError(file, field,
-                      std::string("expected null or {\"normal\": [3 numbers], \"offset_mm\": number}: ") + e.what());
+  if (!value.is_object()) {
+    throw FormatError(file, field, "expected null or {\"normal\": [3 numbers], \"offset_mm\": number}, got " +
+                                       JsonExcerpt(value));
   }
-  if (!plane.valid() || std::abs(plane.normal.norm() - 1) > 1e-6) {
-    throw FormatError(file, field + ".normal", "a finite unit vector");
-  }
+  const JsonFieldReader fields(value, file, field);
+  fields.RejectUnknownMembers({"normal", "offset_mm"});
+  plane.normal = fields.Vector3("normal", -1.0 - kUnitTolerance, 1.0 + kUnitTolerance);
+  plane.offset = fields.Number("offset_mm", -kMaxOffsetMm, kMaxOffsetMm);
+  if (std::abs(plane.normal.norm() - 1) > kUnitTolerance) fields.Fail("normal", "expected a unit vector");
   return plane;
 }
 

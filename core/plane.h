@@ -23,7 +23,8 @@ struct Plane {
 };
 
 nlohmann::json ToJson(const Plane& plane);
-// null (invalid) or a plane; throws FormatError naming the file and field.
+// null (invalid) or {"normal": unit vector, "offset_mm": number in [-1e6,
+// 1e6]}; throws FormatError naming the file and field.
 Plane PlaneFromJson(const nlohmann::json& value, const std::filesystem::path& file, const std::string& field);
 
 }  // namespace mesocap::core

@@ -6,6 +6,8 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
+#include "core/logging.h"
+
 namespace mesocap::core {
 namespace {
 
@@ -14,7 +16,8 @@ constexpr int kBarWidth = 30;
 }  // namespace
 
 Progress::Progress(std::string task, std::uint64_t total, Style style, std::FILE* out)
-    : task_(std::move(task)), total_(total), style_(style), out_(out) {
+    : task_(std::move(task)), total_(total), style_(style), out_(out != nullptr ? out : MessageStream()) {
+  if (style_ == Style::kAuto && !InfoWanted()) style_ = Style::kSilent;
   if (style_ == Style::kAuto) {
     style_ = (out_ != nullptr && ::isatty(::fileno(out_))) ? Style::kBar : Style::kJsonLines;
   }

@@ -15,9 +15,11 @@ class Progress {
  public:
   enum class Style { kAuto, kBar, kJsonLines, kSilent };
 
-  // kAuto picks kBar when `out` is a terminal and kJsonLines otherwise.
+  // kAuto picks kBar when `out` is a terminal and kJsonLines otherwise, and
+  // kSilent under -q (quiet means no progress either). `out` null: where
+  // mesocap's messages go (core::MessageStream()).
   Progress(std::string task, std::uint64_t total, Style style = Style::kAuto,
-           std::FILE* out = stderr);
+           std::FILE* out = nullptr);
   ~Progress();
   Progress(const Progress&) = delete;
   Progress& operator=(const Progress&) = delete;

@@ -6,6 +6,12 @@
 #include "core/error.h"
 
 namespace mesocap::core {
+namespace {
+
+// As a calibration's positions (docs/FORMATS.md "Poses").
+constexpr double kMaxTranslationMm = 1e6;
+
+}  // namespace
 
 RigidTransform RigidTransform::Inverse() const {
   RigidTransform inv;
@@ -59,7 +65,7 @@ RigidTransform ReadRigidTransform(const JsonFieldReader& fields) {
   for (const char* key : {"parent", "child"}) {
     if (!IsValidFrameName(fields.String(key))) {
       fields.Fail(key, "expected a frame name (world, turntable, sample, laser, light_arc, "
-                       "camera:<id>, lamp:<id>, laser:<id>), got \"" + fields.String(key) + "\"");
+                       "camera:<id>, lamp:<id>, laser:<id>), got " + Quoted(fields.String(key)));
     }
   }
   const auto r = fields.Numbers("rotation", 9);
@@ -70,7 +76,7 @@ RigidTransform ReadRigidTransform(const JsonFieldReader& fields) {
   if (orthogonality > 1e-6 || t.rotation.determinant() < 0) {
     fields.Fail("rotation", "expected a rotation matrix (orthonormal, determinant +1)");
   }
-  t.translation = fields.Vector3("translation_mm");
+  t.translation = fields.Vector3("translation_mm", -kMaxTranslationMm, kMaxTranslationMm);
   return t;
 }
 

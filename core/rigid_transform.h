@@ -28,8 +28,8 @@ struct RigidTransform {
 };
 
 // JSON form (docs/FORMATS.md "Poses"): {"parent", "child", "rotation": 9
-// numbers row-major, "translation_mm": 3 numbers}. The reader rejects a
-// rotation that is not orthonormal with determinant +1 to within 1e-6.
+// numbers row-major, "translation_mm": 3 numbers in [-1e6, 1e6]}. The reader
+// rejects a rotation that is not orthonormal with determinant +1 to within 1e-6.
 nlohmann::json ToJson(const RigidTransform& t);
 RigidTransform ReadRigidTransform(const JsonFieldReader& fields);
 

@@ -63,12 +63,6 @@ bool ParseGridName(const std::string& name, int* azimuths, int* polars) {
   return name == "grid" + std::to_string(*azimuths) + "x" + std::to_string(*polars);
 }
 
-std::string Describe(const nlohmann::json& v) {
-  std::string text = v.dump();
-  if (text.size() > 40) text = text.substr(0, 37) + "...";
-  return text;
-}
-
 }  // namespace
 
 Eigen::Vector3d DirectionFromAngles(double theta, double phi) {
@@ -104,7 +98,7 @@ std::optional<SamplingSet> SamplingSet::FindNamed(const std::string& name) {
 
 SamplingSet SamplingSet::Named(const std::string& name) {
   if (std::optional<SamplingSet> set = FindNamed(name)) return *std::move(set);
-  throw Error("unknown sampling set \"" + name + "\"; valid names: " + kValidNames);
+  throw Error("unknown sampling set " + Quoted(name) + "; valid names: " + kValidNames);
 }
 
 SamplingSet SamplingSet::RegularGrid(int azimuth_count, int polar_count) {
@@ -127,7 +121,7 @@ SamplingSet SamplingSet::RegularGrid(int azimuth_count, int polar_count) {
 }
 
 SamplingSet SamplingSet::FromAngles(std::string name, const std::vector<SphericalAngles>& angles) {
-  const std::string where = "sampling set \"" + name + "\": ";
+  const std::string where = "sampling set " + Quoted(name) + ": ";
   if (angles.empty()) throw Error(where + "no directions");
   SamplingSet set;
   set.name_ = std::move(name);
@@ -302,10 +296,11 @@ nlohmann::json ToJson(const SamplingSet& set) {
 }
 
 SamplingSet ReadSamplingSet(const JsonFieldReader& fields) {
+  fields.RejectUnknownMembers({"name", "directions_deg"});
   const std::string name = fields.String("name");
   const nlohmann::json& list = fields.Raw("directions_deg");
   if (!list.is_array()) {
-    fields.Fail("directions_deg", "expected a list of [theta, phi] pairs in degrees, got " + Describe(list));
+    fields.Fail("directions_deg", "expected a list of [theta, phi] pairs in degrees, got " + JsonExcerpt(list));
   }
   if (list.empty() || list.size() > kMaxFileDirections) {
     fields.Fail("directions_deg", "expected 1 to " + std::to_string(kMaxFileDirections) +
@@ -320,11 +315,11 @@ SamplingSet ReadSamplingSet(const JsonFieldReader& fields) {
                       entry[1].is_number() && std::isfinite(entry[0].get<double>()) &&
                       std::isfinite(entry[1].get<double>());
     if (!pair) {
-      fields.Fail(key, "expected a pair of finite numbers [theta, phi] in degrees, got " + Describe(entry));
+      fields.Fail(key, "expected a pair of finite numbers [theta, phi] in degrees, got " + JsonExcerpt(entry));
     }
     const double theta_deg = entry[0].get<double>();
     if (theta_deg < 0.0 || theta_deg >= 90.0) {
-      fields.Fail(key, "theta " + Describe(entry[0]) + " degrees is outside [0, 90)");
+      fields.Fail(key, "theta " + JsonExcerpt(entry[0]) + " degrees is outside [0, 90)");
     }
     angles.push_back({RadiansFromDegrees(theta_deg), RadiansFromDegrees(entry[1].get<double>())});
   }

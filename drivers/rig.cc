@@ -1,12 +1,13 @@
 #include "drivers/rig.h"
 
+#include "core/error.h"
 #include "drivers/device_error.h"
 
 namespace mesocap::drivers {
 namespace {
 
 [[noreturn]] void CannotMake(const RigBackend& backend, const std::string& what) {
-  throw DeviceError("backend \"" + backend.name() + "\" cannot drive the " + what);
+  throw DeviceError("backend " + core::Quoted(backend.name()) + " cannot drive the " + what);
 }
 
 RigBackend& Find(const std::map<std::string, RigBackend*>& backends, const std::string& name,
@@ -15,7 +16,7 @@ RigBackend& Find(const std::map<std::string, RigBackend*>& backends, const std::
   if (it == backends.end() || it->second == nullptr) {
     std::string known;
     for (const auto& [n, b] : backends) known += (known.empty() ? "" : ", ") + n;
-    throw core::Error(device + ": backend \"" + name + "\" is not available in this program (available: " +
+    throw core::Error(device + ": backend " + core::Quoted(name) + " is not available in this program (available: " +
                 (known.empty() ? "none" : known) + ")");
   }
   return *it->second;

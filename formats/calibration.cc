@@ -4,7 +4,6 @@
 #include <map>
 #include <numbers>
 #include <set>
-#include <sstream>
 #include <type_traits>
 #include <utility>
 
@@ -44,29 +43,15 @@ constexpr double kInPlaneTolerance = 1e-6;
 
 // ---- reading --------------------------------------------------------------
 
-// `count` numbers, each in [min, max].
-std::vector<double> BoundedNumbers(const core::JsonFieldReader& fields, std::string_view key,
-                                   std::size_t count, double min, double max) {
-  const auto values = fields.Numbers(key, count);
-  for (std::size_t i = 0; i < count; ++i) {
-    if (values[i] < min || values[i] > max) {
-      std::ostringstream expected;
-      expected << "expected a number in [" << min << ", " << max << "], got " << values[i];
-      fields.Fail(std::string(key) + "[" + std::to_string(i) + "]", expected.str());
-    }
-  }
-  return values;
-}
-
 Eigen::Vector3d Position(const core::JsonFieldReader& fields, std::string_view key) {
-  const auto v = BoundedNumbers(fields, key, 3, -kMaxLengthMm, kMaxLengthMm);
+  const auto v = fields.Numbers(key, 3, -kMaxLengthMm, kMaxLengthMm);
   return {v[0], v[1], v[2]};
 }
 
 // A direction of any non-zero length, returned as a unit vector. One that is
 // unit already is kept bit for bit, so reading and writing again is stable.
 Eigen::Vector3d Direction(const core::JsonFieldReader& fields, std::string_view key) {
-  const auto v = BoundedNumbers(fields, key, 3, -kMaxDirectionComponent, kMaxDirectionComponent);
+  const auto v = fields.Numbers(key, 3, -kMaxDirectionComponent, kMaxDirectionComponent);
   const Eigen::Vector3d d(v[0], v[1], v[2]);
   const double length = d.norm();
   if (length < kMinDirectionLength) fields.Fail(key, "expected a non-zero direction");
@@ -115,7 +100,7 @@ Deviations ReadDeviations(const core::JsonFieldReader& object,
     }
     out[key] = match->count == 1
                    ? std::vector<double>{std_fields.Number(key, 0, match->max_std)}
-                   : BoundedNumbers(std_fields, key, match->count, 0, match->max_std);
+                   : std_fields.Numbers(key, match->count, 0, match->max_std);
   }
   return out;
 }
@@ -146,10 +131,10 @@ CalibratedPose ReadPose(const core::JsonFieldReader& fields, const std::string& 
   CalibratedPose pose;
   pose.transform = core::ReadRigidTransform(fields);
   if (pose.transform.parent_frame != parent) {
-    fields.Fail("parent", "expected \"" + parent + "\", got \"" + pose.transform.parent_frame + "\"");
+    fields.Fail("parent", "expected \"" + parent + "\", got " + core::Quoted(pose.transform.parent_frame));
   }
   if (pose.transform.child_frame != child) {
-    fields.Fail("child", "expected \"" + child + "\", got \"" + pose.transform.child_frame + "\"");
+    fields.Fail("child", "expected " + core::Quoted(child) + ", got " + core::Quoted(pose.transform.child_frame));
   }
   Position(fields, "translation_mm");  // bounds only; ReadRigidTransform read the values
   const auto d = ReadDeviations(
@@ -211,7 +196,7 @@ CameraCalibration ReadCamera(const core::JsonFieldReader& fields, int version) {
   }
   CameraCalibration c;
   c.id = Id(fields);
-  const auto size = BoundedNumbers(fields, "image_size", 2, 1, kMaxCalibratedImageSide);
+  const auto size = fields.Numbers("image_size", 2, 1, kMaxCalibratedImageSide);
   for (int i = 0; i < 2; ++i) {
     if (size[i] != std::floor(size[i])) {
       fields.Fail("image_size[" + std::to_string(i) + "]", "expected a whole number of pixels");
@@ -254,7 +239,7 @@ LampCalibration ReadLamp(const core::JsonFieldReader& fields) {
   LampCalibration l;
   l.id = Id(fields);
   l.position_mm = Position(fields, "position_mm");
-  const auto i = BoundedNumbers(fields, "intensity", 3, 0, kMaxIntensity);
+  const auto i = fields.Numbers("intensity", 3, 0, kMaxIntensity);
   l.intensity = {i[0], i[1], i[2]};
   const auto d = ReadDeviations(
       fields, {{"position_mm", 3, kMaxLengthMm}, {"intensity", 3, kMaxIntensity}});
@@ -274,7 +259,7 @@ LaserMountCalibration ReadLaserMount(const core::JsonFieldReader& fields) {
     fields.Fail("tilt_axis", "expected a direction in the laser plane (perpendicular to "
                              "plane_normal_at_zero_tilt)");
   }
-  const auto range = BoundedNumbers(fields, "tilt_range_deg", 2, -kMaxAngleDeg, kMaxAngleDeg);
+  const auto range = fields.Numbers("tilt_range_deg", 2, -kMaxAngleDeg, kMaxAngleDeg);
   if (range[0] >= range[1]) fields.Fail("tilt_range_deg", "expected [min, max] with min < max");
   m.tilt_range_rad =
       Eigen::Vector2d(core::RadiansFromDegrees(range[0]), core::RadiansFromDegrees(range[1]));
@@ -296,7 +281,7 @@ std::vector<Part> ReadParts(const core::JsonFieldReader& root, std::string_view 
   for (const auto& fields : root.Objects(key, kMaxRigParts)) {
     parts.push_back(read(fields));
     if (!ids.insert(parts.back().id).second) {
-      fields.Fail("id", "duplicate id \"" + parts.back().id + "\"");
+      fields.Fail("id", "duplicate id " + core::Quoted(parts.back().id));
     }
   }
   return parts;

@@ -27,9 +27,16 @@ PlannedStep Planned(std::string id, StepKind kind, json params, const json& reco
   return {std::move(id), kind, std::move(params)};
 }
 
-std::vector<CameraFile> ReadFiles(const core::JsonFieldReader& step) {
+// One file per camera of the rig, in the rig's camera order.
+std::vector<CameraFile> ReadFiles(const core::JsonFieldReader& step, const RigDescription& rig) {
   std::vector<CameraFile> files;
-  for (const auto& f : step.Objects("files", kMaxRigParts)) {
+  const auto entries = step.Objects("files", kMaxRigParts);
+  if (entries.size() != rig.cameras.size()) {
+    step.Fail("files", "expected one file per camera of the rig (" + std::to_string(rig.cameras.size()) + "), got " +
+                           std::to_string(entries.size()));
+  }
+  for (const auto& f : entries) {
+    f.RejectUnknownMembers({"camera", "path"});
     const std::string path = f.String("path");
     if (!IsSessionPath(path)) f.Fail("path", "a relative path inside the session folder");
     files.push_back({f.String("camera"), path});
@@ -49,17 +56,25 @@ int Location(const core::JsonFieldReader& fields, const RigDescription& rig) {
   return static_cast<int>(fields.Integer("location", 0, static_cast<std::int64_t>(rig.laser.locations.size()) - 1));
 }
 
-int Mount(const core::JsonFieldReader& fields) {
-  return static_cast<int>(fields.Integer("mount", 0, static_cast<std::int64_t>(kMaxRigParts)));
+int Mount(const core::JsonFieldReader& fields, const RigDescription& rig) {
+  return static_cast<int>(
+      fields.Integer("mount", 0, static_cast<std::int64_t>(rig.laser.mount_elevations_rad.size()) - 1));
 }
 
-int Index(const core::JsonFieldReader& fields, std::string_view key) {
-  return static_cast<int>(fields.Integer(key, 0, static_cast<std::int64_t>(kMaxPlanSteps)));
+// An index into one of the rig's lists of `count` entries.
+int Index(const core::JsonFieldReader& fields, std::string_view key, std::size_t count) {
+  return static_cast<int>(fields.Integer(key, 0, static_cast<std::int64_t>(count) - 1));
 }
 
 double Radians(const core::JsonFieldReader& fields, std::string_view key) {
   return core::RadiansFromDegrees(fields.Number(key, -360, 360));
 }
+
+// The plate's height and a sweep's offsets, in mm: as far as the rig's
+// lengths reach (docs/FORMATS.md "Rig description").
+constexpr double kMaxPlanLengthMm = 1e5;
+// The laser's tilt, degrees either side of its plane at tilt 0.
+constexpr double kMaxTiltDeg = 90.0;
 
 }  // namespace
 
@@ -106,45 +121,60 @@ PlannedStep ToPlannedStep(std::string id, const LaserSweepStep& step, const json
 LaserCalibrationStep ReadLaserCalibrationStep(const PlannedStep& step, std::size_t index, const RigDescription& rig,
                                               const fs::path& manifest_file) {
   const core::JsonFieldReader fields = StepFields(step, StepKind::kLaserCalibration, index, manifest_file);
+  fields.RejectUnknownMembers({"location", "mount", "arc_deg", "height_mm", "tilt_deg", "files", "recording"});
   LaserCalibrationStep out;
   out.location = Location(fields, rig);
-  out.mount = Mount(fields);
+  out.mount = Mount(fields, rig);
   out.arc_rad = Radians(fields, "arc_deg");
-  out.height_mm = fields.Number("height_mm");
-  out.tilt_rad = core::RadiansFromDegrees(fields.NumberOr("tilt_deg", 0.0, -90, 90));
-  out.files = ReadFiles(fields);
+  out.height_mm = fields.Number("height_mm", -kMaxPlanLengthMm, kMaxPlanLengthMm);
+  out.tilt_rad = core::RadiansFromDegrees(fields.NumberOr("tilt_deg", 0.0, -kMaxTiltDeg, kMaxTiltDeg));
+  out.files = ReadFiles(fields, rig);
   return out;
 }
 
-BtfImageStep ReadBtfImageStep(const PlannedStep& step, std::size_t index, const fs::path& manifest_file) {
+BtfImageStep ReadBtfImageStep(const PlannedStep& step, std::size_t index, const RigDescription& rig,
+                              const fs::path& manifest_file) {
   const core::JsonFieldReader fields = StepFields(step, StepKind::kBtfImage, index, manifest_file);
+  fields.RejectUnknownMembers({"turntable_index", "turntable_deg", "arc_index", "arc_deg", "lamp",
+                               "lamp_elevation_deg", "files", "recording"});
   BtfImageStep out;
-  out.turntable_index = Index(fields, "turntable_index");
+  out.turntable_index = Index(fields, "turntable_index", rig.turntable.angles_rad.size());
   out.turntable_rad = Radians(fields, "turntable_deg");
-  out.arc_index = Index(fields, "arc_index");
+  out.arc_index = Index(fields, "arc_index", rig.light_arc.angles_rad.size());
   out.arc_rad = Radians(fields, "arc_deg");
-  out.lamp = static_cast<int>(fields.Integer("lamp", 0, static_cast<std::int64_t>(kMaxRigParts)));
+  out.lamp = Index(fields, "lamp", rig.lamps.elevations_rad.size());
   out.lamp_elevation_rad = Radians(fields, "lamp_elevation_deg");
-  out.files = ReadFiles(fields);
+  out.files = ReadFiles(fields, rig);
   return out;
 }
 
 LaserSweepStep ReadLaserSweepStep(const PlannedStep& step, std::size_t index, const RigDescription& rig,
                                   const fs::path& manifest_file) {
   const core::JsonFieldReader fields = StepFields(step, StepKind::kLaserSweep, index, manifest_file);
+  fields.RejectUnknownMembers({"turntable_index", "turntable_deg", "location", "mount", "arc_deg", "offset_mm",
+                               "tilt_deg", "stored_as", "files", "recording"});
   LaserSweepStep out;
-  out.turntable_index = Index(fields, "turntable_index");
+  out.turntable_index = Index(fields, "turntable_index", rig.turntable.angles_rad.size());
   out.turntable_rad = Radians(fields, "turntable_deg");
   out.location = Location(fields, rig);
-  out.mount = Mount(fields);
+  out.mount = Mount(fields, rig);
   out.arc_rad = Radians(fields, "arc_deg");
-  for (const double t : fields.Numbers("tilt_deg", fields.Raw("tilt_deg").size())) {
+  // One tilt and one offset per frame of the rig's sweep.
+  const auto frames = static_cast<std::size_t>(rig.laser.frames_per_sweep);
+  for (const std::string_view key : {"tilt_deg", "offset_mm"}) {
+    const nlohmann::json& list = fields.Raw(key);
+    if (!list.is_array() || list.size() != frames) {
+      fields.Fail(key, "expected one number per frame of the rig's sweep (laser.frames_per_sweep = " +
+                           std::to_string(frames) + "), got " +
+                           (list.is_array() ? std::to_string(list.size()) + " entries" : core::JsonExcerpt(list)));
+    }
+  }
+  for (const double t : fields.Numbers("tilt_deg", frames, -kMaxTiltDeg, kMaxTiltDeg)) {
     out.tilts_rad.push_back(core::RadiansFromDegrees(t));
   }
-  if (out.tilts_rad.empty()) fields.Fail("tilt_deg", "at least one frame's tilt");
-  out.offsets_mm = fields.Numbers("offset_mm", out.tilts_rad.size());
+  out.offsets_mm = fields.Numbers("offset_mm", frames, -kMaxPlanLengthMm, kMaxPlanLengthMm);
   out.stores_analysis = fields.Has("stored_as") && fields.Choice("stored_as", {"frames", "analysis"}) == "analysis";
-  out.files = ReadFiles(fields);
+  out.files = ReadFiles(fields, rig);
   return out;
 }
 
@@ -154,7 +184,7 @@ CaptureStep ReadCaptureStep(const PlannedStep& step, std::size_t index, const Ri
     case StepKind::kLaserCalibration:
       return ReadLaserCalibrationStep(step, index, rig, manifest_file);
     case StepKind::kBtfImage:
-      return ReadBtfImageStep(step, index, manifest_file);
+      return ReadBtfImageStep(step, index, rig, manifest_file);
     case StepKind::kLaserSweep:
       return ReadLaserSweepStep(step, index, rig, manifest_file);
     case StepKind::kOther:

@@ -73,11 +73,15 @@ PlannedStep ToPlannedStep(std::string id, const BtfImageStep& step, const nlohma
 PlannedStep ToPlannedStep(std::string id, const LaserSweepStep& step, const nlohmann::json& recording = nullptr);
 
 // Reads the plan's step `index`, which must be of the type's kind. Throws
-// FormatError naming `manifest_file` and the field ("plan[3].tilt_deg"); a
-// laser step's location must be one of `rig`'s.
+// FormatError naming `manifest_file` and the field ("plan[3].tilt_deg").
+// Strict against `rig`: no unknown members; indices (location, mount,
+// turntable, arc, lamp) name entries of the rig; one file per camera; a
+// sweep has one tilt (in [-90, 90] degrees) and one offset (in [-1e5, 1e5]
+// mm) per frame of the rig's sweep.
 LaserCalibrationStep ReadLaserCalibrationStep(const PlannedStep& step, std::size_t index, const RigDescription& rig,
                                               const std::filesystem::path& manifest_file);
-BtfImageStep ReadBtfImageStep(const PlannedStep& step, std::size_t index, const std::filesystem::path& manifest_file);
+BtfImageStep ReadBtfImageStep(const PlannedStep& step, std::size_t index, const RigDescription& rig,
+                              const std::filesystem::path& manifest_file);
 LaserSweepStep ReadLaserSweepStep(const PlannedStep& step, std::size_t index, const RigDescription& rig,
                                   const std::filesystem::path& manifest_file);
 // Any step the rig runs; a step of kind "other" is a FormatError.

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "core/error.h"
+#include "core/image_io.h"
 
 namespace mesocap::formats {
 namespace fs = std::filesystem;
@@ -60,7 +61,7 @@ FrameSequenceWriter::FrameSequenceWriter(fs::path file, int width, int height, i
   header_ = {width, height, channels, encoding, 0};
   output_ = std::make_unique<Output>();
   output_->out = OIIO::ImageOutput::create(file_.string());
-  if (!output_->out) throw core::Error(file_.string() + ": no TIFF writer: " + OIIO::geterror());
+  if (!output_->out) throw core::Error(file_.string() + ": no TIFF writer: " + core::ImageLibraryMessage(OIIO::geterror()));
   if (!output_->out->supports("appendsubimage")) {
     throw core::Error(file_.string() + ": the TIFF writer cannot append subimages");
   }
@@ -89,7 +90,7 @@ void FrameSequenceWriter::Append(const core::Image& frame) {
   if (!out.open(atomic_.temp_path().string(), output_->spec, mode) ||
       !out.write_image(OIIO::TypeDesc::FLOAT, frame.data())) {
     throw core::Error(file_.string() + ": writing frame " + std::to_string(frame_count_) +
-                      " failed: " + out.geterror());
+                      " failed: " + core::ImageLibraryMessage(out.geterror()));
   }
   ++frame_count_;
   header_.frame_count = frame_count_;
@@ -98,7 +99,7 @@ void FrameSequenceWriter::Append(const core::Image& frame) {
 void FrameSequenceWriter::Commit() {
   if (committed_) return;
   if (frame_count_ == 0) throw core::Error(file_.string() + ": refusing to write a frame sequence without frames");
-  if (!output_->out->close()) throw core::Error(file_.string() + ": closing failed: " + output_->out->geterror());
+  if (!output_->out->close()) throw core::Error(file_.string() + ": closing failed: " + core::ImageLibraryMessage(output_->out->geterror()));
   atomic_.Commit();
   committed_ = true;
 }
@@ -114,7 +115,7 @@ FrameSequenceReader::FrameSequenceReader(fs::path file, int max_frames, std::siz
   if (!fs::is_regular_file(file_, ec)) throw core::FormatError(file_, "", "not found or not a regular file");
   if (!IsTiff(file_)) throw core::FormatError(file_, "", "a frame sequence is a .tif or .tiff file");
   input_->in = OIIO::ImageInput::open(file_.string());
-  if (!input_->in) throw core::FormatError(file_, "", "not a readable TIFF: " + OIIO::geterror());
+  if (!input_->in) throw core::FormatError(file_, "", "not a readable TIFF: " + core::ImageLibraryMessage(OIIO::geterror()));
   auto& in = *input_->in;
   // Every frame's header up front (headers only, no pixels): the sequence is
   // uniform or it is rejected before anyone reads it.
@@ -166,7 +167,7 @@ FrameSequenceReader::FrameSequenceReader(fs::path file, int max_frames, std::siz
   // frame and with a pending error message (geterror() clears it); go back
   // to the first frame.
   (void)in.geterror();
-  if (!in.seek_subimage(0, 0)) throw core::FormatError(file_, FrameField(0, "header"), "cannot seek: " + in.geterror());
+  if (!in.seek_subimage(0, 0)) throw core::FormatError(file_, FrameField(0, "header"), "cannot seek: " + core::ImageLibraryMessage(in.geterror()));
 }
 
 FrameSequenceReader::~FrameSequenceReader() {
@@ -179,7 +180,7 @@ bool FrameSequenceReader::Next(core::Image* frame) {
   core::Image image(header_.width, header_.height, header_.channels);
   if (!in.seek_subimage(next_, 0) ||
       !in.read_image(next_, 0, 0, header_.channels, OIIO::TypeDesc::FLOAT, image.data()) || in.has_error()) {
-    std::string why = in.geterror();
+    std::string why = core::ImageLibraryMessage(in.geterror());
     if (why.empty()) why = "read failed";
     throw core::FormatError(file_, FrameField(next_, "pixels"), "cannot read (truncated or corrupt?): " + why);
   }

@@ -2,6 +2,7 @@
 
 #include <cctype>
 #include <charconv>
+#include <cmath>
 #include <fstream>
 #include <string>
 #include <string_view>
@@ -11,6 +12,11 @@
 namespace mesocap::formats {
 namespace fs = std::filesystem;
 namespace {
+
+// Every coordinate (vertex, texture coordinate, normal) in the file's units:
+// far beyond any mesh mesocap draws or simulates, and small enough that the
+// float vertices of the renderers keep their meaning (1e308 would not).
+constexpr double kMaxObjCoordinate = 1e6;
 
 std::vector<std::string_view> SplitWhitespace(std::string_view line) {
   std::vector<std::string_view> tokens;
@@ -55,9 +61,11 @@ ObjMesh ReadObjMesh(const fs::path& file) {
       }
       for (int k = 0; k < count; ++k) {
         if (!ParseNumber(tokens[k + 1], &v[k]))
-          fail(std::string(what) + " coordinate '" + std::string(tokens[k + 1]) + "' is not a number");
+          fail(std::string(what) + " coordinate " + core::Quoted(tokens[k + 1]) + " is not a number");
+        if (!(std::abs(v[k]) <= kMaxObjCoordinate)) {
+          fail(std::string(what) + " coordinate " + core::Cut(tokens[k + 1]) + " is outside [-1e+06, 1e+06]");
+        }
       }
-      if (!v.allFinite()) fail(std::string(what) + " coordinate is not finite");
       return v;
     };
     if (tokens[0] == "v") {
@@ -71,11 +79,11 @@ ObjMesh ReadObjMesh(const fs::path& file) {
       const auto index = [&](std::string_view part, std::size_t count, const char* what, bool optional) {
         if (part.empty() && optional) return -1;
         long i = 0;
-        if (!ParseNumber(part, &i)) fail("face index '" + std::string(part) + "' is not an integer");
+        if (!ParseNumber(part, &i)) fail("face index " + core::Quoted(part) + " is not an integer");
         const long n = static_cast<long>(count);
         if (i < 0) i += n + 1;  // -1 is the last element so far
         if (i < 1 || i > n) {
-          fail("face index " + std::string(part) + " does not name one of the " + std::to_string(n) + " " + what +
+          fail("face index " + core::Cut(part) + " does not name one of the " + std::to_string(n) + " " + what +
                " so far");
         }
         return static_cast<int>(i - 1);

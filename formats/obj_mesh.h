@@ -27,8 +27,9 @@ struct ObjMesh {
 };
 
 // Throws FormatError naming the file and the line ("line 7") for a missing
-// file, a non-number or non-finite coordinate, a short element, an index
-// that names no element so far, and a mesh with no faces.
+// file, a non-number or a coordinate outside [-1e6, 1e6] (non-finite ones
+// included), a short element, an index that names no element so far, and a
+// mesh with no faces.
 ObjMesh ReadObjMesh(const std::filesystem::path& file);
 
 }  // namespace mesocap::formats

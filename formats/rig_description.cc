@@ -4,8 +4,10 @@
 #include <cmath>
 #include <numbers>
 #include <set>
+#include <sstream>
 
 #include "core/angles.h"
+#include "core/error.h"
 #include "core/image.h"
 #include "core/json_field_reader.h"
 
@@ -14,6 +16,9 @@ namespace {
 
 constexpr std::size_t kMaxDevices = 256;
 constexpr std::size_t kMaxAngles = 4096;
+constexpr double kMaxPrincipalPointPx = 1e6;
+constexpr double kMaxLampIntensity = 1e12;  // as in a calibration
+constexpr double kMaxCalibrationHeightMm = 1e4;
 
 std::vector<double> AnglesDeg(const core::JsonFieldReader& f, std::string_view key, double min_deg,
                               double max_deg) {
@@ -25,8 +30,9 @@ std::vector<double> AnglesDeg(const core::JsonFieldReader& f, std::string_view k
   std::vector<double> out;
   for (std::size_t i = 0; i < values.size(); ++i) {
     if (values[i] < min_deg || values[i] > max_deg) {
-      f.Fail(std::string(key) + "[" + std::to_string(i) + "]",
-             "expected an angle in [" + std::to_string(min_deg) + ", " + std::to_string(max_deg) + "] degrees");
+      std::ostringstream expected;
+      expected << "expected an angle in [" << min_deg << ", " << max_deg << "] degrees, got " << values[i];
+      f.Fail(std::string(key) + "[" + std::to_string(i) + "]", expected.str());
     }
     out.push_back(core::RadiansFromDegrees(values[i]));
   }
@@ -34,6 +40,7 @@ std::vector<double> AnglesDeg(const core::JsonFieldReader& f, std::string_view k
 }
 
 StageDescription ParseStage(const core::JsonFieldReader& f) {
+  f.RejectUnknownMembers({"backend", "angles_deg", "speed_deg_per_s"});
   StageDescription s;
   s.backend = f.String("backend");
   s.angles_rad = AnglesDeg(f, "angles_deg", 0.0, 360.0);
@@ -42,6 +49,9 @@ StageDescription ParseStage(const core::JsonFieldReader& f) {
 }
 
 CameraDescription ParseCamera(const core::JsonFieldReader& f) {
+  f.RejectUnknownMembers({"id", "backend", "azimuth_deg", "elevation_deg", "distance_mm", "image_size", "focal_px",
+                          "principal_point_px", "distortion", "bit_depth", "full_well_electrons",
+                          "read_noise_electrons", "exposure_us"});
   CameraDescription c;
   c.id = f.String("id");
   if (c.id.empty()) f.Fail("id", "expected a non-empty id");
@@ -60,6 +70,9 @@ CameraDescription ParseCamera(const core::JsonFieldReader& f) {
   c.focal_px = f.Number("focal_px", 1.0, 1e6);
   c.principal_point_px = f.Has("principal_point_px") ? f.Vector2("principal_point_px")
                                                      : Eigen::Vector2d(c.width / 2.0, c.height / 2.0);
+  if (c.principal_point_px.cwiseAbs().maxCoeff() > kMaxPrincipalPointPx) {
+    f.Fail("principal_point_px", "expected two numbers in [-1e+06, 1e+06] pixels");
+  }
   if (f.Has("distortion")) {
     const auto d = f.Numbers("distortion", 5);
     for (int i = 0; i < 5; ++i) {
@@ -79,13 +92,17 @@ CameraDescription ParseCamera(const core::JsonFieldReader& f) {
 RigDescription ParseRigDescription(const nlohmann::json& json, const std::filesystem::path& file) {
   const core::JsonFieldReader root(json, file);
   root.ExpectFormat("mesocap.rig", 1);
+  root.RejectUnknownMembers({"format", "version", "name", "sample", "cameras", "turntable", "light_arc", "lamps",
+                             "laser", "faults"});
   RigDescription rig;
   rig.json = json;
   rig.name = root.String("name");
   const auto sample = root.Object("sample");
+  sample.RejectUnknownMembers({"size_mm", "backing"});
   rig.sample_size_mm = sample.Number("size_mm", 1e-3, 1e4);
   if (sample.Has("backing")) {
     const auto backing = sample.Object("backing");
+    backing.RejectUnknownMembers({"depth_mm", "albedo"});
     rig.backing.depth_mm = backing.Number("depth_mm", 1e-3, 1e4);
     rig.backing.albedo = backing.Number("albedo", 0.0, 1.0);
   }
@@ -94,25 +111,32 @@ RigDescription ParseRigDescription(const nlohmann::json& json, const std::filesy
   for (const auto& c : root.Objects("cameras", kMaxDevices)) {
     rig.cameras.push_back(ParseCamera(c));
     if (!ids.insert(rig.cameras.back().id).second)
-      c.Fail("id", "duplicate camera id \"" + rig.cameras.back().id + "\"");
+      c.Fail("id", "duplicate camera id " + core::Quoted(rig.cameras.back().id));
   }
   if (rig.cameras.empty()) root.Fail("cameras", "expected at least one camera");
   rig.turntable = ParseStage(root.Object("turntable"));
   rig.light_arc = ParseStage(root.Object("light_arc"));
 
   const auto lamps = root.Object("lamps");
+  lamps.RejectUnknownMembers({"backend", "distance_mm", "elevations_deg", "intensity"});
   rig.lamps.backend = lamps.String("backend");
   rig.lamps.distance_mm = lamps.Number("distance_mm", 1.0, 1e5);
   rig.lamps.elevations_rad = AnglesDeg(lamps, "elevations_deg", 1.0, 90.0);
   rig.lamps.intensity = lamps.Vector3("intensity");
-  if (rig.lamps.intensity.minCoeff() < 0) lamps.Fail("intensity", "expected non-negative values");
+  if (rig.lamps.intensity.minCoeff() < 0 || rig.lamps.intensity.maxCoeff() > kMaxLampIntensity) {
+    lamps.Fail("intensity", "expected three numbers in [0, 1e+12]");
+  }
 
   const auto laser = root.Object("laser");
+  laser.RejectUnknownMembers({"backend", "distance_mm", "mount_elevations_deg", "locations", "sweep_mm",
+                              "frames_per_sweep", "stripe_sigma_mm", "power", "calibration_heights_mm",
+                              "sweep_storage"});
   auto& l = rig.laser;
   l.backend = laser.String("backend");
   l.distance_mm = laser.Number("distance_mm", 1.0, 1e5);
   l.mount_elevations_rad = AnglesDeg(laser, "mount_elevations_deg", 1.0, 89.0);
   for (const auto& loc : laser.Objects("locations", kMaxAngles)) {
+    loc.RejectUnknownMembers({"mount", "arc_angle_deg"});
     LaserLocation location;
     location.mount = static_cast<int>(loc.Integer("mount", 0, static_cast<int>(l.mount_elevations_rad.size()) - 1));
     location.arc_angle_rad = core::RadiansFromDegrees(loc.Number("arc_angle_deg", -360.0, 360.0));
@@ -129,8 +153,9 @@ RigDescription ParseRigDescription(const nlohmann::json& json, const std::filesy
   l.stripe_sigma_mm = laser.Number("stripe_sigma_mm", 1e-4, 100.0);
   l.power = laser.NumberOr("power", 1.0, 0.0, 1e6);
   const auto heights = laser.Numbers("calibration_heights_mm", 2);
-  if (!(heights[0] != heights[1]) || std::min(heights[0], heights[1]) < 0) {
-    laser.Fail("calibration_heights_mm", "expected two different non-negative heights");
+  if (!(heights[0] != heights[1]) || std::min(heights[0], heights[1]) < 0 ||
+      std::max(heights[0], heights[1]) > kMaxCalibrationHeightMm) {
+    laser.Fail("calibration_heights_mm", "expected two different heights in [0, 10000] mm");
   }
   l.calibration_heights_mm = {heights[0], heights[1]};
   if (laser.Has("sweep_storage") && laser.Choice("sweep_storage", {"frames", "analysis"}) == "analysis") {

@@ -49,25 +49,21 @@ void WriteSweepAnalysis(const std::filesystem::path& file, const SweepAnalysis& 
 
 SweepAnalysis ReadSweepAnalysis(const std::filesystem::path& file) {
   const nlohmann::json doc = core::ReadJsonFile(file, 64ull << 20);
-  auto integer = [&](const char* field, int max) {
-    if (!doc.is_object() || !doc.contains(field) || !doc[field].is_number_integer() ||
-        doc[field].get<long long>() < 1 || doc[field].get<long long>() > max) {
-      throw core::FormatError(file, field, "an integer in 1.." + std::to_string(max));
-    }
-    return doc[field].get<int>();
-  };
-  if (!doc.is_object() || doc.value("format", std::string()) != "mesocap.sweep_analysis") {
-    throw core::FormatError(file, "format", "\"mesocap.sweep_analysis\"");
-  }
-  const int version = doc.value("version", 0);
-  if (version != 1 && version != 2) throw core::FormatError(file, "version", "1 or 2");
+  const core::JsonFieldReader root(doc, file);
+  const int version = root.ExpectFormat("mesocap.sweep_analysis", 1, 2);
+  root.RejectUnknownMembers({"format", "version", "width", "height", "frame_count", "image", "planes"});
   SweepAnalysis analysis;
-  analysis.width = integer("width", 1 << 15);
-  analysis.height = integer("height", 1 << 15);
-  analysis.frame_count = integer("frame_count", 1 << 20);
-  if (!doc.contains("planes") || !doc["planes"].is_array() ||
-      doc["planes"].size() != static_cast<std::size_t>(analysis.frame_count)) {
-    throw core::FormatError(file, "planes", "an array of frame_count planes");
+  analysis.width = static_cast<int>(root.Integer("width", 1, 1 << 15));
+  analysis.height = static_cast<int>(root.Integer("height", 1, 1 << 15));
+  analysis.frame_count = static_cast<int>(root.Integer("frame_count", 1, 1 << 20));
+  if (const std::string image = root.String("image"); image != ImageFile(file).filename().string()) {
+    root.Fail("image", "expected " + core::Quoted(ImageFile(file).filename().string()) + " (the file beside it), got " +
+                           core::Quoted(image));
+  }
+  const nlohmann::json& planes = root.Raw("planes");
+  if (!planes.is_array() || planes.size() != static_cast<std::size_t>(analysis.frame_count)) {
+    root.Fail("planes", "expected one plane or null per frame (frame_count = " + std::to_string(analysis.frame_count) +
+                            "), got " + (planes.is_array() ? std::to_string(planes.size()) + " entries" : core::JsonExcerpt(planes)));
   }
   for (std::size_t i = 0; i < doc["planes"].size(); ++i) {
     analysis.planes.push_back(core::PlaneFromJson(doc["planes"][i], file, "planes[" + std::to_string(i) + "]"));
@@ -89,13 +85,20 @@ SweepAnalysis ReadSweepAnalysis(const std::filesystem::path& file) {
     }
     return t;
   };
+  auto fraction = [&](float v, const char* field) {
+    if (!(v >= 0 && v <= 1)) {
+      throw core::FormatError(ImageFile(file), field, "expected a fraction of full scale in [0, 1], got " +
+                                                          std::to_string(v));
+    }
+    return v;
+  };
   for (std::size_t p = 0; p < n; ++p) {
     const float* texel = image.data() + channels * p;
     analysis.peak_time[p] = frame_time(texel[0], "peak time");
-    analysis.peak_value[p] = texel[1];
+    analysis.peak_value[p] = fraction(texel[1], "peak value");
     if (channels == 4) {
       analysis.second_time[p] = frame_time(texel[2], "second peak time");
-      analysis.second_value[p] = texel[3];
+      analysis.second_value[p] = fraction(texel[3], "second peak value");
     }
   }
   return analysis;

@@ -53,7 +53,7 @@ SessionSweepGeometry::SessionSweepGeometry(formats::RigDescription rig, const fo
       if (c.id == camera.id) match = &c;
     }
     if (!match) {
-      throw core::Error("calibration has no camera \"" + camera.id + "\" of the session's rig \"" + rig_.name + "\"");
+      throw core::Error("calibration has no camera " + core::Quoted(camera.id) + " of the session's rig " + core::Quoted(rig_.name));
     }
     if (match->width != camera.width || match->height != camera.height) {
       throw core::Error("calibration camera \"" + match->id + "\" is " + std::to_string(match->width) + "x" +
@@ -81,7 +81,7 @@ int SessionSweepGeometry::CameraIndex(const std::string& id) const {
   for (std::size_t c = 0; c < rig_.cameras.size(); ++c) {
     if (rig_.cameras[c].id == id) return static_cast<int>(c);
   }
-  throw core::Error("the session's rig \"" + rig_.name + "\" has no camera \"" + id + "\"");
+  throw core::Error("the session's rig " + core::Quoted(rig_.name) + " has no camera " + core::Quoted(id));
 }
 
 core::Image SessionSweepGeometry::ReadPlateFrame(int location, int plate, int camera) const {

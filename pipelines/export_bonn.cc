@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <sstream>
 
 #include "core/atomic_file.h"
 #include "core/version.h"
@@ -98,7 +99,11 @@ void ExportBonnFile(const ExportBonnOptions& o, const formats::MaterialManifest&
 core::CheckResult ExportBonnOptions::Check() const {
   if (in.empty()) return "in: give the material package to export";
   if (out.empty()) return "out: give the folder (ubo2003) or file (fmf, dfmf) to write";
-  if (!(std::isfinite(scale) && scale > 0.0)) return "scale " + std::to_string(scale) + " must be a positive number";
+  if (!(scale >= bonn::kMinUbo2003Scale && scale <= bonn::kMaxUbo2003Scale)) {
+    std::ostringstream problem;
+    problem << "scale (--scale) " << scale << " must be in [" << bonn::kMinUbo2003Scale << ", " << bonn::kMaxUbo2003Scale << "]";
+    return problem.str();
+  }
   if (scalar == bonn::BonnScalar::kDouble) return "mesocap writes half or float factors";
   return compression.Check();
 }

@@ -4,6 +4,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <sstream>
 
 #include "btf/ambient_term.h"
 #include "core/mdf.h"
@@ -129,11 +130,17 @@ void ImportBonnFile(const ImportBonnOptions& o, const std::string& name, ImportB
 core::CheckResult ImportBonnOptions::Check() const {
   if (in.empty()) return "in: give the image folder or FMF/DFMF file to import";
   if (out.empty()) return "out: give the material package folder to write";
-  if (!(std::isfinite(d_max_mm) && d_max_mm > 0.0)) {
-    return "d_max_mm " + std::to_string(d_max_mm) + " must be a positive number (the Bonn forms carry no depth)";
+  std::ostringstream problem;
+  if (!(d_max_mm >= kMinBonnLengthMm && d_max_mm <= kMaxBonnDMaxMm)) {
+    problem << "d_max_mm (--d-max-mm) " << d_max_mm << " must be in [" << kMinBonnLengthMm << ", " << kMaxBonnDMaxMm
+            << "] mm (the Bonn forms carry no depth)";
+  } else if (!(width_mm == 0.0 || (width_mm >= kMinBonnLengthMm && width_mm <= kMaxBonnWidthMm))) {
+    problem << "width_mm (--size-mm) " << width_mm << " must be 0 (from the file) or in [" << kMinBonnLengthMm << ", "
+            << kMaxBonnWidthMm << "] mm";
+  } else if (!(scale >= bonn::kMinUbo2003Scale && scale <= bonn::kMaxUbo2003Scale)) {
+    problem << "scale (--scale) " << scale << " must be in [" << bonn::kMinUbo2003Scale << ", " << bonn::kMaxUbo2003Scale << "]";
   }
-  if (!(std::isfinite(width_mm) && width_mm >= 0.0)) return "width_mm must be a positive number, or 0";
-  if (!(std::isfinite(scale) && scale > 0.0)) return "scale " + std::to_string(scale) + " must be a positive number";
+  return problem.str();
   return {};
 }
 

@@ -16,6 +16,11 @@
 
 namespace mesocap::pipelines {
 
+// Ranges of the lengths an import is told (--d-max-mm, --size-mm), in mm.
+inline constexpr double kMinBonnLengthMm = 1e-6;
+inline constexpr double kMaxBonnDMaxMm = 1e4;
+inline constexpr double kMaxBonnWidthMm = 1e6;
+
 enum class BonnImportParts { kFactored, kFull, kBoth };
 
 struct ImportBonnOptions {

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "core/angles.h"
+#include "core/error.h"
 #include "render/direction_blend_table.h"
 #include "render/peeling_shaders.h"
 
@@ -257,14 +258,23 @@ RenderMode ParseRenderMode(const std::string& name) {
   for (const RenderMode mode : {RenderMode::kBtf, RenderMode::kSilhouette, RenderMode::kFull}) {
     if (name == ToString(mode)) return mode;
   }
-  throw core::Error("unknown render mode \"" + name + "\" (expected btf, silhouette or full)");
+  throw core::Error("unknown render mode " + core::Quoted(name) + " (expected btf, silhouette or full)");
 }
 
 core::CheckResult PeelingOptions::Check() const {
-  if (width < 1 || height < 1 || width > 8192 || height > 8192) return "image size must be 1..8192 per side";
-  if (passes < 0 || passes > kMaxStencilPasses) return "passes must be 0 (adaptive) or 1..254";
-  if (max_passes < 1 || max_passes > kMaxStencilPasses) return "max_passes must be 1..254";
-  if (shadow_map_size < 16 || shadow_map_size > 8192) return "shadow_map_size must be 16..8192";
+  if (width < 1 || height < 1 || width > 8192 || height > 8192) {
+    return "image size must be in [1, 8192] per side, got " + std::to_string(width) + "x" +
+           std::to_string(height);
+  }
+  if (passes < 0 || passes > kMaxStencilPasses) {
+    return "passes must be 0 (adaptive) or in [1, 254], got " + std::to_string(passes);
+  }
+  if (max_passes < 1 || max_passes > kMaxStencilPasses) {
+    return "max_passes must be in [1, 254], got " + std::to_string(max_passes);
+  }
+  if (shadow_map_size < 16 || shadow_map_size > 8192) {
+    return "shadow_map_size must be in [16, 8192], got " + std::to_string(shadow_map_size);
+  }
   return {};
 }
 

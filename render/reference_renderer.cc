@@ -409,8 +409,8 @@ ReferenceRenderer::ReferenceRenderer(const RenderScene& scene) : impl_(std::make
     }
     const RenderMaterial& material = scene.materials[object.material];
     if (!material.geometry) {
-      throw core::Error("reference renderer: material \"" + material.name + "\" of object \"" + object.name +
-                  "\" has no true geometry (only simulated materials such as sim:brick have one)");
+      throw core::Error("reference renderer: material " + core::Quoted(material.name) + " of object " +
+                        core::Quoted(object.name) + " has no true geometry (only simulated materials such as sim:brick have one)");
     }
     impl_->AddDisplaced(object, static_cast<int>(i), material);
   }

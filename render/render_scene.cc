@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <sstream>
 
 #include "core/angles.h"
 #include "core/error.h"
@@ -12,11 +13,12 @@
 namespace mesocap::render {
 namespace {
 
+// Positions and extents in a scene (mm): far beyond any scene, near enough
+// that float vertices keep sub-millimetre steps.
+constexpr double kMaxCoordinateMm = 1e6;
 
 Eigen::Vector3f Albedo(const core::JsonFieldReader& o, std::string_view key) {
-  const Eigen::Vector3d albedo = o.Has(key) ? o.Vector3(key) : Eigen::Vector3d::Constant(0.5);
-  if (albedo.minCoeff() < 0 || albedo.maxCoeff() > 1) o.Fail(key, "expected three numbers in [0, 1]");
-  return albedo.cast<float>();
+  return (o.Has(key) ? o.Vector3(key, 0.0, 1.0) : Eigen::Vector3d::Constant(0.5)).cast<float>();
 }
 
 Eigen::Vector2d Tiles(const core::JsonFieldReader& o) {
@@ -64,8 +66,8 @@ RenderMesh ReadShape(const core::JsonFieldReader& o, const std::filesystem::path
   }
   o.RejectUnknownMembers({"name", "shape", "min", "max", "tiles_per_100mm", "material", "albedo", "translate",
                           "rotate_deg"});
-  const Eigen::Vector3d min = o.Vector3("min");
-  const Eigen::Vector3d max = o.Vector3("max");
+  const Eigen::Vector3d min = o.Vector3("min", -kMaxCoordinateMm, kMaxCoordinateMm);
+  const Eigen::Vector3d max = o.Vector3("max", -kMaxCoordinateMm, kMaxCoordinateMm);
   if (!((max - min).minCoeff() > 0)) o.Fail("max", "expected every coordinate above min's");
   return MakeBox(min, max, o.NumberOr("tiles_per_100mm", 1.0, 1e-3, 1e4));
 }
@@ -96,9 +98,9 @@ RenderScene ReadRenderScene(const std::filesystem::path& file, const MaterialRes
   {
     const core::JsonFieldReader c = root.Object("camera");
     c.RejectUnknownMembers({"position", "look_at", "up", "fov_y_deg"});
-    scene.camera.position = c.Vector3("position");
-    scene.camera.look_at = c.Vector3("look_at");
-    scene.camera.up = c.Has("up") ? c.Vector3("up") : Eigen::Vector3d(0, 0, 1);
+    scene.camera.position = c.Vector3("position", -kMaxCoordinateMm, kMaxCoordinateMm);
+    scene.camera.look_at = c.Vector3("look_at", -kMaxCoordinateMm, kMaxCoordinateMm);
+    scene.camera.up = c.Has("up") ? c.Vector3("up", -kMaxCoordinateMm, kMaxCoordinateMm) : Eigen::Vector3d(0, 0, 1);
     scene.camera.fov_y_deg = c.NumberOr("fov_y_deg", 40.0, 1.0, 170.0);
     const Eigen::Vector3d forward = scene.camera.look_at - scene.camera.position;
     if (forward.norm() <= 0) c.Fail("look_at", "expected a point other than the camera position");
@@ -109,7 +111,7 @@ RenderScene ReadRenderScene(const std::filesystem::path& file, const MaterialRes
   {
     const core::JsonFieldReader l = root.Object("light");
     l.RejectUnknownMembers({"position", "intensity", "ambient"});
-    scene.light.position = l.Vector3("position");
+    scene.light.position = l.Vector3("position", -kMaxCoordinateMm, kMaxCoordinateMm);
     scene.light.intensity = l.Number("intensity", 0.0, 1e12);
     scene.light.ambient = l.NumberOr("ambient", 0.1, 0.0, 1e6);
   }
@@ -145,19 +147,31 @@ RenderScene ReadRenderScene(const std::filesystem::path& file, const MaterialRes
     }
     ComputeTangentFrames(&object.mesh, sample_size_mm);
     parts.insert(parts.begin(), std::move(object));
-    const Eigen::Vector3d r = o.Has("rotate_deg") ? Eigen::Vector3d(o.Vector3("rotate_deg") * core::kRadiansPerDegree)
+    const Eigen::Vector3d r = o.Has("rotate_deg")
+                                  ? Eigen::Vector3d(o.Vector3("rotate_deg", -360.0, 360.0) * core::kRadiansPerDegree)
                                                   : Eigen::Vector3d::Zero();
     const Eigen::Matrix3d rotation = (Eigen::AngleAxisd(r.z(), Eigen::Vector3d::UnitZ()) *
                                       Eigen::AngleAxisd(r.y(), Eigen::Vector3d::UnitY()) *
                                       Eigen::AngleAxisd(r.x(), Eigen::Vector3d::UnitX()))
                                          .toRotationMatrix();
-    const Eigen::Vector3d translation = o.Has("translate") ? o.Vector3("translate") : Eigen::Vector3d::Zero();
+    const Eigen::Vector3d translation =
+        o.Has("translate") ? o.Vector3("translate", -kMaxCoordinateMm, kMaxCoordinateMm) : Eigen::Vector3d::Zero();
     for (SceneObject& part : parts) {
       TransformMesh(rotation.cast<float>(), translation.cast<float>(), &part.mesh);
       scene.objects.push_back(std::move(part));
     }
   }
   if (scene.objects.empty()) root.Fail("objects", "expected at least one object");
+  // A point light inside the scene's bounding sphere would sit inside or
+  // among the objects, where the shadow map's view of them breaks down.
+  const auto [centre, radius] = scene.Bounds();
+  const double distance = (scene.light.position - centre).norm();
+  if (!(distance > radius)) {
+    std::ostringstream problem;
+    problem << "expected a point outside the scene's bounding sphere (centre [" << centre.x() << ", " << centre.y()
+            << ", " << centre.z() << "], radius " << radius << " mm), got one " << distance << " mm from its centre";
+    root.Object("light").Fail("position", problem.str());
+  }
   return scene;
 }
 

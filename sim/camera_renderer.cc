@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <new>
 #include <numbers>
 #include <random>
 #include <sstream>
@@ -88,9 +89,9 @@ CameraRenderer::CameraRenderer(const MesostructureScene& scene, const formats::R
     : scene_(scene), rig_(rig), options_(options), calibration_(TrueCalibration(rig)) {
   if (rig.backing.present() && rig.backing.depth_mm < scene.d_max_mm() + formats::kMinBackingClearanceMm) {
     std::ostringstream message;
-    message << "camera renderer: the backing of rig '" << rig.name << "' at " << rig.backing.depth_mm
-            << " mm lies within " << formats::kMinBackingClearanceMm << " mm of the deepest point of scene '"
-            << scene.name() << "' (d_max " << scene.d_max_mm()
+    message << "camera renderer: the backing of rig " << core::Quoted(rig.name) << " at " << rig.backing.depth_mm
+            << " mm lies within " << formats::kMinBackingClearanceMm << " mm of the deepest point of scene "
+            << core::Quoted(scene.name()) << " (d_max " << scene.d_max_mm()
             << " mm): use a rig description with a deeper sample.backing.depth_mm";
     throw core::Error(message.str());
   }
@@ -100,6 +101,26 @@ CameraRenderer::CameraRenderer(const MesostructureScene& scene, const formats::R
   if (options_.interreflection_rays_per_pixel < 0 || options_.interreflection_rays_per_pixel > 256) {
     throw core::Error("camera renderer: interreflection rays per pixel must be 0..256");
   }
+  // Each camera keeps one view's first hits (CachedRender); a rig whose
+  // cameras the file format allows may still need more than the machine has.
+  std::uint64_t bytes = 0;
+  for (std::size_t c = 0; c < rig.cameras.size(); ++c) bytes += FirstHitBytes(static_cast<int>(c));
+  core::CheckMemoryFor(bytes, "the first hits of the rig's " + std::to_string(rig.cameras.size()) +
+                                  " simulated cameras (" + FirstHitsText(0) + " for camera " +
+                                  core::Quoted(rig.cameras[0].id) + ")");
+}
+
+std::uint64_t CameraRenderer::FirstHitBytes(int camera) const {
+  const formats::CameraDescription& c = rig_.cameras.at(camera);
+  const auto n = static_cast<std::uint64_t>(options_.samples_per_pixel_side);
+  return static_cast<std::uint64_t>(c.width) * static_cast<std::uint64_t>(c.height) * n * n * sizeof(ViewSample);
+}
+
+std::string CameraRenderer::FirstHitsText(int camera) const {
+  const formats::CameraDescription& c = rig_.cameras.at(camera);
+  const int n = options_.samples_per_pixel_side;
+  return std::to_string(c.width) + " x " + std::to_string(c.height) + " pixels, " + std::to_string(n * n) +
+         " rays each";
 }
 
 Eigen::Vector3d CameraRenderer::CameraCentre(int camera) const {
@@ -178,7 +199,13 @@ CameraView CameraRenderer::Trace(int camera, double turntable_rad, const HitFunc
   view.width = c.width;
   view.height = c.height;
   view.samples_per_pixel = n * n;
-  view.samples.resize(static_cast<std::size_t>(c.width) * c.height * n * n);
+  try {
+    view.samples.resize(static_cast<std::size_t>(c.width) * c.height * n * n);
+  } catch (const std::bad_alloc&) {
+    core::ThrowOutOfMemory(FirstHitBytes(camera), "the first hits of simulated camera " +
+                                                      core::Quoted(rig_.cameras.at(camera).id) + " (" +
+                                                      FirstHitsText(camera) + ")");
+  }
   const Eigen::Vector3d centre = CameraCentre(camera);
   tbb::parallel_for(0, c.height, [&](int y) {
     for (int x = 0; x < c.width; ++x) {
@@ -312,7 +339,7 @@ struct CameraRenderer::RenderCache {
 
 CameraRenderer::RenderCache& CameraRenderer::CachedRender(const SimulatedRigState& state, int camera) {
   if (camera < 0 || camera >= static_cast<int>(rig_.cameras.size())) {
-    throw core::Error("camera renderer: no camera " + std::to_string(camera) + " in rig \"" + rig_.name + "\"");
+    throw core::Error("camera renderer: no camera " + std::to_string(camera) + " in rig " + core::Quoted(rig_.name));
   }
   if (cache_.empty()) cache_.resize(rig_.cameras.size());
   std::shared_ptr<RenderCache>& entry = cache_[camera];

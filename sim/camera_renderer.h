@@ -39,6 +39,7 @@
 #include <memory>
 #include <numbers>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "calibration/nominal_geometry.h"
@@ -164,6 +165,10 @@ class CameraRenderer : public FrameRenderer {
  private:
   template <typename HitFunction>
   CameraView Trace(int camera, double turntable_rad, const HitFunction& first_hit) const;
+  // The memory of one view of `camera` (CameraView::samples), and its shape
+  // in words, for the message when it cannot be had.
+  std::uint64_t FirstHitBytes(int camera) const;
+  std::string FirstHitsText(int camera) const;
   ViewSample SampleHit(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double turntable_rad) const;
   // Distance along d (sample frame) from p, inside the sample's slab, to
   // where the ray leaves it: the reference plane (open), the floor at

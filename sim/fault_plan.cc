@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/error.h"
 #include "core/json_field_reader.h"
 
 namespace mesocap::sim {
@@ -38,7 +39,7 @@ FaultRule ParseRule(const core::JsonFieldReader& f, FaultKind kind) {
     const auto counts = f.Numbers("at", raw.size());
     for (std::size_t i = 0; i < counts.size(); ++i) {
       if (counts[i] < 1 || counts[i] > kMaxCount || counts[i] != std::floor(counts[i])) {
-        f.Fail("at[" + std::to_string(i) + "]", "expected a whole operation count >= 1 (the first operation is 1)");
+        f.Fail("at[" + std::to_string(i) + "]", "expected a whole operation count in [1, 2^53] (the first operation is 1), got " + core::JsonExcerpt(f.Raw("at")[i]));
       }
       rule.at.push_back(static_cast<std::uint64_t>(counts[i]));
     }
@@ -96,7 +97,7 @@ std::uint64_t Mix(std::uint64_t x) {
 
 std::string RuleName(std::size_t i, const FaultRule& rule) {
   return "fault rule " + std::to_string(i) + " (" + std::string(FaultKindName(rule.kind)) +
-         (rule.device.empty() ? "" : ", device \"" + rule.device + "\"") + ")";
+         (rule.device.empty() ? "" : ", device " + core::Quoted(rule.device)) + ")";
 }
 
 }  // namespace
@@ -143,7 +144,7 @@ core::CheckResult FaultPlan::Check(const formats::RigDescription& rig) const {
     if (IsCameraKind(r.kind)) {
       const bool known = std::any_of(rig.cameras.begin(), rig.cameras.end(),
                                      [&](const auto& c) { return c.id == r.device; });
-      if (!known) return RuleName(i, r) + ": rig \"" + rig.name + "\" has no such camera";
+      if (!known) return RuleName(i, r) + ": rig " + core::Quoted(rig.name) + " has no such camera";
     }
     if (r.kind == FaultKind::kLampFailure && std::stoull(r.device) >= rig.lamps.elevations_rad.size()) {
       return RuleName(i, r) + ": rig \"" + rig.name + "\" has " + std::to_string(rig.lamps.elevations_rad.size()) +
@@ -166,7 +167,7 @@ FaultPlan ReadFaultPlan(const std::filesystem::path& file) {
 
 FaultPlan FaultPlanOfRig(const formats::RigDescription& rig) {
   if (!rig.json.is_object() || !rig.json.contains("faults")) return {};
-  return ParseFaultPlan(rig.json["faults"], "rig \"" + rig.name + "\"", "faults");
+  return ParseFaultPlan(rig.json["faults"], "rig " + core::Quoted(rig.name), "faults");
 }
 
 std::uint64_t FaultStreamSeed(std::uint64_t rig_seed, const std::string& device, FaultKind kind) {

@@ -1,5 +1,6 @@
 #include "sim/simulated_rig_backend.h"
 
+#include "core/error.h"
 #include "sim/simulated_devices.h"
 
 namespace mesocap::sim {
@@ -22,7 +23,7 @@ std::unique_ptr<drivers::Camera> SimulatedRigBackend::MakeCamera(const formats::
                                                                  int camera_index) {
   CheckFaultsAgainst(rig);
   if (camera_index < 0 || camera_index >= static_cast<int>(rig.cameras.size())) {
-    throw core::Error("simulated rig: no camera " + std::to_string(camera_index) + " in rig \"" + rig.name + "\"");
+    throw core::Error("simulated rig: no camera " + std::to_string(camera_index) + " in rig " + core::Quoted(rig.name));
   }
   return std::make_unique<SimulatedCamera>(rig, camera_index, state_, renderer_, faults_, seed_, sensor_);
 }

@@ -3,7 +3,11 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <filesystem>
+#include <sstream>
 #include <string>
+
+#include "core/error.h"
 
 namespace mesocap {
 
@@ -29,6 +33,30 @@ inline CLI::App* GroupCommand(CLI::App& app, const std::string& name, const std:
     return group;
   }
 }
+// A numeric flag's check: "--d-max-mm: -1 is outside [1e-06, 10000]" (the
+// option's name comes from CLI11), the range as the docs write it.
+inline CLI::Validator InRange(double min, double max) {
+  std::ostringstream written;
+  written << "[" << min << ", " << max << "]";
+  const std::string range = written.str();
+  return CLI::Validator(
+      [min, max, range](std::string& text) -> std::string {
+        double value = 0.0;
+        if (!CLI::detail::lexical_cast(text, value)) return "expected a number in " + range + ", got " + core::Quoted(text);
+        if (!(value >= min && value <= max)) return core::Cut(text) + " is outside " + range;
+        return {};
+      },
+      "in " + range);
+}
+
+// A subcommand's output file is replaced only with --replace.
+inline void RefuseExistingOutput(const std::filesystem::path& out, bool replace) {
+  std::error_code ec;
+  if (!replace && std::filesystem::exists(out, ec)) {
+    throw core::Error(out.string() + " already exists (use --replace to overwrite it)");
+  }
+}
+
 void RegisterRenderCommand(CLI::App& app);
 void RegisterCompareCommand(CLI::App& app);
 void RegisterViewCommand(CLI::App& app);

@@ -110,7 +110,7 @@ void RegisterCompareCommand(CLI::App& app) {
   AddRenderSceneOptions(sub, &o->scene);
   sub->add_flag("--json", o->json, "print one JSON object with a member per mode (btf, silhouette, full)");
   sub->add_option("--repeat", o->repeat, "frames timed per mode (the median is reported)")
-      ->check(CLI::Range(1, 1000))
+      ->check(InRange(1, 1000))
       ->capture_default_str();
   sub->add_option("--images", o->images,
                   "folder to write every mode's colour, coverage and shadow images, the reference's, and "

@@ -18,10 +18,10 @@ void RegisterCompressCommand(CLI::App& app) {
   sub->add_option("--in", o->in, "material package holding a full BTF")->required()->check(CLI::ExistingDirectory);
   sub->add_option("--out", o->out, "material package folder to write")->required();
   auto* rank = sub->add_option("--rank", o->compression.rank, "number of SVD terms, 1..100")
-                   ->check(CLI::Range(1, core::kMaxBtfRank));
+                   ->check(InRange(1, core::kMaxBtfRank));
   sub->add_option("--max-error", o->compression.max_relative_error,
                   "error budget: the smallest rank whose relative RMS error (of all RGB values) is at most this")
-      ->check(CLI::Range(1e-12, 1.0))
+      ->check(InRange(1e-12, 1.0))
       ->capture_default_str()
       ->excludes(rank);
   const std::map<std::string, core::BtfFactorLayout> layouts{{"paper", core::BtfFactorLayout::kPaper},

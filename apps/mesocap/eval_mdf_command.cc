@@ -20,9 +20,11 @@ struct EvalMdfOptions {
   std::filesystem::path out;
   bool json = false;
   bool inside_sample_only = false;
+  bool replace = false;
 };
 
 void RunEvalMdf(const EvalMdfOptions& o) {
+  if (!o.out.empty()) RefuseExistingOutput(o.out, o.replace);
   const formats::MaterialManifest truth_manifest = formats::ReadMaterialManifest(o.truth);
   const formats::MaterialManifest estimate_manifest = formats::ReadMaterialManifest(o.estimate);
   const core::Mdf truth = formats::ReadMdf(o.truth, truth_manifest);
@@ -54,6 +56,7 @@ void RegisterEvalMdfCommand(CLI::App& app) {
                "leave out true hits behind the sample pocket's wall (outside the sample square), which the rig "
                "cannot see");
   sub->add_option("--out", o->out, "also write the JSON table to this file");
+  sub->add_flag("--replace", o->replace, "replace an existing file at --out");
   sub->callback([o] { RunEvalMdf(*o); });
 }
 

@@ -33,7 +33,7 @@ void RegisterExportBonnCommand(CLI::App& app) {
       ->transform(CLI::CheckedTransformer(encodings, CLI::ignore_case))
       ->default_str("png");
   sub->add_option("--scale", o->scale, "ubo2003 images: image value = reflectance x scale")
-      ->check(CLI::PositiveNumber)
+      ->check(InRange(bonn::kMinUbo2003Scale, bonn::kMaxUbo2003Scale))
       ->capture_default_str();
   const std::map<std::string, bonn::BonnScalar> scalars{{"half", bonn::BonnScalar::kHalf},
                                                         {"float", bonn::BonnScalar::kFloat}};
@@ -42,10 +42,10 @@ void RegisterExportBonnCommand(CLI::App& app) {
       ->default_str("half");
   auto* rank = sub->add_option("--rank", o->compression.rank,
                                "fmf/dfmf when factoring here: number of SVD components, 1..100")
-                   ->check(CLI::Range(1, core::kMaxBtfRank));
+                   ->check(InRange(1, core::kMaxBtfRank));
   sub->add_option("--max-error", o->compression.max_relative_error,
                   "fmf/dfmf when factoring here: the smallest rank whose relative RMS error is at most this")
-      ->check(CLI::Range(1e-12, 1.0))
+      ->check(InRange(1e-12, 1.0))
       ->capture_default_str()
       ->excludes(rank);
   const std::map<std::string, core::BtfFactorColor> colors{{"rgb", core::BtfFactorColor::kRgb},

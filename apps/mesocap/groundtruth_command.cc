@@ -19,7 +19,7 @@ void RegisterGroundTruthCommand(CLI::App& app) {
       ->capture_default_str();
   sub->add_option("--out", o->out, "material package folder to write")->required();
   sub->add_option("--texture-size", o->texture_size, "texels per side of the texture grid")
-      ->check(CLI::Range(1, 4096))
+      ->check(InRange(1, 4096))
       ->capture_default_str();
   sub->add_option("--views", o->views, "view directions: \"rig\" (the rig's own) or a sampling set name "
                                        "(paper12x8, ubo2003, ubo2014, grid<A>x<P>, ...)")

@@ -26,10 +26,10 @@ void RegisterImportBonnCommand(CLI::App& app) {
   sub->add_option("--d-max-mm", o->d_max_mm,
                   "mesostructure depth of the material, mm (required: the Bonn forms carry none)")
       ->required()
-      ->check(CLI::PositiveNumber);
+      ->check(InRange(pipelines::kMinBonnLengthMm, pipelines::kMaxBonnDMaxMm));
   sub->add_option("--size-mm", o->width_mm,
                   "physical width of the texture, mm (default for FMF/DFMF: width / the file's pixels per mm)")
-      ->check(CLI::PositiveNumber);
+      ->check(InRange(pipelines::kMinBonnLengthMm, pipelines::kMaxBonnWidthMm));
   using pipelines::BonnImportParts;
   const std::map<std::string, BonnImportParts> part_names{
       {"factored", BonnImportParts::kFactored}, {"full", BonnImportParts::kFull}, {"both", BonnImportParts::kBoth}};
@@ -39,7 +39,7 @@ void RegisterImportBonnCommand(CLI::App& app) {
                       "or both")
           ->transform(CLI::CheckedTransformer(part_names, CLI::ignore_case));
   sub->add_option("--scale", o->scale, "images: reflectance = image value / scale")
-      ->check(CLI::PositiveNumber)
+      ->check(InRange(bonn::kMinUbo2003Scale, bonn::kMaxUbo2003Scale))
       ->capture_default_str();
   sub->add_flag("--flat-mdf", o->flat_mdf,
                 "add an MDF of distance 0 everywhere (the surface taken as the flat reference plane), "

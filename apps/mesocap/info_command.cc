@@ -190,14 +190,14 @@ json Describe(const fs::path& path) {
     if (format == "mesocap.material") return MaterialInfo(path);
     if (format == "mesocap.session") return SessionInfo(path);
     throw core::FormatError(manifest, "format",
-                            "expected \"mesocap.material\" or \"mesocap.session\", got \"" + format + "\"");
+                            "expected \"mesocap.material\" or \"mesocap.session\", got " + core::Quoted(format));
   }
   if (path.extension() == ".json") {
     const std::string format = FormatOf(path);
     if (format == "mesocap.calibration") return CalibrationInfo(path);
     if (format == "mesocap.rig") return RigInfo(path);
     throw core::FormatError(path, "format",
-                            "expected \"mesocap.calibration\" or \"mesocap.rig\", got \"" + format + "\"");
+                            "expected \"mesocap.calibration\" or \"mesocap.rig\", got " + core::Quoted(format));
   }
   return ImageInfo(path);
 }

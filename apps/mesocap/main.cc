@@ -6,6 +6,9 @@
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <exception>
+#include <new>
+#include <nlohmann/json.hpp>
+#include <string>
 
 #include "apps/mesocap/command.h"
 #include "core/error.h"
@@ -50,15 +53,36 @@ int main(int argc, char** argv) {
 
   // Subcommands report failure by throwing; every failure is one line on
   // stderr and a non-zero exit (1 for errors, CLI11's codes for usage).
+  // Messages echo cut values already; the cut here keeps even an unforeseen
+  // one to a line.
+  const auto print = [](const char* kind, const char* what) {
+    std::fprintf(mesocap::core::MessageStream(), "mesocap: %s: %s\n", kind,
+                 mesocap::core::Cut(what, 4 * mesocap::core::kMaxEchoedCharacters).c_str());
+  };
   try {
     app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
+  } catch (const CLI::CallForHelp& e) {
     return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    print("error", e.what());
+    return e.get_exit_code();
   } catch (const mesocap::core::Error& e) {
-    std::fprintf(stderr, "mesocap: error: %s\n", e.what());
+    print("error", e.what());
+    return 1;
+  } catch (const std::bad_alloc&) {
+    print("error", "out of memory (an allocation failed where its size was not checked)");
+    return 1;
+  } catch (const nlohmann::json::exception& e) {
+    // Without nlohmann's "[json.exception.type_error.302] " id.
+    const std::string what = e.what();
+    print("internal error", what.substr(what.find("] ") == std::string::npos ? 0 : what.find("] ") + 2).c_str());
     return 1;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "mesocap: internal error: %s\n", e.what());
+    print("internal error", e.what());
     return 1;
   }
   return 0;

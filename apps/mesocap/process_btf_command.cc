@@ -21,19 +21,19 @@ void RegisterProcessBtfCommand(CLI::App& app) {
       ->check(CLI::ExistingFile);
   sub->add_option("--out", o->out, "material package folder to write")->required();
   sub->add_option("--texture-size", o->texture_size, "texels per side")
-      ->check(CLI::Range(1, 4096))
+      ->check(InRange(1, 4096))
       ->capture_default_str();
   auto* rank = sub->add_option("--rank", o->compression.rank, "number of SVD terms, 1..100")
-                   ->check(CLI::Range(1, core::kMaxBtfRank));
+                   ->check(InRange(1, core::kMaxBtfRank));
   sub->add_option("--max-error", o->compression.max_relative_error,
                   "error budget: the smallest rank whose relative RMS error is at most this")
-      ->check(CLI::Range(1e-12, 1.0))
+      ->check(InRange(1e-12, 1.0))
       ->capture_default_str()
       ->excludes(rank);
   sub->add_option("--gain", o->gain,
                   "camera signal (fraction of full scale) per radiance second, for every camera, overriding "
                   "the calibration's radiometry (default: each camera's from the calibration)")
-      ->check(CLI::Range(formats::kMinCameraGain, formats::kMaxCameraGain));
+      ->check(InRange(formats::kMinCameraGain, formats::kMaxCameraGain));
   sub->add_flag("--full", o->full, "also store the full (uncompressed) BTF");
   sub->add_flag("--resample", o->resample,
                 "resample captures whose directions are off the session's sets (each texel with its own view and "

@@ -17,13 +17,16 @@ void RegisterProcessMdfCommand(CLI::App& app) {
   sub->add_option("--calibration", o->calibration, "rig calibration file (default: the one the session names)");
   sub->add_option("--out", o->out, "material package folder to write")->required();
   sub->add_option("--texture-size", o->processing.texture_size, "texels per side")
-      ->check(CLI::Range(1, 4096))
+      ->check(InRange(1, 4096))
       ->capture_default_str();
-  sub->add_option("--locations", o->processing.locations, "laser locations to use (indices; default all)");
+  sub->add_option("--locations", o->processing.locations, "laser locations to use (indices; default all)")
+      ->check(InRange(0, 4095));
   sub->add_option("--threshold", o->processing.space_time.threshold,
                   "space-time peak threshold (fraction of full scale) below which a pixel is unknown")
+      ->check(InRange(1e-6, 0.999999))
       ->capture_default_str();
-  sub->add_option("--d-max-mm", o->d_max_mm, "slab depth of the package (default: deepest measured point)");
+  sub->add_option("--d-max-mm", o->d_max_mm, "slab depth of the package (default: deepest measured point)")
+      ->check(InRange(1e-6, 1e4));
   sub->add_flag("--replace", o->replace, "replace an existing package at --out");
   sub->add_option("--allow-incomplete", o->allow_incomplete,
                   "plan steps the session may lack, left out (step ids or patterns such as 'laser-sweep-t3_*'; "

@@ -18,6 +18,7 @@ struct RenderCommandOptions {
   RenderSceneOptions scene;
   std::filesystem::path out;
   std::string mode = "full";
+  bool replace = false;
 };
 
 core::PixelEncoding EncodingFor(const std::filesystem::path& file) {
@@ -31,6 +32,7 @@ void RunRender(const RenderCommandOptions& o) {
   render::PeelingOptions peeling = o.scene.Peeling();
   peeling.mode = render::ParseRenderMode(o.mode);
   const core::PixelEncoding encoding = EncodingFor(o.out);
+  RefuseExistingOutput(o.out, o.replace);
   const render::RenderScene scene = render::ReadRenderScene(o.scene.scene, ResolveRenderMaterial);
   const auto context = render::GlContext::MakeHeadless();
   spdlog::info("OpenGL: {}", context->Description());
@@ -52,6 +54,7 @@ void RegisterRenderCommand(CLI::App& app) {
   sub->add_option("--mode", o->mode, "btf, silhouette (+ MDF object silhouettes) or full (+ MDF shadows)")
       ->check(CLI::IsMember({"btf", "silhouette", "full"}))
       ->capture_default_str();
+  sub->add_flag("--replace", o->replace, "replace an existing image at --out");
   sub->callback([o] { RunRender(*o); });
 }
 

@@ -5,6 +5,7 @@
 #include <charconv>
 #include <cstdlib>
 
+#include "apps/mesocap/command.h"
 #include "core/error.h"
 #include "formats/material_manifest.h"
 #include "pipelines/compress.h"
@@ -20,7 +21,7 @@ int ParseInt(const std::string& text, const std::string& flag) {
   int value = 0;
   const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
   if (error != std::errc() || end != text.data() + text.size()) {
-    throw core::Error(flag + ": expected a whole number, got \"" + text + "\"");
+    throw core::Error(flag + ": expected a whole number, got " + core::Quoted(text));
   }
   return value;
 }
@@ -49,11 +50,16 @@ constexpr const char* kSimMaterialCacheVersion = "v3";
 render::PeelingOptions RenderSceneOptions::Peeling() const {
   render::PeelingOptions o;
   const std::size_t x = size.find('x');
-  if (x == std::string::npos) throw core::Error("--size: expected WIDTHxHEIGHT, got \"" + size + "\"");
+  if (x == std::string::npos) throw core::Error("--size: expected WIDTHxHEIGHT, got " + core::Quoted(size));
   o.width = ParseInt(size.substr(0, x), "--size");
   o.height = ParseInt(size.substr(x + 1), "--size");
+  if (o.width < 1 || o.height < 1 || o.width > 8192 || o.height > 8192) {
+    throw core::Error("--size: expected each side in [1, 8192], got " + core::Quoted(size));
+  }
   o.passes = passes == "auto" ? 0 : ParseInt(passes, "--passes");
-  if (passes != "auto" && o.passes < 1) throw core::Error("--passes: expected auto or 1..254, got " + passes);
+  if (passes != "auto" && (o.passes < 1 || o.passes > 254)) {
+    throw core::Error("--passes: expected auto or a count in [1, 254], got " + core::Quoted(passes));
+  }
   o.shadow_map_size = shadow_map_size;
   if (const core::CheckResult problem = o.Check(); !problem.empty()) throw core::Error(problem);
   return o;
@@ -65,7 +71,7 @@ void AddRenderSceneOptions(CLI::App* command, RenderSceneOptions* options) {
   command->add_option("--passes", options->passes, "peel passes: auto (until nothing is left) or a count")
       ->capture_default_str();
   command->add_option("--shadow-map", options->shadow_map_size, "shadow map size (texels per side)")
-      ->check(CLI::Range(16, 8192))
+      ->check(InRange(16, 8192))
       ->capture_default_str();
 }
 

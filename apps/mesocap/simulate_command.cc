@@ -17,6 +17,7 @@
 #include <spdlog/spdlog.h>
 
 #include <filesystem>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -27,6 +28,7 @@
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/file_checksum.h"
+#include "core/json_field_reader.h"
 #include "drivers/rig.h"
 #include "formats/capture_session.h"
 #include "sim/camera_renderer.h"
@@ -56,6 +58,43 @@ struct SimulateCommandOptions {
   int samples_per_pixel_side = 3;
   int interreflection_rays = 0;
 };
+
+// The command line that resumes the session these options record.
+std::string ResumeCommand(const SimulateCommandOptions& o) {
+  const auto arg = [](const std::string& text) {
+    return text.find_first_of(" '\"\\$`") == std::string::npos ? text : "'" + text + "'";
+  };
+  std::ostringstream c;
+  c << "mesocap simulate --resume --out " << arg(o.out.string()) << " --scene " << arg(o.scene.scene);
+  const sim::SceneSource defaults;
+  if (o.scene.obj_scale != defaults.obj_scale) c << " --scale " << o.scene.obj_scale;
+  if (o.scene.tile_size_mm != defaults.tile_size_mm) c << " --tile-size-mm " << o.scene.tile_size_mm;
+  if (o.scene.depth_mm != defaults.depth_mm) c << " --depth-mm " << o.scene.depth_mm;
+  c << " --rig " << arg(o.rig) << " --seed " << o.seed;
+  if (o.no_noise) c << " --no-noise";
+  if (!o.faults.empty()) c << " --faults " << arg(o.faults.string());
+  c << " --samples-per-pixel-side " << o.samples_per_pixel_side << " --interreflection-rays " << o.interreflection_rays;
+  return c.str();
+}
+
+// Where `old` and `now` first differ, as "FIELD was X, now Y" (FIELD a path
+// such as "cameras[0].bit_depth" below `where`).
+std::string FirstDifference(const json& old, const json& now, const std::string& where) {
+  const json patch = json::diff(old, now);
+  if (patch.empty()) return where + " is the same";
+  const json::json_pointer pointer(patch[0].at("path").get<std::string>());
+  std::vector<std::string> parts;
+  for (json::json_pointer p = pointer; !p.empty(); p = p.parent_pointer()) parts.push_back(p.back());
+  std::string field = where;
+  for (auto part = parts.rbegin(); part != parts.rend(); ++part) {
+    const bool index = !part->empty() && part->find_first_not_of("0123456789") == std::string::npos;
+    field += index ? "[" + *part + "]" : "." + *part;
+  }
+  const auto value = [&](const json& document) {
+    return document.contains(pointer) ? core::JsonExcerpt(document.at(pointer)) : std::string("absent");
+  };
+  return core::Cut(field) + " was " + value(old) + ", now " + value(now);
+}
 
 json PlanJson(const std::vector<formats::PlannedStep>& plan) {
   formats::SessionManifest m;
@@ -94,6 +133,12 @@ void RunSimulate(const SimulateCommandOptions& o) {
   const std::string calibration_text = formats::CalibrationText(calibration);
   const core::FileChecksum calibration_checksum = core::ComputeChecksum(calibration_text);
   const bool existing = fs::exists(o.out / formats::kSessionManifestName);
+  // A folder without a manifest is a session whose creation was killed:
+  // resuming it starts it (CreateCaptureSession clears what that run left).
+  if (!existing && o.resume && !fs::is_directory(o.out)) {
+    throw core::Error(o.out.string() + ": no capture session to resume (no such folder); leave out --resume to start "
+                      "one");
+  }
   if (existing && !o.resume) {
     throw core::Error(o.out.string() + ": already holds a capture session; use --resume to complete it");
   }
@@ -101,8 +146,18 @@ void RunSimulate(const SimulateCommandOptions& o) {
     const formats::SessionManifest manifest = formats::ReadSessionManifest(o.out);
     // A resumed session must be the same capture: same rig, scene, seed,
     // noise and sampling (all in the plan's step params).
-    if (manifest.rig != rig.json || PlanJson(manifest.plan) != PlanJson(plan)) {
-      throw core::Error(o.out.string() + ": the session was started with a different rig, scene, seed or options");
+    if (manifest.rig != rig.json) {
+      throw core::Error(o.out.string() + ": the session was started with another rig: " +
+                        FirstDifference(manifest.rig, rig.json, "rig"));
+    }
+    const json old_plan = PlanJson(manifest.plan), new_plan = PlanJson(plan);
+    if (old_plan != new_plan) {
+      // The options live in each step's "recording"; name them as such.
+      const json old_recording = old_plan.at("steps").at(0).value("recording", json());
+      const json new_recording = new_plan.at("steps").at(0).value("recording", json());
+      throw core::Error(o.out.string() + ": the session was started with other options: " +
+                        (old_recording != new_recording ? FirstDifference(old_recording, new_recording, "recording")
+                                                        : FirstDifference(old_plan, new_plan, "plan")));
     }
     if (manifest.calibration_checksum && *manifest.calibration_checksum != calibration_checksum) {
       throw core::Error(o.out.string() + ": the session records another calibration than this rig's true one (" +
@@ -132,6 +187,7 @@ void RunSimulate(const SimulateCommandOptions& o) {
                o.no_noise ? ", no sensor noise" : "", faults.empty() ? "" : ", with faults");
   acquisition::CaptureRunnerOptions run_options;
   run_options.calibration = &calibration;  // for sweeps the rig analyses as they are captured
+  run_options.resume_command = ResumeCommand(o);
   const acquisition::CaptureRunReport report =
       acquisition::RunCaptureSession(o.out, devices, rig_operator, run_options);
   if (report.steps_done_before > 0) spdlog::info("resumed: {} steps were already done", report.steps_done_before);
@@ -159,11 +215,11 @@ void RegisterSimulateCommand(CLI::App& app) {
   sub->add_flag("--resume", o->resume, "complete an interrupted session at --out, skipping journaled steps");
   sub->add_option("--samples-per-pixel-side", o->samples_per_pixel_side,
                   "rays per pixel side (box-filtered pixel area)")
-      ->check(CLI::Range(1, 16))
+      ->check(InRange(1, 16))
       ->capture_default_str();
   sub->add_option("--interreflection-rays", o->interreflection_rays,
                   "rays per pixel gathering the laser's light after one bounce (0: direct light only)")
-      ->check(CLI::Range(0, 256))
+      ->check(InRange(0, 256))
       ->capture_default_str();
   sub->callback([o] { RunSimulate(*o); });
 }

@@ -318,7 +318,7 @@ class ByteWriter {
 
 void PutFixedString(ByteWriter& out, const std::string& s, const std::string& field) {
   if (s.size() > kMetaStringBytes) {
-    throw core::Error("Bonn BTF " + field + " \"" + s + "\" is longer than " + std::to_string(kMetaStringBytes) +
+    throw core::Error("Bonn BTF " + field + " " + core::Quoted(s) + " is longer than " + std::to_string(kMetaStringBytes) +
                       " bytes");
   }
   std::string padded = s;

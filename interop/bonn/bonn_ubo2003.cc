@@ -104,8 +104,7 @@ NameAngles ParseName(const fs::path& file) {
         std::all_of(first, last, [](char c) { return std::isdigit(static_cast<unsigned char>(c)) || c == '.'; });
     if (it == kTokens.end() || first == last || parsed.ec != std::errc() || parsed.ptr != last || !digits_only) {
       throw core::FormatError(file, "name",
-                        "expected tl<deg>_pl<deg>_tv<deg>_pv<deg> (e.g. tl015_pl060_tv030_pv090), got part \"" + part +
-                            "\"");
+                        "expected tl<deg>_pl<deg>_tv<deg>_pv<deg> (e.g. tl015_pl060_tv030_pv090), got part " + core::Quoted(part));
     }
     const int index = static_cast<int>(it - kTokens.begin());
     if (seen[index]) throw core::FormatError(file, "name", std::string("angle ") + kTokens[index] + " given twice");

@@ -39,6 +39,10 @@
 
 namespace mesocap::bonn {
 
+// The range of an image form's scale (export and import --scale).
+inline constexpr double kMinUbo2003Scale = 1e-6;
+inline constexpr double kMaxUbo2003Scale = 1e6;
+
 enum class Ubo2003Encoding { kSrgb8Png, kHalfExr };
 
 // "tl015_pl060_tv030_pv090.png" (angles in degrees as described above).

@@ -52,7 +52,7 @@ core::SamplingSet NamedSamplingSet(const std::string& name) {
                                                            {75, 24, 0}}));
   }
   if (std::optional<core::SamplingSet> set = core::SamplingSet::FindNamed(name)) return *std::move(set);
-  throw core::Error("unknown sampling set \"" + name + "\"; valid names: " + kValidNames);
+  throw core::Error("unknown sampling set " + core::Quoted(name) + "; valid names: " + kValidNames);
 }
 
 }  // namespace mesocap::bonn

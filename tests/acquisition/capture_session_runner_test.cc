@@ -7,6 +7,7 @@
 #include <map>
 
 #include "acquisition/capture_plan.h"
+#include "core/angles.h"
 #include "core/image_io.h"
 #include "formats/capture_journal.h"
 #include "formats/capture_plan_steps.h"
@@ -30,13 +31,22 @@ namespace fs = std::filesystem;
 
 // The tiny rig cut to one turntable angle, one arc angle and one laser
 // location with 8 frames: 2 calibration steps, 2 BTF image steps (one per
-// lamp), 1 sweep, each for both 128 x 96 cameras.
-formats::RigDescription SmallPlanRig() {
+// lamp), 1 sweep, each for both 128 x 96 cameras. The file snapshot a
+// session keeps says the same, as the plan's strict reader requires.
+formats::RigDescription SmallPlanRig(int frames_per_sweep = 8, bool stores_analysis = false) {
   formats::RigDescription rig = sim::LoadRig("tiny");
   rig.turntable.angles_rad = {0.6};
   rig.light_arc.angles_rad = {2.0};
   rig.laser.locations.resize(1);
-  rig.laser.frames_per_sweep = 8;
+  rig.laser.frames_per_sweep = frames_per_sweep;
+  rig.json["turntable"]["angles_deg"] = {core::DegreesFromRadians(0.6)};
+  rig.json["light_arc"]["angles_deg"] = {core::DegreesFromRadians(2.0)};
+  rig.json["laser"]["locations"] = nlohmann::json::array({rig.json["laser"]["locations"][0]});
+  rig.json["laser"]["frames_per_sweep"] = frames_per_sweep;
+  if (stores_analysis) {
+    rig.laser.sweep_storage = formats::LaserDescription::SweepStorage::kAnalysis;
+    rig.json["laser"]["sweep_storage"] = "analysis";
+  }
   return rig;
 }
 
@@ -179,10 +189,8 @@ TEST(CaptureSessionRunner, CurableFaultsDoNotChangeTheData) {
 // a plan before anything moves.
 TEST(CaptureSessionRunner, SweepsStoredAsAnalysesProcessToTheSameMdf) {
   testing::TemporaryDirectory dir;
-  formats::RigDescription frames_rig = SmallPlanRig();
-  frames_rig.laser.frames_per_sweep = 48;
-  formats::RigDescription analysis_rig = frames_rig;
-  analysis_rig.laser.sweep_storage = formats::LaserDescription::SweepStorage::kAnalysis;
+  const formats::RigDescription frames_rig = SmallPlanRig(48);
+  const formats::RigDescription analysis_rig = SmallPlanRig(48, true);
   const formats::Calibration calibration = sim::TrueCalibration(frames_rig);
   CreateSession(dir / "frames", frames_rig);
   CreateSession(dir / "analysis", analysis_rig);

@@ -16,6 +16,7 @@
 #include "formats/material_manifest.h"
 #include "formats/material_package_reader.h"
 #include "tests/common/mesocap_command.h"
+#include "tests/common/one_sweep_rig.h"
 #include "tests/common/temporary_directory.h"
 
 namespace mesocap {
@@ -148,12 +149,7 @@ TEST(Cli, SimulateRefusesABackingInsideTheSlabWithoutOutput) {
 // step and the device, keeps what it finished, and --resume completes it.
 TEST(Cli, SimulateStopsOnADisconnectAndResumes) {
   testing::TemporaryDirectory dir;
-  nlohmann::json rig = nlohmann::json::parse(Slurp(RigFile("tiny")));
-  rig["turntable"]["angles_deg"] = {0.0};
-  rig["light_arc"]["angles_deg"] = {0.0};
-  rig["laser"]["locations"] = nlohmann::json::array({rig["laser"]["locations"][0]});
-  rig["laser"]["frames_per_sweep"] = 8;
-  std::ofstream(dir / "rig.json") << rig.dump();
+  testing::WriteRig(dir / "rig.json");
   std::ofstream(dir / "faults.json")
       << R"({"format": "mesocap.faults", "version": 1, "camera_disconnect": {"device": "cam1", "at": [20]}})";
   const std::string args = "-q simulate --scene flat --samples-per-pixel-side 1 --rig " + (dir / "rig.json").string() +

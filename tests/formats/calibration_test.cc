@@ -429,6 +429,21 @@ TEST(Calibration, HostileEditsNameFileAndField) {
   }
 }
 
+// A 3 MB frame name gave a 3 MB line: the value is echoed cut to 200
+// characters.
+TEST(Calibration, AHugeFrameNameIsCutInTheMessage) {
+  testing::TemporaryDirectory dir;
+  json j = ToJson(ExampleCalibration());
+  j["cameras"][0]["pose"]["child"] = "camera:" + std::string(3 << 20, 'f');
+  Spit(dir / "c.json", j.dump());
+  const std::string message = FormatErrorOf(dir / "c.json");
+  EXPECT_LT(message.size(), 500u);
+  EXPECT_NE(message.find("field 'cameras[0].pose.child': expected \"camera:cam0\", got \"camera:" +
+                         std::string(193, 'f') + "... (3145735 bytes in all)\""),
+            std::string::npos)
+      << message;
+}
+
 TEST(Calibration, RootThatIsNotAnObject) {
   testing::TemporaryDirectory dir;
   for (const char* text : {"[]", "null", "42", "\"calibration\"", "", "{}"}) {

@@ -127,6 +127,78 @@ TEST(RigDescription, HostileDescriptionsNameTheField) {
   EXPECT_NE(ErrorOf(j).find("sample.backing.depth_mm"), std::string::npos) << ErrorOf(j);
 }
 
+// A misspelt member is an error at every level, never a silent default.
+TEST(RigDescription, UnknownMembersAreErrorsAtEveryLevel) {
+  const std::vector<std::pair<nlohmann::json::json_pointer, std::string>> misspelt = {
+      {nlohmann::json::json_pointer("/nmae"), "nmae"},
+      {nlohmann::json::json_pointer("/sample/size"), "sample.size"},
+      {nlohmann::json::json_pointer("/sample/backing/albdeo"), "sample.backing.albdeo"},
+      {nlohmann::json::json_pointer("/cameras/0/bit_depht"), "cameras[0].bit_depht"},
+      {nlohmann::json::json_pointer("/turntable/speed"), "turntable.speed"},
+      {nlohmann::json::json_pointer("/light_arc/angles"), "light_arc.angles"},
+      {nlohmann::json::json_pointer("/lamps/intensities"), "lamps.intensities"},
+      {nlohmann::json::json_pointer("/laser/sweep_storge"), "laser.sweep_storge"},
+      {nlohmann::json::json_pointer("/laser/locations/0/arc_deg"), "laser.locations[0].arc_deg"},
+  };
+  for (const auto& [pointer, field] : misspelt) {
+    auto j = TinyJson();
+    j[pointer] = 8;
+    EXPECT_EQ(ErrorOf(j).substr(0, ErrorOf(j).find(" | ")), field);
+    EXPECT_NE(ErrorOf(j).find("unknown member"), std::string::npos) << ErrorOf(j);
+  }
+  auto j = TinyJson();
+  j["laser"]["sweep_storge"] = "analysis";
+  EXPECT_EQ(ErrorOf(j), "laser.sweep_storge | rig.json: field 'laser.sweep_storge': unknown member; expected only "
+                        "backend, distance_mm, mount_elevations_deg, locations, sweep_mm, frames_per_sweep, "
+                        "stripe_sigma_mm, power, calibration_heights_mm, sweep_storage");
+}
+
+// Numbers without a range before (lamp intensity, principal point,
+// calibration heights) now have one, and the message states it.
+TEST(RigDescription, EveryNumberHasARangeInTheMessage) {
+  auto j = TinyJson();
+  j["lamps"]["intensity"] = {1, 1e300, 1};
+  EXPECT_NE(ErrorOf(j).find("lamps.intensity | rig.json: field 'lamps.intensity': expected three numbers in [0, 1e+12]"),
+            std::string::npos)
+      << ErrorOf(j);
+  j = TinyJson();
+  j["cameras"][0]["principal_point_px"] = {1e300, 0};
+  EXPECT_NE(ErrorOf(j).find("[-1e+06, 1e+06] pixels"), std::string::npos) << ErrorOf(j);
+  j = TinyJson();
+  j["laser"]["calibration_heights_mm"] = {0, 1e300};
+  EXPECT_NE(ErrorOf(j).find("in [0, 10000] mm"), std::string::npos) << ErrorOf(j);
+  j = TinyJson();
+  j["turntable"]["angles_deg"] = {0, 400};
+  EXPECT_NE(ErrorOf(j).find("field 'turntable.angles_deg[1]': expected an angle in [0, 360] degrees, got 400"),
+            std::string::npos)
+      << ErrorOf(j);
+}
+
+// A 3 MB value or member name is echoed cut to 200 characters.
+TEST(RigDescription, HugeStringsAreCutInTheMessage) {
+  const std::string huge(3 << 20, 'x');
+  const auto message = [](const nlohmann::json& rig) {
+    try {
+      ParseRigDescription(rig, "rig.json");
+    } catch (const core::FormatError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  auto j = TinyJson();
+  j["laser"]["sweep_storage"] = huge;
+  std::string error = message(j);
+  EXPECT_LT(error.size(), 600u);
+  EXPECT_NE(error.find("got \"" + std::string(200, 'x') + "... (3145728 bytes in all)\""), std::string::npos) << error;
+  j = TinyJson();
+  j["cameras"][0][huge] = 1;
+  error = message(j);
+  EXPECT_LT(error.size(), 1000u);
+  EXPECT_NE(error.find("field 'cameras[0]." + std::string(189, 'x') + "... (3145739 bytes in all)'"),
+            std::string::npos)
+      << error.substr(0, 400);
+}
+
 TEST(RigDescription, BackingIsOptional) {
   // The shipped rigs hold their samples over a grey board 8 mm down.
   for (const char* name : {"tiny", "small", "paper"}) {

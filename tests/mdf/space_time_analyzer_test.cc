@@ -12,6 +12,7 @@
 #include "core/error.h"
 #include "core/image_io.h"
 #include "formats/sweep_analysis.h"
+#include "tests/common/error_of.h"
 #include "tests/common/temporary_directory.h"
 
 namespace mesocap::mdf {
@@ -302,6 +303,22 @@ TEST(SweepAnalysisFileTest, RoundTripAndHostileInput) {
   std::ofstream(dir.path() / "bad2.json") << R"({"format": "mesocap.sweep_analysis", "version": 1, "width": 16,
     "height": 8, "frame_count": 1, "image": "x", "planes": [{"normal": [0, 0, 2], "offset_mm": 0}]})";
   EXPECT_THROW(formats::ReadSweepAnalysis(dir.path() / "bad2.json"), core::FormatError);
+
+  // Strict: unknown members are errors, and a malformed plane is named
+  // without the JSON library's own words.
+  const auto error = [&](const std::string& name, const std::string& rest) {
+    std::ofstream(dir.path() / name) << R"({"format": "mesocap.sweep_analysis", "version": 1, "width": 16,
+      "height": 8, "frame_count": 1, "image": ")" << name << R"(.exr", )" << rest << "}";
+    return testing::ErrorOf<core::FormatError>([&] { formats::ReadSweepAnalysis(dir.path() / name); });
+  };
+  EXPECT_EQ(error("extra.json", R"("planes": [null], "frames": 1)"),
+            (dir.path() / "extra.json").string() + ": field 'frames': unknown member; expected only format, version, "
+                                                   "width, height, frame_count, image, planes");
+  EXPECT_EQ(error("plane.json", R"("planes": [{"offset_mm": 0}])"),
+            (dir.path() / "plane.json").string() + ": field 'planes[0].normal': missing");
+  EXPECT_EQ(error("far.json", R"("planes": [{"normal": [0, 0, 1], "offset_mm": 1e300}])"),
+            (dir.path() / "far.json").string() +
+                ": field 'planes[0].offset_mm': expected a finite number in [-1e+06, 1e+06], got number 1e+300");
 }
 
 }  // namespace

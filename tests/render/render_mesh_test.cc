@@ -8,9 +8,11 @@
 #include <cmath>
 #include <fstream>
 #include <numbers>
+#include <string>
 
 #include "core/error.h"
 #include "render/render_scene.h"
+#include "tests/common/error_of.h"
 #include "tests/common/temporary_directory.h"
 #include "tests/render/lambertian_material.h"
 
@@ -105,13 +107,62 @@ TEST(RenderMesh, ObjWithTextureCoordinatesAndDerivedNormals) {
 TEST(RenderMesh, ObjWithoutTextureCoordinatesNamesTheFile) {
   testing::TemporaryDirectory dir;
   std::ofstream(dir / "bare.obj") << "v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 3\n";
+  const std::string error =
+      testing::ErrorOf<core::FormatError>([&] { LoadObjRenderMesh(dir / "bare.obj", 1.0, {1, 1}); });
+  EXPECT_NE(error.find("bare.obj"), std::string::npos) << error;
+  EXPECT_NE(error.find("texture coordinate"), std::string::npos) << error;
+}
+
+// A vertex of 1e308 (or any coordinate beyond 1e6) is refused with the
+// range, not drawn black.
+TEST(RenderMesh, ObjCoordinatesOutsideTheRangeAreRefused) {
+  testing::TemporaryDirectory dir;
+  std::ofstream(dir / "far.obj") << "v 0 0 0\nv 1e308 0 0\nv 1 1 0\nvt 0 0\nf 1/1 2/1 3/1\n";
+  EXPECT_EQ(testing::ErrorOf<core::FormatError>([&] { LoadObjRenderMesh(dir / "far.obj", 1.0, {1, 1}); }),
+            (dir / "far.obj").string() + ": field 'line 2': vertex coordinate 1e308 is outside [-1e+06, 1e+06]");
+}
+
+// Writes a one-box scene with `light` as its light member and returns the
+// error reading it gives ("" when it reads).
+std::string SceneError(const std::filesystem::path& dir, const std::string& light, const std::string& extra = "") {
+  std::ofstream(dir / "scene.json") << R"({"format": "mesocap.scene", "version": 1,
+    "camera": {"position": [0, -100, 0], "look_at": [0, 0, 0]}, "light": )"
+                                    << light << R"(, "objects": [{"shape": "box", "min": [-10, -10, -10],
+    "max": [10, 10, 10])" << extra << "}]}";
   try {
-    LoadObjRenderMesh(dir / "bare.obj", 1.0, {1, 1});
-    FAIL() << "no error";
-  } catch (const core::FormatError& e) {
-    EXPECT_NE(std::string(e.what()).find("bare.obj"), std::string::npos) << e.what();
-    EXPECT_NE(std::string(e.what()).find("texture coordinate"), std::string::npos) << e.what();
+    ReadRenderScene(dir / "scene.json", [](const std::string&, const std::filesystem::path&) -> RenderMaterial {
+      throw core::Error("no materials here");
+    });
+  } catch (const core::Error& e) {
+    return e.what();
   }
+  return "";
+}
+
+// docs/FORMATS.md "Render scene": the light lies outside the scene's
+// bounding sphere (here centre 0, radius sqrt(300) = 17.3 mm).
+TEST(RenderScene, ALightInsideTheBoundingSphereIsRefused) {
+  testing::TemporaryDirectory dir;
+  EXPECT_EQ(SceneError(dir.path(), R"({"position": [0, 0, 18], "intensity": 1})"), "");
+  const std::string inside = SceneError(dir.path(), R"({"position": [0, 0, 17], "intensity": 1})");
+  EXPECT_NE(inside.find("scene.json: field 'light.position': expected a point outside the scene's bounding sphere "
+                        "(centre [0, 0, 0], radius 17.3205 mm), got one 17 mm from its centre"),
+            std::string::npos)
+      << inside;
+}
+
+TEST(RenderScene, HugeStringsAndAbsurdNumbersAreRefusedReadably) {
+  testing::TemporaryDirectory dir;
+  const std::string huge(500000, 'q');  // under the scene's 1 MiB
+  const std::string shape = SceneError(dir.path(), R"({"position": [0, 0, 50], "intensity": 1})", R"(, "tiles_per_100mm": 1, ")" + huge + R"(": 1)");
+  EXPECT_LT(shape.size(), 1000u);
+  EXPECT_NE(shape.find("field 'objects[0]." + std::string(189, 'q') + "... (500011 bytes in all)': unknown member"),
+            std::string::npos)
+      << shape.substr(0, 400);
+  const std::string far = SceneError(dir.path(), R"({"position": [0, 0, 1e300], "intensity": 1})");
+  EXPECT_NE(far.find("field 'light.position[2]': expected a finite number in [-1e+06, 1e+06], got number 1e+300"),
+            std::string::npos)
+      << far;
 }
 
 // Every shipped scene reads, names built-in sim: materials, and carries
