@@ -57,16 +57,18 @@ std::optional<long> TemporaryWriterPid(std::string_view name, std::string_view b
 // live writer's file removed.
 bool ProcessIsGone(long pid) { return ::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH; }
 
-bool HoldsOrIs(const fs::path& folder, const fs::path& input) {
+// Whether `a` is `b` or a folder holding it.
+bool Holds(const fs::path& a, const fs::path& b) {
   std::error_code ec;
-  const fs::path a = fs::weakly_canonical(folder, ec);
-  const fs::path b = fs::weakly_canonical(input, ec);
+  const fs::path outer = fs::weakly_canonical(a, ec);
   if (ec) return false;
-  auto f = a.begin();
-  auto i = b.begin();
-  for (; f != a.end(); ++f, ++i) {
-    if (f->empty()) continue;  // a trailing separator
-    if (i == b.end() || *f != *i) return false;
+  const fs::path inner = fs::weakly_canonical(b, ec);
+  if (ec) return false;
+  auto i = inner.begin();
+  for (auto o = outer.begin(); o != outer.end(); ++o) {
+    if (o->empty()) continue;  // a trailing separator
+    if (i == inner.end() || *o != *i) return false;
+    ++i;
   }
   return true;
 }
@@ -78,9 +80,12 @@ void ExpectReplaceable(const fs::path& target_in, const OutputReplacement& r) {
   std::error_code ec;
   if (!fs::exists(fs::symlink_status(target, ec))) return;
   for (const fs::path& input : r.inputs) {
-    if (!input.empty() && fs::exists(input, ec) && HoldsOrIs(target, input)) {
-      throw Error(target.string() + ": is " + (fs::equivalent(target, input, ec) ? "" : "a folder holding ") +
-                  "this command's input " + input.string() + "; choose another output");
+    if (input.empty() || !fs::exists(input, ec)) continue;
+    const bool holds = Holds(target, input), inside = Holds(input, target);
+    if (holds || inside) {
+      throw Error(target.string() + ": is " +
+                  (holds && inside ? "" : holds ? "a folder holding " : "part of ") + "this command's input " +
+                  input.string() + "; choose another output");
     }
   }
   if (!r.allowed) {

@@ -132,7 +132,7 @@ formats::SweepAnalysis TinySweepAnalysis() {
   for (std::size_t i = 0; i < pixels; ++i) {
     const float t = 2.0f * Ramp(static_cast<int>(i));
     a.peak_time.push_back(i == 3 ? kNaN : t);
-    a.peak_value.push_back(i == 3 ? 0.0f : 0.5f + 0.5f * t);
+    a.peak_value.push_back(i == 3 ? 0.0f : 0.5f + 0.25f * t);  // a fraction of full scale
     a.second_time.push_back(i == 7 ? 1.5f : kNaN);
     a.second_value.push_back(i == 7 ? 0.3f : 0.0f);
   }

@@ -6,7 +6,9 @@
 #include <filesystem>
 #include <sstream>
 #include <string>
+#include <vector>
 
+#include "core/atomic_file.h"
 #include "core/error.h"
 
 namespace mesocap {
@@ -49,12 +51,15 @@ inline CLI::Validator InRange(double min, double max) {
       "in " + range);
 }
 
-// A subcommand's output file is replaced only with --replace.
-inline void RefuseExistingOutput(const std::filesystem::path& out, bool replace) {
-  std::error_code ec;
-  if (!replace && std::filesystem::exists(out, ec)) {
-    throw core::Error(out.string() + " already exists (use --replace to overwrite it)");
-  }
+// A subcommand's output file (an image, a report) is replaced only with
+// --replace, only when it is a file and none of the command's `inputs`; a
+// killed run's temporary of it is removed first.
+inline void ExpectReplaceableFile(const std::filesystem::path& out, bool replace,
+                                  std::vector<std::filesystem::path> inputs) {
+  core::RemoveStaleTemporariesOf(out);
+  core::ExpectReplaceable(out, {replace, "a file",
+                                [](const std::filesystem::path& p) { return std::filesystem::is_regular_file(p); },
+                                std::move(inputs)});
 }
 
 void RegisterRenderCommand(CLI::App& app);

@@ -24,7 +24,7 @@ struct EvalMdfOptions {
 };
 
 void RunEvalMdf(const EvalMdfOptions& o) {
-  if (!o.out.empty()) RefuseExistingOutput(o.out, o.replace);
+  if (!o.out.empty()) ExpectReplaceableFile(o.out, o.replace, {o.truth, o.estimate});
   const formats::MaterialManifest truth_manifest = formats::ReadMaterialManifest(o.truth);
   const formats::MaterialManifest estimate_manifest = formats::ReadMaterialManifest(o.estimate);
   const core::Mdf truth = formats::ReadMdf(o.truth, truth_manifest);

@@ -32,7 +32,7 @@ void RunRender(const RenderCommandOptions& o) {
   render::PeelingOptions peeling = o.scene.Peeling();
   peeling.mode = render::ParseRenderMode(o.mode);
   const core::PixelEncoding encoding = EncodingFor(o.out);
-  RefuseExistingOutput(o.out, o.replace);
+  ExpectReplaceableFile(o.out, o.replace, {o.scene.scene});
   const render::RenderScene scene = render::ReadRenderScene(o.scene.scene, ResolveRenderMaterial);
   const auto context = render::GlContext::MakeHeadless();
   spdlog::info("OpenGL: {}", context->Description());

@@ -133,12 +133,14 @@ TEST(StrictCli, NumericFlagsAreRangeCheckedNamingFlagAndRange) {
 TEST(StrictCli, ACorruptImageGivesOneLineAndNoLibraryChatter) {
   testing::TemporaryDirectory dir;
   ASSERT_EQ(Mesocap("-q " + Simulate(dir, testing::WriteRig(dir / "rig.json"))).exit_code, 0);
-  const fs::path png = dir / "s" / "btf" / "t0_a0_l0_cam0.png";
-  const std::string bytes = Slurp(png);
+  // Half of a capture image as a height-map scene: a session's own files
+  // are refused by their checksum before any decoder runs, a scene file is not.
+  const fs::path png = dir / "height.png";
+  const std::string bytes = Slurp(dir / "s" / "btf" / "t0_a0_l0_cam0.png");
   std::ofstream(png, std::ios::binary | std::ios::trunc) << bytes.substr(0, bytes.size() / 2);
   for (const char* verbosity : {"", "-q "}) {
-    const CommandResult r = Mesocap(std::string(verbosity) + "process btf --session " + (dir / "s").string() +
-                                    " --out " + (dir / "m").string());
+    const CommandResult r = Mesocap(std::string(verbosity) + "groundtruth --rig tiny --texture-size 4 --scene " +
+                                    png.string() + " --out " + (dir / "m").string());
     EXPECT_EQ(r.exit_code, 1);
     EXPECT_EQ(r.err.find("libpng"), std::string::npos) << r.err;
     const std::string last = r.err.substr(r.err.rfind('\n', r.err.size() - 2) + 1);
@@ -165,15 +167,20 @@ TEST(StrictCli, RenderAndEvalMdfReplaceTheirOutputOnlyWhenAsked) {
   std::ofstream(dir / "picture.png") << "keep me";
   const std::string scene = std::string(MESOCAP_SOURCE_DIR) + "/render/scenes/cylinder.json";
   ExpectOneErrorLine(Mesocap("render " + scene + " --out " + (dir / "picture.png").string()),
-                     (dir / "picture.png").string() + " already exists (use --replace to overwrite it)");
+                     (dir / "picture.png").string() +
+                         ": already exists; choose another output, or --replace to replace a file there");
   EXPECT_EQ(Slurp(dir / "picture.png"), "keep me");
 
   const std::string gt = (dir / "gt").string();
   ASSERT_EQ(Mesocap("-q groundtruth --scene flat --rig tiny --texture-size 4 --out " + gt).exit_code, 0);
   std::ofstream(dir / "table.json") << "keep me";
   const std::string eval = "eval mdf --truth " + gt + " --estimate " + gt + " --out " + (dir / "table.json").string();
-  ExpectOneErrorLine(Mesocap(eval), (dir / "table.json").string() + " already exists (use --replace to overwrite it)");
+  ExpectOneErrorLine(Mesocap(eval), (dir / "table.json").string() +
+                                        ": already exists; choose another output, or --replace to replace a file there");
   EXPECT_EQ(Slurp(dir / "table.json"), "keep me");
+  // Never the command's own input, with --replace or not.
+  const std::string own = "eval mdf --truth " + gt + " --estimate " + gt + " --out " + gt + "/manifest.json --replace";
+  EXPECT_NE(Mesocap(own).err.find("this command's input"), std::string::npos);
   ASSERT_EQ(Mesocap(eval + " --replace").exit_code, 0);
   EXPECT_TRUE(nlohmann::json::parse(Slurp(dir / "table.json")).is_object());
 }
