@@ -112,6 +112,13 @@ MdfProcessingResult ProcessMdfSession(const formats::CapturedSession& session, c
   calibration::TexelGrid grid{options.texture_size, options.texture_size, sample_size};
   TriangulationOptions triangulation = options.triangulation;
   triangulation.backing_depth_mm = rig.backing.depth_mm;  // "no hit" evidence, if the rig has a backing
+  // The MDF, its confidence and one displacement image per view and sweep
+  // being merged, in floats: a lower bound of what the assembler holds.
+  const std::uint64_t texels = static_cast<std::uint64_t>(grid.width) * grid.height;
+  core::CheckMemoryFor(4 * texels * views.size() * (2 + sweeps.size()),
+                       "the MDF at " + std::to_string(grid.width) + "x" + std::to_string(grid.height) + " texels x " +
+                           std::to_string(views.size()) + " views from " + std::to_string(sweeps.size()) +
+                           " sweeps (--texture-size)");
   MdfAssembler assembler(grid, views, triangulation, options.merge);
   MdfProcessingResult result;
   result.sample_size_mm = sample_size;

@@ -107,6 +107,12 @@ ProcessBtfReport RunProcessBtf(const ProcessBtfOptions& o) {
   d.view_directions = a.views;
   d.light_directions = a.lights;
   d.provenance.source = "process btf session=" + o.session.string();
+  // Held at once: a view being assembled and the ambient term (floats).
+  const std::uint64_t texels = static_cast<std::uint64_t>(o.texture_size) * o.texture_size;
+  core::CheckMemoryFor(12 * texels * (a.lights.size() + a.views.size()),
+                       "a BTF view and the ambient term at " + std::to_string(o.texture_size) + "x" +
+                           std::to_string(o.texture_size) + " texels, " + std::to_string(a.views.size()) + " views x " +
+                           std::to_string(a.lights.size()) + " lights (--texture-size)");
   formats::MaterialPackageWriter writer(o.out, d, o.replace, {o.session, calibration_file});
 
   // Each assembled view goes to disk as soon as it is made, and the SVD

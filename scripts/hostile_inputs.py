@@ -239,12 +239,41 @@ def classify(case, rc, stderr, before, after, timed_out):
     return OK_REJECTED, []
 
 
+BINARY_CHANGES = []
+
+
+def wait_for_binary(binary, patience=900):
+    """Others rebuild the binary from time to time: wait until it exists, is
+    executable and has not changed for 5 seconds."""
+    deadline = time.monotonic() + patience
+    while True:
+        try:
+            st = os.stat(binary)
+            if os.access(binary, os.X_OK) and time.time() - st.st_mtime > 5:
+                if not BINARY_CHANGES or BINARY_CHANGES[-1] != st.st_mtime:
+                    BINARY_CHANGES.append(st.st_mtime)
+                return
+        except OSError:
+            pass
+        if time.monotonic() > deadline:
+            sys.exit("hostile_inputs: %s did not become usable" % binary)
+        time.sleep(2)
+
+
 def run_case(case, binary, case_dir, timeout):
     before = snapshot(case_dir)
-    start = time.monotonic()
     timed_out = False
-    proc = subprocess.Popen([str(binary), "-q"] + case.args, cwd=case_dir, stdin=subprocess.DEVNULL,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
+    for attempt in range(100):
+        wait_for_binary(binary)
+        try:
+            start = time.monotonic()
+            proc = subprocess.Popen([str(binary), "-q"] + case.args, cwd=case_dir, stdin=subprocess.DEVNULL,
+                                    stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
+            break
+        except OSError:  # being relinked right now
+            time.sleep(3)
+    else:
+        sys.exit("hostile_inputs: cannot run %s" % binary)
     try:
         out, err = proc.communicate(timeout=timeout)
     except subprocess.TimeoutExpired:
@@ -1259,6 +1288,9 @@ def journal_edits():
     ]
 
 
+FIELD_POOL = [0]
+
+
 def gen_field_edits(base, rng, n):
     B = base.root
     S, T, C, M = a(B / "S"), a(B / "T"), a(B / "C"), a(B / "M")
@@ -1316,6 +1348,7 @@ def gen_field_edits(base, rng, n):
 
     order = list(range(len(pool)))
     rng.shuffle(order)
+    FIELD_POOL[0] = len(pool)
     cases = []
     for i in range(n):
         what, tmpl, spec, name_any, fields, mat = pool[order[i % len(pool)]]
@@ -1500,6 +1533,9 @@ def gen_cli(base, rng, n):
     return cases
 
 
+REPLACE_SPECS = 27  # the number of specs in gen_replace
+
+
 def gen_replace(base, rng, n):
     B = base.root
     T, C, S = a(B / "T"), a(B / "C"), a(B / "S")
@@ -1610,6 +1646,7 @@ def gen_replace(base, rng, n):
         ("--replace an existing DFMF", ["export", "bonn", "--in", C, "--form", "dfmf", "--out", "c.dfmf", "--replace"],
          lambda d: shutil.copy(B / "c.dfmf", d), "accept", ["c.dfmf"]),
     ]
+    assert len(specs) == REPLACE_SPECS
     order = list(range(len(specs)))
     rng.shuffle(order)
     cases = []
@@ -1637,10 +1674,12 @@ def gen_replace(base, rng, n):
 
 def make_cases(base, seed, total):
     rng = random.Random(seed)
-    shares = [("session-data", 0.21), ("package-data", 0.23), ("json-mutation", 0.21), ("field-edit", 0.22),
-              ("cli-flag", 0.08), ("replace-misuse", 0.05)]
-    counts = {k: int(round(total * s)) for k, s in shares}
-    counts["field-edit"] += total - sum(counts.values())
+    # every CLI and --replace case once where the total allows it; field edits
+    # (the largest pool of distinct known-invalid inputs) take the rest
+    counts = {"session-data": int(total * 0.125), "package-data": int(total * 0.125),
+              "json-mutation": int(total * 0.125), "cli-flag": min(len(CLI_CASES), int(total * 0.13)),
+              "replace-misuse": min(REPLACE_SPECS, int(total * 0.05))}
+    counts["field-edit"] = total - sum(counts.values())
     cases = gen_controls(base)
     cases += gen_session_data(base, random.Random(rng.random()), counts["session-data"])
     cases += gen_package_data(base, random.Random(rng.random()), counts["package-data"])
@@ -1676,6 +1715,7 @@ def main():
         sys.exit("hostile_inputs: no binary at %s" % binary)
 
     t0 = time.monotonic()
+    wait_for_binary(binary)
     work = Path(tempfile.mkdtemp(prefix="mesocap-hostile-"))
     failed = []
     try:
@@ -1692,6 +1732,8 @@ def main():
             cases = [c for c in cases if c.kind == "control" or c.kind in kinds]
         print("hostile_inputs: %d cases (+ controls), seed %d, binary %s, work %s" %
               (sum(c.kind != "control" for c in cases), o.seed, binary, work), flush=True)
+        print("hostile_inputs: field edits drawn from %d distinct edits, CLI cases from %d, --replace cases from %d"
+              % (FIELD_POOL[0], len(CLI_CASES), REPLACE_SPECS), flush=True)
         controls_ok = True
         for n, case in enumerate(cases):
             d = work / "cases" / case.id
@@ -1714,6 +1756,9 @@ def main():
             if case.kind == "control" and n + 1 < len(cases) and cases[n + 1].kind != "control" and not controls_ok:
                 print("hostile_inputs: a control (valid input) failed: the classification below is not reliable",
                       flush=True)
+        if len(BINARY_CHANGES) > 1:
+            print("hostile_inputs: note: the binary was rebuilt during the run (%d versions used)" %
+                  len(BINARY_CHANGES), flush=True)
         if snapshot(base_root) != base_snap:
             print("hostile_inputs: WARNING: the base inputs changed during the run", flush=True)
             failed.append(None)

@@ -108,6 +108,12 @@ void WriteGroundTruthPackage(const MesostructureScene& scene, const GroundTruthO
   d.view_directions = o.views;
   d.light_directions = o.lights;
   d.provenance.source = source;
+  // The largest things held at once: the MDF and one BTF view image (floats).
+  const std::uint64_t texels = static_cast<std::uint64_t>(d.width) * d.height;
+  core::CheckMemoryFor(4 * texels * (o.views.size() + 3ull * o.lights.size()),
+                       "the ground truth's MDF and one BTF view at " + std::to_string(d.width) + "x" +
+                           std::to_string(d.height) + " texels, " + std::to_string(o.views.size()) + " views x " +
+                           std::to_string(o.lights.size()) + " lights");
   formats::MaterialPackageWriter writer(out, d, replace);
 
   core::Progress progress("groundtruth " + scene.name(), o.views.size() + 1, progress_style);

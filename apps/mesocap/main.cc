@@ -69,7 +69,7 @@ int main(int argc, char** argv) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
     print("error", e.what());
-    return e.get_exit_code();
+    return 2;  // a usage error, as shells and getopt tools report one
   } catch (const mesocap::core::Error& e) {
     print("error", e.what());
     return 1;
