@@ -85,7 +85,8 @@ CapturedSession::~CapturedSession() {
 std::optional<core::FileChecksum> CapturedSession::RecordedChecksum(const std::string& path) const {
   const auto it = files_.find(path);
   if (it == files_.end()) {
-    throw core::Error(dir_.string() + ": " + path + " is no file of a step the journal records as done");
+    throw core::FormatError(dir_ / kSessionJournalName, "files",
+                            "no record of a done step lists " + core::Quoted(path) + ", which the plan names");
   }
   if (!it->second->xxh3) return std::nullopt;
   return core::FileChecksum{it->second->bytes, *it->second->xxh3};
@@ -94,7 +95,8 @@ std::optional<core::FileChecksum> CapturedSession::RecordedChecksum(const std::s
 fs::path CapturedSession::IntactFile(const std::string& path) const {
   const auto it = files_.find(path);
   if (it == files_.end()) {
-    throw core::Error(dir_.string() + ": " + path + " is no file of a step the journal records as done");
+    throw core::FormatError(dir_ / kSessionJournalName, "files",
+                            "no record of a done step lists " + core::Quoted(path) + ", which the plan names");
   }
   const fs::path file = dir_ / path;
   if (const std::string problem = JournalFileProblem(dir_, *it->second); !problem.empty()) {

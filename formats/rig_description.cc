@@ -10,6 +10,7 @@
 #include "core/error.h"
 #include "core/image.h"
 #include "core/json_field_reader.h"
+#include "formats/calibration.h"
 
 namespace mesocap::formats {
 namespace {
@@ -54,7 +55,8 @@ CameraDescription ParseCamera(const core::JsonFieldReader& f) {
                           "read_noise_electrons", "exposure_us"});
   CameraDescription c;
   c.id = f.String("id");
-  if (c.id.empty()) f.Fail("id", "expected a non-empty id");
+  // The id names the camera's files and its calibration entry.
+  if (!IsValidId(c.id)) f.Fail("id", "expected an id (1 to 128 characters from A-Z a-z 0-9 . _ -)");
   c.backend = f.String("backend");
   c.azimuth_rad = core::RadiansFromDegrees(f.NumberOr("azimuth_deg", 0.0, -360.0, 360.0));
   c.elevation_rad = core::RadiansFromDegrees(f.Number("elevation_deg", 1.0, 90.0));

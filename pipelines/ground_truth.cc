@@ -14,8 +14,14 @@
 namespace mesocap::pipelines {
 namespace {
 
-core::SamplingSet DirectionSet(const std::string& name, const core::SamplingSet& rig_set) {
-  return name == "rig" ? rig_set : bonn::NamedSamplingSet(name);
+// `flag` names the option for messages ("--views").
+core::SamplingSet DirectionSet(const std::string& name, const core::SamplingSet& rig_set, const char* flag) {
+  if (name == "rig") return rig_set;
+  try {
+    return bonn::NamedSamplingSet(name);
+  } catch (const core::Error& e) {
+    throw core::Error(std::string(flag) + ": " + e.what());
+  }
 }
 
 }  // namespace
@@ -36,8 +42,8 @@ GroundTruthReport RunGroundTruth(const GroundTruthOptions& o) {
   sim::GroundTruthOptions gt;
   gt.texels.width = gt.texels.height = o.texture_size;
   gt.texels.sample_size_mm = rig.sample_size_mm;
-  gt.views = DirectionSet(o.views, calibration::ViewDirections(rig));
-  gt.lights = DirectionSet(o.lights, calibration::LightDirections(rig));
+  gt.views = DirectionSet(o.views, calibration::ViewDirections(rig), "--views");
+  gt.lights = DirectionSet(o.lights, calibration::LightDirections(rig), "--lights");
   if (const auto problem = gt.Check(); !problem.empty()) throw core::Error("groundtruth: " + problem);
   const formats::Calibration calibration = sim::TrueCalibration(rig);
   spdlog::info("ground truth of scene {} on rig {}: {}x{} texels, {} views x {} lights", scene->name(), rig.name,

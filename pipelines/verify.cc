@@ -103,7 +103,7 @@ VerifyReport RunVerify(const VerifyOptions& o) {
   } else {
     throw core::Error((o.path / "manifest.json").string() +
                       ": field 'format': expected \"mesocap.session\" or \"mesocap.material\"" +
-                      (format.empty() ? std::string(" (no manifest.json)") : ", got \"" + format + "\""));
+                      (format.empty() ? std::string(" (no manifest.json)") : ", got " + core::Quoted(format)));
   }
   return report;
 }

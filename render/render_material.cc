@@ -29,6 +29,7 @@ RenderMaterial LoadRenderMaterial(const std::filesystem::path& package) {
   }
   RenderMaterial material;
   material.name = manifest.description.name;
+  material.package = package;
   material.sample_size_mm = manifest.description.physical_size_mm.x();
   material.d_max_mm = manifest.description.d_max_mm;
   material.btf = formats::ReadFactoredBtf(package, manifest);

@@ -129,7 +129,11 @@ RenderScene ReadRenderScene(const std::filesystem::path& file, const MaterialRes
       const auto known = std::find(material_specs.begin(), material_specs.end(), spec);
       object.material = static_cast<int>(known - material_specs.begin());
       if (known == material_specs.end()) {
-        scene.materials.push_back(resolver(spec, scene_dir));
+        try {
+          scene.materials.push_back(resolver(spec, scene_dir));
+        } catch (const core::Error& e) {
+          o.Fail("material", std::string("cannot use this material: ") + e.what());
+        }
         material_specs.push_back(spec);
       }
       sample_size_mm = scene.materials[object.material].sample_size_mm;

@@ -1383,6 +1383,10 @@ def gen_field_edits(base, rng, n):
         if any(t in what for t in ("bare NaN", "1e400")):
             # not valid JSON: refused while parsing (the field cannot be named; the place can)
             fields = list(fields) + ["json"]
+        if "3 MB" in what:
+            # a file or journal line over its format's size limit is refused before
+            # parsing: the size is what it names
+            fields = list(fields) + ["at most", "longer than"]
         if "nested" in what:
             # refused while parsing, before any field is read: the depth is the field
             fields = list(fields) + ["nest", "deep", "depth"]
@@ -1533,7 +1537,7 @@ def gen_cli(base, rng, n):
     return cases
 
 
-REPLACE_SPECS = 27  # the number of specs in gen_replace
+REPLACE_SPECS = 29  # the number of specs in gen_replace
 
 
 def gen_replace(base, rng, n):
@@ -1636,6 +1640,12 @@ def gen_replace(base, rng, n):
          ["Tx"]),
         ("render --out over its material's mdf.exr (its own input)",
          ["render", "scene.json", "--out", "Cx/mdf.exr", "--size", "64x48"],
+         both(tree("C", "Cx"), lambda d: write_scene(d, "Cx")), R, ["Cx"]),
+        ("eval mdf --out over the truth's manifest with --replace",
+         ["eval", "mdf", "--truth", "Tx", "--estimate", a(B / "M"), "--out", "Tx/manifest.json", "--replace"],
+         tree("T", "Tx"), R, ["Tx"]),
+        ("render --out over its material's mdf.exr with --replace",
+         ["render", "scene.json", "--out", "Cx/mdf.exr", "--size", "64x48", "--replace"],
          both(tree("C", "Cx"), lambda d: write_scene(d, "Cx")), R, ["Cx"]),
         # valid replacements: must succeed
         ("--replace a package this command wrote (groundtruth)",
@@ -1746,6 +1756,8 @@ def main():
                 controls_ok = False
             if not o.keep:
                 shutil.rmtree(d, ignore_errors=True)
+            if o.verbose and case.stderr.strip():
+                print("      stderr: " + [l for l in case.stderr.splitlines() if l.strip()][-1][:200])
             if o.verbose or not case.outcome.startswith("ok"):
                 print("  %s %-14s %-15s rc=%s %.1fs %s%s" % (case.id, case.kind, case.outcome, case.rc, case.seconds,
                                                             case.what[:150],

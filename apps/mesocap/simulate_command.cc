@@ -16,6 +16,7 @@
 // an uninterrupted one.
 #include <spdlog/spdlog.h>
 
+#include <charconv>
 #include <filesystem>
 #include <sstream>
 #include <string>
@@ -112,7 +113,7 @@ void RunSimulate(const SimulateCommandOptions& o) {
     faults.rules.insert(faults.rules.end(), extra.rules.begin(), extra.rules.end());
   }
   if (const core::CheckResult problem = faults.Check(rig); !problem.empty()) {
-    throw core::Error((o.faults.empty() ? rig.name : o.faults.string()) + ": " + problem);
+    throw core::Error((o.faults.empty() ? o.rig : o.faults.string()) + ": " + problem);
   }
   const formats::Calibration calibration = sim::TrueCalibration(rig);
   // Before anything is written: the renderer refuses a scene the rig cannot
@@ -209,7 +210,18 @@ void RegisterSimulateCommand(CLI::App& app) {
   sub->add_option("--rig", o->rig, "shipped rig (tiny, small, paper) or a rig description file")
       ->capture_default_str();
   sub->add_option("--out", o->out, "capture session folder to create")->required();
-  sub->add_option("--seed", o->seed, "seed of the sensor noise")->capture_default_str();
+  sub->add_option("--seed", o->seed, "seed of the sensor noise, 0..18446744073709551615")
+      ->check(CLI::Validator(
+          [](std::string& text) -> std::string {
+            std::uint64_t value = 0;
+            const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
+            if (ec != std::errc() || end != text.data() + text.size()) {
+              return "expected an integer in [0, 18446744073709551615], got " + core::Quoted(text);
+            }
+            return {};
+          },
+          "an unsigned 64-bit integer"))
+      ->capture_default_str();
   sub->add_flag("--no-noise", o->no_noise, "no shot or read noise (quantization and saturation remain)");
   sub->add_option("--faults", o->faults, "fault plan file (mesocap.faults) added to the rig's own faults");
   sub->add_flag("--resume", o->resume, "complete an interrupted session at --out, skipping journaled steps");
