@@ -98,6 +98,7 @@ RigDescription ParseRigDescription(const nlohmann::json& json, const std::filesy
                              "laser", "faults"});
   RigDescription rig;
   rig.json = json;
+  rig.file = file;
   rig.name = root.String("name");
   const auto sample = root.Object("sample");
   sample.RejectUnknownMembers({"size_mm", "backing"});

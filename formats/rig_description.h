@@ -104,6 +104,7 @@ struct RigDescription {
   LampBankDescription lamps;
   LaserDescription laser;
   nlohmann::json json;  // the file as read, kept for the session manifest's rig snapshot
+  std::filesystem::path file;  // where it was read from, for messages
 
   int view_count() const { return static_cast<int>(turntable.angles_rad.size() * cameras.size()); }
   int light_count() const {

@@ -167,7 +167,8 @@ FaultPlan ReadFaultPlan(const std::filesystem::path& file) {
 
 FaultPlan FaultPlanOfRig(const formats::RigDescription& rig) {
   if (!rig.json.is_object() || !rig.json.contains("faults")) return {};
-  return ParseFaultPlan(rig.json["faults"], "rig " + core::Quoted(rig.name), "faults");
+  return ParseFaultPlan(rig.json["faults"], rig.file.empty() ? "rig " + core::Quoted(rig.name) : rig.file.string(),
+                        "faults");
 }
 
 std::uint64_t FaultStreamSeed(std::uint64_t rig_seed, const std::string& device, FaultKind kind) {
