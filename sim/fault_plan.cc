@@ -43,6 +43,12 @@ FaultRule ParseRule(const core::JsonFieldReader& f, FaultKind kind) {
       }
       rule.at.push_back(static_cast<std::uint64_t>(counts[i]));
     }
+    // A count listed twice is a slip (the fault happens once either way).
+    std::vector<std::uint64_t> sorted = rule.at;
+    std::sort(sorted.begin(), sorted.end());
+    if (const auto twice = std::adjacent_find(sorted.begin(), sorted.end()); twice != sorted.end()) {
+      f.Fail("at", "operation count " + std::to_string(*twice) + " is listed more than once");
+    }
   }
   if (f.Has("device")) {
     if (kind == FaultKind::kLampFailure) {

@@ -678,6 +678,7 @@ TEST(FaultPlanJson, ParsesRulesAndNamesTheFieldItRejects) {
   EXPECT_EQ(FieldOf(json::parse(R"({"stage_timeout": {"at": [1, 0]}})")), "faults.stage_timeout.at[1]");
   EXPECT_EQ(FieldOf(json::parse(R"({"stage_timeout": {"at": [2.5]}})")), "faults.stage_timeout.at[0]");
   EXPECT_EQ(FieldOf(json::parse(R"({"stage_timeout": {"at": []}})")), "faults.stage_timeout.at");
+  EXPECT_EQ(FieldOf(json::parse(R"({"stage_timeout": {"at": [4, 2, 4]}})")), "faults.stage_timeout.at");
   EXPECT_EQ(FieldOf(json::parse(R"({"stage_stall": {"at": [1], "device": "turntabel"}})")),
             "faults.stage_stall.device");
   EXPECT_EQ(FieldOf(json::parse(R"({"lamp_failure": [{"at": [1]}, {"at": [1], "device": "lamp1"}]})")),
