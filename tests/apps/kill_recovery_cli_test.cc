@@ -20,6 +20,7 @@
 #include <thread>
 #include <vector>
 
+#include "tests/common/killed_writer.h"
 #include "tests/common/mesocap_command.h"
 #include "tests/common/temporary_directory.h"
 
@@ -105,12 +106,6 @@ std::string Differences(const std::map<std::string, std::string>& a, const std::
   return names;
 }
 
-int Temporaries(const fs::path& dir) {
-  int n = 0;
-  for (const auto& e : fs::recursive_directory_iterator(dir)) n += e.path().filename().string().find(".tmp-") != std::string::npos;
-  return n;
-}
-
 int Trials() {
   const char* env = std::getenv("MESOCAP_KILL_TRIALS");
   return env ? std::max(1, std::atoi(env)) : 2;
@@ -183,7 +178,7 @@ TEST_P(KillRecoveryTest, NextRunCompletesBitIdenticalWithNoTemporaryLeft) {
     Wait(pid);
     ASSERT_EQ(Wait(Start(job.rerun(inputs_->path(), out))), 0);
     EXPECT_EQ(Differences(Normalized(out), expected), "");
-    EXPECT_EQ(Temporaries(work.path()), 0);
+    EXPECT_EQ(testing::CountTemporaries(work.path()), 0);
     fs::remove_all(out);
   }
 }

@@ -12,6 +12,7 @@
 #include <random>
 #include <string>
 
+#include "tests/common/killed_writer.h"
 #include "tests/common/mesocap_command.h"
 #include "tests/common/temporary_directory.h"
 
@@ -34,23 +35,6 @@ std::map<std::string, std::string> Contents(const fs::path& dir) {
     if (e.is_regular_file()) files[fs::relative(e.path(), dir).generic_string()] = Slurp(e.path());
   }
   return files;
-}
-
-// Hidden temporaries (".name.tmp-PID-N...") anywhere under `dir`.
-int Temporaries(const fs::path& dir) {
-  int n = 0;
-  for (const auto& e : fs::recursive_directory_iterator(dir)) {
-    if (e.path().filename().string().find(".tmp-") != std::string::npos) ++n;
-  }
-  return n;
-}
-
-// The id of a process that has exited.
-long DeadPid() {
-  const pid_t child = ::fork();
-  if (child == 0) ::_exit(0);
-  ::waitpid(child, nullptr, 0);
-  return child;
 }
 
 class ReliabilityCliTest : public ::testing::Test {
@@ -112,12 +96,12 @@ TEST_F(ReliabilityCliTest, ReplaceRefusesWhatTheCommandDoesNotWriteAndItsInput) 
   EXPECT_EQ(Contents(notes).size(), 1u);
   EXPECT_EQ(Contents(s), session_before);
   EXPECT_EQ(Contents(t), truth_before);
-  EXPECT_EQ(Temporaries(work_.path()), 0);
+  EXPECT_EQ(testing::CountTemporaries(work_.path()), 0);
   // What the command writes is replaced.
   ASSERT_EQ(Mesocap("-q compress --in " + T + " --out " + (work_ / "C").string()).exit_code, 0);
   EXPECT_EQ(Mesocap("-q compress --in " + T + " --rank 1 --out " + (work_ / "C").string() + " --replace").exit_code,
             0);
-  EXPECT_EQ(Temporaries(work_.path()), 0);
+  EXPECT_EQ(testing::CountTemporaries(work_.path()), 0);
 }
 
 // --resume re-checks every journaled file: a truncated PNG and a truncated
@@ -213,7 +197,7 @@ TEST_F(ReliabilityCliTest, BitFlipsAreNamedByVerifyAndRefusedByReaders) {
 // What a killed run left beside its output is removed at the next start of
 // the same command: only its own names, only when their process is gone.
 TEST_F(ReliabilityCliTest, StaleTemporariesOfTheSameOutputAreRemoved) {
-  const std::string dead = std::to_string(DeadPid());
+  const std::string dead = std::to_string(testing::DeadPid());
   const fs::path out = work_ / "B";
   for (const std::string& name : {".B.tmp-" + dead + "-0", ".B.assembled.tmp-" + dead + "-1"}) {
     fs::create_directories(work_ / name / "btf");

@@ -12,6 +12,7 @@
 
 #include "core/error.h"
 #include "core/json_field_reader.h"
+#include "tests/common/killed_writer.h"
 #include "tests/common/temporary_directory.h"
 
 namespace mesocap::core {
@@ -89,13 +90,6 @@ std::string MessageOf(const std::function<void()>& f) {
   return "(no error)";
 }
 
-// The id of a process that has exited (a writer killed mid-write).
-long DeadPid() {
-  const pid_t child = ::fork();
-  if (child == 0) ::_exit(0);
-  ::waitpid(child, nullptr, 0);
-  return child;
-}
 
 TEST(AtomicDirectory, RefusesToReplaceUnlessAsked) {
   testing::TemporaryDirectory dir;
@@ -147,7 +141,7 @@ TEST(AtomicDirectory, ReplacesOnlyItsOwnKindAndNeverAnInput) {
 // aside is put back, and a live writer's temporary is left alone.
 TEST(AtomicDirectory, StaleTemporariesOfItsTargetAreCleanedAtStart) {
   testing::TemporaryDirectory dir;
-  const long dead = DeadPid();
+  const long dead = testing::DeadPid();
   const std::string d = std::to_string(dead);
   std::filesystem::create_directories(dir / (".pkg.tmp-" + d + "-0") / "btf");
   std::ofstream(dir / (".pkg.tmp-" + d + "-0") / "btf" / "view_0000.exr") << "half";
@@ -166,7 +160,7 @@ TEST(AtomicDirectory, StaleTemporariesOfItsTargetAreCleanedAtStart) {
 
 TEST(AtomicFile, StaleTemporariesOfItsTargetAreRecognized) {
   testing::TemporaryDirectory dir;
-  const std::string d = std::to_string(DeadPid());
+  const std::string d = std::to_string(testing::DeadPid());
   std::ofstream(dir / (".frame.tmp-" + d + "-3.png")) << "half a png";
   std::ofstream(dir / (".frame.tmp-" + d + "-3.exr")) << "another target";
   std::ofstream(dir / "frame.png") << "the old frame";
