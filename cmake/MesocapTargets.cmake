@@ -64,7 +64,7 @@ function(mesocap_test_precompiled_header)
 endfunction()
 
 # mesocap_test(NAME SOURCES ... DEPS ... [LABELS ...] [ENVIRONMENT ...]
-# [ONE_PROCESS]): one
+# [ONE_PROCESS] [LAUNCHER command...]): one
 # GoogleTest binary, registered test by test with ctest; with ONE_PROCESS as
 # one ctest test instead, for a suite whose fixture (SetUpTestSuite) is
 # expensive and would otherwise be rebuilt in every test's process.
@@ -72,8 +72,13 @@ endfunction()
 # they run in the release and debug presets; the sanitize preset leaves them
 # out, since the code they run is covered there by the smaller tests.
 function(mesocap_test name)
-  cmake_parse_arguments(ARG "ONE_PROCESS" "" "SOURCES;DEPS;LABELS;ENVIRONMENT" ${ARGN})
+  cmake_parse_arguments(ARG "ONE_PROCESS" "" "SOURCES;DEPS;LABELS;ENVIRONMENT;LAUNCHER" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
+  # LAUNCHER runs the binary, for discovery and for each test (CTest takes
+  # it from CROSSCOMPILING_EMULATOR).
+  if(ARG_LAUNCHER)
+    set_target_properties(${name} PROPERTIES CROSSCOMPILING_EMULATOR "${ARG_LAUNCHER}")
+  endif()
   target_link_libraries(${name} PRIVATE mesocap_test_flags ${ARG_DEPS} GTest::gtest_main GTest::gmock)
   if(MESOCAP_PRECOMPILE_HEADERS)
     target_precompile_headers(${name} REUSE_FROM mesocap_test_pch)
@@ -86,7 +91,7 @@ function(mesocap_test name)
     list(APPEND properties ENVIRONMENT "${ARG_ENVIRONMENT}")
   endif()
   if(ARG_ONE_PROCESS)
-    add_test(NAME ${name} COMMAND ${name})
+    add_test(NAME ${name} COMMAND ${ARG_LAUNCHER} $<TARGET_FILE:${name}>)
     if(properties)
       set_tests_properties(${name} PROPERTIES ${properties})
     endif()

@@ -50,14 +50,20 @@ StageDescription ParseStage(const core::JsonFieldReader& f) {
 }
 
 CameraDescription ParseCamera(const core::JsonFieldReader& f) {
-  f.RejectUnknownMembers({"id", "backend", "azimuth_deg", "elevation_deg", "distance_mm", "image_size", "focal_px",
+  f.RejectUnknownMembers({"id", "backend", "device", "azimuth_deg", "elevation_deg", "distance_mm", "image_size", "focal_px",
                           "principal_point_px", "distortion", "bit_depth", "full_well_electrons",
                           "read_noise_electrons", "exposure_us"});
   CameraDescription c;
   c.id = f.String("id");
   // The id names the camera's files and its calibration entry.
   if (!IsValidId(c.id)) f.Fail("id", "expected an id (1 to 128 characters from A-Z a-z 0-9 . _ -)");
-  c.backend = f.String("backend");
+  c.backend = f.Choice("backend", {"sim", "aravis"});
+  if (c.backend == "aravis") {
+    c.device = f.String("device");
+    if (c.device.empty() || c.device.size() > 256) f.Fail("device", "expected an Aravis device id, serial or address");
+  } else if (f.Has("device")) {
+    f.Fail("device", "only an \"aravis\" camera has a device to open");
+  }
   c.azimuth_rad = core::RadiansFromDegrees(f.NumberOr("azimuth_deg", 0.0, -360.0, 360.0));
   c.elevation_rad = core::RadiansFromDegrees(f.Number("elevation_deg", 1.0, 90.0));
   c.distance_mm = f.Number("distance_mm", 1.0, 1e5);

@@ -26,7 +26,10 @@ namespace mesocap::formats {
 
 struct CameraDescription {
   std::string id;
-  std::string backend;
+  std::string backend;  // "sim" or "aravis"
+  // For "aravis": the GenICam device to open, by Aravis device id, serial
+  // number or IPv4 address.
+  std::string device;
   double azimuth_rad = 0.0;
   double elevation_rad = 0.0;  // above the turntable plane
   double distance_mm = 0.0;    // from the origin to the centre of projection

@@ -1,0 +1,392 @@
+#include "drivers/aravis/aravis_camera.h"
+
+#include <arv.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <vector>
+
+#include "core/error.h"
+#include "drivers/aravis/camera_discovery.h"
+#include "drivers/device_error.h"
+
+namespace mesocap::drivers::aravis {
+namespace {
+
+// GigE Vision frame ids are 16 bits and skip 0 (GigE Vision 1.2, Sec. 20);
+// Aravis reports the extended 64-bit ids of GigE Vision 2 as they are.
+constexpr std::uint64_t kLargestShortFrameId = 65535;
+
+std::uint64_t FrameIdGap(std::uint64_t last, std::uint64_t id) {
+  if (id > last) return id - last - 1;
+  if (last <= kLargestShortFrameId && id >= 1) return (kLargestShortFrameId - last) + (id - 1);  // wrapped
+  return 0;  // the camera restarted its count
+}
+
+std::string Formats(const std::vector<std::string>& names) {
+  std::string list;
+  for (const auto& n : names) list += (list.empty() ? "" : ", ") + n;
+  return list.empty() ? "none" : list;
+}
+
+}  // namespace
+
+struct AravisCamera::Device {
+  ArvCamera* camera = nullptr;
+  ArvStream* stream = nullptr;
+  gulong control_lost_handler = 0;
+  std::atomic<bool> control_lost{false};
+  bool acquiring = false;
+  // The stream's buffers point into these; they outlive the stream.
+  std::vector<std::vector<std::byte>> pool;
+
+  static void OnControlLost(ArvDevice*, gpointer self) {
+    static_cast<Device*>(self)->control_lost = true;
+  }
+};
+
+std::string AravisCameraOptions::Check() const {
+  if (id.empty()) return "id: expected the rig's camera id";
+  if (device.empty()) return "device: expected an Aravis device id, serial number or address";
+  if (buffer_count < 2 || buffer_count > 256) return "buffer_count: expected 2 to 256 buffers";
+  if (packet_size != 0 && (packet_size < 576 || packet_size > 65535)) {
+    return "packet_size: expected 0 (negotiate) or 576 to 65535 bytes";
+  }
+  if (!(frame_rate_hz >= 0.0 && frame_rate_hz <= 1e5)) return "frame_rate_hz: expected 0 to 100000";
+  for (const auto* name : {&native_pixel_format, &mono_pixel_format}) {
+    if (!name->empty() && !FindPixelFormat(*name)) {
+      std::vector<std::string> known;
+      for (const auto& f : SupportedPixelFormats()) known.push_back(f.name);
+      return (name == &native_pixel_format ? "native_pixel_format" : "mono_pixel_format") +
+             std::string(": unknown pixel format ") + core::Quoted(*name) + " (known: " + Formats(known) + ")";
+    }
+  }
+  return "";
+}
+
+AravisCamera::AravisCamera(AravisCameraOptions options) : options_(std::move(options)) {
+  if (auto problem = options_.Check(); !problem.empty()) throw core::Error("camera " + options_.id + ": " + problem);
+  Open();
+}
+
+AravisCamera::~AravisCamera() { Close(); }
+
+const PixelFormatTraits& AravisCamera::pixel_format_in_use() const {
+  return settings_.pixel_format == PixelFormat::kMono ? mono_format_ : native_format_;
+}
+
+void AravisCamera::Check(const std::string& what, GError* error) const {
+  if (error != nullptr) Fail(what, error);
+}
+
+void AravisCamera::Fail(const std::string& what, GError* error) const {
+  const std::string message = error ? error->message : "failed";
+  const bool unreachable = error && error->domain == ARV_DEVICE_ERROR &&
+                           (error->code == ARV_DEVICE_ERROR_TIMEOUT || error->code == ARV_DEVICE_ERROR_NOT_CONNECTED ||
+                            error->code == ARV_DEVICE_ERROR_NOT_FOUND || error->code == ARV_DEVICE_ERROR_TRANSFER_ERROR);
+  if (error) g_error_free(error);
+  const std::string text = "camera " + options_.id + " (" + options_.device + "): " + what + ": " + message;
+  // A control channel that no longer answers after Aravis' retries is a
+  // camera that is gone, not a slow one.
+  if (unreachable || (device_ && device_->control_lost)) throw DisconnectedError(text);
+  throw DeviceError(text);
+}
+
+void AravisCamera::Open() {
+  device_ = std::make_unique<Device>();
+  std::string name;
+  try {
+    name = ResolveCamera(options_.device);
+  } catch (const DeviceError& e) {
+    throw DisconnectedError("camera " + options_.id + ": " + e.what());
+  }
+  GError* error = nullptr;
+  device_->camera = arv_camera_new(name.c_str(), &error);
+  if (device_->camera == nullptr) {
+    const std::string message = error ? error->message : "not found";
+    if (error) g_error_free(error);
+    throw DisconnectedError("camera " + options_.id + ": cannot open " + core::Quoted(options_.device) + ": " +
+                            message);
+  }
+  device_->control_lost_handler = g_signal_connect(arv_camera_get_device(device_->camera), "control-lost",
+                                                   G_CALLBACK(Device::OnControlLost), device_.get());
+
+  ArvCamera* cam = device_->camera;
+  info_.id = options_.id;
+  const char* model = arv_camera_get_model_name(cam, &error);
+  Check("reading DeviceModelName", error);
+  const char* vendor = arv_camera_get_vendor_name(cam, &error);
+  Check("reading DeviceVendorName", error);
+  info_.model = std::string(vendor ? vendor : "") + " " + (model ? model : "");
+  arv_camera_get_sensor_size(cam, &info_.sensor_width, &info_.sensor_height, &error);
+  Check("reading the sensor size", error);
+
+  guint n = 0;
+  const char** names = arv_camera_dup_available_pixel_formats_as_strings(cam, &n, &error);
+  Check("reading the pixel formats", error);
+  std::vector<std::string> offered;
+  for (guint i = 0; i < n; ++i) offered.emplace_back(names[i]);
+  g_free(names);
+  // Most bits first; for colour an RGB format before a Bayer mosaic. A
+  // mono-only camera delivers mono frames as its native ones.
+  auto pick = [&](const std::string& wanted, bool mono) -> std::optional<PixelFormatTraits> {
+    if (!wanted.empty()) {
+      if (std::find(offered.begin(), offered.end(), wanted) == offered.end()) {
+        throw DeviceError("camera " + options_.id + ": pixel format " + core::Quoted(wanted) +
+                          " is not offered (offered: " + Formats(offered) + ")");
+      }
+      return FindPixelFormat(wanted);
+    }
+    std::optional<PixelFormatTraits> best;
+    auto rank = [](const PixelFormatTraits& f) { return f.bit_depth * 2 + (f.bayer == BayerPattern::kNone ? 1 : 0); };
+    for (const auto& o : offered) {
+      const auto f = FindPixelFormat(o);
+      if (!f || (f->channels == 1) != mono) continue;
+      if (!best || rank(*f) > rank(*best)) best = f;
+    }
+    return best;
+  };
+  const auto mono = pick(options_.mono_pixel_format, true);
+  const auto native = pick(options_.native_pixel_format, false);
+  if (!mono && !native) {
+    throw DeviceError("camera " + options_.id + ": none of its pixel formats (" + Formats(offered) +
+                      ") is one mesocap reads");
+  }
+  native_format_ = native ? *native : *mono;
+  mono_format_ = mono ? *mono : *native;
+  info_.channels = native_format_.channels;
+  info_.bit_depth = native_format_.bit_depth;
+
+  if (arv_camera_is_gv_device(cam)) {
+    if (options_.packet_size > 0) {
+      arv_camera_gv_set_packet_size(cam, options_.packet_size, &error);
+      Check("setting the packet size", error);
+      packet_size_ = options_.packet_size;
+    } else {
+      packet_size_ = static_cast<int>(arv_camera_gv_auto_packet_size(cam, &error));
+      Check("negotiating the packet size", error);
+    }
+  }
+  if (options_.frame_rate_hz > 0.0) {
+    arv_camera_set_frame_rate(cam, options_.frame_rate_hz, &error);
+    Check("setting AcquisitionFrameRate", error);
+  }
+  // A reopened camera gets the settings it had; a new one keeps the device's.
+  if (!opened_before_) {
+    opened_before_ = true;
+    settings_.exposure_us = arv_camera_get_exposure_time(cam, &error);
+    Check("reading the exposure time", error);
+    if (arv_camera_is_gain_available(cam, nullptr)) {
+      settings_.gain_db = arv_camera_get_gain(cam, &error);
+      Check("reading the gain", error);
+    }
+  }
+  ApplySettings();
+}
+
+void AravisCamera::ApplySettings() {
+  // Through the setters, so that a reopened camera gets every setting back.
+  const CameraSettings wanted = settings_;
+  SetPixelFormat(wanted.pixel_format);
+  SetRegion(wanted.region);
+  SetExposure(wanted.exposure_us);
+  SetGain(wanted.gain_db);
+  SetTrigger(wanted.trigger);
+}
+
+void AravisCamera::Close() {
+  if (!device_) return;
+  StopStream();
+  if (device_->camera) {
+    if (device_->control_lost_handler != 0) {
+      g_signal_handler_disconnect(arv_camera_get_device(device_->camera), device_->control_lost_handler);
+    }
+    g_object_unref(device_->camera);
+  }
+  device_.reset();
+}
+
+void AravisCamera::Reopen() {
+  Close();
+  Open();
+}
+
+void AravisCamera::StartStream() {
+  if (device_->acquiring) return;
+  ArvCamera* cam = device_->camera;
+  GError* error = nullptr;
+  const guint payload = arv_camera_get_payload(cam, &error);
+  Check("reading PayloadSize", error);
+  if (device_->stream == nullptr) {
+    device_->stream = arv_camera_create_stream(cam, nullptr, nullptr, &error);
+    if (device_->stream == nullptr) Fail("creating the stream", error);
+    if (ARV_IS_GV_STREAM(device_->stream)) {
+      g_object_set(device_->stream, "packet-resend",
+                   options_.packet_resend ? ARV_GV_STREAM_PACKET_RESEND_ALWAYS : ARV_GV_STREAM_PACKET_RESEND_NEVER,
+                   nullptr);
+    }
+    device_->pool.assign(options_.buffer_count, std::vector<std::byte>(payload));
+    for (auto& memory : device_->pool) {
+      arv_stream_push_buffer(device_->stream, arv_buffer_new(memory.size(), memory.data()));
+    }
+  }
+  arv_camera_set_acquisition_mode(cam, ARV_ACQUISITION_MODE_CONTINUOUS, &error);
+  Check("setting AcquisitionMode", error);
+  arv_camera_start_acquisition(cam, &error);
+  Check("starting the acquisition", error);
+  device_->acquiring = true;
+  have_frame_id_ = false;
+}
+
+void AravisCamera::StopStream() {
+  if (!device_) return;
+  if (device_->acquiring && device_->camera && !device_->control_lost) {
+    GError* error = nullptr;
+    arv_camera_stop_acquisition(device_->camera, &error);
+    if (error) g_error_free(error);  // stopping a camera that is gone: nothing to do
+  }
+  device_->acquiring = false;
+  // The stream's buffers point into the pool: a payload change needs both anew.
+  if (device_->stream) {
+    g_object_unref(device_->stream);
+    device_->stream = nullptr;
+  }
+  device_->pool.clear();
+}
+
+void AravisCamera::SetExposure(double exposure_us) {
+  GError* error = nullptr;
+  double lo = 0.0, hi = 0.0;
+  arv_camera_get_exposure_time_bounds(device_->camera, &lo, &hi, &error);
+  Check("reading the exposure bounds", error);
+  if (!(exposure_us >= lo && exposure_us <= hi)) {
+    throw DeviceError("camera " + options_.id + ": exposure " + std::to_string(exposure_us) + " us is outside [" +
+                      std::to_string(lo) + ", " + std::to_string(hi) + "] us");
+  }
+  arv_camera_set_exposure_time(device_->camera, exposure_us, &error);
+  Check("setting the exposure time", error);
+  settings_.exposure_us = exposure_us;
+}
+
+void AravisCamera::SetGain(double gain_db) {
+  GError* error = nullptr;
+  if (!arv_camera_is_gain_available(device_->camera, nullptr)) {
+    if (gain_db == 0.0) return;
+    throw DeviceError("camera " + options_.id + ": has no gain control");
+  }
+  double lo = 0.0, hi = 0.0;
+  arv_camera_get_gain_bounds(device_->camera, &lo, &hi, &error);
+  Check("reading the gain bounds", error);
+  if (!(gain_db >= lo && gain_db <= hi)) {
+    throw DeviceError("camera " + options_.id + ": gain " + std::to_string(gain_db) + " dB is outside [" +
+                      std::to_string(lo) + ", " + std::to_string(hi) + "] dB");
+  }
+  arv_camera_set_gain(device_->camera, gain_db, &error);
+  Check("setting the gain", error);
+  settings_.gain_db = gain_db;
+}
+
+void AravisCamera::SetRegion(const CameraRegion& region) {
+  const int width = region.width == 0 ? info_.sensor_width : region.width;
+  const int height = region.height == 0 ? info_.sensor_height : region.height;
+  if (region.x < 0 || region.y < 0 || width <= 0 || height <= 0 || region.x + width > info_.sensor_width ||
+      region.y + height > info_.sensor_height) {
+    throw DeviceError("camera " + options_.id + ": region " + std::to_string(width) + " x " + std::to_string(height) +
+                      " at (" + std::to_string(region.x) + ", " + std::to_string(region.y) +
+                      ") is not inside the " + std::to_string(info_.sensor_width) + " x " +
+                      std::to_string(info_.sensor_height) + " sensor");
+  }
+  StopStream();  // the payload changes
+  GError* error = nullptr;
+  // Shrink before moving, so that no intermediate region leaves the sensor.
+  arv_camera_set_region(device_->camera, 0, 0, width, height, &error);
+  Check("setting the region size", error);
+  arv_camera_set_region(device_->camera, region.x, region.y, width, height, &error);
+  Check("setting the region", error);
+  settings_.region = region;
+}
+
+void AravisCamera::SetPixelFormat(PixelFormat format) {
+  StopStream();
+  const PixelFormatTraits& traits = format == PixelFormat::kMono ? mono_format_ : native_format_;
+  GError* error = nullptr;
+  arv_camera_set_pixel_format(device_->camera, traits.code, &error);
+  Check("setting PixelFormat " + traits.name, error);
+  settings_.pixel_format = format;
+}
+
+void AravisCamera::SetTrigger(TriggerMode mode) {
+  StopStream();  // frames of the old mode must not answer the new one's triggers
+  GError* error = nullptr;
+  if (mode == TriggerMode::kSoftware) {
+    arv_camera_set_trigger(device_->camera, "Software", &error);
+    Check("setting the software trigger", error);
+  } else {
+    arv_camera_clear_triggers(device_->camera, &error);
+    Check("clearing the triggers", error);
+  }
+  settings_.trigger = mode;
+}
+
+void AravisCamera::Trigger() {
+  if (settings_.trigger != TriggerMode::kSoftware) return;
+  StartStream();
+  GError* error = nullptr;
+  arv_camera_software_trigger(device_->camera, &error);
+  Check("TriggerSoftware", error);
+}
+
+Frame AravisCamera::Grab(std::chrono::milliseconds timeout) {
+  StartStream();
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  for (;;) {
+    const auto left = std::chrono::duration_cast<std::chrono::microseconds>(deadline - std::chrono::steady_clock::now());
+    ArvBuffer* buffer =
+        left.count() > 0 ? arv_stream_timeout_pop_buffer(device_->stream, static_cast<guint64>(left.count())) : nullptr;
+    if (buffer == nullptr) {
+      // Tell a slow frame from a camera that is gone: ask the camera.
+      GError* error = nullptr;
+      if (!device_->control_lost) arv_camera_get_integer(device_->camera, "Width", &error);
+      if (device_->control_lost || error != nullptr) Fail("no frame and no answer on the control channel", error);
+      throw TimeoutError("camera " + options_.id + ": no frame within " + std::to_string(timeout.count()) + " ms");
+    }
+    if (arv_buffer_get_status(buffer) != ARV_BUFFER_STATUS_SUCCESS) {
+      ++dropped_frames_;
+      ++next_sequence_;
+      arv_stream_push_buffer(device_->stream, buffer);
+      continue;
+    }
+    const std::uint64_t id = arv_buffer_get_frame_id(buffer);
+    if (have_frame_id_) {
+      const std::uint64_t gap = FrameIdGap(last_frame_id_, id);
+      dropped_frames_ += gap;
+      next_sequence_ += gap;
+    }
+    last_frame_id_ = id;
+    have_frame_id_ = true;
+
+    Frame frame;
+    frame.sequence = next_sequence_++;
+    frame.timestamp_s = static_cast<double>(arv_buffer_get_timestamp(buffer)) * 1e-9;
+    frame.settings = settings_;
+    const auto format = FindPixelFormat(static_cast<std::uint32_t>(arv_buffer_get_image_pixel_format(buffer)));
+    size_t size = 0;
+    const void* data = arv_buffer_get_image_data(buffer, &size);
+    const int width = arv_buffer_get_image_width(buffer);
+    const int height = arv_buffer_get_image_height(buffer);
+    try {
+      if (!format) throw DeviceError("a frame arrived in a pixel format mesocap does not read");
+      frame.bit_depth = format->bit_depth;
+      frame.saturated_pixels =
+          DecodePixels({static_cast<const std::byte*>(data), size}, width, height, *format, frame.image);
+    } catch (const core::Error& e) {
+      arv_stream_push_buffer(device_->stream, buffer);
+      throw DeviceError("camera " + options_.id + ": " + e.what());
+    }
+    arv_stream_push_buffer(device_->stream, buffer);
+    return frame;
+  }
+}
+
+}  // namespace mesocap::drivers::aravis

@@ -1,0 +1,99 @@
+// A GenICam camera (GigE Vision or USB3 Vision) through Aravis 0.8, behind
+// the camera interface. Frames stream into a pool of buffers allocated when
+// the stream starts (none per frame); GigE Vision frame ids are unwrapped
+// into the interface's sequence, and a gap counts as dropped frames.
+//
+// Failures: a frame that does not come in time is a TimeoutError when the
+// camera still answers on its control channel, and a DisconnectedError when
+// it does not (or Aravis reported the control lost: no heartbeat answer).
+// Reopen() opens the same device again, by the same id or address, and
+// restores the settings.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "drivers/aravis/pixel_format.h"
+#include "drivers/camera.h"
+
+struct _GError;  // GLib's GError, without GLib in this header
+
+namespace mesocap::drivers::aravis {
+
+struct AravisCameraOptions {
+  std::string id;      // the rig's camera id: names the frames and the errors
+  std::string device;  // Aravis device id, serial number or IPv4 address
+  int buffer_count = 8;
+  // GigE Vision packet size in bytes; 0 negotiates the largest one that
+  // reaches this host unfragmented.
+  int packet_size = 0;
+  bool packet_resend = true;  // ask the camera to resend lost packets
+  double frame_rate_hz = 0.0; // free run; 0 keeps the camera's
+  // GenICam pixel format names; "" picks: for kNative the RGB format with
+  // the most bits, else a Bayer one, else mono; for kMono the mono format
+  // with the most bits.
+  std::string native_pixel_format;
+  std::string mono_pixel_format;
+
+  // "" when usable, else what is wrong, naming the field.
+  std::string Check() const;
+};
+
+class AravisCamera : public Camera {
+ public:
+  // Opens the camera. Throws Error for bad options, DisconnectedError when
+  // the device cannot be reached, DeviceError when it lacks what mesocap
+  // needs (a supported pixel format, exposure control).
+  explicit AravisCamera(AravisCameraOptions options);
+  ~AravisCamera() override;
+  AravisCamera(const AravisCamera&) = delete;
+  AravisCamera& operator=(const AravisCamera&) = delete;
+
+  CameraInfo info() const override { return info_; }
+  CameraSettings settings() const override { return settings_; }
+  void SetExposure(double exposure_us) override;
+  void SetGain(double gain_db) override;
+  void SetRegion(const CameraRegion& region) override;
+  void SetPixelFormat(PixelFormat format) override;
+  void SetTrigger(TriggerMode mode) override;
+  void Trigger() override;
+  Frame Grab(std::chrono::milliseconds timeout) override;
+
+  // Closes the device and opens it again (after a DisconnectedError).
+  void Reopen();
+
+  // Frames the stream lost: frame-id gaps and incomplete buffers.
+  std::uint64_t dropped_frames() const { return dropped_frames_; }
+  // The GigE Vision packet size in use (0 for a USB3 Vision camera).
+  int packet_size() const { return packet_size_; }
+  const PixelFormatTraits& pixel_format_in_use() const;
+
+ private:
+  struct Device;  // the Aravis objects, so that arv.h stays out of this header
+
+  void Open();
+  void Close();
+  void StartStream();
+  void StopStream();
+  void ApplySettings();
+  // Throws the typed error for a failed Aravis call (takes `error`).
+  [[noreturn]] void Fail(const std::string& what, ::_GError* error) const;
+  void Check(const std::string& what, ::_GError* error) const;
+
+  AravisCameraOptions options_;
+  std::unique_ptr<Device> device_;
+  CameraInfo info_;
+  CameraSettings settings_;
+  PixelFormatTraits native_format_;
+  PixelFormatTraits mono_format_;
+  int packet_size_ = 0;
+  std::uint64_t dropped_frames_ = 0;
+  std::uint64_t next_sequence_ = 0;
+  std::uint64_t last_frame_id_ = 0;
+  bool have_frame_id_ = false;
+  bool opened_before_ = false;
+};
+
+}  // namespace mesocap::drivers::aravis

@@ -1,0 +1,18 @@
+// The "aravis" rig backend: the cameras a rig description names with
+// "backend": "aravis" and a "device" (id, serial number or address).
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "drivers/rig.h"
+
+namespace mesocap::drivers::aravis {
+
+class AravisRigBackend : public RigBackend {
+ public:
+  std::string name() const override { return "aravis"; }
+  std::unique_ptr<Camera> MakeCamera(const formats::RigDescription& rig, int camera_index) override;
+};
+
+}  // namespace mesocap::drivers::aravis

@@ -1,0 +1,215 @@
+#include "sim/served_cameras.h"
+
+#include <arpa/inet.h>
+#include <arv.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+
+#include "core/error.h"
+#include "drivers/aravis/pixel_format.h"
+#include "drivers/device_error.h"
+#include "sim/simulated_rig_backend.h"
+
+namespace mesocap::sim {
+namespace {
+
+namespace fs = std::filesystem;
+using drivers::aravis::PixelFormatTraits;
+
+// GigE Vision bootstrap registers hold a 16-byte serial number string.
+constexpr std::size_t kMaxSerialLength = 15;
+// A served camera answers a software trigger within a millisecond instead
+// of the fake device's default 25 Hz trigger clock.
+constexpr double kTriggerPollHz = 1000.0;
+
+bool IsIpv4Address(const std::string& s) {
+  in_addr address{};
+  return inet_pton(AF_INET, s.c_str(), &address) == 1;
+}
+
+std::vector<PixelFormatTraits> ServedFormats(const drivers::CameraInfo& info) {
+  std::vector<PixelFormatTraits> formats;
+  for (const auto& f : drivers::aravis::SupportedPixelFormats()) {
+    if (f.bayer != drivers::aravis::BayerPattern::kNone || f.bit_depth != info.bit_depth) continue;
+    if (f.channels == 1 || f.channels == info.channels) formats.push_back(f);
+  }
+  if (formats.empty()) {
+    throw core::Error("camera " + info.id + ": no GigE Vision pixel format carries " + std::to_string(info.bit_depth) +
+                      "-bit values (served bit depths: 8, 10, 12, 16 mono; 8, 10, 12 RGB)");
+  }
+  return formats;
+}
+
+// The fake device's own GenICam description, with its PixelFormat entries
+// replaced by `formats`: the register behind them takes any PFNC code, and
+// the payload follows the code's bits a pixel.
+std::string GenICamDescription(const std::vector<PixelFormatTraits>& formats) {
+  ArvFakeCamera* reference = arv_fake_camera_new("reference");
+  size_t size = 0;
+  const char* xml = arv_fake_camera_get_genicam_xml(reference, &size);
+  std::string text(xml ? xml : "", xml ? size : 0);
+  g_object_unref(reference);
+  const auto enumeration = text.find("<Enumeration Name=\"PixelFormat\"");
+  const auto first = text.find("<EnumEntry", enumeration);
+  const auto value = text.find("<pValue>", enumeration);
+  if (enumeration == std::string::npos || first == std::string::npos || value == std::string::npos || first > value) {
+    throw core::Error("Aravis' fake camera has no PixelFormat enumeration to serve formats through");
+  }
+  std::string entries;
+  for (const auto& f : formats) {
+    entries += "<EnumEntry Name=\"" + f.name + "\" NameSpace=\"Standard\"><Value>" + std::to_string(f.code) +
+               "</Value></EnumEntry>\n\t\t";
+  }
+  return text.substr(0, first) + entries + text.substr(value);
+}
+
+}  // namespace
+
+struct ServedCameras::Server {
+  ServedCameraAddress address;
+  std::unique_ptr<drivers::Camera> camera;
+  std::vector<PixelFormatTraits> formats;
+  std::mutex* render_mutex = nullptr;
+  ArvGvFakeCamera* device = nullptr;
+  std::atomic<std::uint64_t> served{0};
+  std::atomic<std::uint64_t> failed{0};
+
+  ~Server() {
+    if (device) g_object_unref(device);  // joins the device's threads
+  }
+
+  std::uint32_t Register(std::uint32_t address_of) const {
+    guint32 value = 0;
+    arv_fake_camera_read_register(arv_gv_fake_camera_get_fake_camera(device), address_of, &value);
+    return value;
+  }
+
+  // Called on the device's stream thread for every frame it sends.
+  static void Fill(ArvBuffer* buffer, void* self, guint32 exposure_us, guint32 gain, ArvPixelFormat pixel_format) {
+    static_cast<Server*>(self)->FillFrame(buffer, exposure_us, gain, pixel_format);
+  }
+
+  void FillFrame(ArvBuffer* buffer, guint32 exposure_us, guint32 gain, ArvPixelFormat pixel_format) {
+    // The fill callback's contract: write the frame into this buffer. It
+    // reports no size before it is filled; the device checked that it holds
+    // the current payload before calling.
+    auto* data = static_cast<std::byte*>(const_cast<void*>(arv_buffer_get_data(buffer, nullptr)));
+    const std::size_t size = arv_fake_camera_get_payload(arv_gv_fake_camera_get_fake_camera(device));
+    std::lock_guard lock(*render_mutex);
+    try {
+      const PixelFormatTraits* format = nullptr;
+      for (const auto& f : formats) {
+        if (f.code == static_cast<std::uint32_t>(pixel_format)) format = &f;
+      }
+      if (format == nullptr) throw core::Error("pixel format " + std::to_string(pixel_format) + " is not served");
+      const drivers::CameraSettings now = camera->settings();
+      drivers::CameraRegion region;
+      region.x = static_cast<int>(Register(ARV_FAKE_CAMERA_REGISTER_X_OFFSET));
+      region.y = static_cast<int>(Register(ARV_FAKE_CAMERA_REGISTER_Y_OFFSET));
+      region.width = static_cast<int>(Register(ARV_FAKE_CAMERA_REGISTER_WIDTH));
+      region.height = static_cast<int>(Register(ARV_FAKE_CAMERA_REGISTER_HEIGHT));
+      const auto mode = format->channels == 1 && camera->info().channels != 1 ? drivers::PixelFormat::kMono
+                                                                               : drivers::PixelFormat::kNative;
+      if (now.exposure_us != exposure_us) camera->SetExposure(exposure_us);
+      if (now.gain_db != gain) camera->SetGain(gain);
+      if (now.region.x != region.x || now.region.y != region.y || now.region.width != region.width ||
+          now.region.height != region.height) {
+        camera->SetRegion(region);
+      }
+      if (now.pixel_format != mode) camera->SetPixelFormat(mode);
+      if (now.trigger != drivers::TriggerMode::kSoftware) camera->SetTrigger(drivers::TriggerMode::kSoftware);
+      camera->Trigger();
+      const drivers::Frame frame = camera->Grab(std::chrono::milliseconds(0));
+      drivers::aravis::EncodePixels(frame.image, *format, {data, size});
+      ++served;
+    } catch (const std::exception&) {
+      // The device sends a frame whatever happens here: a black one, counted.
+      std::fill(data, data + size, std::byte{0});
+      ++failed;
+    }
+  }
+};
+
+std::vector<ServedCameraAddress> ServedAddresses(const formats::RigDescription& rig) {
+  std::vector<ServedCameraAddress> addresses;
+  for (std::size_t i = 0; i < rig.cameras.size(); ++i) {
+    const auto& c = rig.cameras[i];
+    if (c.id.size() > kMaxSerialLength) {
+      throw core::Error("camera " + core::Quoted(c.id) + ": a served camera's id is its GigE Vision serial number, " +
+                        "at most 15 characters");
+    }
+    const bool own = c.backend == "aravis" && IsIpv4Address(c.device);
+    addresses.push_back({own ? c.device : "127.0.0." + std::to_string(i + 1), c.id});
+  }
+  return addresses;
+}
+
+ServedCameras::ServedCameras(std::vector<std::unique_ptr<drivers::Camera>> cameras,
+                             std::vector<ServedCameraAddress> addresses) {
+  if (cameras.size() != addresses.size()) throw core::Error("served cameras: one address per camera expected");
+  for (std::size_t i = 0; i < cameras.size(); ++i) {
+    auto server = std::make_unique<Server>();
+    server->address = addresses[i];
+    server->camera = std::move(cameras[i]);
+    server->render_mutex = &render_mutex_;
+    const drivers::CameraInfo info = server->camera->info();
+    server->formats = ServedFormats(info);
+    // Aravis reads the description from a file: write it, start the
+    // device, and remove the file (the device keeps its contents).
+    const fs::path xml = fs::temp_directory_path() /
+                         ("mesocap-served-" + std::to_string(::getpid()) + "-" + std::to_string(i) + ".xml");
+    {
+      std::ofstream out(xml, std::ios::binary | std::ios::trunc);
+      out << GenICamDescription(server->formats);
+      if (!out.flush()) throw core::Error("cannot write " + xml.string());
+    }
+    server->device = arv_gv_fake_camera_new_full(server->address.address.c_str(), server->address.serial.c_str(),
+                                                 xml.c_str());
+    std::error_code ignored;
+    fs::remove(xml, ignored);
+    if (server->device == nullptr || !arv_gv_fake_camera_is_running(server->device)) {
+      throw core::Error("camera " + info.id + ": cannot serve it at " + server->address.address +
+                        ": not an address of this host's interfaces, or its GigE Vision port 3956 is taken (a "
+                        "loopback address other than 127.0.0.1 must be added first: ip addr add " +
+                        server->address.address + "/8 dev lo)");
+    }
+    ArvFakeCamera* fake = arv_gv_fake_camera_get_fake_camera(server->device);
+    for (const auto& [reg, value] :
+         {std::pair{ARV_FAKE_CAMERA_REGISTER_SENSOR_WIDTH, info.sensor_width},
+          std::pair{ARV_FAKE_CAMERA_REGISTER_SENSOR_HEIGHT, info.sensor_height},
+          std::pair{ARV_FAKE_CAMERA_REGISTER_WIDTH, info.sensor_width},
+          std::pair{ARV_FAKE_CAMERA_REGISTER_HEIGHT, info.sensor_height},
+          std::pair{ARV_FAKE_CAMERA_REGISTER_PIXEL_FORMAT, static_cast<int>(server->formats.back().code)},
+          std::pair{ARV_FAKE_CAMERA_REGISTER_EXPOSURE_TIME_US,
+                    static_cast<int>(std::lround(server->camera->settings().exposure_us))}}) {
+      arv_fake_camera_write_register(fake, reg, static_cast<guint32>(value));
+    }
+    arv_fake_camera_set_trigger_frequency(fake, kTriggerPollHz);
+    arv_fake_camera_set_fill_pattern(fake, &Server::Fill, server.get());
+    servers_.push_back(std::move(server));
+  }
+}
+
+ServedCameras::~ServedCameras() {
+  // Stop every device before the cameras and the mutex their threads use go.
+  for (auto& s : servers_) {
+    if (s->device) g_object_unref(s->device);
+    s->device = nullptr;
+  }
+}
+
+const ServedCameraAddress& ServedCameras::address(std::size_t i) const { return servers_.at(i)->address; }
+std::uint64_t ServedCameras::frames_served(std::size_t i) const { return servers_.at(i)->served; }
+std::uint64_t ServedCameras::frames_failed(std::size_t i) const { return servers_.at(i)->failed; }
+
+std::unique_ptr<ServedCameras> ServeRigCameras(const formats::RigDescription& rig, SimulatedRigBackend& backend) {
+  std::vector<std::unique_ptr<drivers::Camera>> cameras;
+  for (int i = 0; i < static_cast<int>(rig.cameras.size()); ++i) cameras.push_back(backend.MakeCamera(rig, i));
+  return std::make_unique<ServedCameras>(std::move(cameras), ServedAddresses(rig));
+}
+
+}  // namespace mesocap::sim
