@@ -46,12 +46,8 @@ namespace {
 // line whose request is closed.
 class EmulatedLine {
  public:
-  EmulatedLine(std::shared_ptr<EmulatedGpioChipState> chip, int offset, bool active_low)
-      : chip_(std::move(chip)), offset_(offset), active_low_(active_low) {
-    GpioLineAddress address;
-    address.offset = offset;
-    description_ = chip_->Describe(address);
-  }
+  EmulatedLine(std::shared_ptr<EmulatedGpioChipState> chip, int offset, bool active_low, std::string description)
+      : chip_(std::move(chip)), offset_(offset), active_low_(active_low), description_(std::move(description)) {}
   EmulatedLine(const EmulatedLine&) = delete;
   EmulatedLine& operator=(const EmulatedLine&) = delete;
   ~EmulatedLine() {
@@ -78,8 +74,8 @@ class EmulatedLine {
 
 class EmulatedOutputLine : public GpioOutputLine {
  public:
-  EmulatedOutputLine(std::shared_ptr<EmulatedGpioChipState> chip, int offset, bool active_low)
-      : line_(std::move(chip), offset, active_low) {}
+  EmulatedOutputLine(std::shared_ptr<EmulatedGpioChipState> chip, int offset, bool active_low, std::string description)
+      : line_(std::move(chip), offset, active_low, std::move(description)) {}
   void SetActive(bool active) override { line_.SetActive(active); }
   std::string description() const override { return line_.description(); }
 
@@ -89,8 +85,8 @@ class EmulatedOutputLine : public GpioOutputLine {
 
 class EmulatedInputLine : public GpioInputLine {
  public:
-  EmulatedInputLine(std::shared_ptr<EmulatedGpioChipState> chip, int offset, bool active_low)
-      : line_(std::move(chip), offset, active_low) {}
+  EmulatedInputLine(std::shared_ptr<EmulatedGpioChipState> chip, int offset, bool active_low, std::string description)
+      : line_(std::move(chip), offset, active_low, std::move(description)) {}
   bool IsActive() const override { return line_.IsActive(); }
   std::string description() const override { return line_.description(); }
 
@@ -130,7 +126,8 @@ int EmulatedGpioChip::Request(const GpioLineAddress& line, const std::string& co
 
 std::unique_ptr<GpioOutputLine> EmulatedGpioChip::RequestOutput(const GpioLineAddress& line,
                                                                 const std::string& consumer, bool initially_active) {
-  auto output = std::make_unique<EmulatedOutputLine>(state_, Request(line, consumer), line.active_low);
+  auto output = std::make_unique<EmulatedOutputLine>(state_, Request(line, consumer), line.active_low,
+                                                     state_->Describe(line));
   // The kernel drives an output line from its request on.
   output->SetActive(initially_active);
   return output;
@@ -138,7 +135,8 @@ std::unique_ptr<GpioOutputLine> EmulatedGpioChip::RequestOutput(const GpioLineAd
 
 std::unique_ptr<GpioInputLine> EmulatedGpioChip::RequestInput(const GpioLineAddress& line,
                                                               const std::string& consumer) {
-  return std::make_unique<EmulatedInputLine>(state_, Request(line, consumer), line.active_low);
+  return std::make_unique<EmulatedInputLine>(state_, Request(line, consumer), line.active_low,
+                                             state_->Describe(line));
 }
 
 GpioChipOpener EmulatedGpioChip::Opener() const {

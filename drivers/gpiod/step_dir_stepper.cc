@@ -97,7 +97,10 @@ void StepDirStepper::Step(bool positive, std::chrono::nanoseconds period) {
 }
 
 std::int64_t StepDirStepper::steps_per_turn() const {
-  return static_cast<std::int64_t>(std::ceil(kTwoPi * steps_per_rad_));
+  const double turn = options_.full_steps_per_revolution * static_cast<double>(options_.microsteps) *
+                      options_.gear_ratio;
+  // Up, but not for the rounding error of a whole number of steps.
+  return static_cast<std::int64_t>(std::ceil(turn * (1.0 - 1e-12)));
 }
 
 bool StepDirStepper::StepUntilSwitch(bool positive, bool active) {
