@@ -19,11 +19,11 @@ std::string GpioLampBankOptions::Check() const {
 GpioLampBank::GpioLampBank(GpioLampBankOptions options, const GpioChipOpener& open, GpioTiming timing)
     : options_(std::move(options)), timing_(std::move(timing)) {
   if (std::string problem = options_.Check(); !problem.empty()) throw DeviceError("GPIO lamps: " + problem);
-  // Requested inactive, so every lamp is off from here on.
+  GpioChips chips(open);
   for (const GpioLamp& lamp : options_.lamps) {
     Lamp& requested = lamps_.emplace_back();
-    requested.power = RequestOutputLine(open, lamp.power);
-    if (lamp.sense) requested.sense = RequestInputLine(open, *lamp.sense);
+    requested.power = chips.RequestOutput(lamp.power);
+    if (lamp.sense) requested.sense = chips.RequestInput(*lamp.sense);
   }
 }
 

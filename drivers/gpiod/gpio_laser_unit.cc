@@ -29,7 +29,7 @@ GpioLaserUnit::GpioLaserUnit(GpioLaserOptions options, const GpioChipOpener& ope
   if (std::string problem = options_.Check(); !problem.empty()) throw DeviceError("GPIO laser unit: " + problem);
   if (!tilt_) throw DeviceError("GPIO laser unit: no tilt stage");
   // Requested inactive: the laser is off from here on.
-  enable_ = RequestOutputLine(open, options_.enable);
+  enable_ = GpioChips(open).RequestOutput(options_.enable);
 }
 
 GpioLaserUnit::~GpioLaserUnit() {

@@ -23,12 +23,18 @@ std::string GpioLineAddress::Describe() const {
   return "GPIO " + core::Cut(chip) + " line " + line;
 }
 
-std::unique_ptr<GpioOutputLine> RequestOutputLine(const GpioChipOpener& open, const GpioLineAddress& line) {
-  return open(line.chip)->RequestOutput(line, kGpioConsumer, false);
+GpioChip& GpioChips::Open(const std::string& chip) {
+  std::unique_ptr<GpioChip>& opened = chips_[chip];
+  if (!opened) opened = open_(chip);
+  return *opened;
 }
 
-std::unique_ptr<GpioInputLine> RequestInputLine(const GpioChipOpener& open, const GpioLineAddress& line) {
-  return open(line.chip)->RequestInput(line, kGpioConsumer);
+std::unique_ptr<GpioOutputLine> GpioChips::RequestOutput(const GpioLineAddress& line) {
+  return Open(line.chip).RequestOutput(line, kGpioConsumer, false);
+}
+
+std::unique_ptr<GpioInputLine> GpioChips::RequestInput(const GpioLineAddress& line) {
+  return Open(line.chip).RequestInput(line, kGpioConsumer);
 }
 
 void ThrowChipCannotOpen(const std::string& chip, const std::string& why, const std::vector<std::string>& chips_here) {

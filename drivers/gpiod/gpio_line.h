@@ -6,6 +6,7 @@
 
 #include <chrono>
 #include <functional>
+#include <map>
 #include <memory>
 #include <string>
 #include <system_error>
@@ -68,10 +69,22 @@ class GpioChip {
 // Opens the chip an address names; throws DeviceError naming the chip.
 using GpioChipOpener = std::function<std::unique_ptr<GpioChip>(const std::string& chip)>;
 
-// Requests `line` as an output (inactive) or an input on the chip its address
-// names.
-std::unique_ptr<GpioOutputLine> RequestOutputLine(const GpioChipOpener& open, const GpioLineAddress& line);
-std::unique_ptr<GpioInputLine> RequestInputLine(const GpioChipOpener& open, const GpioLineAddress& line);
+// The chips one device's lines are on, each opened once, as it requests
+// its lines (consumer kGpioConsumer).
+class GpioChips {
+ public:
+  explicit GpioChips(GpioChipOpener open) : open_(std::move(open)) {}
+
+  // Outputs are requested inactive, so what they switch starts off.
+  std::unique_ptr<GpioOutputLine> RequestOutput(const GpioLineAddress& line);
+  std::unique_ptr<GpioInputLine> RequestInput(const GpioLineAddress& line);
+
+ private:
+  GpioChip& Open(const std::string& chip);
+
+  GpioChipOpener open_;
+  std::map<std::string, std::unique_ptr<GpioChip>> chips_;  // by the name asked for
+};
 
 // The failures both chips report, worded alike.
 // A chip that cannot be opened: `GPIO chip "gpiochip0": cannot open: No such

@@ -64,11 +64,12 @@ StepDirStepper::StepDirStepper(StepDirStepperOptions options, const GpioChipOpen
   if (std::string problem = options_.Check(); !problem.empty()) {
     throw DeviceError("stepper " + options_.id + ": " + problem);
   }
-  step_ = RequestOutputLine(open, options_.step);
+  GpioChips chips(open);
+  step_ = chips.RequestOutput(options_.step);
   // Requested inactive: the dir line says "negative" until a move says otherwise.
-  direction_ = RequestOutputLine(open, options_.direction);
+  direction_ = chips.RequestOutput(options_.direction);
   positive_ = false;
-  limit_switch_ = RequestInputLine(open, options_.limit_switch);
+  limit_switch_ = chips.RequestInput(options_.limit_switch);
   steps_per_rad_ = options_.steps_per_rad();
   last_step_ = timing_.now();
 }

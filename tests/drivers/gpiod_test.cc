@@ -373,7 +373,7 @@ TEST_F(GpiodTest, AVanishedChipDisconnectsEveryDevice) {
 
 // This machine's kernel through the real libgpiod: the tests run where there
 // are no GPIO chips, and a rig with the GPIO backend must say so clearly.
-TEST(LibgpiodChipTest, AMissingChipIsNamedWithTheChipsThereAre) {
+TEST(GpiodLibgpiodChipTest, AMissingChipIsNamedWithTheChipsThereAre) {
   if (!ListLibgpiodChips().empty()) GTEST_SKIP() << "this machine has GPIO chips";
   const std::string expected = "GPIO chip \"gpiochip0\": cannot open: No such file or directory; chips here: none";
   EXPECT_EQ(MessageOf<DeviceError>([] { OpenLibgpiodChip("gpiochip0"); }), expected);
