@@ -81,7 +81,10 @@ std::string CheckLines(const std::vector<std::pair<std::string, const GpioLineAd
 GpioTiming GpioTiming::Real() {
   return {
       [](std::chrono::nanoseconds duration) { std::this_thread::sleep_for(duration); },
-      [] { return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch()); },
+      [] {
+        const auto since_epoch = std::chrono::steady_clock::now().time_since_epoch();
+        return std::chrono::duration_cast<std::chrono::nanoseconds>(since_epoch);
+      },
   };
 }
 

@@ -1,6 +1,6 @@
 // The seam between the GPIO devices and the lines they drive: a chip hands
 // out requested lines, each line is released when its object is destroyed.
-// LibgpiodChip drives the kernel's lines through libgpiod; EmulatedGpioChip
+// OpenLibgpiodChip drives the kernel's lines through libgpiod; EmulatedGpioChip
 // stands in for it in tests.
 #pragma once
 

@@ -371,6 +371,13 @@ TEST_F(GpiodTest, AVanishedChipDisconnectsEveryDevice) {
   EXPECT_THROW(GpioLampBank(Lamps(), chip_.Opener()), DeviceError);
 }
 
+TEST(GpiodTimingTest, RealTimingSleepsOnTheSteadyClock) {
+  const GpioTiming timing = GpioTiming::Real();
+  const nanoseconds before = timing.now();
+  timing.sleep(milliseconds(2));
+  EXPECT_GE(timing.now() - before, milliseconds(2));
+}
+
 // This machine's kernel through the real libgpiod: the tests run where there
 // are no GPIO chips, and a rig with the GPIO backend must say so clearly.
 TEST(GpiodLibgpiodChipTest, AMissingChipIsNamedWithTheChipsThereAre) {
