@@ -30,11 +30,13 @@
 #include "core/error.h"
 #include "core/file_checksum.h"
 #include "core/json_field_reader.h"
+#include "drivers/aravis/aravis_rig_backend.h"
 #include "drivers/rig.h"
 #include "formats/capture_session.h"
 #include "sim/camera_renderer.h"
 #include "sim/fault_plan.h"
 #include "sim/mesostructure_scene.h"
+#include "sim/served_cameras.h"
 #include "sim/shipped_rigs.h"
 #include "sim/simulated_operator.h"
 #include "sim/simulated_rig_backend.h"
@@ -56,6 +58,7 @@ struct SimulateCommandOptions {
   bool no_noise = false;
   fs::path faults;
   bool resume = false;
+  bool serve_cameras = false;
   int samples_per_pixel_side = 3;
   int interreflection_rays = 0;
 };
@@ -182,7 +185,22 @@ void RunSimulate(const SimulateCommandOptions& o) {
 
   sim::SimulatedRigBackend backend(renderer, faults, o.seed,
                                    o.no_noise ? sim::SensorModel::kNoiseless : sim::SensorModel::kNoisy);
-  drivers::Rig devices = drivers::BuildRig(rig, {{"sim", &backend}});
+  // With --serve-cameras every frame crosses loopback as GigE Vision: the
+  // simulated cameras are served from this process and recorded through the
+  // Aravis backend, as a real rig's cameras are.
+  std::unique_ptr<sim::ServedCameras> served;
+  formats::RigDescription device_rig = rig;
+  if (o.serve_cameras) {
+    served = sim::ServeRigCameras(rig, backend);
+    for (std::size_t i = 0; i < served->size(); ++i) {
+      device_rig.cameras[i].backend = "aravis";
+      device_rig.cameras[i].device = served->address(i).address;
+      spdlog::info("serving camera {} as a GigE Vision device at {}", rig.cameras[i].id, served->address(i).address);
+    }
+  }
+  drivers::aravis::AravisRigBackend aravis;
+  drivers::Rig devices = drivers::BuildRig(device_rig, {{"sim", &backend}, {"aravis", &aravis}});
+  devices.description = rig;
   sim::SimulatedOperator rig_operator(backend.shared_state());
   spdlog::info("simulating scene {} on rig {}: {} steps{}{}", scene->name(), rig.name, plan.size(),
                o.no_noise ? ", no sensor noise" : "", faults.empty() ? "" : ", with faults");
@@ -225,6 +243,9 @@ void RegisterSimulateCommand(CLI::App& app) {
   sub->add_flag("--no-noise", o->no_noise, "no shot or read noise (quantization and saturation remain)");
   sub->add_option("--faults", o->faults, "fault plan file (mesocap.faults) added to the rig's own faults");
   sub->add_flag("--resume", o->resume, "complete an interrupted session at --out, skipping journaled steps");
+  sub->add_flag("--serve-cameras", o->serve_cameras,
+                "serve the simulated cameras as GigE Vision devices on loopback and record them through Aravis "
+                "(sim serve-cameras --help says where)");
   sub->add_option("--samples-per-pixel-side", o->samples_per_pixel_side,
                   "rays per pixel side (box-filtered pixel area)")
       ->check(InRange(1, 16))
