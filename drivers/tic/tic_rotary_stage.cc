@@ -95,16 +95,18 @@ void TicRotaryStage::Configure() {
 }
 
 void TicRotaryStage::Reopen() {
-  transport_.reset();
-  transport_ = opener_(options_.serial_number);
+  // Opened before the old one is let go: when this fails, the stage keeps
+  // its dead transport and goes on throwing DisconnectedError.
+  std::unique_ptr<TicTransport> transport = opener_(options_.serial_number);
+  transport_ = std::move(transport);
   move_pending_ = false;
   Configure();
 }
 
-void TicRotaryStage::Send(const ControlSetup& setup) const {
-  std::array<std::uint8_t, 1> no_data{};
+std::size_t TicRotaryStage::Transfer(const ControlSetup& setup, std::span<std::uint8_t> data) const {
+  // The transport's message names the USB request; this one adds the stage.
   try {
-    transport_->ControlTransfer(setup, no_data);
+    return transport_->ControlTransfer(setup, data);
   } catch (const DisconnectedError& e) {
     throw DisconnectedError(Name() + ": " + e.what() + "; Reopen() it");
   } catch (const TimeoutError& e) {
@@ -114,18 +116,11 @@ void TicRotaryStage::Send(const ControlSetup& setup) const {
   }
 }
 
+void TicRotaryStage::Send(const ControlSetup& setup) const { Transfer(setup, {}); }
+
 TicVariables TicRotaryStage::ReadVariables() const {
   std::array<std::uint8_t, kVariablesBlockSize> block{};
-  std::size_t received = 0;
-  try {
-    received = transport_->ControlTransfer(EncodeGetVariables(0, kVariablesBlockSize, false), block);
-  } catch (const DisconnectedError& e) {
-    throw DisconnectedError(Name() + ": " + e.what() + "; Reopen() it");
-  } catch (const TimeoutError& e) {
-    throw TimeoutError(Name() + ": " + e.what());
-  } catch (const DeviceError& e) {
-    throw DeviceError(Name() + ": " + e.what());
-  }
+  const std::size_t received = Transfer(EncodeGetVariables(0, kVariablesBlockSize, false), block);
   if (received != block.size()) {
     throw DeviceError(Name() + ": read " + std::to_string(received) + " bytes of variables, expected " +
                       std::to_string(block.size()));

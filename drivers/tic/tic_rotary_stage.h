@@ -18,6 +18,7 @@
 #include <chrono>
 #include <cstdint>
 #include <memory>
+#include <span>
 #include <string>
 
 #include "core/error.h"
@@ -87,6 +88,8 @@ class TicRotaryStage : public RotaryStage {
   };
 
   void Configure();
+  // One control transfer; errors name the stage.
+  std::size_t Transfer(const ControlSetup& setup, std::span<std::uint8_t> data) const;
   TicVariables ReadVariables() const;
   void Send(const ControlSetup& setup) const;
   // Clears the command timeout and safe start an idle Tic collects; throws

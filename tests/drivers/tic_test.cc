@@ -238,6 +238,13 @@ TicStageOptions StageOptions() {
 
 constexpr double kMicrostepRad = 2 * kPi / 1600;
 
+// Moves and waits; the stage must stand within a microstep of the angle.
+void MoveAndWait(TicRotaryStage& stage, double angle_rad) {
+  stage.MoveTo(angle_rad);
+  stage.WaitUntilStopped(10s);
+  EXPECT_NEAR(stage.Position(), angle_rad, kMicrostepRad);
+}
+
 class TicStageTest : public ::testing::Test {
  protected:
   std::unique_ptr<TicRotaryStage> MakeStage(TicStageOptions options = StageOptions()) {
@@ -337,13 +344,12 @@ TEST_F(TicStageTest, VanishedTicIsDisconnectedAndReopenRecovers) {
   EXPECT_THROW(stage->WaitUntilStopped(5s), DisconnectedError);
   EXPECT_THROW(stage->Position(), DisconnectedError);
   EXPECT_EQ(ErrorOf<DeviceError>([&] { stage->Reopen(); }), "no Tic with serial 00200001 found (found: none)");
+  EXPECT_THROW(stage->Position(), DisconnectedError);
   // Back on the bus, still powered: it kept its count, so it stays homed.
   tic_.PlugIn(false);
   stage->Reopen();
   EXPECT_TRUE(stage->IsHomed());
-  stage->MoveTo(kPi);
-  stage->WaitUntilStopped(5s);
-  EXPECT_NEAR(stage->Position(), kPi, 1e-12);
+  MoveAndWait(*stage, kPi);
 }
 
 TEST_F(TicStageTest, PowerCycledTicMustBeHomedAgain) {
@@ -356,9 +362,7 @@ TEST_F(TicStageTest, PowerCycledTicMustBeHomedAgain) {
   EXPECT_FALSE(stage->IsHomed());
   EXPECT_THROW(stage->MoveTo(1.0), DeviceError);
   stage->Home();
-  stage->MoveTo(1.0);
-  stage->WaitUntilStopped(5s);
-  EXPECT_NEAR(stage->Position(), 1.0, kMicrostepRad);
+  MoveAndWait(*stage, 1.0);
 }
 
 TEST_F(TicStageTest, TimeoutsAreTimeoutErrors) {
@@ -404,9 +408,7 @@ TEST_F(TicStageTest, IdleCommandTimeoutIsClearedByTheNextMove) {
   stage->Home();
   tic_.Advance(5s);  // the capture takes its images; nobody talks to the Tic
   EXPECT_NE(tic_.Variables().error_status & ErrorMask(TicErrorBit::kCommandTimeout), 0);
-  stage->MoveTo(1.0);
-  stage->WaitUntilStopped(5s);
-  EXPECT_NEAR(stage->Position(), 1.0, kMicrostepRad);
+  MoveAndWait(*stage, 1.0);
 }
 
 TEST_F(TicStageTest, LowVinIsADeviceErrorNamingTheBit) {
@@ -427,8 +429,7 @@ TEST_F(TicStageTest, LowVinIsADeviceErrorNamingTheBit) {
   tic_.RestoreMotorPower();
   EXPECT_THROW(stage->MoveTo(1.0), DeviceError);  // position uncertain: home first
   stage->Home();
-  stage->MoveTo(1.0);
-  stage->WaitUntilStopped(5s);
+  MoveAndWait(*stage, 1.0);
 }
 
 TEST_F(TicStageTest, RefusesAnotherProduct) {
