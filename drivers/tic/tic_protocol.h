@@ -7,7 +7,8 @@
 //   variable offsets, error bits, operation states, misc flags bits
 //   (energized 0, position uncertain 1, forward/reverse limit 2/3, homing
 //   active 4), step mode codes, go-home directions, speed units (steps per
-//   10000 s, at most 500000000), default command timeout 1000 ms. The stored
+//   10000 s, at most 500000000), acceleration units (steps/s per 100 s),
+//   default command timeout 1000 ms. The stored
 //   copy of that file predates go home, the T249/36v4 ids and the homing
 //   bits; those were read from the same file as vendored in
 //   indilib/indi-3rdparty (indi-TicFocuser-ng/pololu-tic-software/include/)
@@ -153,6 +154,8 @@ enum class HomingDirection : std::uint8_t { kReverse = 0, kForward = 1 };
 
 // Speeds are in microsteps per 10000 s; the Tic takes at most 50 kHz.
 inline constexpr double kSpeedUnitsPerStepPerSecond = 10000.0;
+// Accelerations are in microsteps per second per 100 s.
+inline constexpr double kAccelUnitsPerStepPerSecondSquared = 100.0;
 inline constexpr std::uint32_t kMaxSpeedUnits = 500000000;
 inline constexpr int kDefaultCommandTimeoutMs = 1000;
 

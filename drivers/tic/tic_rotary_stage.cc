@@ -136,7 +136,7 @@ void TicRotaryStage::ThrowOnErrors(const TicVariables& variables) {
                     " (operation state " + OperationStateName(variables.operation_state) + ")");
 }
 
-void TicRotaryStage::Prepare(bool need_position) {
+TicVariables TicRotaryStage::Prepare(bool need_position) {
   Send(EncodeCommand(TicCommand::kResetCommandTimeout));
   last_keepalive_ = clock_->Now();
   TicVariables variables = ReadVariables();
@@ -150,6 +150,7 @@ void TicRotaryStage::Prepare(bool need_position) {
     homed_ = false;
     throw DeviceError(Name() + ": the Tic's position is uncertain (it lost power or was de-energized); home it");
   }
+  return variables;
 }
 
 void TicRotaryStage::ThrowIfStanding(const TicVariables& variables, StandingCount& standing) {
@@ -214,8 +215,8 @@ void TicRotaryStage::Home() {
 void TicRotaryStage::MoveTo(double angle_rad) {
   if (!std::isfinite(angle_rad)) throw DeviceError(Name() + ": MoveTo to a non-finite angle");
   if (!homed_) throw DeviceError(Name() + ": MoveTo before Home(): the position is unknown");
-  Prepare(true);
-  const std::int32_t from = ReadVariables().current_position;
+  const TicVariables variables = Prepare(true);
+  const std::int32_t from = variables.current_position;
   const double per_revolution = options_.MicrostepsPerRevolution();
   const double turns = std::fmod(angle_rad, kTwoPi) / kTwoPi;
   // Of the counts at this angle, the one nearest the current count: the
@@ -227,9 +228,19 @@ void TicRotaryStage::MoveTo(double angle_rad) {
   }
   target_count_ = static_cast<std::int32_t>(target);
   Send(EncodeSetTargetPosition(target_count_));
-  const double speed = options_.SpeedUnits() / kSpeedUnitsPerStepPerSecond;
-  move_due_ = clock_->Now() + Seconds(std::abs(target_count_ - from) / speed);
+  move_due_ = clock_->Now() + Seconds(MotionSeconds(std::abs(target_count_ - from), variables));
   move_pending_ = true;
+}
+
+double TicRotaryStage::MotionSeconds(double microsteps, const TicVariables& variables) const {
+  const double speed = options_.SpeedUnits() / kSpeedUnitsPerStepPerSecond;
+  double seconds = microsteps / speed;
+  // Ramping up and down adds at most speed / (2 accel) each (0: no ramp).
+  // Without this a slow-ramping Tic would look stalled at the end of a move.
+  for (std::uint32_t ramp : {variables.max_accel, variables.max_decel}) {
+    if (ramp > 0) seconds += speed / (2.0 * ramp / kAccelUnitsPerStepPerSecondSquared);
+  }
+  return seconds;
 }
 
 void TicRotaryStage::WaitUntilStopped(std::chrono::milliseconds timeout) {

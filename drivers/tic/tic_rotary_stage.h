@@ -94,12 +94,15 @@ class TicRotaryStage : public RotaryStage {
   void Send(const ControlSetup& setup) const;
   // Clears the command timeout and safe start an idle Tic collects; throws
   // DeviceError naming any other error, or when the position is uncertain
-  // and `need_position`.
-  void Prepare(bool need_position);
+  // and `need_position`. Returns the variables after.
+  TicVariables Prepare(bool need_position);
   void ThrowOnErrors(const TicVariables& variables);
   void ThrowIfStanding(const TicVariables& variables, StandingCount& standing);
   void KeepAliveAndSleep(std::chrono::nanoseconds deadline);
   double AngleOf(std::int32_t count) const;
+  // How long a move of `microsteps` takes at the options' speed with the
+  // Tic's acceleration and deceleration.
+  double MotionSeconds(double microsteps, const TicVariables& variables) const;
   std::string Name() const;
 
   TicStageOptions options_;
