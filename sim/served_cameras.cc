@@ -112,7 +112,12 @@ struct ServedCameras::Server {
       region.y = static_cast<int>(Register(ARV_FAKE_CAMERA_REGISTER_Y_OFFSET));
       region.width = static_cast<int>(Register(ARV_FAKE_CAMERA_REGISTER_WIDTH));
       region.height = static_cast<int>(Register(ARV_FAKE_CAMERA_REGISTER_HEIGHT));
-      const auto mode = format->channels == 1 && camera->info().channels != 1 ? drivers::PixelFormat::kMono
+      // The whole sensor is the interface's default region, {0, 0, 0, 0}.
+      const drivers::CameraInfo info = camera->info();
+      if (region.x == 0 && region.y == 0 && region.width == info.sensor_width && region.height == info.sensor_height) {
+        region = {};
+      }
+      const auto mode = format->channels == 1 && info.channels != 1 ? drivers::PixelFormat::kMono
                                                                                : drivers::PixelFormat::kNative;
       if (now.exposure_us != exposure_us) camera->SetExposure(exposure_us);
       if (now.gain_db != gain) camera->SetGain(gain);
