@@ -62,6 +62,20 @@ class PatternCamera : public Camera {
   int frames_ = 0;
 };
 
+// Pixels of `f` that differ from the pattern of the frame number it carries
+// (f covers `region` of the sensor; `channels` 1 reads channel 0).
+int WrongPixels(const Frame& f, const CameraRegion& region = {}) {
+  const int n = static_cast<int>(std::lround(f.image.pixel(0, 0)[0] * kMaxCode));
+  int wrong = 0;
+  for (int y = 0; y < f.image.height(); ++y)
+    for (int x = 0; x < f.image.width(); ++x)
+      for (int c = 0; c < f.image.channels(); ++c) {
+        if (x == 0 && y == 0 && c == 0) continue;
+        wrong += f.image.pixel(x, y)[c] != static_cast<float>(PatternCode(n, region.x + x, region.y + y, c) / kMaxCode);
+      }
+  return wrong;
+}
+
 std::unique_ptr<sim::ServedCameras> Serve(PatternCamera** camera = nullptr, const std::string& address = "127.0.0.1") {
   auto pattern = std::make_unique<PatternCamera>();
   if (camera) *camera = pattern.get();
@@ -100,15 +114,9 @@ TEST(AravisCamera, SoftwareTriggeredFramesArriveExact) {
     const Frame f = camera.Grab(std::chrono::milliseconds(2000));
     ASSERT_EQ(f.image.width(), kWidth);
     ASSERT_EQ(f.image.channels(), 3);
-    const int n = static_cast<int>(std::lround(f.image.pixel(0, 0)[0] * kMaxCode));
-    int wrong = 0;
-    for (int y = 0; y < kHeight; ++y)
-      for (int x = 0; x < kWidth; ++x)
-        for (int c = 0; c < 3; ++c)
-          wrong += f.image.pixel(x, y)[c] != static_cast<float>(PatternCode(n, x, y, c) / kMaxCode);
-    EXPECT_EQ(wrong, 0);
-    std::printf("n %d, px %f %f %f served %lu failed %lu\n", n, f.image.pixel(1,0)[0]*kMaxCode, f.image.pixel(1,0)[1]*kMaxCode, f.image.pixel(5,5)[2]*kMaxCode,
-       (unsigned long) served->frames_served(0), (unsigned long) served->frames_failed(0));
+    EXPECT_EQ(WrongPixels(f), 0);
+    EXPECT_EQ(f.bit_depth, 12);
+    EXPECT_EQ(f.sequence, static_cast<std::uint64_t>(i));
   }
 }
 
@@ -127,12 +135,140 @@ TEST(AravisCamera, KilledServerGivesDisconnectedThenReopens) {
       },
       DisconnectedError);
   const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  std::printf("disconnect detected after %.2f s\n", s);
+  // The frame timeout plus Aravis' control-channel retries (about 2.5 s).
+  EXPECT_LT(s, 5.0);
   EXPECT_THROW(camera.Reopen(), DisconnectedError);
   served = Serve();
   camera.Reopen();
   camera.Trigger();
   EXPECT_NO_THROW(camera.Grab(std::chrono::milliseconds(2000)));
+}
+
+TEST(AravisCamera, EverySettingRoundTripsToTheDevice) {
+  PatternCamera* pattern = nullptr;
+  auto served = Serve(&pattern);
+  AravisCamera camera(Options());
+  camera.SetExposure(15000.0);
+  camera.SetGain(3.0);
+  const CameraRegion region{8, 4, 32, 16};
+  camera.SetRegion(region);
+  camera.SetPixelFormat(PixelFormat::kMono);
+  camera.SetTrigger(TriggerMode::kSoftware);
+  camera.Trigger();
+  const Frame f = camera.Grab(std::chrono::milliseconds(2000));
+  // What the device behind the served camera was asked for.
+  EXPECT_EQ(pattern->last_settings.exposure_us, 15000.0);
+  EXPECT_EQ(pattern->last_settings.gain_db, 3.0);
+  EXPECT_EQ(pattern->last_settings.region.x, 8);
+  EXPECT_EQ(pattern->last_settings.region.y, 4);
+  EXPECT_EQ(pattern->last_settings.region.width, 32);
+  EXPECT_EQ(pattern->last_settings.region.height, 16);
+  EXPECT_EQ(pattern->last_settings.pixel_format, PixelFormat::kMono);
+  // And what came back.
+  EXPECT_EQ(f.image.width(), 32);
+  EXPECT_EQ(f.image.height(), 16);
+  EXPECT_EQ(f.image.channels(), 1);
+  EXPECT_EQ(f.settings.exposure_us, 15000.0);
+  EXPECT_EQ(camera.pixel_format_in_use().name, "Mono12");
+  EXPECT_GT(camera.packet_size(), 0);
+  // Out-of-range values name the range and change nothing.
+  try {
+    camera.SetGain(99.0);
+    ADD_FAILURE() << "gain 99 dB accepted";
+  } catch (const DeviceError& e) {
+    EXPECT_NE(std::string(e.what()).find("outside [0"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(camera.SetRegion({60, 0, 32, 16}), DeviceError);
+  EXPECT_EQ(camera.settings().gain_db, 3.0);
+}
+
+TEST(AravisCamera, ThousandFreeRunFramesWithoutAGap) {
+  auto served = Serve();
+  AravisCameraOptions options = Options();
+  options.frame_rate_hz = 200.0;
+  AravisCamera camera(options);
+  camera.SetTrigger(TriggerMode::kFreeRun);
+  int wrong = 0;
+  std::uint64_t first_sequence = 0;
+  int first_n = 0;
+  for (int i = 0; i < 1000; ++i) {
+    const Frame f = camera.Grab(std::chrono::milliseconds(2000));
+    const int n = static_cast<int>(std::lround(f.image.pixel(0, 0)[0] * kMaxCode));
+    if (i == 0) {
+      first_sequence = f.sequence;
+      first_n = n;
+    }
+    ASSERT_EQ(f.sequence, first_sequence + i);
+    ASSERT_EQ(n, (first_n + i) % 4096) << "frame " << i;
+    wrong += WrongPixels(f);
+  }
+  EXPECT_EQ(wrong, 0);
+  EXPECT_EQ(camera.dropped_frames(), 0u);
+}
+
+TEST(AravisCamera, UnknownDeviceIsDisconnectedNamingWhatWasFound) {
+  auto served = Serve();
+  try {
+    AravisCamera camera(Options("NO-SUCH-CAMERA"));
+    ADD_FAILURE() << "opened a camera that does not exist";
+  } catch (const DisconnectedError& e) {
+    EXPECT_NE(std::string(e.what()).find("no camera \"NO-SUCH-CAMERA\" found (found: "), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("PATTERN01"), std::string::npos) << e.what();
+  }
+  AravisCameraOptions bad = Options();
+  bad.buffer_count = 1;
+  EXPECT_THROW(AravisCamera{bad}, core::Error);
+}
+
+// Decoding, without a device: codes and layouts as PFNC defines them.
+TEST(PixelFormat, DecodesMono12LittleEndianAndCountsSaturation) {
+  const auto format = *FindPixelFormat("Mono12");
+  std::vector<std::byte> data = {std::byte{0xff}, std::byte{0x0f}, std::byte{0x00}, std::byte{0x08}};
+  core::Image image;
+  EXPECT_EQ(DecodePixels(data, 2, 1, format, image), 1u);
+  EXPECT_EQ(image.pixel(0, 0)[0], 1.0f);
+  EXPECT_EQ(image.pixel(1, 0)[0], static_cast<float>(0x800 / 4095.0));
+  EXPECT_THROW(DecodePixels({data.data(), 3}, 2, 1, format, image), core::Error);
+}
+
+TEST(PixelFormat, EncodeDecodeRoundTripsEveryCode) {
+  const auto format = *FindPixelFormat("RGB12");
+  core::Image image(4096, 1, 3);
+  for (int x = 0; x < 4096; ++x)
+    for (int c = 0; c < 3; ++c) image.pixel(x, 0)[c] = static_cast<float>(((x + c) % 4096) / 4095.0);
+  std::vector<std::byte> data(4096 * 3 * 2);
+  EncodePixels(image, format, data);
+  core::Image back;
+  DecodePixels(data, 4096, 1, format, back);
+  EXPECT_EQ(std::vector<float>(back.data(), back.data() + back.size()),
+            std::vector<float>(image.data(), image.data() + image.size()));
+}
+
+TEST(PixelFormat, BayerMosaicsDemosaicToTheirColour) {
+  // A uniform colour (R, G, B) = (200, 100, 50) mosaicked in each order
+  // must come back as that colour away from the border.
+  for (const std::string name : {"BayerRG8", "BayerGR8", "BayerGB8", "BayerBG8"}) {
+    const auto format = *FindPixelFormat(name);
+    const char* order = name.c_str() + 5;  // "RG", "GR", ...
+    auto colour_at = [&](int x, int y) -> char {
+      const char top[2] = {order[0], order[1]};
+      const char bottom[2] = {order[0] == 'G' ? (order[1] == 'R' ? 'B' : 'R') : 'G',
+                              order[1] == 'G' ? (order[0] == 'R' ? 'B' : 'R') : 'G'};
+      return y % 2 == 0 ? top[x % 2] : bottom[x % 2];
+    };
+    std::vector<std::byte> data(16 * 16);
+    for (int y = 0; y < 16; ++y)
+      for (int x = 0; x < 16; ++x) {
+        const char c = colour_at(x, y);
+        data[y * 16 + x] = std::byte(c == 'R' ? 200 : c == 'G' ? 100 : 50);
+      }
+    core::Image image;
+    DecodePixels(data, 16, 16, format, image);
+    ASSERT_EQ(image.channels(), 3);
+    EXPECT_NEAR(image.pixel(8, 8)[0], 200 / 255.0, 1e-3) << name;
+    EXPECT_NEAR(image.pixel(8, 8)[1], 100 / 255.0, 1e-3) << name;
+    EXPECT_NEAR(image.pixel(8, 8)[2], 50 / 255.0, 1e-3) << name;
+  }
 }
 
 }  // namespace
