@@ -18,6 +18,8 @@ packages=(
   # devices: GigE Vision cameras (aravis-tools ships arv-fake-gv-camera-0.8
   # for tests), USB stepper controllers, GPIO lines
   libaravis-dev aravis-tools aravis-tools-cli libusb-1.0-0-dev libgpiod-dev
+  # the served-camera tests' own network namespace (unshare, ip)
+  util-linux iproute2
   # OpenGL 4.5 core through EGL (headless, Mesa llvmpipe) and GLFW (windowed)
   libegl-dev libgl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri libglfw3-dev libepoxy-dev
   # application plumbing
