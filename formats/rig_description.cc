@@ -40,10 +40,60 @@ std::vector<double> AnglesDeg(const core::JsonFieldReader& f, std::string_view k
   return out;
 }
 
+TicDescription ParseTic(const core::JsonFieldReader& f) {
+  TicDescription t;
+  t.serial = f.String("serial");
+  if (t.serial.empty() || t.serial.size() > 64) f.Fail("serial", "expected the Tic's serial number");
+  t.product = f.Has("product") ? f.Choice("product", {"T825", "T834", "T500", "N825", "T249", "36v4"}) : "T825";
+  t.full_steps_per_revolution = static_cast<int>(f.Has("full_steps_per_revolution")
+                                                     ? f.Integer("full_steps_per_revolution", 1, 100000)
+                                                     : 200);
+  t.microsteps = static_cast<int>(f.Has("microsteps") ? f.Integer("microsteps", 1, 256) : 8);
+  if ((t.microsteps & (t.microsteps - 1)) != 0) f.Fail("microsteps", "expected a power of two, 1 to 256");
+  t.gear_ratio = f.NumberOr("gear_ratio", 1.0, 1e-3, 1e5);
+  t.home_forward = f.Has("homing") && f.Choice("homing", {"forward", "reverse"}) == "forward";
+  return t;
+}
+
+GpioLineDescription ParseGpioLine(const core::JsonFieldReader& f) {
+  f.RejectUnknownMembers({"chip", "line", "active_low"});
+  GpioLineDescription l;
+  l.chip = f.String("chip");
+  if (l.chip.empty() || l.chip.size() > 256) f.Fail("chip", "expected a GPIO chip name, path or label");
+  const auto& line = f.Raw("line");
+  if (line.is_string()) {
+    l.name = f.String("line");
+    if (l.name.empty()) f.Fail("line", "expected a line offset or name");
+  } else {
+    l.offset = static_cast<int>(f.Integer("line", 0, 4095));
+  }
+  l.active_low = f.Has("active_low") && f.Boolean("active_low");
+  return l;
+}
+
+StepDirDescription ParseStepDir(const core::JsonFieldReader& f) {
+  StepDirDescription s;
+  s.step = ParseGpioLine(f.Object("step"));
+  s.direction = ParseGpioLine(f.Object("direction"));
+  s.limit_switch = ParseGpioLine(f.Object("limit_switch"));
+  s.full_steps_per_revolution = static_cast<int>(
+      f.Has("full_steps_per_revolution") ? f.Integer("full_steps_per_revolution", 1, 100000) : 200);
+  s.microsteps = static_cast<int>(f.Has("microsteps") ? f.Integer("microsteps", 1, 256) : 16);
+  s.gear_ratio = f.NumberOr("gear_ratio", 1.0, 1e-3, 1e5);
+  s.home_forward = f.Has("homing") && f.Choice("homing", {"forward", "reverse"}) == "forward";
+  return s;
+}
+
 StageDescription ParseStage(const core::JsonFieldReader& f) {
-  f.RejectUnknownMembers({"backend", "angles_deg", "speed_deg_per_s"});
   StageDescription s;
-  s.backend = f.String("backend");
+  s.backend = f.Choice("backend", {"sim", "tic"});
+  if (s.backend == "tic") {
+    f.RejectUnknownMembers({"backend", "angles_deg", "speed_deg_per_s", "serial", "product",
+                            "full_steps_per_revolution", "microsteps", "gear_ratio", "homing"});
+    s.tic = ParseTic(f);
+  } else {
+    f.RejectUnknownMembers({"backend", "angles_deg", "speed_deg_per_s"});
+  }
   s.angles_rad = AnglesDeg(f, "angles_deg", 0.0, 360.0);
   s.speed_rad_per_s = core::RadiansFromDegrees(f.NumberOr("speed_deg_per_s", 30.0, 1e-3, 3600.0));
   return s;
@@ -127,21 +177,61 @@ RigDescription ParseRigDescription(const nlohmann::json& json, const std::filesy
   rig.light_arc = ParseStage(root.Object("light_arc"));
 
   const auto lamps = root.Object("lamps");
-  lamps.RejectUnknownMembers({"backend", "distance_mm", "elevations_deg", "intensity"});
-  rig.lamps.backend = lamps.String("backend");
+  rig.lamps.backend = lamps.Choice("backend", {"sim", "gpiod"});
+  if (rig.lamps.backend == "gpiod") {
+    lamps.RejectUnknownMembers({"backend", "distance_mm", "elevations_deg", "intensity", "lines", "sense_lines",
+                                "settle_ms"});
+  } else {
+    lamps.RejectUnknownMembers({"backend", "distance_mm", "elevations_deg", "intensity"});
+  }
   rig.lamps.distance_mm = lamps.Number("distance_mm", 1.0, 1e5);
   rig.lamps.elevations_rad = AnglesDeg(lamps, "elevations_deg", 1.0, 90.0);
+  if (rig.lamps.backend == "gpiod") {
+    for (const auto& line : lamps.Objects("lines", kMaxDevices)) rig.lamps.lines.push_back(ParseGpioLine(line));
+    if (rig.lamps.lines.size() != rig.lamps.elevations_rad.size()) {
+      lamps.Fail("lines", "expected one line per lamp (" + std::to_string(rig.lamps.elevations_rad.size()) + ")");
+    }
+    if (lamps.Has("sense_lines")) {
+      for (const auto& line : lamps.Objects("sense_lines", kMaxDevices)) {
+        rig.lamps.sense_lines.push_back(ParseGpioLine(line));
+      }
+      if (rig.lamps.sense_lines.size() != rig.lamps.lines.size()) {
+        lamps.Fail("sense_lines", "expected one sense line per lamp (" + std::to_string(rig.lamps.lines.size()) + ")");
+      }
+    }
+    rig.lamps.settle_ms = lamps.NumberOr("settle_ms", 200.0, 0.0, 600000.0);
+  }
   rig.lamps.intensity = lamps.Vector3("intensity");
   if (rig.lamps.intensity.minCoeff() < 0 || rig.lamps.intensity.maxCoeff() > kMaxLampIntensity) {
     lamps.Fail("intensity", "expected three numbers in [0, 1e+12]");
   }
 
   const auto laser = root.Object("laser");
-  laser.RejectUnknownMembers({"backend", "distance_mm", "mount_elevations_deg", "locations", "sweep_mm",
-                              "frames_per_sweep", "stripe_sigma_mm", "power", "calibration_heights_mm",
-                              "sweep_storage"});
   auto& l = rig.laser;
-  l.backend = laser.String("backend");
+  l.backend = laser.Choice("backend", {"sim", "gpiod"});
+  if (l.backend == "gpiod") {
+    laser.RejectUnknownMembers({"backend", "distance_mm", "mount_elevations_deg", "locations", "sweep_mm",
+                                "frames_per_sweep", "stripe_sigma_mm", "power", "calibration_heights_mm",
+                                "sweep_storage", "enable", "tilt"});
+  } else {
+    laser.RejectUnknownMembers({"backend", "distance_mm", "mount_elevations_deg", "locations", "sweep_mm",
+                                "frames_per_sweep", "stripe_sigma_mm", "power", "calibration_heights_mm",
+                                "sweep_storage"});
+  }
+  if (l.backend == "gpiod") {
+    l.enable = ParseGpioLine(laser.Object("enable"));
+    const auto tilt = laser.Object("tilt");
+    l.tilt_backend = tilt.Choice("backend", {"tic", "gpiod"});
+    if (l.tilt_backend == "tic") {
+      tilt.RejectUnknownMembers({"backend", "serial", "product", "full_steps_per_revolution", "microsteps",
+                                 "gear_ratio", "homing"});
+      l.tilt_tic = ParseTic(tilt);
+    } else {
+      tilt.RejectUnknownMembers({"backend", "step", "direction", "limit_switch", "full_steps_per_revolution",
+                                 "microsteps", "gear_ratio", "homing"});
+      l.tilt_stepper = ParseStepDir(tilt);
+    }
+  }
   l.distance_mm = laser.Number("distance_mm", 1.0, 1e5);
   l.mount_elevations_rad = AnglesDeg(laser, "mount_elevations_deg", 1.0, 89.0);
   for (const auto& loc : laser.Objects("locations", kMaxAngles)) {

@@ -44,14 +44,52 @@ struct CameraDescription {
   double exposure_us = 20000.0;
 };
 
+// A Pololu Tic stepper controller ("backend": "tic"), found by its serial
+// number; the steps it counts become angles through the motor's steps, the
+// microstepping and the gear.
+struct TicDescription {
+  std::string serial;
+  std::string product = "T825";  // T825, T834, T500, N825, T249, 36v4
+  int full_steps_per_revolution = 200;
+  int microsteps = 8;
+  double gear_ratio = 1.0;  // motor turns per turn of the stage
+  bool home_forward = false;
+};
+
+// One GPIO line: {"chip": "gpiochip0", "line": 17 or "LINE_NAME",
+// "active_low": false}.
+struct GpioLineDescription {
+  std::string chip;
+  int offset = -1;   // or
+  std::string name;  // the line's name on its chip
+  bool active_low = false;
+};
+
+// A stepper driver board on two GPIO lines, homed on a limit switch.
+struct StepDirDescription {
+  GpioLineDescription step;
+  GpioLineDescription direction;
+  GpioLineDescription limit_switch;
+  int full_steps_per_revolution = 200;
+  int microsteps = 16;
+  double gear_ratio = 1.0;
+  bool home_forward = false;
+};
+
 struct StageDescription {
-  std::string backend;
+  std::string backend;  // "sim" or "tic"
+  TicDescription tic;   // for "tic"
   std::vector<double> angles_rad;  // where captures are taken
   double speed_rad_per_s = 0.5;
 };
 
 struct LampBankDescription {
-  std::string backend;
+  std::string backend;  // "sim" or "gpiod"
+  // For "gpiod": one line per lamp (active: on), optional current-sense
+  // input lines, and the lamps' warm-up before a frame.
+  std::vector<GpioLineDescription> lines;
+  std::vector<GpioLineDescription> sense_lines;  // empty, or one per lamp
+  double settle_ms = 200.0;
   double distance_mm = 0.0;            // from the origin
   std::vector<double> elevations_rad;  // one lamp per elevation
   Eigen::Vector3d intensity = Eigen::Vector3d::Ones();  // radiant intensity, relative RGB
@@ -64,7 +102,13 @@ struct LaserLocation {
 };
 
 struct LaserDescription {
-  std::string backend;
+  std::string backend;  // "sim" or "gpiod"
+  // For "gpiod": the enable line, and the tilt motor on a Tic or on a
+  // step/dir driver ("tilt": {"backend": "tic", ...} or {"backend": "gpiod", ...}).
+  GpioLineDescription enable;
+  std::string tilt_backend;
+  TicDescription tilt_tic;
+  StepDirDescription tilt_stepper;
   double distance_mm = 0.0;            // from the origin to the emitter
   std::vector<double> mount_elevations_rad;
   std::vector<LaserLocation> locations;  // the sweeps taken for every turntable angle

@@ -23,6 +23,8 @@ void RegisterProcessMdfCommand(CLI::App& app);  // `process mdf`
 void RegisterEvalMdfCommand(CLI::App& app);     // `eval mdf`
 void RegisterExportBonnCommand(CLI::App& app);  // `export bonn`
 void RegisterImportBonnCommand(CLI::App& app);  // `import bonn`
+void RegisterRigCheckCommand(CLI::App& app);    // `rig check`, `devices`
+void RegisterServeCamerasCommand(CLI::App& app);  // `sim serve-cameras`
 
 // The group command `name` ("process", "eval"), created on first use so that
 // each of its subcommands registers itself independently.

@@ -50,6 +50,8 @@ int main(int argc, char** argv) {
   mesocap::RegisterCompareCommand(app);
   mesocap::RegisterViewCommand(app);
   mesocap::RegisterVerifyCommand(app);
+  mesocap::RegisterRigCheckCommand(app);
+  mesocap::RegisterServeCamerasCommand(app);
 
   // Subcommands report failure by throwing; every failure is one line on
   // stderr and a non-zero exit (1 for errors, CLI11's codes for usage).

@@ -1,0 +1,28 @@
+// The "tic" rig backend: the turntable and the light arc on Pololu Tic
+// stepper controllers over USB, as the rig description names them, and the
+// stage options a description gives (also for a laser tilt on a Tic).
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "drivers/rig.h"
+#include "drivers/tic/tic_rotary_stage.h"
+
+namespace mesocap::drivers::tic {
+
+// `id` names the stage in messages; speed is the stage's.
+TicStageOptions StageOptions(const std::string& id, const formats::TicDescription& tic, double speed_rad_per_s);
+
+// A stage on the real USB Tic the description names.
+std::unique_ptr<RotaryStage> OpenTicStage(const std::string& id, const formats::TicDescription& tic,
+                                          double speed_rad_per_s);
+
+class TicRigBackend : public RigBackend {
+ public:
+  std::string name() const override { return "tic"; }
+  std::unique_ptr<RotaryStage> MakeTurntable(const formats::RigDescription& rig) override;
+  std::unique_ptr<RotaryStage> MakeLightArc(const formats::RigDescription& rig) override;
+};
+
+}  // namespace mesocap::drivers::tic
