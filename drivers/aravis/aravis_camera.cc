@@ -86,11 +86,13 @@ void AravisCamera::Fail(const std::string& what, GError* error) const {
                            (error->code == ARV_DEVICE_ERROR_TIMEOUT || error->code == ARV_DEVICE_ERROR_NOT_CONNECTED ||
                             error->code == ARV_DEVICE_ERROR_NOT_FOUND || error->code == ARV_DEVICE_ERROR_TRANSFER_ERROR);
   if (error) g_error_free(error);
-  const std::string text = "camera " + options_.id + " (" + options_.device + "): " + what + ": " + message;
+  const std::string camera = "camera " + options_.id + " (" + options_.device + "): ";
   // A control channel that no longer answers after Aravis' retries is a
   // camera that is gone, not a slow one.
-  if (unreachable || (device_ && device_->control_lost)) throw DisconnectedError(text);
-  throw DeviceError(text);
+  if (unreachable || (device_ && device_->control_lost)) {
+    throw DisconnectedError(camera + "disconnected (no answer on the control channel): " + what + ": " + message);
+  }
+  throw DeviceError(camera + what + ": " + message);
 }
 
 void AravisCamera::Open() {
@@ -348,7 +350,7 @@ Frame AravisCamera::Grab(std::chrono::milliseconds timeout) {
       // Tell a slow frame from a camera that is gone: ask the camera.
       GError* error = nullptr;
       if (!device_->control_lost) arv_camera_get_integer(device_->camera, "Width", &error);
-      if (device_->control_lost || error != nullptr) Fail("no frame and no answer on the control channel", error);
+      if (device_->control_lost || error != nullptr) Fail("no frame", error);
       throw TimeoutError("camera " + options_.id + ": no frame within " + std::to_string(timeout.count()) + " ms");
     }
     if (arv_buffer_get_status(buffer) != ARV_BUFFER_STATUS_SUCCESS) {

@@ -9,6 +9,7 @@
 #include <fstream>
 #include <string>
 
+#include "tests/common/file_bytes.h"
 #include "tests/common/temporary_directory.h"
 
 namespace mesocap::testing {
@@ -18,11 +19,6 @@ struct CommandResult {
   std::string out;
   std::string err;
 };
-
-inline std::string Slurp(const std::filesystem::path& p) {
-  std::ifstream in(p);
-  return {std::istreambuf_iterator<char>(in), {}};
-}
 
 // `env` prefixes the command line (e.g. "env -u DISPLAY", "MESOCAP_CACHE_DIR=...").
 inline CommandResult Mesocap(const std::string& args, const std::string& env = "") {

@@ -9,7 +9,7 @@
 #include <sstream>
 #include <string>
 
-#include "tests/common/mesocap_command.h"
+#include "tests/common/file_bytes.h"
 
 namespace mesocap::testing {
 
