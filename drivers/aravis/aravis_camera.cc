@@ -18,10 +18,16 @@ namespace {
 // Aravis reports the extended 64-bit ids of GigE Vision 2 as they are.
 constexpr std::uint64_t kLargestShortFrameId = 65535;
 
+// How near the top a 16-bit id must be, and how near the bottom the next,
+// to read as a wrap rather than a late frame or a restarted count.
+constexpr std::uint64_t kWrapWindow = 1024;
+
 std::uint64_t FrameIdGap(std::uint64_t last, std::uint64_t id) {
   if (id > last) return id - last - 1;
-  if (last <= kLargestShortFrameId && id >= 1) return (kLargestShortFrameId - last) + (id - 1);  // wrapped
-  return 0;  // the camera restarted its count
+  if (last <= kLargestShortFrameId && last > kLargestShortFrameId - kWrapWindow && id >= 1 && id < kWrapWindow) {
+    return (kLargestShortFrameId - last) + (id - 1);
+  }
+  return 0;  // a late or repeated frame, or the camera restarted its count
 }
 
 std::string Formats(const std::vector<std::string>& names) {
@@ -353,20 +359,23 @@ Frame AravisCamera::Grab(std::chrono::milliseconds timeout) {
       if (device_->control_lost || error != nullptr) Fail("no frame", error);
       throw TimeoutError("camera " + options_.id + ": no frame within " + std::to_string(timeout.count()) + " ms");
     }
+    // Every GVSP packet carries its frame's id, so an incomplete frame has
+    // one too: it and the frames missing before it are dropped.
+    // (Id 0 is no id: GigE Vision never sends it.)
+    const std::uint64_t id = arv_buffer_get_frame_id(buffer);
+    if (id != 0) {
+      const std::uint64_t gap = have_frame_id_ ? FrameIdGap(last_frame_id_, id) : 0;
+      dropped_frames_ += gap;
+      next_sequence_ += gap;
+      last_frame_id_ = id;
+      have_frame_id_ = true;
+    }
     if (arv_buffer_get_status(buffer) != ARV_BUFFER_STATUS_SUCCESS) {
       ++dropped_frames_;
       ++next_sequence_;
       arv_stream_push_buffer(device_->stream, buffer);
       continue;
     }
-    const std::uint64_t id = arv_buffer_get_frame_id(buffer);
-    if (have_frame_id_) {
-      const std::uint64_t gap = FrameIdGap(last_frame_id_, id);
-      dropped_frames_ += gap;
-      next_sequence_ += gap;
-    }
-    last_frame_id_ = id;
-    have_frame_id_ = true;
 
     Frame frame;
     frame.sequence = next_sequence_++;
