@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 #include <numbers>
 
 #include "calibration/nominal_geometry.h"
@@ -125,6 +126,71 @@ TEST(RigDescription, HostileDescriptionsNameTheField) {
   j = TinyJson();
   j["sample"]["backing"]["depth_mm"] = -2;
   EXPECT_NE(ErrorOf(j).find("sample.backing.depth_mm"), std::string::npos) << ErrorOf(j);
+}
+
+// The tiny rig with every device on a real backend.
+nlohmann::json RealTinyJson() {
+  auto j = TinyJson();
+  j["cameras"][0]["backend"] = "aravis";
+  j["cameras"][0]["device"] = "Basler-a2A1920-40241234";
+  j["turntable"].update({{"backend", "tic"}, {"serial", "00123456"}, {"microsteps", 16}, {"gear_ratio", 90},
+                         {"homing", "forward"}, {"product", "36v4"}});
+  nlohmann::json lines = nlohmann::json::array();
+  for (std::size_t i = 0; i < j["lamps"]["elevations_deg"].size(); ++i) {
+    lines.push_back({{"chip", "gpiochip0"}, {"line", static_cast<int>(i) + 4}});
+  }
+  j["lamps"].update({{"backend", "gpiod"}, {"lines", lines}, {"settle_ms", 300}});
+  j["laser"].update({{"backend", "gpiod"},
+                     {"enable", {{"chip", "gpiochip0"}, {"line", "LASER_EN"}, {"active_low", true}}},
+                     {"tilt",
+                      {{"backend", "gpiod"},
+                       {"step", {{"chip", "gpiochip0"}, {"line", 20}}},
+                       {"direction", {{"chip", "gpiochip0"}, {"line", 21}}},
+                       {"limit_switch", {{"chip", "gpiochip1"}, {"line", "TILT_HOME"}}},
+                       {"gear_ratio", 50}}}});
+  return j;
+}
+
+TEST(RigDescription, RealBackendsNameTheirDevices) {
+  const RigDescription rig = ParseRigDescription(RealTinyJson(), "rig.json");
+  EXPECT_EQ(rig.cameras[0].device, "Basler-a2A1920-40241234");
+  EXPECT_EQ(rig.cameras[1].backend, "sim");  // a rig may mix backends
+  EXPECT_EQ(rig.turntable.tic.serial, "00123456");
+  EXPECT_EQ(rig.turntable.tic.microsteps, 16);
+  EXPECT_EQ(rig.turntable.tic.gear_ratio, 90.0);
+  EXPECT_TRUE(rig.turntable.tic.home_forward);
+  EXPECT_EQ(rig.turntable.tic.product, "36v4");
+  EXPECT_EQ(rig.lamps.lines.size(), rig.lamps.elevations_rad.size());
+  EXPECT_EQ(rig.lamps.lines[1].offset, 5);
+  EXPECT_EQ(rig.lamps.settle_ms, 300.0);
+  EXPECT_EQ(rig.laser.enable.name, "LASER_EN");
+  EXPECT_TRUE(rig.laser.enable.active_low);
+  EXPECT_EQ(rig.laser.tilt_backend, "gpiod");
+  EXPECT_EQ(rig.laser.tilt_stepper.limit_switch.chip, "gpiochip1");
+  EXPECT_EQ(rig.laser.tilt_stepper.gear_ratio, 50.0);
+}
+
+TEST(RigDescription, RealBackendFieldsAreValidatedByName) {
+  const std::vector<std::pair<std::function<void(nlohmann::json&)>, std::string>> cases = {
+      {[](auto& j) { j["cameras"][0].erase("device"); }, "cameras[0].device"},
+      {[](auto& j) { j["cameras"][1]["device"] = "127.0.0.2"; }, "cameras[1].device"},
+      {[](auto& j) { j["cameras"][0]["backend"] = "usb"; }, "cameras[0].backend"},
+      {[](auto& j) { j["turntable"].erase("serial"); }, "turntable.serial"},
+      {[](auto& j) { j["turntable"]["microsteps"] = 3; }, "turntable.microsteps"},
+      {[](auto& j) { j["turntable"]["product"] = "T999"; }, "turntable.product"},
+      {[](auto& j) { j["light_arc"]["serial"] = "1"; }, "light_arc.serial"},  // a "sim" stage has none
+      {[](auto& j) { j["lamps"]["lines"].erase(0); }, "lamps.lines"},
+      {[](auto& j) { j["lamps"]["lines"][0]["line"] = -1; }, "lamps.lines[0].line"},
+      {[](auto& j) { j["lamps"]["lines"][0]["chip"] = ""; }, "lamps.lines[0].chip"},
+      {[](auto& j) { j["laser"]["tilt"]["backend"] = "servo"; }, "laser.tilt.backend"},
+      {[](auto& j) { j["laser"]["tilt"].erase("step"); }, "laser.tilt.step"},
+      {[](auto& j) { j["laser"].erase("enable"); }, "laser.enable"},
+  };
+  for (const auto& [edit, field] : cases) {
+    auto j = RealTinyJson();
+    edit(j);
+    EXPECT_EQ(ErrorOf(j).substr(0, ErrorOf(j).find(" | ")), field) << ErrorOf(j);
+  }
 }
 
 // A misspelt member is an error at every level, never a silent default.
