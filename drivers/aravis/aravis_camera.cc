@@ -22,6 +22,11 @@ constexpr std::uint64_t kLargestShortFrameId = 65535;
 // to read as a wrap rather than a late frame or a restarted count.
 constexpr std::uint64_t kWrapWindow = 1024;
 
+// How long the stream waits for a frame's missing packets before it gives
+// the frame up. Aravis' default (100 ms) drops frames whose stream thread
+// was merely scheduled late on a loaded host.
+constexpr guint kFrameRetentionUs = 1000000;
+
 std::uint64_t FrameIdGap(std::uint64_t last, std::uint64_t id) {
   if (id > last) return id - last - 1;
   if (last <= kLargestShortFrameId && last > kLargestShortFrameId - kWrapWindow && id >= 1 && id < kWrapWindow) {
@@ -230,9 +235,11 @@ void AravisCamera::StartStream() {
     device_->stream = arv_camera_create_stream(cam, nullptr, nullptr, &error);
     if (device_->stream == nullptr) Fail("creating the stream", error);
     if (ARV_IS_GV_STREAM(device_->stream)) {
+      // A receive buffer sized to a whole frame, so that a stream thread
+      // scheduled late loses no packet.
       g_object_set(device_->stream, "packet-resend",
                    options_.packet_resend ? ARV_GV_STREAM_PACKET_RESEND_ALWAYS : ARV_GV_STREAM_PACKET_RESEND_NEVER,
-                   nullptr);
+                   "socket-buffer", ARV_GV_STREAM_SOCKET_BUFFER_AUTO, "frame-retention", kFrameRetentionUs, nullptr);
     }
     device_->pool.assign(options_.buffer_count, std::vector<std::byte>(payload));
     for (auto& memory : device_->pool) {

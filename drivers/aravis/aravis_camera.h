@@ -25,7 +25,9 @@ namespace mesocap::drivers::aravis {
 struct AravisCameraOptions {
   std::string id;      // the rig's camera id: names the frames and the errors
   std::string device;  // Aravis device id, serial number or IPv4 address
-  int buffer_count = 8;
+  // Frames the stream can hold while Grab is not called: 16 keep 8 cameras
+  // at 7.5 Hz from dropping on a loaded 2-core host (docs/BENCHMARKS.md).
+  int buffer_count = 16;
   // GigE Vision packet size in bytes; 0 negotiates the largest one that
   // reaches this host unfragmented.
   int packet_size = 0;
