@@ -270,35 +270,32 @@ void AravisCamera::StopStream() {
   device_->pool.clear();
 }
 
-void AravisCamera::SetExposure(double exposure_us) {
+void AravisCamera::SetBounded(const std::string& what, const std::string& unit, double value,
+                              void (*bounds)(ArvCamera*, double*, double*, GError**),
+                              void (*set)(ArvCamera*, double, GError**)) {
   GError* error = nullptr;
   double lo = 0.0, hi = 0.0;
-  arv_camera_get_exposure_time_bounds(device_->camera, &lo, &hi, &error);
-  Check("reading the exposure bounds", error);
-  if (!(exposure_us >= lo && exposure_us <= hi)) {
-    throw DeviceError("camera " + options_.id + ": exposure " + std::to_string(exposure_us) + " us is outside [" +
-                      std::to_string(lo) + ", " + std::to_string(hi) + "] us");
+  bounds(device_->camera, &lo, &hi, &error);
+  Check("reading the " + what + " bounds", error);
+  if (!(value >= lo && value <= hi)) {
+    throw DeviceError("camera " + options_.id + ": " + what + " " + std::to_string(value) + " " + unit +
+                      " is outside [" + std::to_string(lo) + ", " + std::to_string(hi) + "] " + unit);
   }
-  arv_camera_set_exposure_time(device_->camera, exposure_us, &error);
-  Check("setting the exposure time", error);
+  set(device_->camera, value, &error);
+  Check("setting the " + what, error);
+}
+
+void AravisCamera::SetExposure(double exposure_us) {
+  SetBounded("exposure", "us", exposure_us, arv_camera_get_exposure_time_bounds, arv_camera_set_exposure_time);
   settings_.exposure_us = exposure_us;
 }
 
 void AravisCamera::SetGain(double gain_db) {
-  GError* error = nullptr;
   if (!arv_camera_is_gain_available(device_->camera, nullptr)) {
     if (gain_db == 0.0) return;
     throw DeviceError("camera " + options_.id + ": has no gain control");
   }
-  double lo = 0.0, hi = 0.0;
-  arv_camera_get_gain_bounds(device_->camera, &lo, &hi, &error);
-  Check("reading the gain bounds", error);
-  if (!(gain_db >= lo && gain_db <= hi)) {
-    throw DeviceError("camera " + options_.id + ": gain " + std::to_string(gain_db) + " dB is outside [" +
-                      std::to_string(lo) + ", " + std::to_string(hi) + "] dB");
-  }
-  arv_camera_set_gain(device_->camera, gain_db, &error);
-  Check("setting the gain", error);
+  SetBounded("gain", "dB", gain_db, arv_camera_get_gain_bounds, arv_camera_set_gain);
   settings_.gain_db = gain_db;
 }
 

@@ -18,7 +18,8 @@
 #include "drivers/aravis/pixel_format.h"
 #include "drivers/camera.h"
 
-struct _GError;  // GLib's GError, without GLib in this header
+struct _GError;     // GLib's GError and Aravis' camera, without their
+struct _ArvCamera;  // headers in this one
 
 namespace mesocap::drivers::aravis {
 
@@ -80,6 +81,10 @@ class AravisCamera : public Camera {
   void StartStream();
   void StopStream();
   void ApplySettings();
+  // Sets a float feature after checking it against the device's bounds.
+  void SetBounded(const std::string& what, const std::string& unit, double value,
+                  void (*bounds)(::_ArvCamera*, double*, double*, ::_GError**),
+                  void (*set)(::_ArvCamera*, double, ::_GError**));
   // Throws the typed error for a failed Aravis call (takes `error`).
   [[noreturn]] void Fail(const std::string& what, ::_GError* error) const;
   void Check(const std::string& what, ::_GError* error) const;
