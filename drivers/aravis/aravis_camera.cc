@@ -126,6 +126,12 @@ void AravisCamera::Open() {
                                                    G_CALLBACK(Device::OnControlLost), device_.get());
 
   ArvCamera* cam = device_->camera;
+  // GigE Vision gives one application control; without it every setting
+  // would fail as if the camera were gone.
+  if (arv_camera_is_gv_device(cam) && !arv_gv_device_is_controller(ARV_GV_DEVICE(arv_camera_get_device(cam)))) {
+    throw DeviceError("camera " + options_.id + " (" + options_.device +
+                      "): another program controls it (a GigE Vision camera takes one controller); close it first");
+  }
   info_.id = options_.id;
   const char* model = arv_camera_get_model_name(cam, &error);
   Check("reading DeviceModelName", error);

@@ -97,16 +97,29 @@ AravisCameraOptions Options(const std::string& device = "127.0.0.1") {
   return o;
 }
 
-TEST(AravisCamera, DiscoveryFindsTheServedCameraAndOpensItBySerial) {
+TEST(AravisCamera, DiscoveryFindsTheServedCameraAndOpensItBySerialOrId) {
   auto served = Serve();
   const auto cameras = DiscoverCameras();
-  bool found = false;
-  for (const auto& c : cameras) found |= c.serial == "PATTERN01" && c.address == "127.0.0.1";
-  EXPECT_TRUE(found);
-  AravisCamera camera(Options("PATTERN01"));
-  EXPECT_EQ(camera.info().sensor_width, kWidth);
-  EXPECT_EQ(camera.info().bit_depth, 12);
-  EXPECT_EQ(camera.info().channels, 3);
+  std::string id;
+  for (const auto& c : cameras) {
+    if (c.serial == "PATTERN01" && c.address == "127.0.0.1") id = c.id;
+  }
+  ASSERT_FALSE(id.empty());
+  {
+    AravisCamera camera(Options("PATTERN01"));
+    EXPECT_EQ(camera.info().sensor_width, kWidth);
+    EXPECT_EQ(camera.info().bit_depth, 12);
+    EXPECT_EQ(camera.info().channels, 3);
+    // GigE Vision gives one program control at a time.
+    try {
+      AravisCamera second(Options(id));
+      ADD_FAILURE() << "two programs control one camera";
+    } catch (const DeviceError& e) {
+      EXPECT_NE(std::string(e.what()).find("another program controls it"), std::string::npos) << e.what();
+    }
+  }
+  AravisCamera by_id(Options(id));
+  EXPECT_EQ(by_id.info().model, "Aravis Fake");
 }
 
 TEST(AravisCamera, SoftwareTriggeredFramesArriveExact) {
@@ -147,6 +160,17 @@ TEST(AravisCamera, KilledServerGivesDisconnectedThenReopens) {
   camera.Reopen();
   camera.Trigger();
   EXPECT_NO_THROW(camera.Grab(std::chrono::milliseconds(2000)));
+}
+
+// No trigger, no frame: a timeout while the camera still answers, and the
+// next triggered frame comes.
+TEST(AravisCamera, NoFrameInTimeIsATimeoutNotADisconnect) {
+  auto served = Serve();
+  AravisCamera camera(Options());
+  camera.SetTrigger(TriggerMode::kSoftware);
+  EXPECT_THROW(camera.Grab(std::chrono::milliseconds(300)), TimeoutError);
+  camera.Trigger();
+  EXPECT_EQ(WrongPixels(camera.Grab(std::chrono::milliseconds(2000))), 0);
 }
 
 TEST(AravisCamera, EverySettingRoundTripsToTheDevice) {
