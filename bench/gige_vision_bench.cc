@@ -61,11 +61,14 @@ double CpuSeconds() {
   return u.ru_utime.tv_sec + u.ru_stime.tv_sec + 1e-6 * (u.ru_utime.tv_usec + u.ru_stime.tv_usec);
 }
 
-// Args: cameras, frame rate in tenths of Hz, 1 for Mono12 (laser sweeps) or 0 for RGB12 (BTF images).
-void BM_ServedCamerasFreeRun(benchmark::State& state) {
+// Args: cameras, frame rate in tenths of Hz, 1 for Mono12 (laser sweeps) or
+// 0 for RGB12 (BTF images), and 1 to trigger each frame by software at the
+// rate (as the capture runner does) or 0 to let the devices run free at it.
+void BM_ServedCameras(benchmark::State& state) {
   const int cameras = static_cast<int>(state.range(0));
   const double rate_hz = state.range(1) / 10.0;
   const bool mono = state.range(2) == 1;
+  const bool triggered = state.range(3) == 1;
   std::vector<std::unique_ptr<drivers::Camera>> still;
   std::vector<sim::ServedCameraAddress> addresses;
   for (int i = 0; i < cameras; ++i) {
@@ -82,14 +85,17 @@ void BM_ServedCamerasFreeRun(benchmark::State& state) {
     o.packet_size = 8192;  // jumbo frames, as GigE Vision cameras are run
     clients.push_back(std::make_unique<drivers::aravis::AravisCamera>(o));
     clients.back()->SetPixelFormat(mono ? drivers::PixelFormat::kMono : drivers::PixelFormat::kNative);
-    clients.back()->SetTrigger(drivers::TriggerMode::kFreeRun);
+    clients.back()->SetTrigger(triggered ? drivers::TriggerMode::kSoftware : drivers::TriggerMode::kFreeRun);
   }
+  const auto period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+      std::chrono::duration<double>(1.0 / rate_hz));
   const double seconds = 4.0;
   for (auto _ : state) {
     std::atomic<bool> stop{false};
     std::atomic<std::uint64_t> frames{0}, bytes{0};
     std::vector<std::uint64_t> dropped_before, sent_before;
     for (int i = 0; i < cameras; ++i) {
+      if (triggered) clients[i]->Trigger();
       clients[i]->Grab(std::chrono::milliseconds(5000));  // streaming before the clock starts
       dropped_before.push_back(clients[i]->dropped_frames());
       sent_before.push_back(served.frames_served(i));
@@ -99,7 +105,13 @@ void BM_ServedCamerasFreeRun(benchmark::State& state) {
     std::vector<std::thread> threads;
     for (int i = 0; i < cameras; ++i) {
       threads.emplace_back([&, i] {
+        auto next = std::chrono::steady_clock::now();
         while (!stop) {
+          if (triggered) {
+            std::this_thread::sleep_until(next);
+            next += period;
+            clients[i]->Trigger();
+          }
           const drivers::Frame f = clients[i]->Grab(std::chrono::milliseconds(5000));
           ++frames;
           bytes += f.image.size() * 2;  // 12-bit values in 16-bit containers on the wire
@@ -126,14 +138,16 @@ void BM_ServedCamerasFreeRun(benchmark::State& state) {
   }
 }
 
-BENCHMARK(BM_ServedCamerasFreeRun)
-    ->ArgNames({"cameras", "rate_x10", "mono"})
-    ->Args({1, 75, 1})
-    ->Args({1, 75, 0})
-    ->Args({1, 300, 1})
-    ->Args({1, 300, 0})
-    ->Args({8, 75, 1})
-    ->Args({8, 75, 0})
+BENCHMARK(BM_ServedCameras)
+    ->ArgNames({"cameras", "rate_x10", "mono", "triggered"})
+    ->Args({1, 75, 1, 0})
+    ->Args({1, 75, 0, 0})
+    ->Args({1, 300, 1, 0})
+    ->Args({1, 300, 0, 0})
+    ->Args({8, 75, 1, 0})
+    ->Args({8, 75, 0, 0})
+    ->Args({8, 75, 1, 1})
+    ->Args({8, 75, 0, 1})
     ->Iterations(1)
     ->UseManualTime()
     ->Unit(benchmark::kSecond);

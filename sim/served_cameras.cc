@@ -22,9 +22,9 @@ using drivers::aravis::PixelFormatTraits;
 
 // GigE Vision bootstrap registers hold a 16-byte serial number string.
 constexpr std::size_t kMaxSerialLength = 15;
-// A served camera answers a software trigger within a millisecond instead
+// A served camera answers a software trigger within 5 ms instead
 // of the fake device's default 25 Hz trigger clock.
-constexpr double kTriggerPollHz = 1000.0;
+constexpr double kTriggerPollHz = 200.0;
 
 bool IsIpv4Address(const std::string& s) {
   in_addr address{};
