@@ -8,7 +8,7 @@ packages=(
   # toolchain
   build-essential cmake ninja-build pkg-config git
   # numerics and vision
-  libeigen3-dev libceres-dev libopencv-dev libtbb-dev
+  libeigen3-dev libceres-dev libopencv-dev libopencv-contrib-dev libtbb-dev
   # content checksums of captured and processed files
   libxxhash-dev
   # images

@@ -1,0 +1,601 @@
+#include "calibration/camera_calibration.h"
+
+#include <algorithm>
+#include <array>
+#include <ceres/ceres.h>
+#include <ceres/manifold.h>
+#include <ceres/rotation.h>
+#include <cmath>
+#include <map>
+#include <opencv2/calib3d.hpp>
+#include <queue>
+#include <sstream>
+
+namespace mesocap::calibration {
+namespace {
+
+constexpr int kIntrinsicCount = 9;  // fx fy cx cy k1 k2 p1 p2 k3
+constexpr const char* kIntrinsicNames[kIntrinsicCount] = {"fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3"};
+constexpr double kRadToDeg = 180.0 / 3.14159265358979323846;
+
+// OpenCV's pinhole and Brown-Conrady model (the same as cv::projectPoints).
+template <typename T>
+void ProjectOpenCv(const T* k, const T* p, T* uv) {
+  const T x = p[0] / p[2], y = p[1] / p[2];
+  const T r2 = x * x + y * y;
+  const T radial = T(1) + r2 * (k[4] + r2 * (k[5] + r2 * k[8]));
+  const T xd = x * radial + T(2) * k[6] * x * y + k[7] * (r2 + T(2) * x * x);
+  const T yd = y * radial + k[6] * (r2 + T(2) * y * y) + T(2) * k[7] * x * y;
+  uv[0] = k[0] * xd + k[2];
+  uv[1] = k[1] * yd + k[3];
+}
+
+// A pose parent <- child as a unit quaternion (w x y z, Ceres' order, on
+// Ceres' QuaternionManifold whose tangent is a rotation vector about the
+// parent's axes: the format's uncertainty convention) and a translation.
+struct Pose {
+  std::array<double, 4> q{1, 0, 0, 0};
+  std::array<double, 3> t{0, 0, 0};
+};
+
+// One detected corner: the board point through the board's pose at its
+// instant (reference <- board) and the camera's pose (reference <- camera)
+// into the camera, projected; the residual is in pixels.
+struct CornerResidual {
+  Eigen::Vector2d observed;
+  Eigen::Vector3d board_point;
+
+  template <typename T>
+  bool operator()(const T* k, const T* camera_q, const T* camera_c, const T* board_q, const T* board_t,
+                  T* residual) const {
+    const T point[3] = {T(board_point.x()), T(board_point.y()), T(board_point.z())};
+    T in_reference[3];
+    ceres::QuaternionRotatePoint(board_q, point, in_reference);
+    for (int i = 0; i < 3; ++i) in_reference[i] += board_t[i] - camera_c[i];
+    const T inverse[4] = {camera_q[0], -camera_q[1], -camera_q[2], -camera_q[3]};
+    T in_camera[3];
+    ceres::QuaternionRotatePoint(inverse, in_reference, in_camera);
+    T uv[2];
+    ProjectOpenCv(k, in_camera, uv);
+    residual[0] = uv[0] - T(observed.x());
+    residual[1] = uv[1] - T(observed.y());
+    return true;
+  }
+};
+
+struct Observation {
+  int camera = 0;
+  int instant = 0;
+  Eigen::Vector2d pixel;
+  Eigen::Vector3d board_point;
+  bool inlier = true;
+};
+
+Pose FromRvecTvec(const cv::Vec3d& rvec, const cv::Vec3d& tvec) {
+  double aa[3] = {rvec[0], rvec[1], rvec[2]};
+  Pose pose;
+  ceres::AngleAxisToQuaternion(aa, pose.q.data());
+  pose.t = {tvec[0], tvec[1], tvec[2]};
+  return pose;
+}
+
+Eigen::Matrix3d Rotation(const Pose& p) {
+  double r[9];
+  ceres::QuaternionToRotation(p.q.data(), r);
+  Eigen::Matrix3d m;
+  m << r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8];
+  return m;
+}
+
+Pose FromMatrix(const Eigen::Matrix3d& rotation, const Eigen::Vector3d& translation) {
+  const Eigen::Matrix<double, 3, 3, Eigen::RowMajor> r = rotation;
+  Pose pose;
+  ceres::RotationMatrixToQuaternion(ceres::RowMajorAdapter3x3(r.data()), pose.q.data());
+  pose.t = {translation.x(), translation.y(), translation.z()};
+  return pose;
+}
+
+Pose Compose(const Pose& a, const Pose& b) {  // a * b
+  const Eigen::Vector3d t = Rotation(a) * Eigen::Vector3d(b.t[0], b.t[1], b.t[2]) + Eigen::Vector3d(a.t[0], a.t[1], a.t[2]);
+  return FromMatrix(Rotation(a) * Rotation(b), t);
+}
+
+Pose Inverse(const Pose& a) {
+  const Eigen::Matrix3d r = Rotation(a).transpose();
+  return FromMatrix(r, -r * Eigen::Vector3d(a.t[0], a.t[1], a.t[2]));
+}
+
+double Median(std::vector<double> values) {
+  if (values.empty()) return std::nan("");
+  const auto mid = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
+  std::nth_element(values.begin(), mid, values.end());
+  return *mid;
+}
+
+std::string Fixed(double value, int digits) {
+  std::ostringstream text;
+  text.setf(std::ios::fixed);
+  text.precision(digits);
+  text << value;
+  return text.str();
+}
+
+// The problem's unknowns: per camera its intrinsics and reference <- camera
+// (the first camera is the reference), per instant reference <- board.
+struct Unknowns {
+  std::vector<std::array<double, kIntrinsicCount>> intrinsics;
+  std::vector<Pose> cameras;
+  std::vector<Pose> boards;
+  std::vector<bool> board_seen;
+};
+
+struct SolveSummary {
+  double cost = 0;  // half the sum of squared residuals
+  int residuals = 0;
+  int tangent_parameters = 0;
+};
+
+class BoardProblem {
+ public:
+  BoardProblem(Unknowns* unknowns, const std::vector<Observation>& observations, double huber_px)
+      : unknowns_(unknowns) {
+    ceres::Problem::Options problem_options;
+    problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    problem_options.loss_function_ownership = ceres::TAKE_OWNERSHIP;
+    problem_ = std::make_unique<ceres::Problem>(problem_options);
+    for (const Observation& o : observations) {
+      if (!o.inlier) continue;
+      auto* cost = new ceres::AutoDiffCostFunction<CornerResidual, 2, kIntrinsicCount, 4, 3, 4, 3>(
+          new CornerResidual{o.pixel, o.board_point});
+      ceres::LossFunction* loss = huber_px > 0 ? new ceres::HuberLoss(huber_px) : nullptr;
+      Pose& camera = unknowns_->cameras[static_cast<std::size_t>(o.camera)];
+      Pose& board = unknowns_->boards[static_cast<std::size_t>(o.instant)];
+      problem_->AddResidualBlock(cost, loss, unknowns_->intrinsics[static_cast<std::size_t>(o.camera)].data(),
+                                 camera.q.data(), camera.t.data(), board.q.data(), board.t.data());
+      summary_.residuals += 2;
+    }
+    for (std::size_t c = 0; c < unknowns_->cameras.size(); ++c) {
+      Pose& camera = unknowns_->cameras[c];
+      if (!problem_->HasParameterBlock(camera.q.data())) continue;
+      problem_->SetManifold(camera.q.data(), &quaternion_);
+      if (c == 0) {  // the reference frame: the gauge
+        problem_->SetParameterBlockConstant(camera.q.data());
+        problem_->SetParameterBlockConstant(camera.t.data());
+      } else {
+        summary_.tangent_parameters += 6;
+      }
+      summary_.tangent_parameters += kIntrinsicCount;
+    }
+    for (Pose& board : unknowns_->boards) {
+      if (!problem_->HasParameterBlock(board.q.data())) continue;
+      problem_->SetManifold(board.q.data(), &quaternion_);
+      summary_.tangent_parameters += 6;
+    }
+  }
+
+  SolveSummary Solve() {
+    ceres::Solver::Options options;
+    options.linear_solver_type = ceres::DENSE_SCHUR;
+    options.max_num_iterations = 200;
+    options.function_tolerance = 1e-12;
+    options.parameter_tolerance = 1e-12;
+    options.num_threads = 2;
+    ceres::Solver::Summary summary;
+    ceres::Solve(options, problem_.get(), &summary);
+    summary_.cost = summary.final_cost;
+    return summary_;
+  }
+
+  ceres::Problem& problem() { return *problem_; }
+
+ private:
+  Unknowns* unknowns_;
+  ceres::QuaternionManifold quaternion_;
+  std::unique_ptr<ceres::Problem> problem_;
+  SolveSummary summary_;
+};
+
+Eigen::Vector2d Residual(const Unknowns& u, const Observation& o) {
+  const CornerResidual residual{o.pixel, o.board_point};
+  const Pose& camera = u.cameras[static_cast<std::size_t>(o.camera)];
+  const Pose& board = u.boards[static_cast<std::size_t>(o.instant)];
+  double r[2];
+  residual(u.intrinsics[static_cast<std::size_t>(o.camera)].data(), camera.q.data(), camera.t.data(), board.q.data(),
+           board.t.data(), r);
+  return {r[0], r[1]};
+}
+
+Eigen::Vector3d InCamera(const Unknowns& u, const Observation& o) {
+  const Pose& camera = u.cameras[static_cast<std::size_t>(o.camera)];
+  const Pose& board = u.boards[static_cast<std::size_t>(o.instant)];
+  const Eigen::Vector3d in_reference =
+      Rotation(board) * o.board_point + Eigen::Vector3d(board.t[0], board.t[1], board.t[2]);
+  return Rotation(camera).transpose() * (in_reference - Eigen::Vector3d(camera.t[0], camera.t[1], camera.t[2]));
+}
+
+formats::CameraCalibration ToCalibration(const CameraViews& views, const std::array<double, kIntrinsicCount>& k,
+                                         const Pose& pose) {
+  formats::CameraCalibration camera;
+  camera.id = views.id;
+  camera.width = views.width;
+  camera.height = views.height;
+  camera.intrinsics.fx = k[0];
+  camera.intrinsics.fy = k[1];
+  camera.intrinsics.cx = k[2];
+  camera.intrinsics.cy = k[3];
+  camera.distortion.k1 = k[4];
+  camera.distortion.k2 = k[5];
+  camera.distortion.p1 = k[6];
+  camera.distortion.p2 = k[7];
+  camera.distortion.k3 = k[8];
+  camera.pose.transform.parent_frame = "world";
+  camera.pose.transform.child_frame = "camera:" + views.id;
+  camera.pose.transform.rotation = Rotation(pose);
+  camera.pose.transform.translation = Eigen::Vector3d(pose.t[0], pose.t[1], pose.t[2]);
+  return camera;
+}
+
+std::array<double, kIntrinsicCount> IntrinsicArray(const formats::CameraCalibration& c) {
+  return {c.intrinsics.fx, c.intrinsics.fy, c.intrinsics.cx, c.intrinsics.cy, c.distortion.k1,
+          c.distortion.k2, c.distortion.p1, c.distortion.p2, c.distortion.k3};
+}
+
+}  // namespace
+
+Eigen::Vector2d ProjectInCamera(const formats::CameraCalibration& camera, const Eigen::Vector3d& point) {
+  const std::array<double, kIntrinsicCount> k = IntrinsicArray(camera);
+  double uv[2];
+  ProjectOpenCv(k.data(), point.data(), uv);
+  return {uv[0], uv[1]};
+}
+
+Eigen::Vector3d UnprojectAtDepth(const formats::CameraCalibration& camera, const Eigen::Vector2d& pixel, double z) {
+  const cv::Matx33d matrix(camera.intrinsics.fx, 0, camera.intrinsics.cx, 0, camera.intrinsics.fy,
+                           camera.intrinsics.cy, 0, 0, 1);
+  const cv::Vec<double, 5> distortion(camera.distortion.k1, camera.distortion.k2, camera.distortion.p1,
+                                      camera.distortion.p2, camera.distortion.k3);
+  std::vector<cv::Point2d> in{{pixel.x(), pixel.y()}}, out;
+  cv::undistortPoints(in, out, matrix, distortion, cv::noArray(), cv::noArray(),
+                      cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 100, 1e-12));
+  return Eigen::Vector3d(out[0].x * z, out[0].y * z, z);
+}
+
+core::CheckResult CameraCalibrationOptions::Check() const {
+  if (min_corners_per_view < 4 || min_corners_per_view > 100000) return "min corners per view must be 4..100000";
+  if (min_views_per_camera < 1 || min_views_per_camera > 100000) return "min views per camera must be 1..100000";
+  if (!(huber_px > 0 && huber_px <= 100)) return "Huber scale must be in (0, 100] px";
+  if (!(outlier_corner_sigmas >= 2 && outlier_corner_sigmas <= 100)) return "outlier corner sigmas must be 2..100";
+  if (!(outlier_image_ratio >= 1.5 && outlier_image_ratio <= 100)) return "outlier image ratio must be 1.5..100";
+  if (!(max_edge_width_px > 0)) return "max edge width must be positive";
+  if (!(max_saturated_fraction >= 0 && max_saturated_fraction <= 1)) return "max saturated fraction must be in [0, 1]";
+  if (!(max_rms_px > 0)) return "max RMS must be positive";
+  if (!(max_outlier_fraction > 0 && max_outlier_fraction < 1)) return "max outlier fraction must be in (0, 1)";
+  if (!(warn_relative_focal_sigma > 0)) return "focal sigma warning level must be positive";
+  return {};
+}
+
+CameraCalibrationResult CalibrateCameras(const CalibrationBoard& board, const std::vector<CameraViews>& cameras,
+                                         const CameraCalibrationOptions& options) {
+  if (const core::CheckResult problem = options.Check(); !problem.empty()) {
+    throw core::Error("camera calibration: " + problem);
+  }
+  if (cameras.empty()) throw core::Error("camera calibration: no camera");
+  const std::size_t instants = cameras[0].detections.size();
+  for (const CameraViews& c : cameras) {
+    if (c.detections.size() != instants || c.names.size() != instants ||
+        (!c.qualities.empty() && c.qualities.size() != instants)) {
+      throw core::Error("camera calibration: camera " + core::Quoted(c.id) + " has " +
+                        std::to_string(c.detections.size()) + " photos, expected " + std::to_string(instants));
+    }
+  }
+  CameraCalibrationResult result;
+  result.cameras.resize(cameras.size());
+
+  // Which photos are usable, and why the others are not.
+  std::vector<std::vector<bool>> usable(cameras.size(), std::vector<bool>(instants, false));
+  for (std::size_t c = 0; c < cameras.size(); ++c) {
+    const CameraViews& views = cameras[c];
+    CalibratedCamera& out = result.cameras[c];
+    for (std::size_t i = 0; i < instants; ++i) {
+      const BoardDetection& d = views.detections[i];
+      if (d.empty()) {
+        out.unused_images.push_back({views.names[i], "board not found"});
+        continue;
+      }
+      if (static_cast<int>(d.size()) < options.min_corners_per_view) {
+        out.unused_images.push_back({views.names[i], "only " + std::to_string(d.size()) + " corners found (" +
+                                                         std::to_string(options.min_corners_per_view) + " needed)"});
+        continue;
+      }
+      if (!views.qualities.empty()) {
+        const DetectionQuality& q = views.qualities[i];
+        if (q.saturated_fraction > options.max_saturated_fraction) {
+          out.outlier_images.push_back({views.names[i], "saturated: " + Fixed(100 * q.saturated_fraction, 1) +
+                                                            " % of the board's pixels at full scale"});
+          continue;
+        }
+        if (q.edge_width_px > options.max_edge_width_px) {
+          out.outlier_images.push_back({views.names[i], "blurred: the board's edges are " +
+                                                            Fixed(q.edge_width_px, 1) + " px wide (at most " +
+                                                            Fixed(options.max_edge_width_px, 1) + ")"});
+          continue;
+        }
+      }
+      usable[c][i] = true;
+    }
+    const int count = static_cast<int>(std::count(usable[c].begin(), usable[c].end(), true));
+    if (count == 0) {
+      throw core::Error("camera " + core::Quoted(views.id) + " never sees the board " + core::Quoted(board.Spec()) +
+                        " in its " + std::to_string(instants) + " photos (no usable view)");
+    }
+    if (count < options.min_views_per_camera) {
+      throw core::Error("camera " + core::Quoted(views.id) + " sees the board in only " + std::to_string(count) +
+                        " usable photos; at least " + std::to_string(options.min_views_per_camera) + " are needed");
+    }
+  }
+
+  // Zhang's method per camera: intrinsics and each view's camera <- board.
+  Unknowns unknowns;
+  unknowns.intrinsics.resize(cameras.size());
+  unknowns.cameras.resize(cameras.size());
+  unknowns.boards.resize(instants);
+  unknowns.board_seen.assign(instants, false);
+  std::vector<std::map<std::size_t, Pose>> camera_from_board(cameras.size());
+  for (std::size_t c = 0; c < cameras.size(); ++c) {
+    std::vector<std::vector<cv::Point3f>> object_points;
+    std::vector<std::vector<cv::Point2f>> image_points;
+    std::vector<std::size_t> views;
+    for (std::size_t i = 0; i < instants; ++i) {
+      if (!usable[c][i]) continue;
+      const BoardDetection& d = cameras[c].detections[i];
+      object_points.emplace_back();
+      image_points.emplace_back();
+      for (std::size_t j = 0; j < d.size(); ++j) {
+        const Eigen::Vector3d p = board.CornerPosition(d.ids[j]);
+        object_points.back().emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()), 0.0f);
+        image_points.back().emplace_back(static_cast<float>(d.pixels[j].x()), static_cast<float>(d.pixels[j].y()));
+      }
+      views.push_back(i);
+    }
+    cv::Mat matrix, distortion;
+    std::vector<cv::Mat> rvecs, tvecs;
+    try {
+      cv::calibrateCamera(object_points, image_points, cv::Size(cameras[c].width, cameras[c].height), matrix,
+                          distortion, rvecs, tvecs, cv::CALIB_FIX_K3);
+    } catch (const cv::Exception& e) {
+      throw core::Error("camera " + core::Quoted(cameras[c].id) + ": Zhang's initial calibration failed: " +
+                        core::Cut(e.what()));
+    }
+    unknowns.intrinsics[c] = {matrix.at<double>(0, 0), matrix.at<double>(1, 1), matrix.at<double>(0, 2),
+                              matrix.at<double>(1, 2), distortion.at<double>(0), distortion.at<double>(1),
+                              distortion.at<double>(2), distortion.at<double>(3), 0.0};
+    for (std::size_t v = 0; v < views.size(); ++v) {
+      camera_from_board[c][views[v]] = FromRvecTvec(rvecs[v], tvecs[v]);
+    }
+  }
+
+  // Cameras' poses in the first camera's frame, through shared instants
+  // (breadth first, each link through the instant where both see the most).
+  std::vector<bool> placed(cameras.size(), false);
+  placed[0] = true;
+  std::queue<std::size_t> frontier;
+  frontier.push(0);
+  while (!frontier.empty()) {
+    const std::size_t known = frontier.front();
+    frontier.pop();
+    for (std::size_t c = 0; c < cameras.size(); ++c) {
+      if (placed[c]) continue;
+      std::size_t best = instants, best_corners = 0;
+      for (const auto& [i, pose] : camera_from_board[c]) {
+        if (!camera_from_board[known].count(i)) continue;
+        const std::size_t corners = std::min(cameras[c].detections[i].size(), cameras[known].detections[i].size());
+        if (corners > best_corners) best = i, best_corners = corners;
+      }
+      if (best == instants) continue;
+      // reference <- c = (reference <- known)(known <- board)(board <- c)
+      unknowns.cameras[c] = Compose(Compose(unknowns.cameras[known], camera_from_board[known][best]),
+                                    Inverse(camera_from_board[c][best]));
+      placed[c] = true;
+      frontier.push(c);
+    }
+  }
+  for (std::size_t c = 0; c < cameras.size(); ++c) {
+    if (!placed[c]) {
+      throw core::Error("camera " + core::Quoted(cameras[c].id) + " shares no photo of the board with camera " +
+                        core::Quoted(cameras[0].id) + " or any camera linked to it: its pose cannot be found");
+    }
+  }
+  for (std::size_t i = 0; i < instants; ++i) {
+    for (std::size_t c = 0; c < cameras.size(); ++c) {
+      const auto found = camera_from_board[c].find(i);
+      if (found == camera_from_board[c].end()) continue;
+      unknowns.boards[i] = Compose(unknowns.cameras[c], found->second);
+      unknowns.board_seen[i] = true;
+      break;
+    }
+  }
+
+  std::vector<Observation> observations;
+  for (std::size_t c = 0; c < cameras.size(); ++c) {
+    for (std::size_t i = 0; i < instants; ++i) {
+      if (!usable[c][i]) continue;
+      const BoardDetection& d = cameras[c].detections[i];
+      for (std::size_t j = 0; j < d.size(); ++j) {
+        observations.push_back({static_cast<int>(c), static_cast<int>(i), d.pixels[j], board.CornerPosition(d.ids[j])});
+      }
+    }
+  }
+
+  // Robust solve, then outliers: corners far beyond the rest, then photos
+  // that fit much worse than the median photo.
+  BoardProblem(&unknowns, observations, options.huber_px).Solve();
+  std::vector<double> squared;
+  for (const Observation& o : observations) squared.push_back(Residual(unknowns, o).squaredNorm());
+  // A 2D residual with per-coordinate sigma s has median squared norm
+  // 2 ln 2 s^2.
+  const double robust_sigma = std::sqrt(Median(squared) / (2 * std::log(2.0)));
+  const double corner_limit = std::max(options.outlier_corner_sigmas * robust_sigma, 0.25);
+  int outliers = 0;
+  for (std::size_t n = 0; n < observations.size(); ++n) {
+    if (std::sqrt(squared[n]) > corner_limit) {
+      observations[n].inlier = false;
+      ++outliers;
+      ++result.cameras[static_cast<std::size_t>(observations[n].camera)].outlier_corners;
+    }
+  }
+  const auto fit_text = [&](double rms) {
+    return "reprojection RMS " + Fixed(rms, 2) + " px over " + std::to_string(observations.size()) + " corners";
+  };
+  if (outliers > options.max_outlier_fraction * static_cast<double>(observations.size())) {
+    double sum = 0;
+    for (const double s : squared) sum += s;
+    throw core::Error("the board " + core::Quoted(board.Spec()) + " does not fit the photos: " +
+                      fit_text(std::sqrt(sum / static_cast<double>(observations.size()))) + ", " +
+                      std::to_string(outliers) + " of them beyond " + Fixed(corner_limit, 2) +
+                      " px; check the board's size, squares and dictionary");
+  }
+  std::map<std::pair<int, int>, std::pair<double, int>> per_photo;  // (camera, instant) -> (sum, count)
+  for (std::size_t n = 0; n < observations.size(); ++n) {
+    if (!observations[n].inlier) continue;
+    auto& entry = per_photo[{observations[n].camera, observations[n].instant}];
+    entry.first += squared[n];
+    entry.second += 1;
+  }
+  std::vector<double> photo_rms;
+  for (const auto& [key, entry] : per_photo) photo_rms.push_back(std::sqrt(entry.first / entry.second));
+  const double median_photo_rms = Median(photo_rms);
+  for (const auto& [key, entry] : per_photo) {
+    const double rms = std::sqrt(entry.first / entry.second);
+    if (rms <= options.outlier_image_ratio * median_photo_rms || rms <= 0.5) continue;
+    const auto [c, i] = key;
+    usable[static_cast<std::size_t>(c)][static_cast<std::size_t>(i)] = false;
+    result.cameras[static_cast<std::size_t>(c)].outlier_images.push_back(
+        {cameras[static_cast<std::size_t>(c)].names[static_cast<std::size_t>(i)],
+         "reprojection RMS " + Fixed(rms, 2) + " px, " + Fixed(rms / median_photo_rms, 1) +
+             " times the median photo's"});
+    for (Observation& o : observations) {
+      if (o.camera == c && o.instant == i) o.inlier = false;
+    }
+  }
+  for (std::size_t c = 0; c < cameras.size(); ++c) {
+    const int count = static_cast<int>(std::count(usable[c].begin(), usable[c].end(), true));
+    if (count < options.min_views_per_camera) {
+      throw core::Error("camera " + core::Quoted(cameras[c].id) + " keeps only " + std::to_string(count) +
+                        " photos after outliers are set aside; at least " +
+                        std::to_string(options.min_views_per_camera) + " are needed");
+    }
+  }
+
+  // Least squares on the inliers, and its covariance.
+  BoardProblem final_problem(&unknowns, observations, 0.0);
+  const SolveSummary solved = final_problem.Solve();
+  const int dof = solved.residuals - solved.tangent_parameters;
+  if (dof <= 0) {
+    throw core::Error("camera calibration: " + std::to_string(solved.residuals / 2) + " corners cannot determine " +
+                      std::to_string(solved.tangent_parameters) + " parameters; take more photos");
+  }
+  const double variance = 2 * solved.cost / dof;
+  result.residual_sigma_px = std::sqrt(variance);
+
+  ceres::Covariance::Options covariance_options;
+  covariance_options.algorithm_type = solved.tangent_parameters <= 2000 ? ceres::DENSE_SVD : ceres::SPARSE_QR;
+  covariance_options.num_threads = 2;
+  ceres::Covariance covariance(covariance_options);
+  std::vector<std::pair<const double*, const double*>> blocks;
+  for (std::size_t c = 0; c < cameras.size(); ++c) {
+    blocks.emplace_back(unknowns.intrinsics[c].data(), unknowns.intrinsics[c].data());
+    if (c == 0) continue;
+    blocks.emplace_back(unknowns.cameras[c].q.data(), unknowns.cameras[c].q.data());
+    blocks.emplace_back(unknowns.cameras[c].t.data(), unknowns.cameras[c].t.data());
+  }
+  const bool have_covariance = covariance.Compute(blocks, &final_problem.problem());
+  if (!have_covariance) {
+    result.warnings.push_back(
+        "the parameters' covariance could not be computed (the problem is rank deficient: some parameters are not "
+        "observable from these photos); no uncertainty is reported");
+  }
+
+  for (std::size_t c = 0; c < cameras.size(); ++c) {
+    CalibratedCamera& out = result.cameras[c];
+    out.calibration = ToCalibration(cameras[c], unknowns.intrinsics[c], unknowns.cameras[c]);
+    double sum = 0;
+    std::vector<double> depths;
+    for (const Observation& o : observations) {
+      if (!o.inlier || o.camera != static_cast<int>(c)) continue;
+      sum += Residual(unknowns, o).squaredNorm();
+      depths.push_back(InCamera(unknowns, o).z());
+      ++out.corners_used;
+    }
+    out.images_used = static_cast<int>(std::count(usable[c].begin(), usable[c].end(), true));
+    out.rms_px = std::sqrt(sum / std::max(1, out.corners_used));
+    out.working_distance_mm = Median(depths);
+    if (!have_covariance) continue;
+    Eigen::Matrix<double, kIntrinsicCount, kIntrinsicCount, Eigen::RowMajor> k_cov;
+    covariance.GetCovarianceBlock(unknowns.intrinsics[c].data(), unknowns.intrinsics[c].data(), k_cov.data());
+    k_cov *= variance;
+    const Eigen::Matrix<double, kIntrinsicCount, 1> k_std = k_cov.diagonal().cwiseSqrt();
+    formats::CameraCalibration& cal = out.calibration;
+    cal.intrinsics.uncertainty = {k_std[0], k_std[1], k_std[2], k_std[3]};
+    cal.distortion.uncertainty = {k_std[4], k_std[5], k_std[6], k_std[7], k_std[8]};
+    // The image of the point on the optical axis through the image centre at
+    // the working distance: how far it may move with the intrinsics
+    // (numerical Jacobian; the point held fixed in the camera).
+    const Eigen::Vector3d point = UnprojectAtDepth(
+        cal, Eigen::Vector2d((cal.width - 1) / 2.0, (cal.height - 1) / 2.0), out.working_distance_mm);
+    Eigen::Matrix<double, 2, kIntrinsicCount> jacobian;
+    for (int p = 0; p < kIntrinsicCount; ++p) {
+      std::array<double, kIntrinsicCount> plus = unknowns.intrinsics[c], minus = plus;
+      const double h = 1e-6 * std::max(1.0, std::abs(plus[static_cast<std::size_t>(p)]));
+      plus[static_cast<std::size_t>(p)] += h;
+      minus[static_cast<std::size_t>(p)] -= h;
+      double a[2], b[2];
+      ProjectOpenCv(plus.data(), point.data(), a);
+      ProjectOpenCv(minus.data(), point.data(), b);
+      jacobian(0, p) = (a[0] - b[0]) / (2 * h);
+      jacobian(1, p) = (a[1] - b[1]) / (2 * h);
+    }
+    const Eigen::Matrix2d projected = jacobian * k_cov * jacobian.transpose();
+    out.projection_uncertainty_px = std::sqrt(Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(projected).eigenvalues().maxCoeff());
+    for (const int f : {0, 1}) {
+      const double relative = k_std[f] / unknowns.intrinsics[c][static_cast<std::size_t>(f)];
+      if (relative > options.warn_relative_focal_sigma) {
+        result.warnings.push_back("camera " + core::Quoted(cameras[c].id) + ": focal length poorly observed (" +
+                                  kIntrinsicNames[f] + " " + Fixed(unknowns.intrinsics[c][static_cast<std::size_t>(f)], 1) +
+                                  " +- " + Fixed(k_std[f], 1) + " px, " + Fixed(100 * relative, 2) +
+                                  " %): tilt the board more between photos");
+        break;
+      }
+    }
+    if (c == 0) continue;
+    Eigen::Matrix<double, 3, 3, Eigen::RowMajor> r_cov, t_cov;
+    covariance.GetCovarianceBlockInTangentSpace(unknowns.cameras[c].q.data(), unknowns.cameras[c].q.data(),
+                                                r_cov.data());
+    covariance.GetCovarianceBlock(unknowns.cameras[c].t.data(), unknowns.cameras[c].t.data(), t_cov.data());
+    cal.pose.uncertainty.rotation_rad = (variance * r_cov.diagonal()).cwiseSqrt();
+    cal.pose.uncertainty.translation_mm = (variance * t_cov.diagonal()).cwiseSqrt();
+  }
+  for (std::size_t c = 1; c < cameras.size(); ++c) {
+    const formats::CameraCalibration& cal = result.cameras[c].calibration;
+    RelativePose relative;
+    relative.from = cameras[0].id;
+    relative.to = cameras[c].id;
+    double aa[3];
+    ceres::QuaternionToAngleAxis(unknowns.cameras[c].q.data(), aa);
+    relative.rotation_deg = Eigen::Vector3d(aa[0], aa[1], aa[2]) * kRadToDeg;
+    relative.translation_mm = cal.pose.transform.translation;
+    if (cal.pose.uncertainty.rotation_rad) relative.rotation_std_deg = *cal.pose.uncertainty.rotation_rad * kRadToDeg;
+    if (cal.pose.uncertainty.translation_mm) relative.translation_std_mm = *cal.pose.uncertainty.translation_mm;
+    result.relative_poses.push_back(relative);
+  }
+  for (const CalibratedCamera& c : result.cameras) {
+    if (c.rms_px > options.max_rms_px) {
+      throw core::Error("the board " + core::Quoted(board.Spec()) + " does not fit the photos of camera " +
+                        core::Quoted(c.calibration.id) + ": reprojection RMS " + Fixed(c.rms_px, 2) + " px over " +
+                        std::to_string(c.corners_used) + " corners (at most " + Fixed(options.max_rms_px, 2) +
+                        " px expected); check the board's size, squares and dictionary");
+    }
+  }
+  return result;
+}
+
+}  // namespace mesocap::calibration
