@@ -1,0 +1,125 @@
+#include "calibration/calibration_report.h"
+
+#include <cstdarg>
+#include <cstdio>
+#include <sstream>
+
+namespace mesocap::calibration {
+namespace {
+
+nlohmann::json OrNull(const std::optional<double>& value) {
+  return value ? nlohmann::json(*value) : nlohmann::json(nullptr);
+}
+
+nlohmann::json Vector(const Eigen::Vector3d& v) { return nlohmann::json::array({v.x(), v.y(), v.z()}); }
+
+nlohmann::json SetAside(const std::vector<SetAsideImage>& images) {
+  nlohmann::json list = nlohmann::json::array();
+  for (const SetAsideImage& image : images) list.push_back({{"file", image.name}, {"reason", image.reason}});
+  return list;
+}
+
+std::string Line(const char* format, ...) __attribute__((format(printf, 1, 2)));
+std::string Line(const char* format, ...) {
+  char buffer[512];
+  va_list args;
+  va_start(args, format);
+  std::vsnprintf(buffer, sizeof buffer, format, args);
+  va_end(args);
+  return buffer;
+}
+
+}  // namespace
+
+nlohmann::json ToJson(const CalibrationReport& report) {
+  nlohmann::json cameras = nlohmann::json::array();
+  for (std::size_t c = 0; c < report.cameras.cameras.size(); ++c) {
+    const CalibratedCamera& camera = report.cameras.cameras[c];
+    const formats::Intrinsics& k = camera.calibration.intrinsics;
+    const formats::Distortion& d = camera.calibration.distortion;
+    nlohmann::json entry = {
+        {"id", camera.calibration.id},
+        {"width", camera.calibration.width},
+        {"height", camera.calibration.height},
+        {"images_used", camera.images_used},
+        {"outlier_images", SetAside(camera.outlier_images)},
+        {"unused_images", SetAside(camera.unused_images)},
+        {"corners_used", camera.corners_used},
+        {"outlier_corners", camera.outlier_corners},
+        {"rms_px", camera.rms_px},
+        {"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx}, {"cy", k.cy},
+        {"k1", d.k1}, {"k2", d.k2}, {"p1", d.p1}, {"p2", d.p2}, {"k3", d.k3},
+        {"std",
+         {{"fx", OrNull(k.uncertainty.fx)}, {"fy", OrNull(k.uncertainty.fy)}, {"cx", OrNull(k.uncertainty.cx)},
+          {"cy", OrNull(k.uncertainty.cy)}, {"k1", OrNull(d.uncertainty.k1)}, {"k2", OrNull(d.uncertainty.k2)},
+          {"p1", OrNull(d.uncertainty.p1)}, {"p2", OrNull(d.uncertainty.p2)}, {"k3", OrNull(d.uncertainty.k3)}}},
+        {"working_distance_mm", camera.working_distance_mm},
+        {"projection_uncertainty_px", k.uncertainty.fx ? nlohmann::json(camera.projection_uncertainty_px)
+                                                       : nlohmann::json(nullptr)},
+        {"cross_validation_px", nullptr},
+        {"cross_validation_mm", nullptr}};
+    if (report.cross_validation) {
+      entry["cross_validation_px"] = (*report.cross_validation)[c].rms_px;
+      entry["cross_validation_max_px"] = (*report.cross_validation)[c].max_px;
+      entry["cross_validation_mm"] = (*report.cross_validation)[c].rms_mm;
+    }
+    cameras.push_back(entry);
+  }
+  nlohmann::json poses = nlohmann::json::array();
+  for (const RelativePose& p : report.cameras.relative_poses) {
+    poses.push_back({{"from", p.from},
+                     {"to", p.to},
+                     {"rotation_deg", Vector(p.rotation_deg)},
+                     {"angle_deg", p.rotation_deg.norm()},
+                     {"translation_mm", Vector(p.translation_mm)},
+                     {"distance_mm", p.translation_mm.norm()},
+                     {"std", {{"rotation_deg", Vector(p.rotation_std_deg)},
+                              {"translation_mm", Vector(p.translation_std_mm)}}}});
+  }
+  nlohmann::json json = {{"board", report.board},
+                         {"cameras", cameras},
+                         {"relative_poses", poses},
+                         {"residual_sigma_px", report.cameras.residual_sigma_px},
+                         {"warnings", report.cameras.warnings}};
+  if (!report.cross_validation) json["cross_validation_skipped"] = report.cross_validation_skipped;
+  return json;
+}
+
+std::string FormatCalibrationReport(const CalibrationReport& report) {
+  std::ostringstream out;
+  out << "board " << report.board << "; residual sigma " << Line("%.3f", report.cameras.residual_sigma_px)
+      << " px\n";
+  out << Line("%-12s %6s %7s %9s %18s %18s %18s %18s %9s %9s %10s %10s\n", "camera", "photos", "corners", "rms px",
+              "fx px", "fy px", "cx px", "cy px", "k1", "k2", "proj px", "xval px");
+  const auto with_std = [](double value, const std::optional<double>& std) {
+    return std ? Line("%.2f +- %.2f", value, *std) : Line("%.2f", value);
+  };
+  for (std::size_t c = 0; c < report.cameras.cameras.size(); ++c) {
+    const CalibratedCamera& camera = report.cameras.cameras[c];
+    const formats::Intrinsics& k = camera.calibration.intrinsics;
+    const std::string xval =
+        report.cross_validation ? Line("%.3f", (*report.cross_validation)[c].rms_px) : std::string("-");
+    const std::string projection = k.uncertainty.fx ? Line("%.3f", camera.projection_uncertainty_px) : "-";
+    out << Line("%-12s %6d %7d %9.3f %18s %18s %18s %18s %9.4f %9.4f %10s %10s\n", camera.calibration.id.c_str(),
+                camera.images_used, camera.corners_used, camera.rms_px, with_std(k.fx, k.uncertainty.fx).c_str(),
+                with_std(k.fy, k.uncertainty.fy).c_str(), with_std(k.cx, k.uncertainty.cx).c_str(),
+                with_std(k.cy, k.uncertainty.cy).c_str(), camera.calibration.distortion.k1,
+                camera.calibration.distortion.k2, projection.c_str(), xval.c_str());
+  }
+  for (const RelativePose& p : report.cameras.relative_poses) {
+    out << Line("%s -> %s: rotation %.4f deg (std %.4f %.4f %.4f), translation %.3f %.3f %.3f mm (std %.3f %.3f %.3f)\n",
+                p.from.c_str(), p.to.c_str(), p.rotation_deg.norm(), p.rotation_std_deg.x(), p.rotation_std_deg.y(),
+                p.rotation_std_deg.z(), p.translation_mm.x(), p.translation_mm.y(), p.translation_mm.z(),
+                p.translation_std_mm.x(), p.translation_std_mm.y(), p.translation_std_mm.z());
+  }
+  for (const CalibratedCamera& camera : report.cameras.cameras) {
+    for (const SetAsideImage& image : camera.outlier_images) {
+      out << "outlier photo " << camera.calibration.id << "/" << image.name << ": " << image.reason << "\n";
+    }
+  }
+  if (!report.cross_validation) out << "cross-validation skipped: " << report.cross_validation_skipped << "\n";
+  for (const std::string& warning : report.cameras.warnings) out << "warning: " << warning << "\n";
+  return out.str();
+}
+
+}  // namespace mesocap::calibration

@@ -1,0 +1,31 @@
+// What a calibration reports to its user and to scripts (`mesocap calibrate
+// --json`): per camera its fit, parameters with one-sigma uncertainties,
+// photos set aside and why, projection uncertainty and cross-validation; the
+// cameras' relative poses; the warnings. The names are the CLI's contract
+// (docs/FORMATS.md "Calibration report").
+#pragma once
+
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "calibration/camera_calibration.h"
+#include "calibration/cross_validation.h"
+
+namespace mesocap::calibration {
+
+struct CalibrationReport {
+  std::string board;  // the board's spec
+  CameraCalibrationResult cameras;
+  // Per camera, as the cameras; absent with the reason when the halves could
+  // not be calibrated on their own.
+  std::optional<std::vector<CrossValidationDifference>> cross_validation;
+  std::string cross_validation_skipped;
+};
+
+nlohmann::json ToJson(const CalibrationReport& report);
+// The same as readable tables, one line per camera and per pair.
+std::string FormatCalibrationReport(const CalibrationReport& report);
+
+}  // namespace mesocap::calibration
