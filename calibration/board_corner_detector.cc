@@ -122,14 +122,16 @@ DetectionQuality BoardCornerDetector::Quality(const core::Image& image, const Bo
                              ? 0.9 * (board_.square_mm - board_.marker_mm) / (2 * board_.square_mm)
                              : 0.35;
     const double reach = clear * length, step = 0.25;
-    double steepest = 0, previous = Bilinear(gray, mid.x() - reach * normal.x(), mid.y() - reach * normal.y());
-    const double first = previous;
-    for (double s = -reach + step; s <= reach; s += step) {
-      const double value = Bilinear(gray, mid.x() + s * normal.x(), mid.y() + s * normal.y());
-      steepest = std::max(steepest, std::abs(value - previous) / step);
-      previous = value;
+    std::vector<double> profile;
+    for (double t = -reach; t <= reach; t += step) {
+      profile.push_back(Bilinear(gray, mid.x() + t * normal.x(), mid.y() + t * normal.y()));
     }
-    const double contrast = std::abs(previous - first);
+    // Slopes over one pixel, so that a sharp edge (which a pixel's area
+    // spreads over one pixel) measures about 1 px whatever its direction.
+    double steepest = 0;
+    for (std::size_t i = 4; i < profile.size(); ++i) steepest = std::max(steepest, std::abs(profile[i] - profile[i - 4]));
+    const auto [lowest, highest] = std::minmax_element(profile.begin(), profile.end());
+    const double contrast = *highest - *lowest;
     if (steepest > 0 && contrast > 0.05) widths.push_back(contrast / steepest);
   }
   if (widths.empty()) {

@@ -38,16 +38,26 @@ struct Pose {
   std::array<double, 3> t{0, 0, 0};
 };
 
+// The solver's units: lengths in kLengthUnitMm and the pinhole's four
+// intrinsics in units of the camera's initial focal length, so that the
+// Jacobian's columns are of one magnitude (pixels per radian, per unit) and
+// the covariance's conditioning measures what the photos leave unobserved,
+// not a choice of units.
+constexpr double kLengthUnitMm = 100.0;
+
 // One detected corner: the board point through the board's pose at its
 // instant (reference <- board) and the camera's pose (reference <- camera)
 // into the camera, projected; the residual is in pixels.
 struct CornerResidual {
   Eigen::Vector2d observed;
-  Eigen::Vector3d board_point;
+  Eigen::Vector3d board_point;  // in kLengthUnitMm
+  double focal_unit = 1;        // px
 
   template <typename T>
-  bool operator()(const T* k, const T* camera_q, const T* camera_c, const T* board_q, const T* board_t,
+  bool operator()(const T* scaled_k, const T* camera_q, const T* camera_c, const T* board_q, const T* board_t,
                   T* residual) const {
+    T k[kIntrinsicCount];
+    for (int i = 0; i < kIntrinsicCount; ++i) k[i] = i < 4 ? scaled_k[i] * focal_unit : scaled_k[i];
     const T point[3] = {T(board_point.x()), T(board_point.y()), T(board_point.z())};
     T in_reference[3];
     ceres::QuaternionRotatePoint(board_q, point, in_reference);
@@ -135,27 +145,48 @@ struct SolveSummary {
   int tangent_parameters = 0;
 };
 
+// Physical-unit covariances of one camera's parameters.
+struct CameraCovariance {
+  Eigen::Matrix<double, kIntrinsicCount, kIntrinsicCount> intrinsics =
+      Eigen::Matrix<double, kIntrinsicCount, kIntrinsicCount>::Zero();
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Zero();  // tangent: rotation vector about the reference's axes, rad^2
+  Eigen::Matrix3d centre = Eigen::Matrix3d::Zero();    // mm^2
+};
+
+// The least-squares problem over the unknowns, solved in the solver's units
+// (kLengthUnitMm, focal units) and written back in physical units.
 class BoardProblem {
  public:
   BoardProblem(Unknowns* unknowns, const std::vector<Observation>& observations, double huber_px)
-      : unknowns_(unknowns) {
+      : unknowns_(unknowns), scaled_(*unknowns) {
+    for (const auto& k : unknowns_->intrinsics) focal_units_.push_back(k[0]);
+    for (std::size_t c = 0; c < scaled_.intrinsics.size(); ++c) {
+      for (int i = 0; i < 4; ++i) scaled_.intrinsics[c][static_cast<std::size_t>(i)] /= focal_units_[c];
+    }
+    for (Pose& pose : scaled_.cameras) {
+      for (double& t : pose.t) t /= kLengthUnitMm;
+    }
+    for (Pose& pose : scaled_.boards) {
+      for (double& t : pose.t) t /= kLengthUnitMm;
+    }
     ceres::Problem::Options problem_options;
     problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
     problem_options.loss_function_ownership = ceres::TAKE_OWNERSHIP;
     problem_ = std::make_unique<ceres::Problem>(problem_options);
     for (const Observation& o : observations) {
       if (!o.inlier) continue;
+      const auto c = static_cast<std::size_t>(o.camera);
       auto* cost = new ceres::AutoDiffCostFunction<CornerResidual, 2, kIntrinsicCount, 4, 3, 4, 3>(
-          new CornerResidual{o.pixel, o.board_point});
+          new CornerResidual{o.pixel, o.board_point / kLengthUnitMm, focal_units_[c]});
       ceres::LossFunction* loss = huber_px > 0 ? new ceres::HuberLoss(huber_px) : nullptr;
-      Pose& camera = unknowns_->cameras[static_cast<std::size_t>(o.camera)];
-      Pose& board = unknowns_->boards[static_cast<std::size_t>(o.instant)];
-      problem_->AddResidualBlock(cost, loss, unknowns_->intrinsics[static_cast<std::size_t>(o.camera)].data(),
-                                 camera.q.data(), camera.t.data(), board.q.data(), board.t.data());
+      Pose& camera = scaled_.cameras[c];
+      Pose& board = scaled_.boards[static_cast<std::size_t>(o.instant)];
+      problem_->AddResidualBlock(cost, loss, scaled_.intrinsics[c].data(), camera.q.data(), camera.t.data(),
+                                 board.q.data(), board.t.data());
       summary_.residuals += 2;
     }
-    for (std::size_t c = 0; c < unknowns_->cameras.size(); ++c) {
-      Pose& camera = unknowns_->cameras[c];
+    for (std::size_t c = 0; c < scaled_.cameras.size(); ++c) {
+      Pose& camera = scaled_.cameras[c];
       if (!problem_->HasParameterBlock(camera.q.data())) continue;
       problem_->SetManifold(camera.q.data(), &quaternion_);
       if (c == 0) {  // the reference frame: the gauge
@@ -166,7 +197,7 @@ class BoardProblem {
       }
       summary_.tangent_parameters += kIntrinsicCount;
     }
-    for (Pose& board : unknowns_->boards) {
+    for (Pose& board : scaled_.boards) {
       if (!problem_->HasParameterBlock(board.q.data())) continue;
       problem_->SetManifold(board.q.data(), &quaternion_);
       summary_.tangent_parameters += 6;
@@ -183,20 +214,64 @@ class BoardProblem {
     ceres::Solver::Summary summary;
     ceres::Solve(options, problem_.get(), &summary);
     summary_.cost = summary.final_cost;
+    *unknowns_ = scaled_;
+    for (std::size_t c = 0; c < unknowns_->intrinsics.size(); ++c) {
+      for (int i = 0; i < 4; ++i) unknowns_->intrinsics[c][static_cast<std::size_t>(i)] *= focal_units_[c];
+    }
+    for (Pose& pose : unknowns_->cameras) {
+      for (double& t : pose.t) t *= kLengthUnitMm;
+    }
+    for (Pose& pose : unknowns_->boards) {
+      for (double& t : pose.t) t *= kLengthUnitMm;
+    }
     return summary_;
   }
 
-  ceres::Problem& problem() { return *problem_; }
+  // (J^T J)^-1 at the solution for every camera, in physical units (not yet
+  // scaled by the residual variance); false when J^T J is singular to
+  // working precision (some parameter is not observed at all).
+  bool Covariances(std::vector<CameraCovariance>* out) {
+    ceres::Covariance::Options options;
+    options.algorithm_type = summary_.tangent_parameters <= 2000 ? ceres::DENSE_SVD : ceres::SPARSE_QR;
+    options.num_threads = 2;
+    ceres::Covariance covariance(options);
+    std::vector<std::pair<const double*, const double*>> blocks;
+    for (std::size_t c = 0; c < scaled_.cameras.size(); ++c) {
+      blocks.emplace_back(scaled_.intrinsics[c].data(), scaled_.intrinsics[c].data());
+      if (c == 0) continue;
+      blocks.emplace_back(scaled_.cameras[c].q.data(), scaled_.cameras[c].q.data());
+      blocks.emplace_back(scaled_.cameras[c].t.data(), scaled_.cameras[c].t.data());
+    }
+    if (!covariance.Compute(blocks, problem_.get())) return false;
+    out->resize(scaled_.cameras.size());
+    for (std::size_t c = 0; c < scaled_.cameras.size(); ++c) {
+      CameraCovariance& cov = (*out)[c];
+      Eigen::Matrix<double, kIntrinsicCount, kIntrinsicCount, Eigen::RowMajor> k;
+      covariance.GetCovarianceBlock(scaled_.intrinsics[c].data(), scaled_.intrinsics[c].data(), k.data());
+      Eigen::Matrix<double, kIntrinsicCount, 1> units = Eigen::Matrix<double, kIntrinsicCount, 1>::Ones();
+      units.head<4>().setConstant(focal_units_[c]);
+      cov.intrinsics = units.asDiagonal() * k * units.asDiagonal();
+      if (c == 0) continue;
+      Eigen::Matrix<double, 3, 3, Eigen::RowMajor> r, t;
+      covariance.GetCovarianceBlockInTangentSpace(scaled_.cameras[c].q.data(), scaled_.cameras[c].q.data(), r.data());
+      covariance.GetCovarianceBlock(scaled_.cameras[c].t.data(), scaled_.cameras[c].t.data(), t.data());
+      cov.rotation = r;
+      cov.centre = kLengthUnitMm * kLengthUnitMm * t;
+    }
+    return true;
+  }
 
  private:
   Unknowns* unknowns_;
+  Unknowns scaled_;
+  std::vector<double> focal_units_;
   ceres::QuaternionManifold quaternion_;
   std::unique_ptr<ceres::Problem> problem_;
   SolveSummary summary_;
 };
 
 Eigen::Vector2d Residual(const Unknowns& u, const Observation& o) {
-  const CornerResidual residual{o.pixel, o.board_point};
+  const CornerResidual residual{o.pixel, o.board_point, 1.0};
   const Pose& camera = u.cameras[static_cast<std::size_t>(o.camera)];
   const Pose& board = u.boards[static_cast<std::size_t>(o.instant)];
   double r[2];
@@ -497,22 +572,13 @@ CameraCalibrationResult CalibrateCameras(const CalibrationBoard& board, const st
   const double variance = 2 * solved.cost / dof;
   result.residual_sigma_px = std::sqrt(variance);
 
-  ceres::Covariance::Options covariance_options;
-  covariance_options.algorithm_type = solved.tangent_parameters <= 2000 ? ceres::DENSE_SVD : ceres::SPARSE_QR;
-  covariance_options.num_threads = 2;
-  ceres::Covariance covariance(covariance_options);
-  std::vector<std::pair<const double*, const double*>> blocks;
-  for (std::size_t c = 0; c < cameras.size(); ++c) {
-    blocks.emplace_back(unknowns.intrinsics[c].data(), unknowns.intrinsics[c].data());
-    if (c == 0) continue;
-    blocks.emplace_back(unknowns.cameras[c].q.data(), unknowns.cameras[c].q.data());
-    blocks.emplace_back(unknowns.cameras[c].t.data(), unknowns.cameras[c].t.data());
-  }
-  const bool have_covariance = covariance.Compute(blocks, &final_problem.problem());
+  std::vector<CameraCovariance> covariances;
+  const bool have_covariance = final_problem.Covariances(&covariances);
   if (!have_covariance) {
     result.warnings.push_back(
-        "the parameters' covariance could not be computed (the problem is rank deficient: some parameters are not "
-        "observable from these photos); no uncertainty is reported");
+        "the parameters' covariance could not be computed (J^T J is singular to working precision: some "
+        "parameters, such as the focal length with every photo square to the camera, are not observed); no "
+        "uncertainty is reported and the values are not to be trusted");
   }
 
   for (std::size_t c = 0; c < cameras.size(); ++c) {
@@ -530,9 +596,7 @@ CameraCalibrationResult CalibrateCameras(const CalibrationBoard& board, const st
     out.rms_px = std::sqrt(sum / std::max(1, out.corners_used));
     out.working_distance_mm = Median(depths);
     if (!have_covariance) continue;
-    Eigen::Matrix<double, kIntrinsicCount, kIntrinsicCount, Eigen::RowMajor> k_cov;
-    covariance.GetCovarianceBlock(unknowns.intrinsics[c].data(), unknowns.intrinsics[c].data(), k_cov.data());
-    k_cov *= variance;
+    const Eigen::Matrix<double, kIntrinsicCount, kIntrinsicCount> k_cov = variance * covariances[c].intrinsics;
     const Eigen::Matrix<double, kIntrinsicCount, 1> k_std = k_cov.diagonal().cwiseSqrt();
     formats::CameraCalibration& cal = out.calibration;
     cal.intrinsics.uncertainty = {k_std[0], k_std[1], k_std[2], k_std[3]};
@@ -567,12 +631,8 @@ CameraCalibrationResult CalibrateCameras(const CalibrationBoard& board, const st
       }
     }
     if (c == 0) continue;
-    Eigen::Matrix<double, 3, 3, Eigen::RowMajor> r_cov, t_cov;
-    covariance.GetCovarianceBlockInTangentSpace(unknowns.cameras[c].q.data(), unknowns.cameras[c].q.data(),
-                                                r_cov.data());
-    covariance.GetCovarianceBlock(unknowns.cameras[c].t.data(), unknowns.cameras[c].t.data(), t_cov.data());
-    cal.pose.uncertainty.rotation_rad = (variance * r_cov.diagonal()).cwiseSqrt();
-    cal.pose.uncertainty.translation_mm = (variance * t_cov.diagonal()).cwiseSqrt();
+    cal.pose.uncertainty.rotation_rad = (variance * covariances[c].rotation.diagonal()).cwiseSqrt();
+    cal.pose.uncertainty.translation_mm = (variance * covariances[c].centre.diagonal()).cwiseSqrt();
   }
   for (std::size_t c = 1; c < cameras.size(); ++c) {
     const formats::CameraCalibration& cal = result.cameras[c].calibration;

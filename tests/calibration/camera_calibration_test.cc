@@ -4,6 +4,10 @@
 
 #include <gtest/gtest.h>
 
+#include <map>
+
+#include <opencv2/imgproc.hpp>
+
 #include "tests/common/board_photos.h"
 
 namespace mesocap::calibration {
@@ -42,6 +46,142 @@ TEST(CameraCalibration, OneCameraFromChArUcoPhotos) {
   EXPECT_LT(c.rms_px, 1.2 * floor.rms_px);
   EXPECT_NEAR(k.fx, truth.intrinsics.fx, 4 * *k.uncertainty.fx + 1e-3);
   EXPECT_NEAR(k.cx, truth.intrinsics.cx, 4 * *k.uncertainty.cx + 1e-3);
+}
+
+// Each of fx, fy, cx, cy and k1 within `sigmas` reported sigmas of the truth.
+void ExpectWithinSigmas(const formats::CameraCalibration& estimate, const formats::CameraCalibration& truth,
+                        double sigmas) {
+  const formats::Intrinsics& k = estimate.intrinsics;
+  EXPECT_NEAR(k.fx, truth.intrinsics.fx, sigmas * *k.uncertainty.fx);
+  EXPECT_NEAR(k.fy, truth.intrinsics.fy, sigmas * *k.uncertainty.fy);
+  EXPECT_NEAR(k.cx, truth.intrinsics.cx, sigmas * *k.uncertainty.cx);
+  EXPECT_NEAR(k.cy, truth.intrinsics.cy, sigmas * *k.uncertainty.cy);
+  EXPECT_NEAR(estimate.distortion.k1, truth.distortion.k1, sigmas * *estimate.distortion.uncertainty.k1);
+}
+
+// Every view square to the camera: the focal length trades off against the
+// board's distance and is poorly observed. The answer must say so (a large
+// sigma and a warning), and its error stay within that sigma's reach.
+TEST(CameraCalibrationHardCases, FrontoParallelViewsGiveALargeFocalSigmaAndAWarning) {
+  const BoardPrint print(kCharuco);
+  const formats::CameraCalibration truth = testing::TestCamera("cam0");
+  const CameraViews views = testing::Photograph(print, truth, testing::BoardPoses(kCharuco, 10, 400, 0.02, 3), 300);
+  const CameraCalibrationResult result = CalibrateCameras(kCharuco, {views}, {});
+  const formats::Intrinsics& k = result.cameras[0].calibration.intrinsics;
+  ASSERT_TRUE(k.uncertainty.fx.has_value());
+  std::printf("fronto-parallel: fx %.2f +- %.2f (truth %.2f)\n", k.fx, *k.uncertainty.fx, truth.intrinsics.fx);
+  EXPECT_GT(*k.uncertainty.fx / k.fx, 0.005);
+  EXPECT_NEAR(k.fx, truth.intrinsics.fx, 4 * *k.uncertainty.fx);
+  ASSERT_FALSE(result.warnings.empty());
+  EXPECT_NE(result.warnings[0].find("focal length poorly observed"), std::string::npos) << result.warnings[0];
+}
+
+TEST(CameraCalibrationHardCases, ThreePhotosOnly) {
+  const BoardPrint print(kCharuco);
+  const formats::CameraCalibration truth = testing::TestCamera("cam0");
+  const CameraViews views = testing::Photograph(print, truth, testing::BoardPoses(kCharuco, 3, 400, 0.6, 4), 400);
+  const CameraCalibrationResult result = CalibrateCameras(kCharuco, {views}, {});
+  EXPECT_EQ(result.cameras[0].images_used, 3);
+  ExpectWithinSigmas(result.cameras[0].calibration, truth, 4);
+  std::printf("three photos: fx sigma %.2f px\n", *result.cameras[0].calibration.intrinsics.uncertainty.fx);
+}
+
+TEST(CameraCalibrationHardCases, StrongBarrelDistortion) {
+  const BoardPrint print(kCharuco);
+  formats::CameraCalibration truth = testing::TestCamera("cam0", -0.3);
+  truth.distortion.k2 = 0.08;
+  testing::DetectorError floor;
+  const CameraViews views =
+      testing::Photograph(print, truth, testing::BoardPoses(kCharuco, 12, 400, 0.6, 5), 500, &floor);
+  const CameraCalibrationResult result = CalibrateCameras(kCharuco, {views}, {});
+  ExpectWithinSigmas(result.cameras[0].calibration, truth, 4);
+  EXPECT_LT(result.cameras[0].rms_px, 1.2 * floor.rms_px);
+}
+
+// A ChArUco board half hidden (an object over it) in every other photo: the
+// markers' ids still place the visible corners.
+TEST(CameraCalibrationHardCases, HalfOccludedChArUcoBoard) {
+  const BoardPrint print(kCharuco);
+  const formats::CameraCalibration truth = testing::TestCamera("cam0");
+  const std::vector<core::RigidTransform> poses = testing::BoardPoses(kCharuco, 12, 400, 0.6, 6);
+  const BoardCornerDetector detector(kCharuco);
+  CameraViews views;
+  views.id = "cam0";
+  views.width = truth.width;
+  views.height = truth.height;
+  int partial = 0;
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    core::Image photo = testing::BoardPhoto(print, poses[i], truth, 600 + i);
+    if (i % 2 == 0) {
+      // Cover the board's right half: everything right of its projected centre.
+      const Eigen::Vector3d centre = poses[i].Apply(Eigen::Vector3d(80, 60, 0));
+      const double u = truth.intrinsics.fx * centre.x() / centre.z() + truth.intrinsics.cx;
+      for (int y = 0; y < photo.height(); ++y) {
+        for (int x = std::max(0, static_cast<int>(u)); x < photo.width(); ++x) photo.at(x, y) = 0.3f;
+      }
+    }
+    views.names.push_back("photo" + std::to_string(i));
+    views.detections.push_back(detector.Detect(photo));
+    views.qualities.push_back(detector.Quality(photo, views.detections.back()));
+    if (i % 2 == 0 && !views.detections.back().empty()) {
+      EXPECT_LT(views.detections.back().size(), 25u);
+      ++partial;
+    }
+  }
+  EXPECT_GE(partial, 4);
+  const CameraCalibrationResult result = CalibrateCameras(kCharuco, {views}, {});
+  EXPECT_EQ(result.cameras[0].images_used + static_cast<int>(result.cameras[0].unused_images.size()), 12);
+  ExpectWithinSigmas(result.cameras[0].calibration, truth, 4);
+}
+
+TEST(CameraCalibrationHardCases, ACameraThatNeverSeesTheBoardIsNamed) {
+  const BoardPrint print(kCharuco);
+  const formats::CameraCalibration left = testing::TestCamera("left");
+  formats::CameraCalibration away = testing::TestCamera("away");
+  away.pose.transform.rotation = Eigen::AngleAxisd(3.14159, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  const std::vector<core::RigidTransform> poses = testing::BoardPoses(kCharuco, 4, 400, 0.5, 8);
+  const std::vector<CameraViews> views = {testing::Photograph(print, left, poses, 800),
+                                          testing::Photograph(print, away, poses, 900)};
+  try {
+    CalibrateCameras(kCharuco, views, {});
+    FAIL() << "expected an error";
+  } catch (const core::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("camera \"away\" never sees the board"), std::string::npos) << e.what();
+  }
+}
+
+// A blurred and a saturated photo among good ones are set aside, each with
+// its reason, and the calibration is as good as without them.
+TEST(CameraCalibrationHardCases, BlurredAndSaturatedPhotosAreReportedAsOutliers) {
+  const BoardPrint print(kCharuco);
+  const formats::CameraCalibration truth = testing::TestCamera("cam0");
+  const std::vector<core::RigidTransform> poses = testing::BoardPoses(kCharuco, 12, 400, 0.6, 9);
+  CameraViews views = testing::Photograph(print, truth, poses, 1000);
+  const BoardCornerDetector detector(kCharuco);
+  {
+    core::Image blurred = testing::BoardPhoto(print, poses[3], truth, 1003);
+    cv::Mat mat(blurred.height(), blurred.width(), CV_32F, blurred.data());
+    cv::GaussianBlur(mat, mat, cv::Size(0, 0), 1.8);
+    views.detections[3] = detector.Detect(blurred);
+    views.qualities[3] = detector.Quality(blurred, views.detections[3]);
+  }
+  {
+    sim::BoardPhotoOptions bright;
+    bright.white_signal = 4.0;  // overexposed: white clips, and so do the blacks' edges
+    const core::Image saturated = testing::BoardPhoto(print, poses[7], truth, 1007, bright);
+    views.detections[7] = detector.Detect(saturated);
+    views.qualities[7] = detector.Quality(saturated, views.detections[7]);
+  }
+  const CameraCalibrationResult result = CalibrateCameras(kCharuco, {views}, {});
+  const CalibratedCamera& camera = result.cameras[0];
+  std::map<std::string, std::string> outliers;
+  for (const SetAsideImage& image : camera.outlier_images) outliers[image.name] = image.reason;
+  ASSERT_TRUE(outliers.count("photo3.png")) << "the blurred photo";
+  EXPECT_NE(outliers["photo3.png"].find("blurred"), std::string::npos) << outliers["photo3.png"];
+  ASSERT_TRUE(outliers.count("photo7.png")) << "the saturated photo";
+  EXPECT_NE(outliers["photo7.png"].find("saturated"), std::string::npos) << outliers["photo7.png"];
+  EXPECT_EQ(camera.images_used, 10);
+  ExpectWithinSigmas(camera.calibration, truth, 4);
 }
 
 }  // namespace
