@@ -73,8 +73,9 @@ nlohmann::json ToJson(const CalibrationReport& report) {
                      {"angle_deg", p.rotation_deg.norm()},
                      {"translation_mm", Vector(p.translation_mm)},
                      {"distance_mm", p.translation_mm.norm()},
-                     {"std", {{"rotation_deg", Vector(p.rotation_std_deg)},
-                              {"translation_mm", Vector(p.translation_std_mm)}}}});
+                     {"std", p.has_std ? nlohmann::json{{"rotation_deg", Vector(p.rotation_std_deg)},
+                                                         {"translation_mm", Vector(p.translation_std_mm)}}
+                                       : nlohmann::json(nullptr)}});
   }
   nlohmann::json json = {{"board", report.board},
                          {"cameras", cameras},

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <Eigen/Geometry>
 #include <ceres/ceres.h>
 #include <ceres/manifold.h>
 #include <ceres/rotation.h>
@@ -38,37 +39,102 @@ struct Pose {
   std::array<double, 3> t{0, 0, 0};
 };
 
-// The solver's units: lengths in kLengthUnitMm and the pinhole's four
-// intrinsics in units of the camera's initial focal length, so that the
-// Jacobian's columns are of one magnitude (pixels per radian, per unit) and
-// the covariance's conditioning measures what the photos leave unobserved,
-// not a choice of units.
+// The solver's units: lengths in kLengthUnitMm, the pinhole's four
+// intrinsics in units of the camera's initial focal length, and each
+// distortion coefficient in the unit that moves the image's corner by about
+// a pixel, so that the Jacobian's columns are of one magnitude and the
+// covariance's conditioning measures what the photos leave unobserved, not
+// a choice of units (k3 of a narrow lens moves its corner by 1e-5 px per
+// unit, a condition number no solver resolves).
 constexpr double kLengthUnitMm = 100.0;
 
-// One detected corner: the board point through the board's pose at its
-// instant (reference <- board) and the camera's pose (reference <- camera)
-// into the camera, projected; the residual is in pixels.
+// A point in the reference frame (world on a turntable, else the first
+// camera's) into a camera (reference <- camera = (camera_q, camera_c)),
+// projected; the residual is in pixels.
+using IntrinsicUnits = std::array<double, kIntrinsicCount>;
+
+template <typename T>
+void ReprojectionResidual(const T* scaled_k, const IntrinsicUnits& units, const T* camera_q, const T* camera_c,
+                          const T* in_reference, const Eigen::Vector2d& observed, T* residual) {
+  T k[kIntrinsicCount];
+  for (int i = 0; i < kIntrinsicCount; ++i) k[i] = scaled_k[i] * units[static_cast<std::size_t>(i)];
+  const T relative[3] = {in_reference[0] - camera_c[0], in_reference[1] - camera_c[1], in_reference[2] - camera_c[2]};
+  const T inverse[4] = {camera_q[0], -camera_q[1], -camera_q[2], -camera_q[3]};
+  T in_camera[3];
+  ceres::QuaternionRotatePoint(inverse, relative, in_camera);
+  T uv[2];
+  ProjectOpenCv(k, in_camera, uv);
+  residual[0] = uv[0] - T(observed.x());
+  residual[1] = uv[1] - T(observed.y());
+}
+
+// One detected corner, the board free at its instant (reference <- board).
 struct CornerResidual {
   Eigen::Vector2d observed;
   Eigen::Vector3d board_point;  // in kLengthUnitMm
-  double focal_unit = 1;        // px
+  IntrinsicUnits units{1, 1, 1, 1, 1, 1, 1, 1, 1};
 
   template <typename T>
   bool operator()(const T* scaled_k, const T* camera_q, const T* camera_c, const T* board_q, const T* board_t,
                   T* residual) const {
-    T k[kIntrinsicCount];
-    for (int i = 0; i < kIntrinsicCount; ++i) k[i] = i < 4 ? scaled_k[i] * focal_unit : scaled_k[i];
     const T point[3] = {T(board_point.x()), T(board_point.y()), T(board_point.z())};
     T in_reference[3];
     ceres::QuaternionRotatePoint(board_q, point, in_reference);
-    for (int i = 0; i < 3; ++i) in_reference[i] += board_t[i] - camera_c[i];
-    const T inverse[4] = {camera_q[0], -camera_q[1], -camera_q[2], -camera_q[3]};
-    T in_camera[3];
-    ceres::QuaternionRotatePoint(inverse, in_reference, in_camera);
-    T uv[2];
-    ProjectOpenCv(k, in_camera, uv);
-    residual[0] = uv[0] - T(observed.x());
-    residual[1] = uv[1] - T(observed.y());
+    for (int i = 0; i < 3; ++i) in_reference[i] += board_t[i];
+    ReprojectionResidual(scaled_k, units, camera_q, camera_c, in_reference, observed, residual);
+    return true;
+  }
+};
+
+// A weak prior on the distortion coefficients, in the solver's units (a
+// unit moves the image's corner by a pixel): zero, with a sigma of
+// kDistortionPriorPx. It leaves what the corners observe as it is, and keeps
+// what they do not (k3 of a narrow lens seen over part of its field) from
+// making J^T J singular: such a coefficient then reports a sigma near the
+// prior's, honestly unknown, instead of no uncertainty at all.
+constexpr double kDistortionPriorPx = 100.0;
+
+struct DistortionPrior {
+  template <typename T>
+  bool operator()(const T* scaled_k, T* residual) const {
+    for (int i = 0; i < 5; ++i) residual[i] = scaled_k[4 + i] / T(kDistortionPriorPx);
+    return true;
+  }
+};
+
+// turntable <- board on a holder: Rz(yaw) Ry(pitch) Rx(roll), then the
+// translation. Yaw is the azimuth of the board's x axis (which the first
+// holder's fixes to 0, the world's gauge); the angles are singular only
+// with the board's x axis vertical (pitch 90 degrees), which no holder does.
+template <typename T>
+void HolderToTurntable(const T* angles, const T* t, const T* point, T* out) {
+  const T cz = cos(angles[0]), sz = sin(angles[0]);
+  const T cx = cos(angles[1]), sx = sin(angles[1]);
+  const T cy = cos(angles[2]), sy = sin(angles[2]);
+  const T a[3] = {point[0], cx * point[1] - sx * point[2], sx * point[1] + cx * point[2]};
+  const T b[3] = {cy * a[0] + sy * a[2], a[1], -sy * a[0] + cy * a[2]};
+  out[0] = cz * b[0] - sz * b[1] + t[0];
+  out[1] = sz * b[0] + cz * b[1] + t[1];
+  out[2] = b[2] + t[2];
+}
+
+// One detected corner with the board on a holder on the turntable, turned
+// to `angle_rad` about the world's z axis (the turntable's axis).
+struct TurntableCornerResidual {
+  Eigen::Vector2d observed;
+  Eigen::Vector3d board_point;  // in kLengthUnitMm
+  IntrinsicUnits units{1, 1, 1, 1, 1, 1, 1, 1, 1};
+  double angle_rad = 0;
+
+  template <typename T>
+  bool operator()(const T* scaled_k, const T* camera_q, const T* camera_c, const T* holder_angles,
+                  const T* holder_t, T* residual) const {
+    const T point[3] = {T(board_point.x()), T(board_point.y()), T(board_point.z())};
+    T on_table[3];
+    HolderToTurntable(holder_angles, holder_t, point, on_table);
+    const T c(std::cos(angle_rad)), s(std::sin(angle_rad));
+    const T in_world[3] = {c * on_table[0] - s * on_table[1], s * on_table[0] + c * on_table[1], on_table[2]};
+    ReprojectionResidual(scaled_k, units, camera_q, camera_c, in_world, observed, residual);
     return true;
   }
 };
@@ -135,15 +201,52 @@ std::string Fixed(double value, int digits) {
 struct Unknowns {
   std::vector<std::array<double, kIntrinsicCount>> intrinsics;
   std::vector<Pose> cameras;
-  std::vector<Pose> boards;
+  std::vector<Pose> boards;  // per instant; on a turntable derived from the holders
   std::vector<bool> board_seen;
+  // On a turntable: the reference is the world (the turntable frame at
+  // angle 0) and the board's poses follow from its holders' (turntable <-
+  // board as yaw, tilt_x, tilt_y and a translation) and the angles.
+  const TurntableMotion* motion = nullptr;
+  std::vector<std::array<double, 3>> holder_angles, holder_t;
 };
+
+Pose HolderPose(const Unknowns& u, std::size_t holder) {
+  Eigen::Matrix3d r;
+  const double zero[3] = {0, 0, 0};
+  for (int axis = 0; axis < 3; ++axis) {
+    double unit[3] = {0, 0, 0}, out[3];
+    unit[axis] = 1;
+    HolderToTurntable(u.holder_angles[holder].data(), zero, unit, out);
+    r.col(axis) = Eigen::Vector3d(out[0], out[1], out[2]);
+  }
+  const auto& t = u.holder_t[holder];
+  return FromMatrix(r, Eigen::Vector3d(t[0], t[1], t[2]));
+}
+
+// The boards' poses at every instant from the holders' and the angles.
+void DeriveBoardPoses(Unknowns* u) {
+  if (!u->motion) return;
+  for (std::size_t i = 0; i < u->boards.size(); ++i) {
+    const Pose turn = FromMatrix(Eigen::AngleAxisd(u->motion->angle_rad[i], Eigen::Vector3d::UnitZ()).toRotationMatrix(),
+                                 Eigen::Vector3d::Zero());
+    u->boards[i] = Compose(turn, HolderPose(*u, static_cast<std::size_t>(u->motion->holder[i])));
+  }
+}
 
 struct SolveSummary {
   double cost = 0;  // half the sum of squared residuals
   int residuals = 0;
   int tangent_parameters = 0;
 };
+
+// fx fy cx cy in units of the focal length F; k1 k2 k3 and p1 p2 in the
+// units that move a point at the image's corner (normalized radius r) by
+// one pixel: 1 / (F r^3), 1 / (F r^5), 1 / (F r^7), 1 / (F r^2).
+IntrinsicUnits UnitsOf(const std::array<double, kIntrinsicCount>& k, double corner_radius_px) {
+  const double f = k[0], r = std::max(corner_radius_px / f, 1e-3);
+  return {f, f, f, f, 1 / (f * std::pow(r, 3)), 1 / (f * std::pow(r, 5)), 1 / (f * r * r), 1 / (f * r * r),
+          1 / (f * std::pow(r, 7))};
+}
 
 // Physical-unit covariances of one camera's parameters.
 struct CameraCovariance {
@@ -157,17 +260,23 @@ struct CameraCovariance {
 // (kLengthUnitMm, focal units) and written back in physical units.
 class BoardProblem {
  public:
-  BoardProblem(Unknowns* unknowns, const std::vector<Observation>& observations, double huber_px)
+  // corner_radius: per camera, the image corner's distance from the
+  // principal point in pixels.
+  BoardProblem(Unknowns* unknowns, const std::vector<Observation>& observations, double huber_px,
+               const std::vector<double>& corner_radius)
       : unknowns_(unknowns), scaled_(*unknowns) {
-    for (const auto& k : unknowns_->intrinsics) focal_units_.push_back(k[0]);
     for (std::size_t c = 0; c < scaled_.intrinsics.size(); ++c) {
-      for (int i = 0; i < 4; ++i) scaled_.intrinsics[c][static_cast<std::size_t>(i)] /= focal_units_[c];
+      units_.push_back(UnitsOf(unknowns_->intrinsics[c], corner_radius[c]));
+      for (std::size_t i = 0; i < kIntrinsicCount; ++i) scaled_.intrinsics[c][i] /= units_[c][i];
     }
     for (Pose& pose : scaled_.cameras) {
       for (double& t : pose.t) t /= kLengthUnitMm;
     }
     for (Pose& pose : scaled_.boards) {
       for (double& t : pose.t) t /= kLengthUnitMm;
+    }
+    for (auto& t : scaled_.holder_t) {
+      for (double& v : t) v /= kLengthUnitMm;
     }
     ceres::Problem::Options problem_options;
     problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
@@ -176,20 +285,32 @@ class BoardProblem {
     for (const Observation& o : observations) {
       if (!o.inlier) continue;
       const auto c = static_cast<std::size_t>(o.camera);
-      auto* cost = new ceres::AutoDiffCostFunction<CornerResidual, 2, kIntrinsicCount, 4, 3, 4, 3>(
-          new CornerResidual{o.pixel, o.board_point / kLengthUnitMm, focal_units_[c]});
+      const auto i = static_cast<std::size_t>(o.instant);
       ceres::LossFunction* loss = huber_px > 0 ? new ceres::HuberLoss(huber_px) : nullptr;
       Pose& camera = scaled_.cameras[c];
-      Pose& board = scaled_.boards[static_cast<std::size_t>(o.instant)];
-      problem_->AddResidualBlock(cost, loss, scaled_.intrinsics[c].data(), camera.q.data(), camera.t.data(),
-                                 board.q.data(), board.t.data());
+      if (scaled_.motion) {
+        const auto h = static_cast<std::size_t>(scaled_.motion->holder[i]);
+        auto* cost = new ceres::AutoDiffCostFunction<TurntableCornerResidual, 2, kIntrinsicCount, 4, 3, 3, 3>(
+            new TurntableCornerResidual{o.pixel, o.board_point / kLengthUnitMm, units_[c],
+                                        scaled_.motion->angle_rad[i]});
+        problem_->AddResidualBlock(cost, loss, scaled_.intrinsics[c].data(), camera.q.data(), camera.t.data(),
+                                   scaled_.holder_angles[h].data(), scaled_.holder_t[h].data());
+      } else {
+        auto* cost = new ceres::AutoDiffCostFunction<CornerResidual, 2, kIntrinsicCount, 4, 3, 4, 3>(
+            new CornerResidual{o.pixel, o.board_point / kLengthUnitMm, units_[c]});
+        Pose& board = scaled_.boards[i];
+        problem_->AddResidualBlock(cost, loss, scaled_.intrinsics[c].data(), camera.q.data(), camera.t.data(),
+                                   board.q.data(), board.t.data());
+      }
       summary_.residuals += 2;
     }
     for (std::size_t c = 0; c < scaled_.cameras.size(); ++c) {
       Pose& camera = scaled_.cameras[c];
       if (!problem_->HasParameterBlock(camera.q.data())) continue;
+      problem_->AddResidualBlock(new ceres::AutoDiffCostFunction<DistortionPrior, 5, kIntrinsicCount>(new DistortionPrior),
+                                 nullptr, scaled_.intrinsics[c].data());
       problem_->SetManifold(camera.q.data(), &quaternion_);
-      if (c == 0) {  // the reference frame: the gauge
+      if (c == 0 && !scaled_.motion) {  // the reference frame: the gauge
         problem_->SetParameterBlockConstant(camera.q.data());
         problem_->SetParameterBlockConstant(camera.t.data());
       } else {
@@ -201,6 +322,16 @@ class BoardProblem {
       if (!problem_->HasParameterBlock(board.q.data())) continue;
       problem_->SetManifold(board.q.data(), &quaternion_);
       summary_.tangent_parameters += 6;
+    }
+    for (std::size_t h = 0; h < scaled_.holder_angles.size(); ++h) {
+      if (!problem_->HasParameterBlock(scaled_.holder_angles[h].data())) continue;
+      summary_.tangent_parameters += 6;
+      if (h != 0) continue;
+      // The world's gauge: the first holder's board has yaw 0 (it sets the
+      // world's x axis) and its surface lies at its known height.
+      problem_->SetManifold(scaled_.holder_angles[h].data(), &fixed_first_);
+      problem_->SetManifold(scaled_.holder_t[h].data(), &fixed_third_);
+      summary_.tangent_parameters -= 2;
     }
   }
 
@@ -216,7 +347,7 @@ class BoardProblem {
     summary_.cost = summary.final_cost;
     *unknowns_ = scaled_;
     for (std::size_t c = 0; c < unknowns_->intrinsics.size(); ++c) {
-      for (int i = 0; i < 4; ++i) unknowns_->intrinsics[c][static_cast<std::size_t>(i)] *= focal_units_[c];
+      for (std::size_t i = 0; i < kIntrinsicCount; ++i) unknowns_->intrinsics[c][i] *= units_[c][i];
     }
     for (Pose& pose : unknowns_->cameras) {
       for (double& t : pose.t) t *= kLengthUnitMm;
@@ -224,6 +355,10 @@ class BoardProblem {
     for (Pose& pose : unknowns_->boards) {
       for (double& t : pose.t) t *= kLengthUnitMm;
     }
+    for (auto& t : unknowns_->holder_t) {
+      for (double& v : t) v *= kLengthUnitMm;
+    }
+    DeriveBoardPoses(unknowns_);
     return summary_;
   }
 
@@ -233,25 +368,30 @@ class BoardProblem {
   bool Covariances(std::vector<CameraCovariance>* out) {
     ceres::Covariance::Options options;
     options.algorithm_type = summary_.tangent_parameters <= 2000 ? ceres::DENSE_SVD : ceres::SPARSE_QR;
+    // DENSE_SVD factors J itself, whose singular values it resolves to about
+    // 1e-10 of the largest (1e-20 for J^T J): a narrow lens's focal length
+    // and distance are that weakly tied, and get a large sigma, not none.
+    options.min_reciprocal_condition_number = 1e-20;
     options.num_threads = 2;
     ceres::Covariance covariance(options);
     std::vector<std::pair<const double*, const double*>> blocks;
     for (std::size_t c = 0; c < scaled_.cameras.size(); ++c) {
       blocks.emplace_back(scaled_.intrinsics[c].data(), scaled_.intrinsics[c].data());
-      if (c == 0) continue;
+      if (c == 0 && !scaled_.motion) continue;
       blocks.emplace_back(scaled_.cameras[c].q.data(), scaled_.cameras[c].q.data());
       blocks.emplace_back(scaled_.cameras[c].t.data(), scaled_.cameras[c].t.data());
     }
-    if (!covariance.Compute(blocks, problem_.get())) return false;
+    if (!covariance.Compute(blocks, problem_.get())) {
+      return false;
+    }
     out->resize(scaled_.cameras.size());
     for (std::size_t c = 0; c < scaled_.cameras.size(); ++c) {
       CameraCovariance& cov = (*out)[c];
       Eigen::Matrix<double, kIntrinsicCount, kIntrinsicCount, Eigen::RowMajor> k;
       covariance.GetCovarianceBlock(scaled_.intrinsics[c].data(), scaled_.intrinsics[c].data(), k.data());
-      Eigen::Matrix<double, kIntrinsicCount, 1> units = Eigen::Matrix<double, kIntrinsicCount, 1>::Ones();
-      units.head<4>().setConstant(focal_units_[c]);
+      const Eigen::Matrix<double, kIntrinsicCount, 1> units(units_[c].data());
       cov.intrinsics = units.asDiagonal() * k * units.asDiagonal();
-      if (c == 0) continue;
+      if (c == 0 && !scaled_.motion) continue;
       Eigen::Matrix<double, 3, 3, Eigen::RowMajor> r, t;
       covariance.GetCovarianceBlockInTangentSpace(scaled_.cameras[c].q.data(), scaled_.cameras[c].q.data(), r.data());
       covariance.GetCovarianceBlock(scaled_.cameras[c].t.data(), scaled_.cameras[c].t.data(), t.data());
@@ -264,14 +404,16 @@ class BoardProblem {
  private:
   Unknowns* unknowns_;
   Unknowns scaled_;
-  std::vector<double> focal_units_;
+  std::vector<IntrinsicUnits> units_;
   ceres::QuaternionManifold quaternion_;
+  ceres::SubsetManifold fixed_first_{3, {0}};
+  ceres::SubsetManifold fixed_third_{3, {2}};
   std::unique_ptr<ceres::Problem> problem_;
   SolveSummary summary_;
 };
 
 Eigen::Vector2d Residual(const Unknowns& u, const Observation& o) {
-  const CornerResidual residual{o.pixel, o.board_point, 1.0};
+  const CornerResidual residual{o.pixel, o.board_point};
   const Pose& camera = u.cameras[static_cast<std::size_t>(o.camera)];
   const Pose& board = u.boards[static_cast<std::size_t>(o.instant)];
   double r[2];
@@ -315,6 +457,84 @@ std::array<double, kIntrinsicCount> IntrinsicArray(const formats::CameraCalibrat
           c.distortion.k2, c.distortion.p1, c.distortion.p2, c.distortion.k3};
 }
 
+// The turntable's axis from the free solution's board poses (reference =
+// the first camera): the board's motion between two angles on one holder is
+// a rotation about the axis by their difference. Then everything moves into
+// the world frame TurntableMotion defines. Conditioning: the axis comes from
+// pairs of angles at least 5 degrees apart; a holder seen at one angle only
+// gives its pose, not the axis.
+void InitTurntable(Unknowns* u, const TurntableMotion& motion) {
+  std::vector<std::size_t> seen;
+  for (std::size_t i = 0; i < u->boards.size(); ++i) {
+    if (u->board_seen[i]) seen.push_back(i);
+  }
+  Eigen::Vector3d direction = Eigen::Vector3d::Zero();
+  Eigen::MatrixXd a(0, 3);
+  Eigen::VectorXd b(0);
+  for (std::size_t x = 0; x < seen.size(); ++x) {
+    for (std::size_t y = x + 1; y < seen.size(); ++y) {
+      const std::size_t i = seen[x], j = seen[y];
+      if (motion.holder[i] != motion.holder[j]) continue;
+      const double turn = motion.angle_rad[j] - motion.angle_rad[i];
+      if (std::abs(std::sin(turn)) < std::sin(5.0 / kRadToDeg)) continue;
+      const Pose m = Compose(u->boards[j], Inverse(u->boards[i]));
+      const Eigen::AngleAxisd rotation(Rotation(m));
+      direction += rotation.axis() * (rotation.angle() * turn > 0 ? 1.0 : -1.0) * std::abs(std::sin(rotation.angle()));
+      // (I - R) p = t for every point p on the axis.
+      a.conservativeResize(a.rows() + 3, 3);
+      b.conservativeResize(b.rows() + 3);
+      a.bottomRows(3) = Eigen::Matrix3d::Identity() - Rotation(m);
+      b.tail(3) = Eigen::Vector3d(m.t[0], m.t[1], m.t[2]);
+    }
+  }
+  if (direction.norm() < 1e-9) {
+    throw core::Error(
+        "the turntable's axis cannot be found: the board was not seen on one holder at two turntable angles at "
+        "least 5 degrees apart");
+  }
+  const Eigen::Vector3d z = direction.normalized();
+  const Eigen::Vector3d point = a.completeOrthogonalDecomposition().solve(b);
+  // The origin: on the axis, board_height_mm below the first holder's board.
+  std::size_t first = seen.size();
+  for (std::size_t x = 0; x < seen.size() && first == seen.size(); ++x) {
+    if (motion.holder[seen[x]] == 0) first = seen[x];
+  }
+  if (first == seen.size()) throw core::Error("the board was never seen on the first holder tilt");
+  const Pose& board0 = u->boards[first];
+  const Eigen::Vector3d board_origin(board0.t[0], board0.t[1], board0.t[2]);
+  const Eigen::Vector3d origin = point + ((board_origin - point).dot(z) - motion.board_height_mm) * z;
+  const Eigen::Vector3d board_x = Eigen::AngleAxisd(-motion.angle_rad[first], z) * (Rotation(board0) * Eigen::Vector3d::UnitX());
+  const Eigen::Vector3d x = (board_x - board_x.dot(z) * z).normalized();
+  Eigen::Matrix3d world_axes;
+  world_axes << x, z.cross(x), z;
+  const Pose world_from_reference = Inverse(FromMatrix(world_axes, origin));
+  for (Pose& camera : u->cameras) camera = Compose(world_from_reference, camera);
+  int holders = 0;
+  for (const int h : motion.holder) holders = std::max(holders, h + 1);
+  u->holder_angles.assign(static_cast<std::size_t>(holders), {0, 0, 0});
+  u->holder_t.assign(static_cast<std::size_t>(holders), {0, 0, motion.board_height_mm});
+  std::vector<bool> placed(static_cast<std::size_t>(holders), false);
+  for (const std::size_t i : seen) {
+    const auto h = static_cast<std::size_t>(motion.holder[i]);
+    if (placed[h]) continue;
+    placed[h] = true;
+    // turntable <- board = Rz(-angle) (world <- reference) (reference <- board)
+    const Pose unturn = FromMatrix(Eigen::AngleAxisd(-motion.angle_rad[i], Eigen::Vector3d::UnitZ()).toRotationMatrix(),
+                                   Eigen::Vector3d::Zero());
+    const Pose on_table = Compose(unturn, Compose(world_from_reference, u->boards[i]));
+    const Eigen::Matrix3d r = Rotation(on_table);
+    const double pitch = std::asin(std::clamp(-r(2, 0), -1.0, 1.0));
+    const double roll = std::atan2(r(2, 1), r(2, 2));
+    u->holder_angles[h] = {h == 0 ? 0.0 : std::atan2(r(1, 0), r(0, 0)), roll, pitch};
+    u->holder_t[h] = {on_table.t[0], on_table.t[1], h == 0 ? motion.board_height_mm : on_table.t[2]};
+  }
+  for (std::size_t h = 0; h < placed.size(); ++h) {
+    if (!placed[h]) throw core::Error("the board was never seen on holder tilt " + std::to_string(h));
+  }
+  u->motion = &motion;
+  DeriveBoardPoses(u);
+}
+
 }  // namespace
 
 Eigen::Vector2d ProjectInCamera(const formats::CameraCalibration& camera, const Eigen::Vector3d& point) {
@@ -349,8 +569,21 @@ core::CheckResult CameraCalibrationOptions::Check() const {
   return {};
 }
 
+core::CheckResult TurntableMotion::Check(std::size_t instants) const {
+  if (holder.size() != instants || angle_rad.size() != instants) {
+    return "the turntable motion has " + std::to_string(holder.size()) + " holders and " +
+           std::to_string(angle_rad.size()) + " angles for " + std::to_string(instants) + " instants";
+  }
+  for (std::size_t i = 0; i < instants; ++i) {
+    if (holder[i] < 0 || holder[i] > 1000) return "holder index out of 0..1000";
+    if (!std::isfinite(angle_rad[i])) return "turntable angle not finite";
+  }
+  if (!std::isfinite(board_height_mm)) return "board height not finite";
+  return {};
+}
+
 CameraCalibrationResult CalibrateCameras(const CalibrationBoard& board, const std::vector<CameraViews>& cameras,
-                                         const CameraCalibrationOptions& options) {
+                                         const CameraCalibrationOptions& options, const TurntableMotion* motion) {
   if (const core::CheckResult problem = options.Check(); !problem.empty()) {
     throw core::Error("camera calibration: " + problem);
   }
@@ -490,6 +723,8 @@ CameraCalibrationResult CalibrateCameras(const CalibrationBoard& board, const st
     }
   }
 
+  std::vector<double> corner_radius;
+  for (const CameraViews& c : cameras) corner_radius.push_back(0.5 * std::hypot(c.width, c.height));
   std::vector<Observation> observations;
   for (std::size_t c = 0; c < cameras.size(); ++c) {
     for (std::size_t i = 0; i < instants; ++i) {
@@ -501,9 +736,17 @@ CameraCalibrationResult CalibrateCameras(const CalibrationBoard& board, const st
     }
   }
 
+  if (motion) {
+    if (const core::CheckResult problem = motion->Check(instants); !problem.empty()) {
+      throw core::Error("camera calibration: " + problem);
+    }
+    BoardProblem(&unknowns, observations, options.huber_px, corner_radius).Solve();
+    InitTurntable(&unknowns, *motion);
+  }
+
   // Robust solve, then outliers: corners far beyond the rest, then photos
   // that fit much worse than the median photo.
-  BoardProblem(&unknowns, observations, options.huber_px).Solve();
+  BoardProblem(&unknowns, observations, options.huber_px, corner_radius).Solve();
   std::vector<double> squared;
   for (const Observation& o : observations) squared.push_back(Residual(unknowns, o).squaredNorm());
   // A 2D residual with per-coordinate sigma s has median squared norm
@@ -562,7 +805,7 @@ CameraCalibrationResult CalibrateCameras(const CalibrationBoard& board, const st
   }
 
   // Least squares on the inliers, and its covariance.
-  BoardProblem final_problem(&unknowns, observations, 0.0);
+  BoardProblem final_problem(&unknowns, observations, 0.0, corner_radius);
   const SolveSummary solved = final_problem.Solve();
   const int dof = solved.residuals - solved.tangent_parameters;
   if (dof <= 0) {
@@ -630,7 +873,7 @@ CameraCalibrationResult CalibrateCameras(const CalibrationBoard& board, const st
         break;
       }
     }
-    if (c == 0) continue;
+    if (c == 0 && !motion) continue;
     cal.pose.uncertainty.rotation_rad = (variance * covariances[c].rotation.diagonal()).cwiseSqrt();
     cal.pose.uncertainty.translation_mm = (variance * covariances[c].centre.diagonal()).cwiseSqrt();
   }
@@ -639,13 +882,26 @@ CameraCalibrationResult CalibrateCameras(const CalibrationBoard& board, const st
     RelativePose relative;
     relative.from = cameras[0].id;
     relative.to = cameras[c].id;
+    const Pose first_from_c = Compose(Inverse(unknowns.cameras[0]), unknowns.cameras[c]);
     double aa[3];
-    ceres::QuaternionToAngleAxis(unknowns.cameras[c].q.data(), aa);
+    ceres::QuaternionToAngleAxis(first_from_c.q.data(), aa);
     relative.rotation_deg = Eigen::Vector3d(aa[0], aa[1], aa[2]) * kRadToDeg;
-    relative.translation_mm = cal.pose.transform.translation;
-    if (cal.pose.uncertainty.rotation_rad) relative.rotation_std_deg = *cal.pose.uncertainty.rotation_rad * kRadToDeg;
-    if (cal.pose.uncertainty.translation_mm) relative.translation_std_mm = *cal.pose.uncertainty.translation_mm;
+    relative.translation_mm = Eigen::Vector3d(first_from_c.t[0], first_from_c.t[1], first_from_c.t[2]);
+    if (!motion && cal.pose.uncertainty.rotation_rad) {
+      relative.rotation_std_deg = *cal.pose.uncertainty.rotation_rad * kRadToDeg;
+      relative.translation_std_mm = *cal.pose.uncertainty.translation_mm;
+      relative.has_std = true;
+    }
     result.relative_poses.push_back(relative);
+  }
+  for (std::size_t h = 0; motion && h < unknowns.holder_angles.size(); ++h) {
+    const Pose pose = HolderPose(unknowns, h);
+    core::RigidTransform holder;
+    holder.parent_frame = "turntable";
+    holder.child_frame = "board";
+    holder.rotation = Rotation(pose);
+    holder.translation = Eigen::Vector3d(pose.t[0], pose.t[1], pose.t[2]);
+    result.holder_poses.push_back(holder);
   }
   for (const CalibratedCamera& c : result.cameras) {
     if (c.rms_px > options.max_rms_px) {

@@ -25,6 +25,7 @@
 #include "calibration/board_corner_detector.h"
 #include "calibration/calibration_board.h"
 #include "core/error.h"
+#include "core/rigid_transform.h"
 #include "formats/calibration.h"
 
 namespace mesocap::calibration {
@@ -65,6 +66,21 @@ struct CameraViews {
   std::vector<DetectionQuality> qualities;  // empty: not measured
 };
 
+// A rig's calibration photos: the board on a holder on the turntable, the
+// holder at one of several tilts (an operator's step), the turntable turned
+// by the stages. The board's pose at each instant then follows from the
+// holder's and the angle, and the photos give the turntable's axis: the
+// world frame becomes the turntable frame at angle 0 (DESIGN.md), with z
+// along the axis, the origin on the axis in the reference plane (the first
+// holder's board surface lies board_height_mm above it) and x along that
+// board's x axis, which sets the sample frame's orientation.
+struct TurntableMotion {
+  std::vector<int> holder;        // per instant: the holder tilt, 0 first
+  std::vector<double> angle_rad;  // per instant: the turntable's angle
+  double board_height_mm = 0;
+  core::CheckResult Check(std::size_t instants) const;
+};
+
 struct SetAsideImage {
   std::string name;
   std::string reason;
@@ -92,6 +108,7 @@ struct RelativePose {
   Eigen::Vector3d translation_mm = Eigen::Vector3d::Zero();
   Eigen::Vector3d rotation_std_deg = Eigen::Vector3d::Zero();
   Eigen::Vector3d translation_std_mm = Eigen::Vector3d::Zero();
+  bool has_std = false;  // no covariance, or a rig (where both poses are free in the world)
 };
 
 struct CameraCalibrationResult {
@@ -99,13 +116,17 @@ struct CameraCalibrationResult {
   std::vector<RelativePose> relative_poses;  // each camera after the first, from the first
   double residual_sigma_px = 0;  // measured, per coordinate
   std::vector<std::string> warnings;
+  // With a TurntableMotion: turntable <- board on each holder.
+  std::vector<core::RigidTransform> holder_poses;
 };
 
 // Throws Error naming the camera (never sees the board, too few views, no
 // photo shared with the other cameras) or the residual (the board as given
-// does not fit the photos).
+// does not fit the photos). With `motion`, the cameras' poses are in the
+// world frame it defines (else the first camera's frame).
 CameraCalibrationResult CalibrateCameras(const CalibrationBoard& board, const std::vector<CameraViews>& cameras,
-                                         const CameraCalibrationOptions& options);
+                                         const CameraCalibrationOptions& options,
+                                         const TurntableMotion* motion = nullptr);
 
 // The pixel where a camera-frame point projects through the OpenCV model.
 Eigen::Vector2d ProjectInCamera(const formats::CameraCalibration& camera, const Eigen::Vector3d& point);

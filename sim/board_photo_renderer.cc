@@ -42,7 +42,9 @@ core::Image RenderBoardPhoto(const calibration::BoardPrint& print, const core::R
           continue;
         }
         const Eigen::Vector3d p = origin + t * d;
-        if (!print.Contains(p.x(), p.y())) {
+        // The print faces -z (the board frame's z points into the page); its
+        // back is plain and reads as background.
+        if (!print.Contains(p.x(), p.y()) || d.z() < 0) {
           sum += options.background_signal;
         } else {
           sum += options.white_signal * (print.IsWhite(p.x(), p.y()) ? 1.0 : options.ink_reflectance);

@@ -29,7 +29,8 @@ struct BoardPhotoOptions {
 
 // The linear signal (one channel, fraction of full scale) of `camera`'s photo
 // of `print` with world <- board = `world_from_board`. The print is seen
-// from either side.
+// from the side its z axis points away from; from behind the board reads as
+// background.
 core::Image RenderBoardPhoto(const calibration::BoardPrint& print, const core::RigidTransform& world_from_board,
                              const formats::CameraCalibration& camera, const BoardPhotoOptions& options);
 
