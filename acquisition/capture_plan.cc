@@ -3,6 +3,7 @@
 #include <string>
 
 #include "calibration/nominal_geometry.h"
+#include "core/error.h"
 #include "formats/capture_plan_steps.h"
 
 namespace mesocap::acquisition {
@@ -68,6 +69,29 @@ std::vector<formats::PlannedStep> MakeCapturePlan(const formats::RigDescription&
       step.stores_analysis = laser.sweep_storage == formats::LaserDescription::SweepStorage::kAnalysis;
       step.files = CameraFiles(rig, "laser/" + stem, step.stores_analysis ? ".sweep.json" : ".tif");
       plan.push_back(formats::ToPlannedStep("laser-sweep-" + stem, step, recording));
+    }
+  }
+  return plan;
+}
+
+std::vector<formats::PlannedStep> MakeCalibrationPlan(const formats::RigDescription& rig,
+                                                      const nlohmann::json& recording) {
+  if (!rig.calibration_board) {
+    throw core::FormatError(rig.file, "calibration_board",
+                            "missing: a calibration session needs the rig's calibration board (docs/FORMATS.md)");
+  }
+  const formats::CalibrationBoardDescription& board = *rig.calibration_board;
+  std::vector<formats::PlannedStep> plan;
+  for (std::size_t h = 0; h < board.holder_tilts_rad.size(); ++h) {
+    for (std::size_t ti = 0; ti < board.turntable_angles_rad.size(); ++ti) {
+      const std::string stem = "h" + std::to_string(h) + "_t" + std::to_string(ti);
+      formats::BoardImageStep step;
+      step.holder = static_cast<int>(h);
+      step.holder_tilt_rad = board.holder_tilts_rad[h];
+      step.turntable_index = static_cast<int>(ti);
+      step.turntable_rad = board.turntable_angles_rad[ti];
+      step.files = CameraFiles(rig, "board/" + stem, ".png");
+      plan.push_back(formats::ToPlannedStep("board-" + stem, step, recording));
     }
   }
   return plan;

@@ -35,4 +35,12 @@ namespace mesocap::acquisition {
 std::vector<formats::PlannedStep> MakeCapturePlan(const formats::RigDescription& rig,
                                                   const nlohmann::json& recording = nullptr);
 
+// The plan of a calibration session (`simulate --plan calibration`): the
+// rig's calibration board on each holder tilt in turn (the operator sets it),
+// at each of its turntable angles, one image per camera:
+//   board_image        board/h<hi>_t<ti>_<cam>.png   16-bit grey
+// Throws FormatError naming the rig file when it has no calibration_board.
+std::vector<formats::PlannedStep> MakeCalibrationPlan(const formats::RigDescription& rig,
+                                                      const nlohmann::json& recording = nullptr);
+
 }  // namespace mesocap::acquisition

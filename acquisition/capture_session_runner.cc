@@ -5,6 +5,7 @@
 
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -91,6 +92,7 @@ class SessionRun {
         progress.Advance();
       }
       AllOff();
+      RemoveBoard();
     } catch (const drivers::DeviceError& e) {
       throw core::Error(Stopped(s, e.what()));
     }
@@ -216,6 +218,7 @@ class SessionRun {
 
   void RunStep(const formats::PlannedStep& step, const formats::CaptureStep& typed) {
     AllOff();
+    if (!std::holds_alternative<formats::BoardImageStep>(typed)) RemoveBoard();
     std::visit([&](const auto& s) { Run(step, s); }, typed);
   }
 
@@ -233,6 +236,25 @@ class SessionRun {
       core::WriteImage(FilePath(calibration.files[i]), core::ChannelMean(std::move(images[i])),
                        core::PixelEncoding::kUInt16);
     }
+  }
+
+  void Run(const formats::PlannedStep& step, const formats::BoardImageStep& board) {
+    Move(*rig_.turntable, board.turntable_rad);
+    if (board_holder_ != board.holder) {
+      operator_.PlaceCalibrationBoard(board.holder, board.holder_tilt_rad);
+      board_holder_ = board.holder;
+    }
+    std::vector<core::Image> images = GrabAll(step, board.files, drivers::PixelFormat::kMono);
+    for (std::size_t i = 0; i < images.size(); ++i) {
+      core::WriteImage(FilePath(board.files[i]), core::ChannelMean(std::move(images[i])), core::PixelEncoding::kUInt16);
+    }
+  }
+
+  // The board comes off the turntable before any other step, and at the end.
+  void RemoveBoard() {
+    if (!board_holder_) return;
+    operator_.RemoveCalibrationBoard();
+    board_holder_.reset();
   }
 
   void Run(const formats::PlannedStep& step, const formats::BtfImageStep& btf) {
@@ -332,6 +354,7 @@ class SessionRun {
   std::map<std::string, std::size_t> camera_index_;
   std::map<std::string, std::uint64_t> next_sequence_;
   CaptureRunReport report_;
+  std::optional<int> board_holder_;  // the calibration board's holder tilt while it is on the turntable
   // Made at the first sweep that stores its analysis.
   std::unique_ptr<mdf::SessionSweepGeometry> sweep_geometry_;
 };

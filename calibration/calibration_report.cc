@@ -83,6 +83,18 @@ nlohmann::json ToJson(const CalibrationReport& report) {
                          {"residual_sigma_px", report.cameras.residual_sigma_px},
                          {"warnings", report.cameras.warnings}};
   if (!report.cross_validation) json["cross_validation_skipped"] = report.cross_validation_skipped;
+  if (!report.cameras.holder_poses.empty()) {
+    // The world is the turntable's frame at angle 0: its axis is z through
+    // the origin by construction; the holders are what was estimated.
+    nlohmann::json holders = nlohmann::json::array();
+    for (const core::RigidTransform& h : report.cameras.holder_poses) holders.push_back(core::ToJson(h));
+    json["turntable"] = {{"axis_point_mm", {0, 0, 0}},
+                         {"axis_direction", {0, 0, 1}},
+                         {"frame", "world: z along the axis, origin on the reference plane, x along the board "
+                                   "on the first holder tilt"},
+                         {"holders", holders}};
+  }
+  if (!report.nominal_parts.empty()) json["nominal_parts"] = report.nominal_parts;
   return json;
 }
 
@@ -108,6 +120,11 @@ std::string FormatCalibrationReport(const CalibrationReport& report) {
                 camera.calibration.distortion.k2, projection.c_str(), xval.c_str());
   }
   for (const RelativePose& p : report.cameras.relative_poses) {
+    if (!p.has_std) {
+      out << Line("%s -> %s: rotation %.4f deg, translation %.3f %.3f %.3f mm\n", p.from.c_str(), p.to.c_str(),
+                  p.rotation_deg.norm(), p.translation_mm.x(), p.translation_mm.y(), p.translation_mm.z());
+      continue;
+    }
     out << Line("%s -> %s: rotation %.4f deg (std %.4f %.4f %.4f), translation %.3f %.3f %.3f mm (std %.3f %.3f %.3f)\n",
                 p.from.c_str(), p.to.c_str(), p.rotation_deg.norm(), p.rotation_std_deg.x(), p.rotation_std_deg.y(),
                 p.rotation_std_deg.z(), p.translation_mm.x(), p.translation_mm.y(), p.translation_mm.z(),
@@ -120,6 +137,10 @@ std::string FormatCalibrationReport(const CalibrationReport& report) {
   }
   if (!report.cross_validation) out << "cross-validation skipped: " << report.cross_validation_skipped << "\n";
   for (const std::string& warning : report.cameras.warnings) out << "warning: " << warning << "\n";
+  if (!report.nominal_parts.empty()) {
+    out << "not calibrated from images (the rig description's nominal values written): " << report.nominal_parts
+        << "\n";
+  }
   return out.str();
 }
 

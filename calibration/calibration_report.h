@@ -22,6 +22,9 @@ struct CalibrationReport {
   // not be calibrated on their own.
   std::optional<std::vector<CrossValidationDifference>> cross_validation;
   std::string cross_validation_skipped;
+  // A rig's calibration: the parts it took from the rig description's
+  // nominal geometry, not from images (empty for cameras alone).
+  std::string nominal_parts;
 };
 
 nlohmann::json ToJson(const CalibrationReport& report);

@@ -32,8 +32,9 @@ void ProjectOpenCv(const T* k, const T* p, T* uv) {
 }
 
 // A pose parent <- child as a unit quaternion (w x y z, Ceres' order, on
-// Ceres' QuaternionManifold whose tangent is a rotation vector about the
-// parent's axes: the format's uncertainty convention) and a translation.
+// Ceres' QuaternionManifold, whose tangent is half a rotation vector about
+// the parent's axes: twice it is the format's uncertainty convention) and a
+// translation.
 struct Pose {
   std::array<double, 4> q{1, 0, 0, 0};
   std::array<double, 3> t{0, 0, 0};
@@ -249,11 +250,17 @@ IntrinsicUnits UnitsOf(const std::array<double, kIntrinsicCount>& k, double corn
 }
 
 // Physical-unit covariances of one camera's parameters.
+// Physical-unit covariances of one camera's parameters, jointly: the
+// intrinsics (9), the rotation's tangent (3: a rotation vector about the
+// reference's axes, rad) and the centre (3, mm); the pose part is zero for
+// the reference camera when it is the gauge.
+constexpr int kCameraParameters = kIntrinsicCount + 6;
 struct CameraCovariance {
-  Eigen::Matrix<double, kIntrinsicCount, kIntrinsicCount> intrinsics =
-      Eigen::Matrix<double, kIntrinsicCount, kIntrinsicCount>::Zero();
-  Eigen::Matrix3d rotation = Eigen::Matrix3d::Zero();  // tangent: rotation vector about the reference's axes, rad^2
-  Eigen::Matrix3d centre = Eigen::Matrix3d::Zero();    // mm^2
+  Eigen::Matrix<double, kCameraParameters, kCameraParameters> joint =
+      Eigen::Matrix<double, kCameraParameters, kCameraParameters>::Zero();
+  auto intrinsics() const { return joint.topLeftCorner<kIntrinsicCount, kIntrinsicCount>(); }
+  auto rotation() const { return joint.block<3, 3>(kIntrinsicCount, kIntrinsicCount); }
+  auto centre() const { return joint.bottomRightCorner<3, 3>(); }
 };
 
 // The least-squares problem over the unknowns, solved in the solver's units
@@ -376,27 +383,54 @@ class BoardProblem {
     ceres::Covariance covariance(options);
     std::vector<std::pair<const double*, const double*>> blocks;
     for (std::size_t c = 0; c < scaled_.cameras.size(); ++c) {
-      blocks.emplace_back(scaled_.intrinsics[c].data(), scaled_.intrinsics[c].data());
+      const double* k = scaled_.intrinsics[c].data();
+      blocks.emplace_back(k, k);
       if (c == 0 && !scaled_.motion) continue;
-      blocks.emplace_back(scaled_.cameras[c].q.data(), scaled_.cameras[c].q.data());
-      blocks.emplace_back(scaled_.cameras[c].t.data(), scaled_.cameras[c].t.data());
+      const double* q = scaled_.cameras[c].q.data();
+      const double* t = scaled_.cameras[c].t.data();
+      for (const auto& pair : {std::pair{q, q}, std::pair{t, t}, std::pair{k, q}, std::pair{k, t}, std::pair{q, t}}) {
+        blocks.push_back(pair);
+      }
     }
     if (!covariance.Compute(blocks, problem_.get())) {
       return false;
     }
     out->resize(scaled_.cameras.size());
     for (std::size_t c = 0; c < scaled_.cameras.size(); ++c) {
-      CameraCovariance& cov = (*out)[c];
-      Eigen::Matrix<double, kIntrinsicCount, kIntrinsicCount, Eigen::RowMajor> k;
-      covariance.GetCovarianceBlock(scaled_.intrinsics[c].data(), scaled_.intrinsics[c].data(), k.data());
-      const Eigen::Matrix<double, kIntrinsicCount, 1> units(units_[c].data());
-      cov.intrinsics = units.asDiagonal() * k * units.asDiagonal();
-      if (c == 0 && !scaled_.motion) continue;
-      Eigen::Matrix<double, 3, 3, Eigen::RowMajor> r, t;
-      covariance.GetCovarianceBlockInTangentSpace(scaled_.cameras[c].q.data(), scaled_.cameras[c].q.data(), r.data());
-      covariance.GetCovarianceBlock(scaled_.cameras[c].t.data(), scaled_.cameras[c].t.data(), t.data());
-      cov.rotation = r;
-      cov.centre = kLengthUnitMm * kLengthUnitMm * t;
+      // The solver's units back to physical ones, parameter by parameter.
+      Eigen::Matrix<double, kCameraParameters, 1> units;
+      units.head<kIntrinsicCount>() = Eigen::Matrix<double, kIntrinsicCount, 1>(units_[c].data());
+      // Ceres' QuaternionManifold turns by twice its tangent: a tangent
+      // delta is the rotation vector 2 delta.
+      units.segment<3>(kIntrinsicCount).setConstant(2.0);
+      units.tail<3>().setConstant(kLengthUnitMm);
+      Eigen::Matrix<double, kCameraParameters, kCameraParameters> joint;
+      joint.setZero();
+      const double* k = scaled_.intrinsics[c].data();
+      Eigen::Matrix<double, kIntrinsicCount, kIntrinsicCount, Eigen::RowMajor> kk;
+      covariance.GetCovarianceBlock(k, k, kk.data());
+      joint.topLeftCorner<kIntrinsicCount, kIntrinsicCount>() = kk;
+      if (c != 0 || scaled_.motion) {
+        const double* q = scaled_.cameras[c].q.data();
+        const double* t = scaled_.cameras[c].t.data();
+        Eigen::Matrix<double, 3, 3, Eigen::RowMajor> qq, tt, qt;
+        Eigen::Matrix<double, kIntrinsicCount, 3, Eigen::RowMajor> kq, kt;
+        covariance.GetCovarianceBlockInTangentSpace(q, q, qq.data());
+        covariance.GetCovarianceBlock(t, t, tt.data());
+        covariance.GetCovarianceBlockInTangentSpace(k, q, kq.data());
+        covariance.GetCovarianceBlockInTangentSpace(k, t, kt.data());
+        covariance.GetCovarianceBlockInTangentSpace(q, t, qt.data());
+        constexpr int r0 = kIntrinsicCount, c0 = kIntrinsicCount + 3;
+        joint.block<3, 3>(r0, r0) = qq;
+        joint.block<3, 3>(c0, c0) = tt;
+        joint.block<kIntrinsicCount, 3>(0, r0) = kq;
+        joint.block<kIntrinsicCount, 3>(0, c0) = kt;
+        joint.block<3, 3>(r0, c0) = qt;
+        joint.block<3, kIntrinsicCount>(r0, 0) = kq.transpose();
+        joint.block<3, kIntrinsicCount>(c0, 0) = kt.transpose();
+        joint.block<3, 3>(c0, r0) = qt.transpose();
+      }
+      (*out)[c].joint = units.asDiagonal() * joint * units.asDiagonal();
     }
     return true;
   }
@@ -455,6 +489,55 @@ formats::CameraCalibration ToCalibration(const CameraViews& views, const std::ar
 std::array<double, kIntrinsicCount> IntrinsicArray(const formats::CameraCalibration& c) {
   return {c.intrinsics.fx, c.intrinsics.fy, c.intrinsics.cx, c.intrinsics.cy, c.distortion.k1,
           c.distortion.k2, c.distortion.p1, c.distortion.p2, c.distortion.k3};
+}
+
+// One sigma, pixels, of where camera c images the point the report is
+// about (largest axis of the 2D ellipse; numerical Jacobian over the
+// camera's 15 parameters, propagated through their joint covariance).
+// On a turntable: the sample centre, the world's origin, through the
+// intrinsics and the camera's pose (mrcal's reading: a point fixed in the
+// world, whose image moves with both). Without: a point fixed in the camera
+// on the ray through the image centre at the working distance, through the
+// intrinsics alone: the first camera's pose is the gauge there, and this
+// leaves out how the board poses would take up a principal point's error,
+// so it errs on the large side.
+double ProjectionSigma(const Unknowns& u, std::size_t c,
+                       const Eigen::Matrix<double, kCameraParameters, kCameraParameters>& covariance, bool in_world,
+                       double working_distance_mm) {
+  const Eigen::Matrix3d rotation = Rotation(u.cameras[c]);
+  const Eigen::Vector3d centre(u.cameras[c].t[0], u.cameras[c].t[1], u.cameras[c].t[2]);
+  // Off the world: the point on the optical axis (the principal point's ray,
+  // near the image centre's) at the working distance.
+  const Eigen::Vector3d world = in_world ? Eigen::Vector3d(Eigen::Vector3d::Zero())
+                                         : Eigen::Vector3d(centre + rotation.col(2) * working_distance_mm);
+  Eigen::Matrix<double, kCameraParameters, kCameraParameters> used = covariance;
+  if (!in_world) {
+    used.bottomRows<6>().setZero();
+    used.rightCols<6>().setZero();
+  }
+  const auto project = [&](const Eigen::Matrix<double, kCameraParameters, 1>& delta) {
+    std::array<double, kIntrinsicCount> k = u.intrinsics[c];
+    for (std::size_t i = 0; i < kIntrinsicCount; ++i) k[i] += delta[static_cast<int>(i)];
+    const Eigen::Vector3d turn = delta.segment<3>(kIntrinsicCount);
+    const Eigen::Matrix3d r =
+        (turn.norm() > 0 ? Eigen::AngleAxisd(turn.norm(), turn.normalized()).toRotationMatrix()
+                         : Eigen::Matrix3d::Identity()) *
+        rotation;
+    const Eigen::Vector3d p = r.transpose() * (world - centre - delta.tail<3>());
+    double uv[2];
+    ProjectOpenCv(k.data(), p.data(), uv);
+    return Eigen::Vector2d(uv[0], uv[1]);
+  };
+  Eigen::Matrix<double, 2, kCameraParameters> jacobian;
+  for (int p = 0; p < kCameraParameters; ++p) {
+    const double scale = p < kIntrinsicCount ? std::max(1.0, std::abs(u.intrinsics[c][static_cast<std::size_t>(p)]))
+                         : p < kIntrinsicCount + 3 ? 1.0 : 100.0;
+    Eigen::Matrix<double, kCameraParameters, 1> delta = Eigen::Matrix<double, kCameraParameters, 1>::Zero();
+    delta[p] = 1e-7 * scale;
+    jacobian.col(p) = (project(delta) - project(-delta)) / (2e-7 * scale);
+  }
+  const Eigen::Matrix2d projected = jacobian * used * jacobian.transpose();
+  return std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(projected).eigenvalues().maxCoeff()));
 }
 
 // The turntable's axis from the free solution's board poses (reference =
@@ -839,30 +922,13 @@ CameraCalibrationResult CalibrateCameras(const CalibrationBoard& board, const st
     out.rms_px = std::sqrt(sum / std::max(1, out.corners_used));
     out.working_distance_mm = Median(depths);
     if (!have_covariance) continue;
-    const Eigen::Matrix<double, kIntrinsicCount, kIntrinsicCount> k_cov = variance * covariances[c].intrinsics;
+    const Eigen::Matrix<double, kIntrinsicCount, kIntrinsicCount> k_cov = variance * covariances[c].intrinsics();
     const Eigen::Matrix<double, kIntrinsicCount, 1> k_std = k_cov.diagonal().cwiseSqrt();
     formats::CameraCalibration& cal = out.calibration;
     cal.intrinsics.uncertainty = {k_std[0], k_std[1], k_std[2], k_std[3]};
     cal.distortion.uncertainty = {k_std[4], k_std[5], k_std[6], k_std[7], k_std[8]};
-    // The image of the point on the optical axis through the image centre at
-    // the working distance: how far it may move with the intrinsics
-    // (numerical Jacobian; the point held fixed in the camera).
-    const Eigen::Vector3d point = UnprojectAtDepth(
-        cal, Eigen::Vector2d((cal.width - 1) / 2.0, (cal.height - 1) / 2.0), out.working_distance_mm);
-    Eigen::Matrix<double, 2, kIntrinsicCount> jacobian;
-    for (int p = 0; p < kIntrinsicCount; ++p) {
-      std::array<double, kIntrinsicCount> plus = unknowns.intrinsics[c], minus = plus;
-      const double h = 1e-6 * std::max(1.0, std::abs(plus[static_cast<std::size_t>(p)]));
-      plus[static_cast<std::size_t>(p)] += h;
-      minus[static_cast<std::size_t>(p)] -= h;
-      double a[2], b[2];
-      ProjectOpenCv(plus.data(), point.data(), a);
-      ProjectOpenCv(minus.data(), point.data(), b);
-      jacobian(0, p) = (a[0] - b[0]) / (2 * h);
-      jacobian(1, p) = (a[1] - b[1]) / (2 * h);
-    }
-    const Eigen::Matrix2d projected = jacobian * k_cov * jacobian.transpose();
-    out.projection_uncertainty_px = std::sqrt(Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(projected).eigenvalues().maxCoeff());
+    out.projection_uncertainty_px = ProjectionSigma(unknowns, c, variance * covariances[c].joint, motion != nullptr,
+                                                    out.working_distance_mm);
     for (const int f : {0, 1}) {
       const double relative = k_std[f] / unknowns.intrinsics[c][static_cast<std::size_t>(f)];
       if (relative > options.warn_relative_focal_sigma) {
@@ -874,8 +940,8 @@ CameraCalibrationResult CalibrateCameras(const CalibrationBoard& board, const st
       }
     }
     if (c == 0 && !motion) continue;
-    cal.pose.uncertainty.rotation_rad = (variance * covariances[c].rotation.diagonal()).cwiseSqrt();
-    cal.pose.uncertainty.translation_mm = (variance * covariances[c].centre.diagonal()).cwiseSqrt();
+    cal.pose.uncertainty.rotation_rad = (variance * covariances[c].rotation().diagonal()).cwiseSqrt();
+    cal.pose.uncertainty.translation_mm = (variance * covariances[c].centre().diagonal()).cwiseSqrt();
   }
   for (std::size_t c = 1; c < cameras.size(); ++c) {
     const formats::CameraCalibration& cal = result.cameras[c].calibration;

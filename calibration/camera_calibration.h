@@ -78,6 +78,7 @@ struct TurntableMotion {
   std::vector<int> holder;        // per instant: the holder tilt, 0 first
   std::vector<double> angle_rad;  // per instant: the turntable's angle
   double board_height_mm = 0;
+  double sample_size_mm = 0;  // the sample square's side: what cross-validation compares
   core::CheckResult Check(std::size_t instants) const;
 };
 

@@ -1,6 +1,7 @@
 #include "calibration/cross_validation.h"
 
 #include <algorithm>
+#include <Eigen/SVD>
 #include <cmath>
 
 namespace mesocap::calibration {
@@ -28,44 +29,77 @@ std::vector<CameraViews> Half(const std::vector<CameraViews>& cameras, std::size
 std::optional<std::vector<CrossValidationDifference>> CrossValidate(const CalibrationBoard& board,
                                                                     const std::vector<CameraViews>& cameras,
                                                                     const CameraCalibrationOptions& options,
-                                                                    std::string* why) {
+                                                                    std::string* why,
+                                                                    const TurntableMotion* motion) {
   CameraCalibrationResult halves[2];
   for (std::size_t parity = 0; parity < 2; ++parity) {
     try {
-      halves[parity] = CalibrateCameras(board, Half(cameras, parity), options);
+      halves[parity] = CalibrateCameras(board, Half(cameras, parity), options, motion);
     } catch (const core::Error& e) {
       if (why) *why = std::string(parity == 0 ? "first" : "second") + " half: " + e.what();
       return std::nullopt;
     }
   }
   std::vector<CrossValidationDifference> differences;
+  constexpr int kGrid = 10;
   for (std::size_t c = 0; c < cameras.size(); ++c) {
-    Eigen::Vector2d lo(1e30, 1e30), hi(-1e30, -1e30);
-    for (const BoardDetection& d : cameras[c].detections) {
-      for (const Eigen::Vector2d& p : d.pixels) {
-        lo = lo.cwiseMin(p);
-        hi = hi.cwiseMax(p);
-      }
-    }
-    const CalibratedCamera& a = halves[0].cameras[c];
-    const CalibratedCamera& b = halves[1].cameras[c];
-    const double depth = a.working_distance_mm;
+    const formats::CameraCalibration& a = halves[0].cameras[c].calibration;
+    const formats::CameraCalibration& b = halves[1].cameras[c].calibration;
     CrossValidationDifference difference;
     difference.camera_id = cameras[c].id;
-    double sum = 0;
-    constexpr int kGrid = 10;
-    for (int j = 0; j < kGrid; ++j) {
-      for (int i = 0; i < kGrid; ++i) {
-        const Eigen::Vector2d pixel = lo + Eigen::Vector2d((hi.x() - lo.x()) * i / (kGrid - 1),
-                                                           (hi.y() - lo.y()) * j / (kGrid - 1));
-        const Eigen::Vector2d moved = ProjectInCamera(b.calibration, UnprojectAtDepth(a.calibration, pixel, depth));
-        const double d = (moved - pixel).norm();
-        sum += d * d;
-        difference.max_px = std::max(difference.max_px, d);
+    double sum = 0, depth_sum = 0;
+    const auto add = [&](const Eigen::Vector2d& pa, const Eigen::Vector2d& pb, double depth) {
+      const double d = (pa - pb).norm();
+      sum += d * d;
+      depth_sum += depth;
+      difference.max_px = std::max(difference.max_px, d);
+    };
+    if (motion) {
+      // The sample square on the reference plane, through each half's
+      // camera: world <- camera poses.
+      for (int j = 0; j < kGrid; ++j) {
+        for (int i = 0; i < kGrid; ++i) {
+          const Eigen::Vector3d world(motion->sample_size_mm * (i / (kGrid - 1.0) - 0.5),
+                                      motion->sample_size_mm * (j / (kGrid - 1.0) - 0.5), 0.0);
+          const auto in = [&](const formats::CameraCalibration& cam) {
+            return Eigen::Vector3d(cam.pose.transform.rotation.transpose() * (world - cam.pose.transform.translation));
+          };
+          add(ProjectInCamera(a, in(a)), ProjectInCamera(b, in(b)), in(a).z());
+        }
+      }
+    } else {
+      Eigen::Vector2d lo(1e30, 1e30), hi(-1e30, -1e30);
+      for (const BoardDetection& d : cameras[c].detections) {
+        for (const Eigen::Vector2d& p : d.pixels) {
+          lo = lo.cwiseMin(p);
+          hi = hi.cwiseMax(p);
+        }
+      }
+      const double depth = halves[0].cameras[c].working_distance_mm;
+      std::vector<Eigen::Vector2d> pixels;
+      Eigen::Matrix3Xd rays_a(3, kGrid * kGrid), rays_b(3, kGrid * kGrid);
+      for (int j = 0; j < kGrid; ++j) {
+        for (int i = 0; i < kGrid; ++i) {
+          pixels.push_back(lo + Eigen::Vector2d((hi.x() - lo.x()) * i / (kGrid - 1), (hi.y() - lo.y()) * j / (kGrid - 1)));
+          rays_a.col(static_cast<int>(pixels.size()) - 1) = UnprojectAtDepth(a, pixels.back(), 1.0).normalized();
+          rays_b.col(static_cast<int>(pixels.size()) - 1) = UnprojectAtDepth(b, pixels.back(), 1.0).normalized();
+        }
+      }
+      // The rotation taking one half's rays onto the other's (Kabsch, by
+      // Eigen's SVD of their correlation).
+      const Eigen::JacobiSVD<Eigen::Matrix3d> svd(rays_b * rays_a.transpose(), Eigen::ComputeFullU | Eigen::ComputeFullV);
+      Eigen::Matrix3d turn = svd.matrixU() * svd.matrixV().transpose();
+      if (turn.determinant() < 0) {
+        Eigen::Matrix3d flip = Eigen::Matrix3d::Identity();
+        flip(2, 2) = -1;
+        turn = svd.matrixU() * flip * svd.matrixV().transpose();
+      }
+      for (std::size_t n = 0; n < pixels.size(); ++n) {
+        add(pixels[n], ProjectInCamera(b, turn * rays_a.col(static_cast<int>(n)) * depth), depth);
       }
     }
     difference.rms_px = std::sqrt(sum / (kGrid * kGrid));
-    difference.rms_mm = difference.rms_px * depth / a.calibration.intrinsics.fx;
+    difference.rms_mm = difference.rms_px * (depth_sum / (kGrid * kGrid)) / a.intrinsics.fx;
     differences.push_back(difference);
   }
   return differences;

@@ -7,6 +7,7 @@
 #include <Eigen/Core>
 
 #include "core/sampling_set.h"
+#include "formats/calibration.h"
 #include "formats/rig_description.h"
 
 namespace mesocap::calibration {
@@ -31,6 +32,16 @@ Eigen::Vector3d LaserPlaneNormalAtZeroTilt(const formats::LaserDescription& lase
 // Tilt 0 aims the laser plane at the origin; a positive tilt moves the stripe
 // on the turntable plane away from the laser by `offset_mm`.
 double LaserTiltForOffset(const formats::LaserDescription& laser, int mount, double offset_mm);
+
+// The rig description's nominal geometry written as a calibration: cameras
+// looking at the origin with OpenCV's camera frame (+z forward, +x right, +y
+// down in the image), the turntable's axis along z through the origin, the
+// lamps and laser mounts where the description puts them (a mount's tilt
+// axis horizontal and tangent to the arc, oriented so that a positive tilt
+// moves the stripe away from the laser). No radiometry, no uncertainty: the
+// simulated rig's truth (sim/true_calibration.h) and the parts of a rig that
+// a calibration did not measure.
+formats::Calibration NominalCalibration(const formats::RigDescription& rig);
 
 // How well a camera and a laser location triangulate (MDF paper Sec. 3.2):
 // the sine of the angle between the camera's ray to the turntable centre and

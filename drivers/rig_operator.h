@@ -1,7 +1,8 @@
 // The person at the rig, for the steps no motor does: laying the flat
 // calibration plates of the laser-plane calibration on the turntable (MDF
-// paper Sec. 3.2) and moving the laser unit between its mounts on the light
-// arc (Fig. 4: "we simply remount the laser unit ... manually"). A capture
+// paper Sec. 3.2), moving the laser unit between its mounts on the light
+// arc (Fig. 4: "we simply remount the laser unit ... manually"), and setting
+// the calibration board's holder to each of its tilts. A capture
 // asks, the operator does it and confirms by returning; a real backend
 // prompts on the console, the simulated one changes the simulated rig.
 #pragma once
@@ -18,6 +19,11 @@ class RigOperator {
   virtual void RemoveCalibrationPlate() = 0;
   // Move the laser unit to mount `mount` of the light arc.
   virtual void MountLaser(int mount) = 0;
+  // Set the rig's calibration board on the turntable on its holder at tilt
+  // `holder` (of the rig description's calibration_board.holder_tilts),
+  // tilted by `tilt_rad`; and take it off again.
+  virtual void PlaceCalibrationBoard(int holder, double tilt_rad) = 0;
+  virtual void RemoveCalibrationBoard() = 0;
 };
 
 }  // namespace mesocap::drivers

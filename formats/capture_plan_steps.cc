@@ -118,6 +118,16 @@ PlannedStep ToPlannedStep(std::string id, const LaserSweepStep& step, const json
   return Planned(std::move(id), StepKind::kLaserSweep, std::move(params), recording);
 }
 
+PlannedStep ToPlannedStep(std::string id, const BoardImageStep& step, const json& recording) {
+  return Planned(std::move(id), StepKind::kBoardImage,
+                 {{"holder", step.holder},
+                  {"holder_tilt_deg", PlanDegrees(step.holder_tilt_rad)},
+                  {"turntable_index", step.turntable_index},
+                  {"turntable_deg", PlanDegrees(step.turntable_rad)},
+                  {"files", FilesJson(step.files)}},
+                 recording);
+}
+
 LaserCalibrationStep ReadLaserCalibrationStep(const PlannedStep& step, std::size_t index, const RigDescription& rig,
                                               const fs::path& manifest_file) {
   const core::JsonFieldReader fields = StepFields(step, StepKind::kLaserCalibration, index, manifest_file);
@@ -178,6 +188,23 @@ LaserSweepStep ReadLaserSweepStep(const PlannedStep& step, std::size_t index, co
   return out;
 }
 
+BoardImageStep ReadBoardImageStep(const PlannedStep& step, std::size_t index, const RigDescription& rig,
+                                  const fs::path& manifest_file) {
+  const core::JsonFieldReader fields = StepFields(step, StepKind::kBoardImage, index, manifest_file);
+  fields.RejectUnknownMembers({"holder", "holder_tilt_deg", "turntable_index", "turntable_deg", "files", "recording"});
+  if (!rig.calibration_board) {
+    throw core::FormatError(manifest_file, "plan[" + std::to_string(index) + "].kind",
+                            "a board image needs the rig's calibration_board, which the session's rig lacks");
+  }
+  BoardImageStep out;
+  out.holder = Index(fields, "holder", rig.calibration_board->holder_tilts_rad.size());
+  out.holder_tilt_rad = Radians(fields, "holder_tilt_deg");
+  out.turntable_index = Index(fields, "turntable_index", rig.calibration_board->turntable_angles_rad.size());
+  out.turntable_rad = Radians(fields, "turntable_deg");
+  out.files = ReadFiles(fields, rig);
+  return out;
+}
+
 CaptureStep ReadCaptureStep(const PlannedStep& step, std::size_t index, const RigDescription& rig,
                             const fs::path& manifest_file) {
   switch (step.kind) {
@@ -187,11 +214,13 @@ CaptureStep ReadCaptureStep(const PlannedStep& step, std::size_t index, const Ri
       return ReadBtfImageStep(step, index, rig, manifest_file);
     case StepKind::kLaserSweep:
       return ReadLaserSweepStep(step, index, rig, manifest_file);
+    case StepKind::kBoardImage:
+      return ReadBoardImageStep(step, index, rig, manifest_file);
     case StepKind::kOther:
       break;
   }
   throw core::FormatError(manifest_file, "plan[" + std::to_string(index) + "].kind",
-                          "a step the rig runs (laser_calibration, btf_image or laser_sweep)");
+                          "a step the rig runs (laser_calibration, btf_image, laser_sweep or board_image)");
 }
 
 const std::vector<CameraFile>& Files(const CaptureStep& step) {

@@ -9,6 +9,8 @@
 //   btf_image          one image per camera, one lamp on
 //   laser_sweep        the stripe swept across the sample, one frame sequence
 //                      (or its space-time analysis) per camera
+//   board_image        a calibration session's: the rig's calibration board
+//                      on a holder tilt on the turntable, one image per camera
 #pragma once
 
 #include <filesystem>
@@ -62,7 +64,15 @@ struct LaserSweepStep {
   std::vector<CameraFile> files;
 };
 
-using CaptureStep = std::variant<LaserCalibrationStep, BtfImageStep, LaserSweepStep>;
+struct BoardImageStep {
+  int holder = 0;  // index into the rig's calibration_board.holder_tilts
+  double holder_tilt_rad = 0.0;
+  int turntable_index = 0;  // index into calibration_board.turntable_angles
+  double turntable_rad = 0.0;
+  std::vector<CameraFile> files;
+};
+
+using CaptureStep = std::variant<LaserCalibrationStep, BtfImageStep, LaserSweepStep, BoardImageStep>;
 
 // A planned step of the type's kind. Angles are written in degrees rounded
 // to 1e-9 (and offsets to 1e-9 mm), so that a plan is byte-identical across
@@ -71,6 +81,7 @@ using CaptureStep = std::variant<LaserCalibrationStep, BtfImageStep, LaserSweepS
 PlannedStep ToPlannedStep(std::string id, const LaserCalibrationStep& step, const nlohmann::json& recording = nullptr);
 PlannedStep ToPlannedStep(std::string id, const BtfImageStep& step, const nlohmann::json& recording = nullptr);
 PlannedStep ToPlannedStep(std::string id, const LaserSweepStep& step, const nlohmann::json& recording = nullptr);
+PlannedStep ToPlannedStep(std::string id, const BoardImageStep& step, const nlohmann::json& recording = nullptr);
 
 // Reads the plan's step `index`, which must be of the type's kind. Throws
 // FormatError naming `manifest_file` and the field ("plan[3].tilt_deg").
@@ -83,6 +94,9 @@ LaserCalibrationStep ReadLaserCalibrationStep(const PlannedStep& step, std::size
 BtfImageStep ReadBtfImageStep(const PlannedStep& step, std::size_t index, const RigDescription& rig,
                               const std::filesystem::path& manifest_file);
 LaserSweepStep ReadLaserSweepStep(const PlannedStep& step, std::size_t index, const RigDescription& rig,
+                                  const std::filesystem::path& manifest_file);
+// Needs the rig's calibration_board.
+BoardImageStep ReadBoardImageStep(const PlannedStep& step, std::size_t index, const RigDescription& rig,
                                   const std::filesystem::path& manifest_file);
 // Any step the rig runs; a step of kind "other" is a FormatError.
 CaptureStep ReadCaptureStep(const PlannedStep& step, std::size_t index, const RigDescription& rig,

@@ -26,7 +26,7 @@ constexpr int kMaxDepth = 64;
 constexpr std::size_t kMaxShortText = 256;
 
 const std::vector<std::string>& StepKindNames() {
-  static const std::vector<std::string> names = {"btf_image", "laser_sweep", "laser_calibration",
+  static const std::vector<std::string> names = {"btf_image", "laser_sweep", "laser_calibration", "board_image",
                                                  "other"};
   return names;
 }

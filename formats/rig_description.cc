@@ -151,7 +151,7 @@ RigDescription ParseRigDescription(const nlohmann::json& json, const std::filesy
   const core::JsonFieldReader root(json, file);
   root.ExpectFormat("mesocap.rig", 1);
   root.RejectUnknownMembers({"format", "version", "name", "sample", "cameras", "turntable", "light_arc", "lamps",
-                             "laser", "faults"});
+                             "laser", "faults", "calibration_board"});
   RigDescription rig;
   rig.json = json;
   rig.file = file;
@@ -164,6 +164,18 @@ RigDescription ParseRigDescription(const nlohmann::json& json, const std::filesy
     backing.RejectUnknownMembers({"depth_mm", "albedo"});
     rig.backing.depth_mm = backing.Number("depth_mm", 1e-3, 1e4);
     rig.backing.albedo = backing.Number("albedo", 0.0, 1.0);
+  }
+
+  if (root.Has("calibration_board")) {
+    const auto board = root.Object("calibration_board");
+    board.RejectUnknownMembers({"board", "height_mm", "holder_tilts_deg", "turntable_angles_deg"});
+    CalibrationBoardDescription b;
+    b.board = board.String("board");
+    b.height_mm = board.Number("height_mm", 0.0, 1e4);
+    b.holder_tilts_rad = AnglesDeg(board, "holder_tilts_deg", -80.0, 80.0);
+    if (b.holder_tilts_rad[0] != 0.0) board.Fail("holder_tilts_deg[0]", "expected 0: the first tilt sets the sample frame");
+    b.turntable_angles_rad = AnglesDeg(board, "turntable_angles_deg", 0.0, 360.0);
+    rig.calibration_board = b;
   }
 
   std::set<std::string> ids;

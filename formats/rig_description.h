@@ -15,6 +15,7 @@
 #include <array>
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -141,6 +142,18 @@ struct SampleBacking {
 };
 inline constexpr double kMinBackingClearanceMm = 1.0;
 
+// The board of a rig's calibration session ("calibration_board", optional):
+// held on the turntable on a holder at each tilt in turn (the operator
+// changes the tilt), photographed by every camera at each turntable angle.
+// The board's surface lies height_mm above the reference plane on the first
+// holder tilt, whose board's x axis sets the sample frame's.
+struct CalibrationBoardDescription {
+  std::string board;  // a board spec, calibration/calibration_board.h
+  double height_mm = 0.0;
+  std::vector<double> holder_tilts_rad;      // about the turntable's x axis, the first one 0
+  std::vector<double> turntable_angles_rad;
+};
+
 struct RigDescription {
   std::string name;
   double sample_size_mm = 0.0;  // side of the clipped square sample
@@ -150,6 +163,7 @@ struct RigDescription {
   StageDescription light_arc;
   LampBankDescription lamps;
   LaserDescription laser;
+  std::optional<CalibrationBoardDescription> calibration_board;
   nlohmann::json json;  // the file as read, kept for the session manifest's rig snapshot
   std::filesystem::path file;  // where it was read from, for messages
 

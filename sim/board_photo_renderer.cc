@@ -1,6 +1,8 @@
 #include "sim/board_photo_renderer.h"
 
+#include <Eigen/Geometry>
 #include <cmath>
+#include <numbers>
 #include <limits>
 #include <tbb/parallel_for.h>
 
@@ -54,6 +56,16 @@ core::Image RenderBoardPhoto(const calibration::BoardPrint& print, const core::R
     }
   });
   return signal;
+}
+
+core::RigidTransform BoardOnHolder(const calibration::CalibrationBoard& board, double height_mm, double tilt_rad) {
+  const Eigen::Vector2d middle = 0.5 * (board.PrintedMin() + board.PrintedMax());
+  core::RigidTransform pose;
+  pose.parent_frame = "turntable";
+  pose.child_frame = "board";
+  pose.rotation = Eigen::AngleAxisd(tilt_rad + std::numbers::pi, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  pose.translation = Eigen::Vector3d(0, 0, height_mm) - pose.rotation * Eigen::Vector3d(middle.x(), middle.y(), 0);
+  return pose;
 }
 
 std::vector<Eigen::Vector2d> TrueCornerPixels(const calibration::CalibrationBoard& board,

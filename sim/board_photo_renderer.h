@@ -34,6 +34,12 @@ struct BoardPhotoOptions {
 core::Image RenderBoardPhoto(const calibration::BoardPrint& print, const core::RigidTransform& world_from_board,
                              const formats::CameraCalibration& camera, const BoardPhotoOptions& options);
 
+// turntable <- board for the board on its holder in the simulated rig: the
+// printed side up (the board frame's z down), its centre on the turntable's
+// axis height_mm above the reference plane, tilted by tilt_rad about the
+// turntable's x axis through that centre.
+core::RigidTransform BoardOnHolder(const calibration::CalibrationBoard& board, double height_mm, double tilt_rad);
+
 // Where each of the board's inner corners lands in the photo (NaN behind the
 // camera): the truth a corner detector is measured against.
 std::vector<Eigen::Vector2d> TrueCornerPixels(const calibration::CalibrationBoard& board,

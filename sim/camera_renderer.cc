@@ -1,5 +1,7 @@
 #include "sim/camera_renderer.h"
 
+#include "sim/board_photo_renderer.h"
+
 #include <tbb/parallel_for.h>
 
 #include <Eigen/Geometry>
@@ -97,6 +99,13 @@ CameraRenderer::CameraRenderer(const MesostructureScene& scene, const formats::R
   }
   if (options_.samples_per_pixel_side < 1 || options_.samples_per_pixel_side > 16) {
     throw core::Error("camera renderer: samples per pixel side must be 1..16");
+  }
+  if (rig.calibration_board) {
+    try {
+      board_print_.emplace(calibration::ParseBoardSpec(rig.calibration_board->board));
+    } catch (const core::Error& e) {
+      throw core::FormatError(rig.file, "calibration_board.board", e.what());
+    }
   }
   if (options_.interreflection_rays_per_pixel < 0 || options_.interreflection_rays_per_pixel > 256) {
     throw core::Error("camera renderer: interreflection rays per pixel must be 0..256");
@@ -361,9 +370,32 @@ CameraRenderer::RenderCache& CameraRenderer::CachedRender(const SimulatedRigStat
   return *entry;
 }
 
+core::Image CameraRenderer::RenderCalibrationBoard(int camera, int holder, double turntable_rad, int channels) const {
+  if (!board_print_) throw core::Error("camera renderer: rig " + core::Quoted(rig_.name) + " has no calibration_board");
+  const formats::CalibrationBoardDescription& board = *rig_.calibration_board;
+  core::RigidTransform turn;
+  turn.parent_frame = "world";
+  turn.child_frame = "turntable";
+  turn.rotation = RotationZ(turntable_rad);
+  const core::RigidTransform world_from_board =
+      turn.Compose(BoardOnHolder(board_print_->board(), board.height_mm, board.holder_tilts_rad.at(holder)));
+  BoardPhotoOptions photo;
+  photo.samples_per_pixel_side = options_.samples_per_pixel_side;
+  const core::Image signal = RenderBoardPhoto(*board_print_, world_from_board, calibration_.cameras.at(camera), photo);
+  if (channels == 1) return signal;
+  core::Image rgb(signal.width(), signal.height(), 3);
+  for (std::size_t i = 0; i < signal.size(); ++i) {
+    for (int c = 0; c < 3; ++c) rgb.data()[3 * i + c] = signal.data()[i];
+  }
+  return rgb;
+}
+
 core::Image CameraRenderer::Render(const SimulatedRigState& state, int camera, int channels) {
   if (channels != 1 && channels != 3) {
     throw core::Error("camera renderer: a readout has 1 or 3 channels, not " + std::to_string(channels));
+  }
+  if (state.calibration_board_holder) {
+    return RenderCalibrationBoard(camera, *state.calibration_board_holder, state.turntable_rad, channels);
   }
   const RenderCache& cached = CachedRender(state, camera);
   const bool any_lamp = std::find(state.lamps_on.begin(), state.lamps_on.end(), true) != state.lamps_on.end();

@@ -46,6 +46,7 @@
 #include "core/image.h"
 #include "formats/calibration.h"
 #include "formats/rig_description.h"
+#include "calibration/board_print.h"
 #include "sim/mesostructure_scene.h"
 #include "sim/simulated_rig_state.h"
 
@@ -118,6 +119,11 @@ class CameraRenderer : public FrameRenderer {
   // camera: samples_per_pixel_side^2 ViewSamples a pixel.
   core::Image Render(const SimulatedRigState& state, int camera, int channels) override;
 
+  // The rig's calibration board on holder `holder` at a turntable angle,
+  // evenly lit (sim/board_photo_renderer.h); 1 or 3 equal channels. Throws
+  // Error when the rig describes no calibration board.
+  core::Image RenderCalibrationBoard(int camera, int holder, double turntable_rad, int channels) const;
+
   // First hits of the camera's rays on the sample at a turntable angle.
   CameraView TraceSample(int camera, double turntable_rad) const;
   // First hits on the laser calibration plate: a flat diffuse plate
@@ -180,6 +186,7 @@ class CameraRenderer : public FrameRenderer {
   RenderCache& CachedRender(const SimulatedRigState& state, int camera);
 
   const MesostructureScene& scene_;
+  std::optional<calibration::BoardPrint> board_print_;  // the rig's calibration board, if it has one
   const formats::RigDescription& rig_;
   CameraRendererOptions options_;
   formats::Calibration calibration_;

@@ -1,5 +1,5 @@
 // The operator of the simulated rig (drivers/rig_operator.h): lays the
-// calibration plate into the simulated state and moves the laser unit by
+// calibration plate and sets the calibration board into the simulated state and moves the laser unit by
 // hand, instantly (simulated time does not model the person).
 #pragma once
 
@@ -19,6 +19,8 @@ class SimulatedOperator : public drivers::RigOperator {
   // The unit's SetMount is how the capture confirms the mount; in the
   // simulated rig the unit's state is the mount, so there is nothing to move.
   void MountLaser(int /*mount*/) override {}
+  void PlaceCalibrationBoard(int holder, double /*tilt_rad*/) override { state_->calibration_board_holder = holder; }
+  void RemoveCalibrationBoard() override { state_->calibration_board_holder.reset(); }
 
  private:
   std::shared_ptr<SimulatedRigState> state_;

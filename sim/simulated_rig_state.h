@@ -22,6 +22,10 @@ struct SimulatedRigState {
   // calibration (MDF paper Sec. 3.2: the stripe on two planes of different
   // height); while it lies there the cameras see it, not the sample.
   std::optional<double> calibration_plate_height_mm;
+  // The calibration board on its holder at this tilt (an index into the rig
+  // description's calibration_board.holder_tilts); while it stands there the
+  // cameras see it, lit evenly, and not the sample.
+  std::optional<int> calibration_board_holder;
   double clock_s = 0.0;  // simulated time; moves advance it, nobody sleeps
 };
 

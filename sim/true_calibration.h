@@ -8,11 +8,9 @@
 
 namespace mesocap::sim {
 
-// Cameras look at the world origin with OpenCV's camera frame (+z forward,
-// +x right, +y down in the image); a laser mount's tilt axis is horizontal
-// and tangent to the arc, oriented so that a positive tilt moves the stripe
-// away from the laser (drivers::LaserTiltForOffset). Each camera's
-// radiometry is the simulated cameras' exact gain (kSignalPerRadianceSecond).
+// calibration::NominalCalibration (calibration/nominal_geometry.h), and each
+// camera's radiometry: the simulated cameras' exact gain
+// (kSignalPerRadianceSecond).
 formats::Calibration TrueCalibration(const formats::RigDescription& rig);
 
 }  // namespace mesocap::sim

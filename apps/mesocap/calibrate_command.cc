@@ -1,20 +1,52 @@
-// `mesocap calibrate camera --images DIR [--images DIR ...] --board SPEC
-// --out calibration.json [--json]`: one camera, or several jointly, from
-// folders of photos of a chessboard or ChArUco board
-// (pipelines/calibrate_cameras.h); the report as a table or one JSON object.
+// `mesocap calibrate --session S --out calibration.json [--json]`: a rig from
+// its calibration session (pipelines/calibrate_rig.h); and `mesocap
+// calibrate camera --images DIR [--images DIR ...] --board SPEC --out
+// calibration.json [--json]`: one camera, or several jointly, from folders
+// of photos of a chessboard or ChArUco board (pipelines/calibrate_cameras.h).
+// The report prints as a table or one JSON object.
 #include <spdlog/spdlog.h>
 
 #include <cstdio>
 
 #include "apps/mesocap/command.h"
 #include "pipelines/calibrate_cameras.h"
+#include "pipelines/calibrate_rig.h"
 
 namespace mesocap {
 
+namespace {
+
+void PrintReport(const calibration::CalibrationReport& report, bool json) {
+  if (json) {
+    std::printf("%s\n", calibration::ToJson(report).dump(2).c_str());
+  } else {
+    std::printf("%s", calibration::FormatCalibrationReport(report).c_str());
+  }
+}
+
+}  // namespace
+
 void RegisterCalibrateCommand(CLI::App& app) {
+  auto rig = std::make_shared<pipelines::CalibrateRigOptions>();
+  auto rig_json = std::make_shared<bool>(false);
+  CLI::App* group = app.add_subcommand(
+      "calibrate", "Calibrate a rig from its calibration session (--session), or cameras from photos (camera)");
+  group->require_subcommand(0, 1);
+  group->add_option("--session", rig->session, "calibration session (mesocap simulate --plan calibration)");
+  group->add_option("--out", rig->out, "calibration file to write");
+  group->add_flag("--json", *rig_json, "print the report as one JSON object");
+  group->add_flag("--replace", rig->replace, "replace an existing file at --out");
+  group->callback([group, rig, rig_json] {
+    if (!group->get_subcommands().empty()) return;
+    if (rig->session.empty() || rig->out.empty()) {
+      throw CLI::ValidationError("calibrate", "give --session SESSION --out FILE, or the camera subcommand");
+    }
+    PrintReport(pipelines::RunCalibrateRig(*rig), *rig_json);
+    spdlog::info("wrote {}", rig->out.string());
+  });
+
   auto o = std::make_shared<pipelines::CalibrateCamerasOptions>();
   auto json = std::make_shared<bool>(false);
-  CLI::App* group = GroupCommand(app, "calibrate", "Calibrate cameras (and, from a calibration session, the rig)");
   CLI::App* sub = group->add_subcommand(
       "camera", "Calibrate one camera, or several jointly with their relative poses, from folders of photos of a "
                 "board (files with the same name in different folders were taken at the same instant)");
@@ -32,12 +64,7 @@ void RegisterCalibrateCommand(CLI::App& app) {
       ->check(InRange(1e-3, 100))
       ->capture_default_str();
   sub->callback([o, json] {
-    const calibration::CalibrationReport report = pipelines::RunCalibrateCameras(*o);
-    if (*json) {
-      std::printf("%s\n", calibration::ToJson(report).dump(2).c_str());
-    } else {
-      std::printf("%s", calibration::FormatCalibrationReport(report).c_str());
-    }
+    PrintReport(pipelines::RunCalibrateCameras(*o), *json);
     spdlog::info("wrote {}", o->out.string());
   });
 }

@@ -25,7 +25,7 @@ void RegisterExportBonnCommand(CLI::App& app);  // `export bonn`
 void RegisterImportBonnCommand(CLI::App& app);  // `import bonn`
 void RegisterRigCheckCommand(CLI::App& app);    // `rig check`, `devices`
 void RegisterServeCamerasCommand(CLI::App& app);  // `sim serve-cameras`
-void RegisterCalibrateCommand(CLI::App& app);     // `calibrate camera`
+void RegisterCalibrateCommand(CLI::App& app);     // `calibrate`, `calibrate camera`
 
 // The group command `name` ("process", "eval"), created on first use so that
 // each of its subcommands registers itself independently.

@@ -1,6 +1,7 @@
-// `mesocap simulate --scene S --rig R --out SESSION [--seed N] [--no-noise]
-// [--faults FILE] [--resume]`: a whole capture session as the simulated rig
-// records it (MDF paper Sec. 3.1-3.2). The capture plan
+// `mesocap simulate --scene S --rig R --out SESSION [--plan capture|calibration]
+// [--seed N] [--no-noise] [--faults FILE] [--resume]`: a whole capture
+// session as the simulated rig records it (MDF paper Sec. 3.1-3.2), or with
+// --plan calibration the rig's calibration session (acquisition/capture_plan.h). The capture plan
 // (acquisition/capture_plan.h) is run by the same runner a real rig uses
 // (acquisition/capture_session_runner.h), through the simulated devices
 // (sim/simulated_devices.h): stages move, lamps switch, the laser tilts, the
@@ -61,6 +62,7 @@ struct SimulateCommandOptions {
   bool serve_cameras = false;
   int samples_per_pixel_side = 3;
   int interreflection_rays = 0;
+  std::string plan = "capture";  // or "calibration"
 };
 
 // The command line that resumes the session these options record.
@@ -75,6 +77,7 @@ std::string ResumeCommand(const SimulateCommandOptions& o) {
   if (o.scene.tile_size_mm != defaults.tile_size_mm) c << " --tile-size-mm " << o.scene.tile_size_mm;
   if (o.scene.depth_mm != defaults.depth_mm) c << " --depth-mm " << o.scene.depth_mm;
   c << " --rig " << arg(o.rig) << " --seed " << o.seed;
+  if (o.plan != "capture") c << " --plan " << o.plan;
   if (o.no_noise) c << " --no-noise";
   if (!o.faults.empty()) c << " --faults " << arg(o.faults.string());
   c << " --samples-per-pixel-side " << o.samples_per_pixel_side << " --interreflection-rays " << o.interreflection_rays;
@@ -132,7 +135,9 @@ void RunSimulate(const SimulateCommandOptions& o) {
                           {"sensor_noise", !o.no_noise},
                           {"samples_per_pixel_side", o.samples_per_pixel_side},
                           {"interreflection_rays_per_pixel", o.interreflection_rays}};
-  const std::vector<formats::PlannedStep> plan = acquisition::MakeCapturePlan(rig, recording);
+  const std::vector<formats::PlannedStep> plan = o.plan == "calibration"
+                                                     ? acquisition::MakeCalibrationPlan(rig, recording)
+                                                     : acquisition::MakeCapturePlan(rig, recording);
 
   const std::string calibration_text = formats::CalibrationText(calibration);
   const core::FileChecksum calibration_checksum = core::ComputeChecksum(calibration_text);
@@ -246,6 +251,11 @@ void RegisterSimulateCommand(CLI::App& app) {
   sub->add_flag("--serve-cameras", o->serve_cameras,
                 "serve the simulated cameras as GigE Vision devices on loopback and record them through Aravis "
                 "(sim serve-cameras --help says where)");
+  sub->add_option("--plan", o->plan,
+                  "capture: BTF images, laser calibration and sweeps of the scene; calibration: the rig's "
+                  "calibration board on each holder tilt at each turntable angle (for `mesocap calibrate`)")
+      ->check(CLI::IsMember({"capture", "calibration"}))
+      ->capture_default_str();
   sub->add_option("--samples-per-pixel-side", o->samples_per_pixel_side,
                   "rays per pixel side (box-filtered pixel area)")
       ->check(InRange(1, 16))

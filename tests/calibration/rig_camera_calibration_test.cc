@@ -19,19 +19,6 @@ struct RigPhotos {
   std::vector<core::RigidTransform> holders;  // turntable <- board, the truth
 };
 
-// turntable <- board: the board's centre on the axis, its surface `height`
-// above the reference plane facing up (the board's z down), tilted by
-// `tilt_rad` about the turntable's x.
-core::RigidTransform Holder(const CalibrationBoard& board, double height, double tilt_rad) {
-  const Eigen::Vector2d middle = 0.5 * (board.PrintedMin() + board.PrintedMax());
-  core::RigidTransform pose;
-  pose.parent_frame = "turntable";
-  pose.child_frame = "board";
-  pose.rotation = Eigen::AngleAxisd(tilt_rad + 3.14159265358979, Eigen::Vector3d::UnitX()).toRotationMatrix();
-  pose.translation = Eigen::Vector3d(0, 0, height) - pose.rotation * Eigen::Vector3d(middle.x(), middle.y(), 0);
-  return pose;
-}
-
 RigPhotos Photograph(const formats::Calibration& truth, const CalibrationBoard& board,
                      const std::vector<double>& tilts_deg, int angles, double height, std::uint64_t seed) {
   const BoardPrint print(board);
@@ -46,7 +33,7 @@ RigPhotos Photograph(const formats::Calibration& truth, const CalibrationBoard& 
     photos.views.push_back(v);
   }
   for (std::size_t h = 0; h < tilts_deg.size(); ++h) {
-    photos.holders.push_back(Holder(board, height, tilts_deg[h] * 3.14159265358979 / 180));
+    photos.holders.push_back(sim::BoardOnHolder(board, height, tilts_deg[h] * 3.14159265358979 / 180));
     for (int a = 0; a < angles; ++a) {
       const double angle = 2 * 3.14159265358979 * a / angles;
       core::RigidTransform turn;

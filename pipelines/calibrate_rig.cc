@@ -1,0 +1,113 @@
+#include "pipelines/calibrate_rig.h"
+
+#include <spdlog/spdlog.h>
+#include <tbb/parallel_for.h>
+
+#include "calibration/board_corner_detector.h"
+#include "calibration/cross_validation.h"
+#include "calibration/nominal_geometry.h"
+#include "core/atomic_file.h"
+#include "core/image_io.h"
+#include "formats/calibration.h"
+#include "formats/capture_plan_steps.h"
+#include "formats/captured_session.h"
+
+namespace mesocap::pipelines {
+
+core::CheckResult CalibrateRigOptions::Check() const {
+  if (session.empty()) return "--session: a calibration session folder is needed";
+  if (out.empty()) return "--out: a calibration file to write is needed";
+  return calibration.Check();
+}
+
+calibration::CalibrationReport RunCalibrateRig(const CalibrateRigOptions& options) {
+  if (const core::CheckResult problem = options.Check(); !problem.empty()) throw core::Error(problem);
+  core::RemoveStaleTemporariesOf(options.out);
+  core::ExpectReplaceable(options.out, {options.replace, "a file",
+                                        [](const std::filesystem::path& p) { return std::filesystem::is_regular_file(p); },
+                                        {options.session}});
+  formats::SessionOpenOptions open;
+  open.command = "calibrate";
+  const formats::CapturedSession session(options.session, open);
+  const std::filesystem::path manifest_file = session.manifest_file();
+  const formats::RigDescription rig = formats::ParseRigDescription(session.manifest().rig, manifest_file);
+  if (!rig.calibration_board) {
+    throw core::FormatError(manifest_file, "rig.calibration_board", "missing: not a calibration session's rig");
+  }
+  calibration::CalibrationBoard board;
+  try {
+    board = calibration::ParseBoardSpec(rig.calibration_board->board);
+  } catch (const core::Error& e) {
+    throw core::FormatError(manifest_file, "rig.calibration_board.board", e.what());
+  }
+
+  // One instant per board step, in plan order.
+  std::vector<formats::BoardImageStep> steps;
+  const auto& plan = session.manifest().plan;
+  for (std::size_t s = 0; s < plan.size(); ++s) {
+    if (plan[s].kind == formats::StepKind::kBoardImage) {
+      steps.push_back(formats::ReadBoardImageStep(plan[s], s, rig, manifest_file));
+    }
+  }
+  if (steps.empty()) {
+    throw core::Error(options.session.string() + ": the session has no board images (record one with mesocap "
+                      "simulate --plan calibration)");
+  }
+  calibration::TurntableMotion motion;
+  motion.board_height_mm = rig.calibration_board->height_mm;
+  motion.sample_size_mm = rig.sample_size_mm;
+  for (const formats::BoardImageStep& step : steps) {
+    motion.holder.push_back(step.holder);
+    motion.angle_rad.push_back(step.turntable_rad);
+  }
+  const calibration::BoardCornerDetector detector(board);
+  std::vector<calibration::CameraViews> cameras;
+  for (std::size_t c = 0; c < rig.cameras.size(); ++c) {
+    calibration::CameraViews views;
+    views.id = rig.cameras[c].id;
+    views.width = rig.cameras[c].width;
+    views.height = rig.cameras[c].height;
+    views.detections.resize(steps.size());
+    views.qualities.resize(steps.size());
+    for (const formats::BoardImageStep& step : steps) views.names.push_back(step.files.at(c).path);
+    std::vector<std::string> errors(steps.size());
+    tbb::parallel_for(std::size_t{0}, steps.size(), [&](std::size_t i) {
+      try {
+        core::ImageReadOptions read;
+        read.expected_width = views.width;
+        read.expected_height = views.height;
+        const core::Image photo = core::ReadImage(session.IntactFile(steps[i].files.at(c).path), read);
+        views.detections[i] = detector.Detect(photo);
+        views.qualities[i] = detector.Quality(photo, views.detections[i]);
+      } catch (const core::Error& e) {
+        errors[i] = e.what();
+      }
+    });
+    for (const std::string& e : errors) {
+      if (!e.empty()) throw core::Error(e);
+    }
+    cameras.push_back(std::move(views));
+  }
+
+  calibration::CalibrationReport report;
+  report.board = board.Spec();
+  report.cameras = calibration::CalibrateCameras(board, cameras, options.calibration, &motion);
+  if (options.cross_validate) {
+    report.cross_validation = calibration::CrossValidate(board, cameras, options.calibration,
+                                                         &report.cross_validation_skipped, &motion);
+  } else {
+    report.cross_validation_skipped = "not asked for";
+  }
+  report.nominal_parts = "light_arc, lamps, laser_mounts, camera radiometry";
+
+  // Cameras and turntable from the photos; the rest nominal (see the header).
+  formats::Calibration out = calibration::NominalCalibration(rig);
+  for (std::size_t c = 0; c < cameras.size(); ++c) out.cameras[c] = report.cameras.cameras[c].calibration;
+  formats::WriteCalibration(options.out, out);
+  spdlog::info("cameras and turntable calibrated from {} board images; light arc, lamps, laser mounts and camera "
+               "gains are the rig description's nominal values",
+               steps.size() * rig.cameras.size());
+  return report;
+}
+
+}  // namespace mesocap::pipelines

@@ -1,0 +1,89 @@
+// `mesocap simulate --plan calibration` then `mesocap calibrate --session` on
+// the small rig, against the simulated rig's exact calibration: the sample
+// area's image, the cameras' focal lengths and centres within their reported
+// uncertainty, and honest cross-validation.
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <nlohmann/json.hpp>
+
+#include "calibration/camera_calibration.h"
+#include "formats/calibration.h"
+#include "tests/common/mesocap_command.h"
+
+namespace mesocap {
+namespace {
+
+using testing::Mesocap;
+using testing::TemporaryDirectory;
+
+class CalibrateRigCli : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    folder_ = new TemporaryDirectory;
+    const auto r = Mesocap("simulate --plan calibration --rig small --scene weave --out " + Session().string());
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+  }
+  static void TearDownTestSuite() { delete folder_; }
+  static std::filesystem::path Session() { return *folder_ / "calibration-session"; }
+  static TemporaryDirectory* folder_;
+};
+TemporaryDirectory* CalibrateRigCli::folder_ = nullptr;
+
+TEST_F(CalibrateRigCli, CamerasAndTurntableWithinTheirUncertainty) {
+  TemporaryDirectory out;
+  const auto r = Mesocap("calibrate --session " + Session().string() + " --out " + (out / "c.json").string() + " --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json report = nlohmann::json::parse(r.out);
+  // The session records the rig's true calibration (the simulator's), which
+  // the calibration never reads.
+  const formats::Calibration truth = formats::ReadCalibration(Session() / "calibration.json");
+  const formats::Calibration estimate = formats::ReadCalibration(out / "c.json");
+  ASSERT_EQ(estimate.cameras.size(), truth.cameras.size());
+  for (std::size_t c = 0; c < truth.cameras.size(); ++c) {
+    const formats::CameraCalibration& t = truth.cameras[c];
+    const formats::CameraCalibration& e = estimate.cameras[c];
+    const nlohmann::json& row = report["cameras"][c];
+    EXPECT_LT(row["rms_px"].get<double>(), 0.2) << e.id;
+    EXPECT_NEAR(e.intrinsics.fx, t.intrinsics.fx, 4 * *e.intrinsics.uncertainty.fx) << e.id;
+    for (int axis = 0; axis < 3; ++axis) {
+      EXPECT_NEAR(e.pose.transform.translation[axis], t.pose.transform.translation[axis],
+                  4 * (*e.pose.uncertainty.translation_mm)[axis] + 1e-3)
+          << e.id << " centre axis " << axis;
+    }
+    // Where the sample's points land in the image: what processing uses.
+    const double sigma = row["projection_uncertainty_px"].get<double>();
+    EXPECT_LT(sigma, 0.1) << e.id;
+    for (const Eigen::Vector3d& point : {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(8, -8, 0), Eigen::Vector3d(-8, 5, 0)}) {
+      const auto image = [&](const formats::CameraCalibration& cam) {
+        return calibration::ProjectInCamera(
+            cam, cam.pose.transform.rotation.transpose() * (point - cam.pose.transform.translation));
+      };
+      EXPECT_LT((image(e) - image(t)).norm(), 5 * sigma + 0.01) << e.id << " at " << point.transpose();
+    }
+    EXPECT_LT(row["cross_validation_px"].get<double>(), 0.1) << e.id;
+  }
+  EXPECT_EQ(report["turntable"]["holders"].size(), 5u);
+  EXPECT_NE(report["nominal_parts"].get<std::string>().find("lamps"), std::string::npos);
+  EXPECT_EQ(estimate.lamps.size(), truth.lamps.size());
+}
+
+TEST_F(CalibrateRigCli, ACaptureSessionIsNotACalibrationSession) {
+  TemporaryDirectory scratch;
+  const auto sim = Mesocap("simulate --rig tiny --scene weave --out " + (scratch / "capture").string());
+  ASSERT_EQ(sim.exit_code, 0) << sim.err;
+  const auto r = Mesocap("calibrate --session " + (scratch / "capture").string() + " --out " +
+                         (scratch / "c.json").string());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.err.find("has no board images"), std::string::npos) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(scratch / "c.json"));
+}
+
+TEST_F(CalibrateRigCli, CalibrateWithoutSessionOrSubcommandSaysWhatItNeeds) {
+  const auto r = Mesocap("calibrate");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.err.find("--session"), std::string::npos) << r.err;
+}
+
+}  // namespace
+}  // namespace mesocap
