@@ -10,6 +10,7 @@
 #include <map>
 #include <opencv2/calib3d.hpp>
 #include <queue>
+#include <tbb/parallel_for.h>
 #include <sstream>
 
 namespace mesocap::calibration {
@@ -650,6 +651,27 @@ core::CheckResult CameraCalibrationOptions::Check() const {
   if (!(max_outlier_fraction > 0 && max_outlier_fraction < 1)) return "max outlier fraction must be in (0, 1)";
   if (!(warn_relative_focal_sigma > 0)) return "focal sigma warning level must be positive";
   return {};
+}
+
+void DetectBoardInPhotos(const BoardCornerDetector& detector,
+                         const std::function<std::optional<core::Image>(std::size_t)>& read, CameraViews* views) {
+  const std::size_t count = views->names.size();
+  views->detections.assign(count, {});
+  views->qualities.assign(count, {});
+  std::vector<std::string> errors(count);
+  tbb::parallel_for(std::size_t{0}, count, [&](std::size_t i) {
+    try {
+      const std::optional<core::Image> photo = read(i);
+      if (!photo) return;
+      views->detections[i] = detector.Detect(*photo);
+      views->qualities[i] = detector.Quality(*photo, views->detections[i]);
+    } catch (const core::Error& e) {
+      errors[i] = e.what();
+    }
+  });
+  for (const std::string& e : errors) {
+    if (!e.empty()) throw core::Error(e);
+  }
 }
 
 core::CheckResult TurntableMotion::Check(std::size_t instants) const {

@@ -19,6 +19,8 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -81,6 +83,12 @@ struct TurntableMotion {
   double sample_size_mm = 0;  // the sample square's side: what cross-validation compares
   core::CheckResult Check(std::size_t instants) const;
 };
+
+// Fills views->detections and ->qualities from the photos `read(i)` gives for
+// instants 0..names.size()-1 (nullopt: the camera took none then), read and
+// detected in parallel. The first Error a read throws is thrown again.
+void DetectBoardInPhotos(const BoardCornerDetector& detector,
+                         const std::function<std::optional<core::Image>(std::size_t)>& read, CameraViews* views);
 
 struct SetAsideImage {
   std::string name;

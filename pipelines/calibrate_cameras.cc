@@ -1,7 +1,6 @@
 #include "pipelines/calibrate_cameras.h"
 
 #include <spdlog/spdlog.h>
-#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cctype>
@@ -93,8 +92,6 @@ calibration::CalibrationReport RunCalibrateCameras(const CalibrateCamerasOptions
     calibration::CameraViews views;
     views.id = CameraId(options.image_folders[c], c, &taken);
     views.names = instants;
-    views.detections.resize(instants.size());
-    views.qualities.resize(instants.size());
     // Every photo of a camera has the first one's size.
     const core::ImageHeader first = core::ReadImageHeader(photos[c].front());
     views.width = first.width;
@@ -112,21 +109,14 @@ calibration::CalibrationReport RunCalibrateCameras(const CalibrateCamerasOptions
       }
       by_name[p.filename().string()] = p;
     }
-    std::vector<std::string> errors(instants.size());
-    tbb::parallel_for(std::size_t{0}, instants.size(), [&](std::size_t i) {
-      const auto found = by_name.find(instants[i]);
-      if (found == by_name.end()) return;
-      try {
-        const core::Image photo = core::ReadImage(found->second);
-        views.detections[i] = detector.Detect(photo);
-        views.qualities[i] = detector.Quality(photo, views.detections[i]);
-      } catch (const core::Error& e) {
-        errors[i] = e.what();
-      }
-    });
-    for (const std::string& e : errors) {
-      if (!e.empty()) throw core::Error(e);
-    }
+    calibration::DetectBoardInPhotos(
+        detector,
+        [&](std::size_t i) -> std::optional<core::Image> {
+          const auto found = by_name.find(instants[i]);
+          if (found == by_name.end()) return std::nullopt;
+          return core::ReadImage(found->second);
+        },
+        &views);
     spdlog::info("camera {}: the board found in {} of {} photos", views.id,
                  std::count_if(views.detections.begin(), views.detections.end(),
                                [](const calibration::BoardDetection& d) { return !d.empty(); }),

@@ -1,7 +1,6 @@
 #include "pipelines/calibrate_rig.h"
 
 #include <spdlog/spdlog.h>
-#include <tbb/parallel_for.h>
 
 #include "calibration/board_corner_detector.h"
 #include "calibration/cross_validation.h"
@@ -67,25 +66,16 @@ calibration::CalibrationReport RunCalibrateRig(const CalibrateRigOptions& option
     views.id = rig.cameras[c].id;
     views.width = rig.cameras[c].width;
     views.height = rig.cameras[c].height;
-    views.detections.resize(steps.size());
-    views.qualities.resize(steps.size());
     for (const formats::BoardImageStep& step : steps) views.names.push_back(step.files.at(c).path);
-    std::vector<std::string> errors(steps.size());
-    tbb::parallel_for(std::size_t{0}, steps.size(), [&](std::size_t i) {
-      try {
-        core::ImageReadOptions read;
-        read.expected_width = views.width;
-        read.expected_height = views.height;
-        const core::Image photo = core::ReadImage(session.IntactFile(steps[i].files.at(c).path), read);
-        views.detections[i] = detector.Detect(photo);
-        views.qualities[i] = detector.Quality(photo, views.detections[i]);
-      } catch (const core::Error& e) {
-        errors[i] = e.what();
-      }
-    });
-    for (const std::string& e : errors) {
-      if (!e.empty()) throw core::Error(e);
-    }
+    core::ImageReadOptions read;
+    read.expected_width = views.width;
+    read.expected_height = views.height;
+    calibration::DetectBoardInPhotos(
+        detector,
+        [&](std::size_t i) -> std::optional<core::Image> {
+          return core::ReadImage(session.IntactFile(steps[i].files.at(c).path), read);
+        },
+        &views);
     cameras.push_back(std::move(views));
   }
 
