@@ -64,15 +64,17 @@ function(mesocap_test_precompiled_header)
 endfunction()
 
 # mesocap_test(NAME SOURCES ... DEPS ... [LABELS ...] [ENVIRONMENT ...]
-# [ONE_PROCESS] [LAUNCHER command...]): one
+# [ONE_PROCESS] [RUN_SERIAL] [LAUNCHER command...]): one
 # GoogleTest binary, registered test by test with ctest; with ONE_PROCESS as
 # one ctest test instead, for a suite whose fixture (SetUpTestSuite) is
 # expensive and would otherwise be rebuilt in every test's process.
+# RUN_SERIAL keeps other tests off the cores while it runs: for a test whose
+# claim (frames on loopback arrive in time) a loaded host would falsify.
 # The label `accuracy` marks end-to-end accuracy tests on the small rig (minutes of CPU in release):
 # they run in the release and debug presets; the sanitize preset leaves them
 # out, since the code they run is covered there by the smaller tests.
 function(mesocap_test name)
-  cmake_parse_arguments(ARG "ONE_PROCESS" "" "SOURCES;DEPS;LABELS;ENVIRONMENT;LAUNCHER" ${ARGN})
+  cmake_parse_arguments(ARG "ONE_PROCESS;RUN_SERIAL" "" "SOURCES;DEPS;LABELS;ENVIRONMENT;LAUNCHER" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
   # LAUNCHER runs the binary, for discovery and for each test (CTest takes
   # it from CROSSCOMPILING_EMULATOR).
@@ -89,6 +91,9 @@ function(mesocap_test name)
   endif()
   if(ARG_ENVIRONMENT)
     list(APPEND properties ENVIRONMENT "${ARG_ENVIRONMENT}")
+  endif()
+  if(ARG_RUN_SERIAL)
+    list(APPEND properties RUN_SERIAL TRUE)
   endif()
   if(ARG_ONE_PROCESS)
     add_test(NAME ${name} COMMAND ${ARG_LAUNCHER} $<TARGET_FILE:${name}>)
