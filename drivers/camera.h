@@ -73,7 +73,8 @@ class Camera {
   virtual void SetPixelFormat(PixelFormat format) = 0;
   virtual void SetTrigger(TriggerMode mode) = 0;
 
-  // Starts exposing one frame (kSoftware mode).
+  // Starts exposing one frame (kSoftware mode). A frame that arrived before
+  // it answers an earlier trigger and is discarded, not handed out.
   virtual void Trigger() = 0;
   // The next frame. Throws TimeoutError when none arrives within `timeout`,
   // DisconnectedError when the camera is gone.

@@ -350,9 +350,26 @@ void AravisCamera::SetTrigger(TriggerMode mode) {
 void AravisCamera::Trigger() {
   if (settings_.trigger != TriggerMode::kSoftware) return;
   StartStream();
+  // A frame already waiting answers an earlier trigger (one that timed out
+  // and was retried): left there, the next Grab would hand it out as this
+  // trigger's frame, taken before the rig moved on. It is not lost, so it
+  // moves the frame id on without counting as dropped.
+  while (ArvBuffer* stale = arv_stream_try_pop_buffer(device_->stream)) {
+    CountFrameId(arv_buffer_get_frame_id(stale));
+    arv_stream_push_buffer(device_->stream, stale);
+  }
   GError* error = nullptr;
   arv_camera_software_trigger(device_->camera, &error);
   Check("TriggerSoftware", error);
+}
+
+void AravisCamera::CountFrameId(std::uint64_t id) {
+  if (id == 0) return;  // no id: GigE Vision never sends 0
+  const std::uint64_t gap = have_frame_id_ ? FrameIdGap(last_frame_id_, id) : 0;
+  dropped_frames_ += gap;
+  next_sequence_ += gap;
+  last_frame_id_ = id;
+  have_frame_id_ = true;
 }
 
 Frame AravisCamera::Grab(std::chrono::milliseconds timeout) {
@@ -371,15 +388,7 @@ Frame AravisCamera::Grab(std::chrono::milliseconds timeout) {
     }
     // Every GVSP packet carries its frame's id, so an incomplete frame has
     // one too: it and the frames missing before it are dropped.
-    // (Id 0 is no id: GigE Vision never sends it.)
-    const std::uint64_t id = arv_buffer_get_frame_id(buffer);
-    if (id != 0) {
-      const std::uint64_t gap = have_frame_id_ ? FrameIdGap(last_frame_id_, id) : 0;
-      dropped_frames_ += gap;
-      next_sequence_ += gap;
-      last_frame_id_ = id;
-      have_frame_id_ = true;
-    }
+    CountFrameId(arv_buffer_get_frame_id(buffer));
     if (arv_buffer_get_status(buffer) != ARV_BUFFER_STATUS_SUCCESS) {
       ++dropped_frames_;
       ++next_sequence_;

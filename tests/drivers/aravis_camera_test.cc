@@ -173,6 +173,23 @@ TEST(AravisCamera, NoFrameInTimeIsATimeoutNotADisconnect) {
   EXPECT_EQ(WrongPixels(camera.Grab(std::chrono::milliseconds(2000))), 0);
 }
 
+// A frame that comes after its Grab gave up answers the trigger before the
+// retry: the retry's Grab must not take it for its own (the rig may have
+// moved on since), nor count it as dropped.
+TEST(AravisCamera, AFrameLaterThanItsTimeoutIsNotTakenForTheNextTrigger) {
+  auto served = Serve();
+  AravisCamera camera(Options());
+  camera.SetTrigger(TriggerMode::kSoftware);
+  camera.Trigger();
+  EXPECT_THROW(camera.Grab(std::chrono::milliseconds(0)), TimeoutError);
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));  // frame 0 arrives unasked
+  camera.Trigger();
+  const Frame f = camera.Grab(std::chrono::milliseconds(2000));
+  EXPECT_EQ(std::lround(f.image.pixel(0, 0)[0] * kMaxCode), 1);
+  EXPECT_EQ(WrongPixels(f), 0);
+  EXPECT_EQ(camera.dropped_frames(), 0u);
+}
+
 TEST(AravisCamera, EverySettingRoundTripsToTheDevice) {
   PatternCamera* pattern = nullptr;
   auto served = Serve(&pattern);
