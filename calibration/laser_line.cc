@@ -40,6 +40,16 @@ void FitLine(const std::vector<cv::Point2f>& points, int distance, Eigen::Vector
   *point = Eigen::Vector2d(line[2], line[3]);
 }
 
+// How many scanlines one independent sample spans after a Gaussian
+// pre-filter of sigma s: white noise filtered so correlates at lag k as
+// exp(-k^2 / 4 s^2), and the variance of a mean grows by the sum over lags.
+double CorrelatedScanlines(double sigma_px) {
+  if (sigma_px <= 0) return 1.0;
+  double sum = 1.0;
+  for (int k = 1; k < 64; ++k) sum += 2.0 * std::exp(-k * k / (4.0 * sigma_px * sigma_px));
+  return sum;
+}
+
 }  // namespace
 
 ReferenceLine DetectLaserLine(const core::Image& frame, const PixelMask& mask, const CameraRays& rays, double height,
@@ -112,14 +122,25 @@ ReferenceLine DetectLaserLine(const core::Image& frame, const PixelMask& mask, c
   }
   if (static_cast<int>(inliers.size()) < options.min_candidates) return result;
   FitLine(inliers, cv::DIST_L2, &point, &dir);
-  double sum_squares = 0;
+  double sum_squares = 0, spread = 0;
   const Eigen::Vector2d n(-dir.y(), dir.x());
-  for (const auto& c : inliers) sum_squares += std::pow(n.dot(Eigen::Vector2d(c.x, c.y) - point), 2);
+  for (const auto& c : inliers) {
+    const Eigen::Vector2d d = Eigen::Vector2d(c.x, c.y) - point;
+    sum_squares += std::pow(n.dot(d), 2);
+    spread += std::pow(dir.dot(d), 2);
+  }
+  const double count = static_cast<double>(inliers.size());
   result.valid = true;
   result.point = point;
   result.direction = dir;
   result.inliers = static_cast<int>(inliers.size());
-  result.rms_mm = std::sqrt(sum_squares / inliers.size());
+  result.rms_mm = std::sqrt(sum_squares / count);
+  // Least-squares line: var(offset) = s^2 / n, var(angle) = s^2 / sum t^2,
+  // with s^2 the residual variance (n - 2 degrees of freedom), both scaled
+  // by the scanlines one independent sample spans after the pre-filter.
+  const double residual_variance = sum_squares / std::max(1.0, count - 2) * CorrelatedScanlines(options.gaussian_sigma_px);
+  result.offset_sigma_mm = std::sqrt(residual_variance / count);
+  result.direction_sigma_rad = spread > 0 ? std::sqrt(residual_variance / spread) : 0.0;
   return result;
 }
 

@@ -35,6 +35,13 @@ struct ReferenceLine {
   int candidates = 0;
   int inliers = 0;
   double rms_mm = 0.0;  // of the inliers' distances to the line
+  // One sigma of the line's position across itself at `point` (the inliers'
+  // centroid) and of its direction, from the inliers' scatter. The
+  // pre-filter correlates neighbouring scanlines' peaks, so the scatter
+  // counts as fewer independent samples than scanlines. A bias common to all
+  // scanlines (the stripe's profile against the pixel grid) is not in it.
+  double offset_sigma_mm = 0.0;
+  double direction_sigma_rad = 0.0;
 };
 
 // Pixels a detector may use (1) or not (0), row-major, width x height.

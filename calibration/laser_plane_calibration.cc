@@ -3,6 +3,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 #include "core/angles.h"
@@ -31,9 +32,44 @@ core::Plane PlaneThroughLines(const ReferenceLine& lower, const ReferenceLine& u
   return plane;
 }
 
+LaserPlaneFit FitPlaneThroughLines(const ReferenceLine& lower, const ReferenceLine& upper,
+                                   const Eigen::Vector3d& camera_centre) {
+  LaserPlaneFit fit;
+  fit.plane = PlaneThroughLines(lower, upper);
+  const Eigen::Vector3d mid(0.5 * (lower.point.x() + upper.point.x()), 0.5 * (lower.point.y() + upper.point.y()),
+                            0.5 * (lower.height + upper.height));
+  fit.anchor = mid - fit.plane.SignedDistance(mid) * fit.plane.normal;
+  // Each line moved across itself and turned by one sigma; the plane's
+  // changes add in quadrature.
+  double position_variance = 0, normal_variance = 0;
+  for (int which = 0; which < 2; ++which) {
+    for (int parameter = 0; parameter < 2; ++parameter) {
+      ReferenceLine moved[2] = {lower, upper};
+      ReferenceLine& line = moved[which];
+      if (parameter == 0) {
+        line.point += line.offset_sigma_mm * Eigen::Vector2d(-line.direction.y(), line.direction.x());
+      } else {
+        const double c = std::cos(line.direction_sigma_rad), s = std::sin(line.direction_sigma_rad);
+        line.direction = Eigen::Vector2d(c * line.direction.x() - s * line.direction.y(),
+                                         s * line.direction.x() + c * line.direction.y());
+      }
+      const core::Plane changed = PlaneThroughLines(moved[0], moved[1]);
+      position_variance += std::pow(changed.SignedDistance(fit.anchor), 2);
+      normal_variance += std::pow(std::acos(std::min(1.0, std::abs(changed.normal.dot(fit.plane.normal)))), 2);
+    }
+  }
+  fit.position_sigma_mm = std::sqrt(position_variance);
+  fit.normal_sigma_rad = std::sqrt(normal_variance);
+  const Eigen::Vector3d ray = (fit.anchor - camera_centre).normalized();
+  const double across = std::abs(ray.dot(fit.plane.normal));
+  fit.height_sigma_mm = across > 0 ? fit.position_sigma_mm * std::abs(ray.z()) / across
+                                   : std::numeric_limits<double>::infinity();
+  return fit;
+}
+
 double AngleToReferencePlane(const core::Plane& plane) { return std::acos(std::min(1.0, std::abs(plane.normal.z()))); }
 
-core::Plane CalibrateLaserPlane(const core::Image& lower, double lower_height_mm, const core::Image& upper,
+LaserPlaneFit CalibrateLaserPlane(const core::Image& lower, double lower_height_mm, const core::Image& upper,
                                 double upper_height_mm, const CameraRays& rays, const Eigen::Vector2d& scan_direction,
                                 double outer_mm, const LaserLineOptions& options, const std::string& what) {
   auto detect = [&](const core::Image& frame, double height) {
@@ -53,7 +89,7 @@ core::Plane CalibrateLaserPlane(const core::Image& lower, double lower_height_mm
     return line;
   };
   try {
-    return PlaneThroughLines(detect(lower, lower_height_mm), detect(upper, upper_height_mm));
+    return FitPlaneThroughLines(detect(lower, lower_height_mm), detect(upper, upper_height_mm), rays.centre());
   } catch (const core::FormatError&) {
     throw;
   } catch (const core::Error& e) {

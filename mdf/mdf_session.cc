@@ -150,6 +150,10 @@ MdfProcessingResult ProcessMdfSession(const formats::CapturedSession& session, c
     }
   }
   progress.Finish();
+  for (const auto& [key, fit] : geometry.calibrated_planes()) {
+    ++result.laser_planes;
+    result.worst_plane_height_sigma_mm = std::max(result.worst_plane_height_sigma_mm, fit.height_sigma_mm);
+  }
   result.mdf = assembler.Finish(&result.confidence);
   for (int v = 0; v < result.mdf.view_count(); ++v) {
     const double cos_theta = views.direction(v).z();

@@ -41,6 +41,10 @@ struct MdfProcessingResult {
   core::SamplingSet light_directions;  // the session rig's, for the package's description
   double deepest_mm = 0;  // deepest measured point below the reference plane
   int sweeps = 0;         // camera sequences analysed
+  // Laser planes fitted from their plates (per location and camera), and the
+  // largest one-sigma height error one of them gives at the sample centre.
+  int laser_planes = 0;
+  double worst_plane_height_sigma_mm = 0;
 };
 
 // Reads the scans of the session's done steps, each file checked against its

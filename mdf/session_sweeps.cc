@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <spdlog/spdlog.h>
 
 #include "calibration/laser_plane_calibration.h"
 #include "calibration/rig_frames.h"
@@ -102,7 +103,7 @@ core::Image SessionSweepGeometry::ReadPlateFrame(int location, int plate, int ca
 
 const core::Plane& SessionSweepGeometry::CalibratedPlane(int location, int camera) {
   const auto known = planes_.find({location, camera});
-  if (known != planes_.end()) return known->second;
+  if (known != planes_.end()) return known->second.plane;
   const auto it = plates_.find(location);
   if (it == plates_.end() || it->second.heights.size() != 2) {
     throw core::FormatError(manifest_file_, "plan",
@@ -116,11 +117,15 @@ const core::Plane& SessionSweepGeometry::CalibratedPlane(int location, int camer
     frames[h] = plate_frame_ ? plate_frame_(location, h, camera) : ReadPlateFrame(location, h, camera);
   }
   const auto& heights = it->second.heights;
-  const core::Plane plane = calibration::CalibrateLaserPlane(
+  calibration::LaserPlaneFit fit = calibration::CalibrateLaserPlane(
       frames[0], heights[0].height_mm, frames[1], heights[1].height_mm, rays_[camera],
       pose.normal.head<2>().normalized(), options_.reference_extent * rig_.sample_size_mm, options_.line,
       "laser location " + std::to_string(location) + ", camera " + rig_.cameras[camera].id);
-  return planes_.emplace(std::make_pair(location, camera), plane).first->second;
+  spdlog::debug("laser location {}, camera {}: plane at {:.3f} deg to the reference plane, position sigma {:.4f} mm, "
+                "normal sigma {:.4f} deg, height sigma {:.4f} mm",
+                location, rig_.cameras[camera].id, core::DegreesFromRadians(calibration::AngleToReferencePlane(fit.plane)),
+                fit.position_sigma_mm, core::DegreesFromRadians(fit.normal_sigma_rad), fit.height_sigma_mm);
+  return planes_.emplace(std::make_pair(location, camera), std::move(fit)).first->second.plane;
 }
 
 SweepPoses SessionSweepGeometry::Poses(const formats::LaserSweepStep& step) const {

@@ -19,6 +19,7 @@
 
 #include "calibration/camera_rays.h"
 #include "calibration/laser_line.h"
+#include "calibration/laser_plane_calibration.h"
 #include "calibration/rig_frames.h"
 #include "core/image.h"
 #include "core/plane.h"
@@ -84,6 +85,8 @@ class SessionSweepGeometry {
   // the two plate frames on first use (throws FormatError when the plan
   // lacks them, Error when the stripe is not found on a plate).
   const core::Plane& CalibratedPlane(int location, int camera);
+  // The planes fitted so far, with their uncertainty, by (location, camera).
+  const std::map<std::pair<int, int>, calibration::LaserPlaneFit>& calibrated_planes() const { return planes_; }
 
   SweepPoses Poses(const formats::LaserSweepStep& step) const;
 
@@ -117,7 +120,7 @@ class SessionSweepGeometry {
   SweepGeometryOptions options_;
   std::vector<calibration::CameraRays> rays_;  // per rig camera
   std::map<int, Plates> plates_;  // per location
-  std::map<std::pair<int, int>, core::Plane> planes_;  // (location, camera)
+  std::map<std::pair<int, int>, calibration::LaserPlaneFit> planes_;  // (location, camera)
   std::map<std::pair<long long, int>, calibration::PixelMask> regions_;  // (turntable micro-degrees, camera)
 };
 

@@ -47,7 +47,8 @@ ProcessMdfReport RunProcessMdf(const ProcessMdfOptions& o) {
   writer.WriteMdfConfidence(result.confidence);
   writer.WriteCalibration(calibration);
   writer.Commit();
-  return {result.sweeps, description.width, result.mdf.view_count()};
+  return {result.sweeps, description.width, result.mdf.view_count(), result.laser_planes,
+          result.worst_plane_height_sigma_mm};
 }
 
 }  // namespace mesocap::pipelines

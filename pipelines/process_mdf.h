@@ -31,6 +31,8 @@ struct ProcessMdfReport {
   int sweeps = 0;          // camera sequences analysed
   int texels_per_side = 0;
   int views = 0;
+  int laser_planes = 0;                    // fitted from their plates
+  double worst_plane_height_sigma_mm = 0;  // one sigma, at the sample centre
 };
 
 // Everything is computed before the package is written, so bad input leaves
