@@ -1,7 +1,12 @@
 // `mesocap simulate --plan calibration` then `mesocap calibrate --session` on
-// the small rig, against the simulated rig's exact calibration: the sample
-// area's image, the cameras' focal lengths and centres within their reported
-// uncertainty, and honest cross-validation.
+// a shipped rig (MESOCAP_CALIBRATION_RIG: the small rig as an accuracy test,
+// the tiny one everywhere, the sanitizers included), against the simulated
+// rig's exact calibration: the sample area's image, the cameras' focal
+// lengths and centres within their reported uncertainty, and honest
+// cross-validation. The tiny rig's 128 x 96 cameras see the board's corners
+// less sharply and its focal lengths only to a few percent, hence its own
+// bounds on the reported figures; the truth must lie within the same number
+// of sigmas on both.
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
@@ -17,11 +22,24 @@ namespace {
 using testing::Mesocap;
 using testing::TemporaryDirectory;
 
+// What the rig's calibration must reach, as the report gives it.
+struct ReportBounds {
+  double rms_px;                 // per camera
+  double projection_sigma_px;    // the sample centre's, one sigma
+  double cross_validation_px;
+  double sample_mm;              // the sample square's side (its rig description)
+};
+
+ReportBounds BoundsFor(const std::string& rig) {
+  if (rig == "small") return {0.2, 0.1, 0.1, 20.0};
+  return {0.25, 0.15, 0.3, 12.0};
+}
+
 class CalibrateRigCli : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     folder_ = new TemporaryDirectory;
-    const auto r = Mesocap("simulate --plan calibration --rig small --scene weave --out " + Session().string());
+    const auto r = Mesocap(std::string("simulate --plan calibration --rig ") + MESOCAP_CALIBRATION_RIG + " --scene weave --out " + Session().string());
     ASSERT_EQ(r.exit_code, 0) << r.err;
   }
   static void TearDownTestSuite() { delete folder_; }
@@ -40,11 +58,12 @@ TEST_F(CalibrateRigCli, CamerasAndTurntableWithinTheirUncertainty) {
   const formats::Calibration truth = formats::ReadCalibration(Session() / "calibration.json");
   const formats::Calibration estimate = formats::ReadCalibration(out / "c.json");
   ASSERT_EQ(estimate.cameras.size(), truth.cameras.size());
+  const ReportBounds bounds = BoundsFor(MESOCAP_CALIBRATION_RIG);
   for (std::size_t c = 0; c < truth.cameras.size(); ++c) {
     const formats::CameraCalibration& t = truth.cameras[c];
     const formats::CameraCalibration& e = estimate.cameras[c];
     const nlohmann::json& row = report["cameras"][c];
-    EXPECT_LT(row["rms_px"].get<double>(), 0.2) << e.id;
+    EXPECT_LT(row["rms_px"].get<double>(), bounds.rms_px) << e.id;
     EXPECT_NEAR(e.intrinsics.fx, t.intrinsics.fx, 4 * *e.intrinsics.uncertainty.fx) << e.id;
     for (int axis = 0; axis < 3; ++axis) {
       EXPECT_NEAR(e.pose.transform.translation[axis], t.pose.transform.translation[axis],
@@ -53,36 +72,21 @@ TEST_F(CalibrateRigCli, CamerasAndTurntableWithinTheirUncertainty) {
     }
     // Where the sample's points land in the image: what processing uses.
     const double sigma = row["projection_uncertainty_px"].get<double>();
-    EXPECT_LT(sigma, 0.1) << e.id;
-    for (const Eigen::Vector3d& point : {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(8, -8, 0), Eigen::Vector3d(-8, 5, 0)}) {
+    EXPECT_LT(sigma, bounds.projection_sigma_px) << e.id;
+    const double half = 0.5 * bounds.sample_mm;
+    for (const Eigen::Vector3d& point :
+         {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(0.8 * half, -0.8 * half, 0), Eigen::Vector3d(-0.8 * half, 0.5 * half, 0)}) {
       const auto image = [&](const formats::CameraCalibration& cam) {
         return calibration::ProjectInCamera(
             cam, cam.pose.transform.rotation.transpose() * (point - cam.pose.transform.translation));
       };
       EXPECT_LT((image(e) - image(t)).norm(), 5 * sigma + 0.01) << e.id << " at " << point.transpose();
     }
-    EXPECT_LT(row["cross_validation_px"].get<double>(), 0.1) << e.id;
+    EXPECT_LT(row["cross_validation_px"].get<double>(), bounds.cross_validation_px) << e.id;
   }
   EXPECT_EQ(report["turntable"]["holders"].size(), 5u);
   EXPECT_NE(report["nominal_parts"].get<std::string>().find("lamps"), std::string::npos);
   EXPECT_EQ(estimate.lamps.size(), truth.lamps.size());
-}
-
-TEST_F(CalibrateRigCli, ACaptureSessionIsNotACalibrationSession) {
-  TemporaryDirectory scratch;
-  const auto sim = Mesocap("simulate --rig tiny --scene weave --out " + (scratch / "capture").string());
-  ASSERT_EQ(sim.exit_code, 0) << sim.err;
-  const auto r = Mesocap("calibrate --session " + (scratch / "capture").string() + " --out " +
-                         (scratch / "c.json").string());
-  EXPECT_NE(r.exit_code, 0);
-  EXPECT_NE(r.err.find("has no board images"), std::string::npos) << r.err;
-  EXPECT_FALSE(std::filesystem::exists(scratch / "c.json"));
-}
-
-TEST_F(CalibrateRigCli, CalibrateWithoutSessionOrSubcommandSaysWhatItNeeds) {
-  const auto r = Mesocap("calibrate");
-  EXPECT_NE(r.exit_code, 0);
-  EXPECT_NE(r.err.find("--session"), std::string::npos) << r.err;
 }
 
 }  // namespace

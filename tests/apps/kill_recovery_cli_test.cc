@@ -3,7 +3,8 @@
 // completes, its output equals an uninterrupted run's byte for byte apart
 // from timestamps and timings, and no temporary is left. The moments are
 // uniform over the uninterrupted run's duration. MESOCAP_KILL_TRIALS sets the
-// trials per command (default 2; docs/BENCHMARKS.md reports a run of 10).
+// trials per command (default 2, 1 in the sanitize preset, whose runs are
+// ten times slower; docs/BENCHMARKS.md reports a run of 10).
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/wait.h>
