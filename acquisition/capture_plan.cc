@@ -94,6 +94,16 @@ std::vector<formats::PlannedStep> MakeCalibrationPlan(const formats::RigDescript
       plan.push_back(formats::ToPlannedStep("board-" + stem, step, recording));
     }
   }
+  if (rig.white_reference) {
+    for (std::size_t lamp = 0; lamp < rig.lamps.elevations_rad.size(); ++lamp) {
+      const std::string stem = "l" + std::to_string(lamp);
+      formats::WhiteReferenceStep step;
+      step.lamp = static_cast<int>(lamp);
+      step.arc_rad = rig.white_reference->arc_angle_rad;
+      step.files = CameraFiles(rig, "white/" + stem, ".png");
+      plan.push_back(formats::ToPlannedStep("white-" + stem, step, recording));
+    }
+  }
   return plan;
 }
 

@@ -93,6 +93,7 @@ class SessionRun {
       }
       AllOff();
       RemoveBoard();
+      RemoveWhiteReference();
     } catch (const drivers::DeviceError& e) {
       throw core::Error(Stopped(s, e.what()));
     }
@@ -219,6 +220,7 @@ class SessionRun {
   void RunStep(const formats::PlannedStep& step, const formats::CaptureStep& typed) {
     AllOff();
     if (!std::holds_alternative<formats::BoardImageStep>(typed)) RemoveBoard();
+    if (!std::holds_alternative<formats::WhiteReferenceStep>(typed)) RemoveWhiteReference();
     std::visit([&](const auto& s) { Run(step, s); }, typed);
   }
 
@@ -257,16 +259,36 @@ class SessionRun {
     board_holder_.reset();
   }
 
+  // The white reference stays on the turntable across its lamps' steps.
+  void Run(const formats::PlannedStep& step, const formats::WhiteReferenceStep& white) {
+    if (!white_reference_placed_) {
+      operator_.PlaceWhiteReference(rig_description_.white_reference->height_mm);
+      white_reference_placed_ = true;
+    }
+    Move(*rig_.light_arc, white.arc_rad);
+    rig_.lamps->SetLamp(white.lamp, true);
+    WriteColourImages(GrabAll(step, white.files, drivers::PixelFormat::kNative), white.files);
+  }
+
+  void RemoveWhiteReference() {
+    if (!white_reference_placed_) return;
+    operator_.RemoveWhiteReference();
+    white_reference_placed_ = false;
+  }
+
+  // One encoder per camera at once: PNG encoding is single-threaded.
+  void WriteColourImages(const std::vector<core::Image>& images, const std::vector<formats::CameraFile>& files) {
+    std::vector<fs::path> paths;
+    for (std::size_t i = 0; i < images.size(); ++i) paths.push_back(FilePath(files[i]));
+    tbb::parallel_for(std::size_t{0}, images.size(),
+                      [&](std::size_t i) { core::WriteImage(paths[i], images[i], core::PixelEncoding::kUInt16); });
+  }
+
   void Run(const formats::PlannedStep& step, const formats::BtfImageStep& btf) {
     Move(*rig_.turntable, btf.turntable_rad);
     Move(*rig_.light_arc, btf.arc_rad);
     rig_.lamps->SetLamp(btf.lamp, true);
-    const std::vector<core::Image> images = GrabAll(step, btf.files, drivers::PixelFormat::kNative);
-    // One encoder per camera at once: PNG encoding is single-threaded.
-    std::vector<fs::path> paths;
-    for (std::size_t i = 0; i < images.size(); ++i) paths.push_back(FilePath(btf.files[i]));
-    tbb::parallel_for(std::size_t{0}, images.size(),
-                      [&](std::size_t i) { core::WriteImage(paths[i], images[i], core::PixelEncoding::kUInt16); });
+    WriteColourImages(GrabAll(step, btf.files, drivers::PixelFormat::kNative), btf.files);
   }
 
   void Run(const formats::PlannedStep& step, const formats::LaserSweepStep& sweep) {
@@ -355,6 +377,7 @@ class SessionRun {
   std::map<std::string, std::uint64_t> next_sequence_;
   CaptureRunReport report_;
   std::optional<int> board_holder_;  // the calibration board's holder tilt while it is on the turntable
+  bool white_reference_placed_ = false;
   // Made at the first sweep that stores its analysis.
   std::unique_ptr<mdf::SessionSweepGeometry> sweep_geometry_;
 };

@@ -63,6 +63,11 @@ nlohmann::json ToJson(const CalibrationReport& report) {
       entry["cross_validation_max_px"] = (*report.cross_validation)[c].max_px;
       entry["cross_validation_mm"] = (*report.cross_validation)[c].rms_mm;
     }
+    if (report.radiometry) {
+      const formats::CameraRadiometry& g = report.radiometry->cameras.at(c);
+      entry["gain"] = g.signal_per_radiance_second;
+      entry["std"]["gain"] = OrNull(g.uncertainty.signal_per_radiance_second);
+    }
     cameras.push_back(entry);
   }
   nlohmann::json poses = nlohmann::json::array();
@@ -93,6 +98,19 @@ nlohmann::json ToJson(const CalibrationReport& report) {
                          {"frame", "world: z along the axis, origin on the reference plane, x along the board "
                                    "on the first holder tilt"},
                          {"holders", holders}};
+  }
+  if (report.radiometry) {
+    const RadiometryResult& r = *report.radiometry;
+    nlohmann::json lamps = nlohmann::json::array();
+    for (std::size_t l = 0; l < r.lamp_ids.size(); ++l) {
+      lamps.push_back({{"id", r.lamp_ids[l]},
+                       {"intensity", Vector(r.lamp_intensity[l])},
+                       {"std", {{"intensity", Vector(r.lamp_intensity_sigma[l])}}}});
+    }
+    json["lamps"] = lamps;
+    json["radiometry"] = {{"images_used", r.images_used},
+                          {"relative_residual_rms", r.relative_residual_rms},
+                          {"reduced_chi_square", r.reduced_chi_square}};
   }
   if (!report.nominal_parts.empty()) json["nominal_parts"] = report.nominal_parts;
   return json;
@@ -133,6 +151,23 @@ std::string FormatCalibrationReport(const CalibrationReport& report) {
   for (const CalibratedCamera& camera : report.cameras.cameras) {
     for (const SetAsideImage& image : camera.outlier_images) {
       out << "outlier photo " << camera.calibration.id << "/" << image.name << ": " << image.reason << "\n";
+    }
+  }
+  if (report.radiometry) {
+    const RadiometryResult& r = *report.radiometry;
+    out << Line("radiometry from %d white reference images: residual %.4f relative RMS, reduced chi-square %.2f\n",
+                r.images_used, r.relative_residual_rms, r.reduced_chi_square);
+    for (std::size_t c = 0; c < r.cameras.size(); ++c) {
+      const formats::CameraRadiometry& g = r.cameras[c];
+      out << Line("  gain %-12s %.6g +- %.3g (%.3f %%)\n", report.cameras.cameras.at(c).calibration.id.c_str(),
+                  g.signal_per_radiance_second, g.uncertainty.signal_per_radiance_second.value_or(0.0),
+                  100 * g.uncertainty.signal_per_radiance_second.value_or(0.0) / g.signal_per_radiance_second);
+    }
+    for (std::size_t l = 0; l < r.lamp_ids.size(); ++l) {
+      const Eigen::Vector3d& i = r.lamp_intensity[l];
+      const Eigen::Vector3d& s = r.lamp_intensity_sigma[l];
+      out << Line("  lamp %-12s intensity %.4f %.4f %.4f (std %.4f %.4f %.4f)\n", r.lamp_ids[l].c_str(), i.x(), i.y(),
+                  i.z(), s.x(), s.y(), s.z());
     }
   }
   if (!report.cross_validation) out << "cross-validation skipped: " << report.cross_validation_skipped << "\n";

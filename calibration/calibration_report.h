@@ -12,6 +12,7 @@
 
 #include "calibration/camera_calibration.h"
 #include "calibration/cross_validation.h"
+#include "calibration/radiometric_calibration.h"
 
 namespace mesocap::calibration {
 
@@ -22,6 +23,9 @@ struct CalibrationReport {
   // not be calibrated on their own.
   std::optional<std::vector<CrossValidationDifference>> cross_validation;
   std::string cross_validation_skipped;
+  // A rig's calibration with a white reference: the cameras' gains (in the
+  // cameras' order) and the lamps' intensities.
+  std::optional<RadiometryResult> radiometry;
   // A rig's calibration: the parts it took from the rig description's
   // nominal geometry, not from images (empty for cameras alone).
   std::string nominal_parts;

@@ -1,8 +1,9 @@
 // The person at the rig, for the steps no motor does: laying the flat
 // calibration plates of the laser-plane calibration on the turntable (MDF
 // paper Sec. 3.2), moving the laser unit between its mounts on the light
-// arc (Fig. 4: "we simply remount the laser unit ... manually"), and setting
-// the calibration board's holder to each of its tilts. A capture
+// arc (Fig. 4: "we simply remount the laser unit ... manually"), setting
+// the calibration board's holder to each of its tilts, and laying the white
+// reference of the radiometric calibration. A capture
 // asks, the operator does it and confirms by returning; a real backend
 // prompts on the console, the simulated one changes the simulated rig.
 #pragma once
@@ -24,6 +25,10 @@ class RigOperator {
   // tilted by `tilt_rad`; and take it off again.
   virtual void PlaceCalibrationBoard(int holder, double tilt_rad) = 0;
   virtual void RemoveCalibrationBoard() = 0;
+  // Lay the rig's white reference flat over the turntable, its top at
+  // height_mm above the reference plane; and take it off again.
+  virtual void PlaceWhiteReference(double height_mm) = 0;
+  virtual void RemoveWhiteReference() = 0;
 };
 
 }  // namespace mesocap::drivers

@@ -128,6 +128,12 @@ PlannedStep ToPlannedStep(std::string id, const BoardImageStep& step, const json
                  recording);
 }
 
+PlannedStep ToPlannedStep(std::string id, const WhiteReferenceStep& step, const json& recording) {
+  return Planned(std::move(id), StepKind::kWhiteReference,
+                 {{"lamp", step.lamp}, {"arc_deg", PlanDegrees(step.arc_rad)}, {"files", FilesJson(step.files)}},
+                 recording);
+}
+
 LaserCalibrationStep ReadLaserCalibrationStep(const PlannedStep& step, std::size_t index, const RigDescription& rig,
                                               const fs::path& manifest_file) {
   const core::JsonFieldReader fields = StepFields(step, StepKind::kLaserCalibration, index, manifest_file);
@@ -205,6 +211,21 @@ BoardImageStep ReadBoardImageStep(const PlannedStep& step, std::size_t index, co
   return out;
 }
 
+WhiteReferenceStep ReadWhiteReferenceStep(const PlannedStep& step, std::size_t index, const RigDescription& rig,
+                                          const fs::path& manifest_file) {
+  const core::JsonFieldReader fields = StepFields(step, StepKind::kWhiteReference, index, manifest_file);
+  fields.RejectUnknownMembers({"lamp", "arc_deg", "files", "recording"});
+  if (!rig.white_reference) {
+    throw core::FormatError(manifest_file, "plan[" + std::to_string(index) + "].kind",
+                            "a white reference image needs the rig's white_reference, which the session's rig lacks");
+  }
+  WhiteReferenceStep out;
+  out.lamp = Index(fields, "lamp", rig.lamps.elevations_rad.size());
+  out.arc_rad = Radians(fields, "arc_deg");
+  out.files = ReadFiles(fields, rig);
+  return out;
+}
+
 CaptureStep ReadCaptureStep(const PlannedStep& step, std::size_t index, const RigDescription& rig,
                             const fs::path& manifest_file) {
   switch (step.kind) {
@@ -216,11 +237,13 @@ CaptureStep ReadCaptureStep(const PlannedStep& step, std::size_t index, const Ri
       return ReadLaserSweepStep(step, index, rig, manifest_file);
     case StepKind::kBoardImage:
       return ReadBoardImageStep(step, index, rig, manifest_file);
+    case StepKind::kWhiteReference:
+      return ReadWhiteReferenceStep(step, index, rig, manifest_file);
     case StepKind::kOther:
       break;
   }
   throw core::FormatError(manifest_file, "plan[" + std::to_string(index) + "].kind",
-                          "a step the rig runs (laser_calibration, btf_image, laser_sweep or board_image)");
+                          "a step the rig runs (laser_calibration, btf_image, laser_sweep, board_image or white_reference)");
 }
 
 const std::vector<CameraFile>& Files(const CaptureStep& step) {

@@ -11,6 +11,8 @@
 //                      (or its space-time analysis) per camera
 //   board_image        a calibration session's: the rig's calibration board
 //                      on a holder tilt on the turntable, one image per camera
+//   white_reference    a calibration session's: the rig's white reference on
+//                      the turntable, one lamp on, one image per camera
 #pragma once
 
 #include <filesystem>
@@ -72,7 +74,14 @@ struct BoardImageStep {
   std::vector<CameraFile> files;
 };
 
-using CaptureStep = std::variant<LaserCalibrationStep, BtfImageStep, LaserSweepStep, BoardImageStep>;
+struct WhiteReferenceStep {
+  int lamp = 0;
+  double arc_rad = 0.0;
+  std::vector<CameraFile> files;
+};
+
+using CaptureStep =
+    std::variant<LaserCalibrationStep, BtfImageStep, LaserSweepStep, BoardImageStep, WhiteReferenceStep>;
 
 // A planned step of the type's kind. Angles are written in degrees rounded
 // to 1e-9 (and offsets to 1e-9 mm), so that a plan is byte-identical across
@@ -82,6 +91,7 @@ PlannedStep ToPlannedStep(std::string id, const LaserCalibrationStep& step, cons
 PlannedStep ToPlannedStep(std::string id, const BtfImageStep& step, const nlohmann::json& recording = nullptr);
 PlannedStep ToPlannedStep(std::string id, const LaserSweepStep& step, const nlohmann::json& recording = nullptr);
 PlannedStep ToPlannedStep(std::string id, const BoardImageStep& step, const nlohmann::json& recording = nullptr);
+PlannedStep ToPlannedStep(std::string id, const WhiteReferenceStep& step, const nlohmann::json& recording = nullptr);
 
 // Reads the plan's step `index`, which must be of the type's kind. Throws
 // FormatError naming `manifest_file` and the field ("plan[3].tilt_deg").
@@ -98,6 +108,9 @@ LaserSweepStep ReadLaserSweepStep(const PlannedStep& step, std::size_t index, co
 // Needs the rig's calibration_board.
 BoardImageStep ReadBoardImageStep(const PlannedStep& step, std::size_t index, const RigDescription& rig,
                                   const std::filesystem::path& manifest_file);
+// Needs the rig's white_reference.
+WhiteReferenceStep ReadWhiteReferenceStep(const PlannedStep& step, std::size_t index, const RigDescription& rig,
+                                          const std::filesystem::path& manifest_file);
 // Any step the rig runs; a step of kind "other" is a FormatError.
 CaptureStep ReadCaptureStep(const PlannedStep& step, std::size_t index, const RigDescription& rig,
                             const std::filesystem::path& manifest_file);

@@ -151,7 +151,7 @@ RigDescription ParseRigDescription(const nlohmann::json& json, const std::filesy
   const core::JsonFieldReader root(json, file);
   root.ExpectFormat("mesocap.rig", 1);
   root.RejectUnknownMembers({"format", "version", "name", "sample", "cameras", "turntable", "light_arc", "lamps",
-                             "laser", "faults", "calibration_board"});
+                             "laser", "faults", "calibration_board", "white_reference"});
   RigDescription rig;
   rig.json = json;
   rig.file = file;
@@ -176,6 +176,15 @@ RigDescription ParseRigDescription(const nlohmann::json& json, const std::filesy
     if (b.holder_tilts_rad[0] != 0.0) board.Fail("holder_tilts_deg[0]", "expected 0: the first tilt sets the sample frame");
     b.turntable_angles_rad = AnglesDeg(board, "turntable_angles_deg", 0.0, 360.0);
     rig.calibration_board = b;
+  }
+  if (root.Has("white_reference")) {
+    const auto white = root.Object("white_reference");
+    white.RejectUnknownMembers({"albedo", "height_mm", "arc_angle_deg"});
+    WhiteReferenceDescription w;
+    w.albedo = white.Number("albedo", 1e-3, 1.0);
+    w.height_mm = white.Number("height_mm", -1e4, 1e4);
+    w.arc_angle_rad = core::RadiansFromDegrees(white.Number("arc_angle_deg", 0.0, 360.0));
+    rig.white_reference = w;
   }
 
   std::set<std::string> ids;

@@ -154,6 +154,17 @@ struct CalibrationBoardDescription {
   std::vector<double> turntable_angles_rad;
 };
 
+// The white reference of a rig's calibration session ("white_reference",
+// optional): a flat diffuse plate of known albedo laid over the turntable
+// with its top height_mm above the reference plane, imaged by every camera
+// under each lamp alone with the light arc at arc_angle; the cameras' gains
+// and the lamps' intensities come from it (calibration/radiometric_calibration.h).
+struct WhiteReferenceDescription {
+  double albedo = 0.0;  // diffuse, grey, in (0, 1]
+  double height_mm = 0.0;
+  double arc_angle_rad = 0.0;
+};
+
 struct RigDescription {
   std::string name;
   double sample_size_mm = 0.0;  // side of the clipped square sample
@@ -164,6 +175,7 @@ struct RigDescription {
   LampBankDescription lamps;
   LaserDescription laser;
   std::optional<CalibrationBoardDescription> calibration_board;
+  std::optional<WhiteReferenceDescription> white_reference;
   nlohmann::json json;  // the file as read, kept for the session manifest's rig snapshot
   std::filesystem::path file;  // where it was read from, for messages
 

@@ -136,18 +136,41 @@ nlohmann::json ToJson(const MdfErrorTable& table) {
 std::string FormatMdfErrorTable(const MdfErrorTable& table) {
   std::string out =
       "theta (deg)   median mm   p95 mm  median tx   p95 tx  coverage  false no-hit  false hit  no-hit cov   compared\n";
-  auto line = [&](const std::string& label, const MdfErrorRow& r) {
-    char buffer[256];
-    std::snprintf(buffer, sizeof buffer, "%-12s %10.4f %8.4f %10.3f %8.3f %9.4f %13.4f %10.4f %11.4f %10lld\n",
-                  label.c_str(), r.median_mm, r.p95_mm, r.median_texels, r.p95_texels, r.coverage,
-                  r.false_no_hit_rate, r.false_hit_rate, r.no_hit_coverage, r.compared);
-    out += buffer;
+  // A figure with nothing to count (NaN) prints as "-"; the notes below say why.
+  auto cell = [](double value, int width, int precision) {
+    char buffer[64];
+    if (std::isnan(value)) {
+      std::snprintf(buffer, sizeof buffer, " %*s", width, "-");
+    } else {
+      std::snprintf(buffer, sizeof buffer, " %*.*f", width, precision, value);
+    }
+    return std::string(buffer);
   };
+  bool any_no_hit = false;
+  auto line = [&](const std::string& label, const MdfErrorRow& r) {
+    char buffer[64];
+    std::snprintf(buffer, sizeof buffer, "%-12s", label.c_str());
+    out += buffer + cell(r.median_mm, 10, 4) + cell(r.p95_mm, 8, 4) + cell(r.median_texels, 10, 3) +
+           cell(r.p95_texels, 8, 3) + cell(r.coverage, 9, 4) + cell(r.false_no_hit_rate, 13, 4) +
+           cell(r.false_hit_rate, 10, 4) + cell(r.no_hit_coverage, 11, 4);
+    std::snprintf(buffer, sizeof buffer, " %10lld\n", r.compared);
+    out += buffer;
+    any_no_hit = any_no_hit || r.true_no_hits > 0;
+  };
+  // Bands where the sampling set has no view hold no data: left out, named.
+  std::string empty_bands;
   for (const auto& r : table.by_polar_angle) {
-    line(std::to_string(static_cast<int>(r.theta_min_deg)) + "-" + std::to_string(static_cast<int>(r.theta_max_deg)),
-         r);
+    const std::string band =
+        std::to_string(static_cast<int>(r.theta_min_deg)) + "-" + std::to_string(static_cast<int>(r.theta_max_deg));
+    if (r.true_hits == 0 && r.true_no_hits == 0) {
+      empty_bands += (empty_bands.empty() ? "" : ", ") + band;
+      continue;
+    }
+    line(band, r);
   }
   line("overall", table.overall);
+  if (!empty_bands.empty()) out += "left out: polar bands " + empty_bands + " deg (no view direction there)\n";
+  if (!any_no_hit) out += "false hit and no-hit cov: - (the truth has no \"no hit\": no ray leaves the slab)\n";
   return out;
 }
 

@@ -5,6 +5,7 @@
 #include "calibration/board_corner_detector.h"
 #include "calibration/cross_validation.h"
 #include "calibration/nominal_geometry.h"
+#include "calibration/radiometric_calibration.h"
 #include "core/atomic_file.h"
 #include "core/image_io.h"
 #include "formats/calibration.h"
@@ -18,6 +19,36 @@ core::CheckResult CalibrateRigOptions::Check() const {
   if (out.empty()) return "--out: a calibration file to write is needed";
   return calibration.Check();
 }
+
+namespace {
+
+// The white reference's images of the session, one per (camera, lamp); none
+// when the session has no white_reference steps.
+std::vector<calibration::WhiteReferenceImage> ReadWhiteReferenceImages(const formats::CapturedSession& session,
+                                                                       const formats::RigDescription& rig) {
+  std::vector<calibration::WhiteReferenceImage> images;
+  const auto& plan = session.manifest().plan;
+  for (std::size_t s = 0; s < plan.size(); ++s) {
+    if (plan[s].kind != formats::StepKind::kWhiteReference) continue;
+    const formats::WhiteReferenceStep step =
+        formats::ReadWhiteReferenceStep(plan[s], s, rig, session.manifest_file());
+    for (std::size_t c = 0; c < rig.cameras.size(); ++c) {
+      core::ImageReadOptions read;
+      read.expected_width = rig.cameras[c].width;
+      read.expected_height = rig.cameras[c].height;
+      calibration::WhiteReferenceImage image;
+      image.camera = static_cast<int>(c);
+      image.lamp = step.lamp;
+      image.arc_rad = step.arc_rad;
+      image.name = step.files.at(c).path;
+      image.image = core::ReadImage(session.IntactFile(step.files.at(c).path), read);
+      images.push_back(std::move(image));
+    }
+  }
+  return images;
+}
+
+}  // namespace
 
 calibration::CalibrationReport RunCalibrateRig(const CalibrateRigOptions& options) {
   if (const core::CheckResult problem = options.Check(); !problem.empty()) throw core::Error(problem);
@@ -88,15 +119,33 @@ calibration::CalibrationReport RunCalibrateRig(const CalibrateRigOptions& option
   } else {
     report.cross_validation_skipped = "not asked for";
   }
-  report.nominal_parts = "light_arc, lamps, laser_mounts, camera radiometry";
-
   // Cameras and turntable from the photos; the rest nominal (see the header).
   formats::Calibration out = calibration::NominalCalibration(rig);
   for (std::size_t c = 0; c < cameras.size(); ++c) out.cameras[c] = report.cameras.cameras[c].calibration;
+  std::vector<calibration::WhiteReferenceImage> white = ReadWhiteReferenceImages(session, rig);
+  if (!white.empty()) {
+    calibration::RadiometryOptions radiometry;
+    radiometry.albedo = rig.white_reference->albedo;
+    radiometry.height_mm = rig.white_reference->height_mm;
+    radiometry.sample_size_mm = rig.sample_size_mm;
+    std::vector<double> exposure_s;
+    for (const formats::CameraDescription& camera : rig.cameras) exposure_s.push_back(camera.exposure_us * 1e-6);
+    report.radiometry = calibration::CalibrateRadiometry(out, exposure_s, white, radiometry);
+    for (std::size_t c = 0; c < out.cameras.size(); ++c) out.cameras[c].radiometry = report.radiometry->cameras[c];
+    for (std::size_t l = 0; l < out.lamps.size(); ++l) {
+      out.lamps[l].intensity = report.radiometry->lamp_intensity[l];
+      out.lamps[l].uncertainty.intensity = report.radiometry->lamp_intensity_sigma[l];
+    }
+    report.nominal_parts = "light_arc, lamp positions, laser_mounts";
+  } else {
+    report.nominal_parts = "light_arc, lamps, laser_mounts, camera radiometry (the session has no white reference)";
+  }
   formats::WriteCalibration(options.out, out);
-  spdlog::info("cameras and turntable calibrated from {} board images; light arc, lamps, laser mounts and camera "
-               "gains are the rig description's nominal values",
-               steps.size() * rig.cameras.size());
+  spdlog::info("cameras and turntable calibrated from {} board images{}; {} are the rig description's nominal values",
+               steps.size() * rig.cameras.size(),
+               white.empty() ? "" : ", camera gains and lamp intensities from " + std::to_string(white.size()) +
+                                        " white reference images",
+               report.nominal_parts);
   return report;
 }
 

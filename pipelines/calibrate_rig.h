@@ -4,12 +4,16 @@
 // defines, from the board on its holder tilts at the turntable's angles
 // (calibration/camera_calibration.h, TurntableMotion).
 //
-// What is not calibrated from images yet: the light arc, the lamps (position,
-// intensity), the cameras' radiometric gain and the laser mounts. The
-// calibration written takes them from the rig description's nominal geometry
-// (calibration/nominal_geometry.h), without uncertainty, and the report says
-// so; `process mdf` still finds the laser planes from the capture session's
-// own plates (MDF paper Sec. 3.2).
+// When the session holds white reference images, the cameras' radiometric
+// gains and the lamps' intensities come from them
+// (calibration/radiometric_calibration.h), with the estimated cameras.
+//
+// What is not calibrated from images yet: the light arc, the lamps'
+// positions and the laser mounts (and the gains and intensities of a session
+// without a white reference). The calibration written takes them from the rig
+// description's nominal geometry (calibration/nominal_geometry.h), without
+// uncertainty, and the report says so; `process mdf` still finds the laser
+// planes from the capture session's own plates (MDF paper Sec. 3.2).
 #pragma once
 
 #include <filesystem>

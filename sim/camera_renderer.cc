@@ -238,12 +238,12 @@ ViewSample CameraRenderer::FirstHit(int camera, double turntable_rad, double u, 
   return SampleHit(CameraCentre(camera), PixelRay(camera, u, v), turntable_rad);
 }
 
-CameraView CameraRenderer::TracePlate(int camera, double height_mm) const {
+CameraView CameraRenderer::TracePlate(int camera, double height_mm, float albedo) const {
   return Trace(camera, 0.0, [&](const Eigen::Vector3d& origin, const Eigen::Vector3d& dir) {
     if (dir.z() >= 0.0 || origin.z() <= height_mm) return ViewSample{};
     Eigen::Vector3d point = origin + ((height_mm - origin.z()) / dir.z()) * dir;
     point.z() = height_mm;
-    return FlatGreySample(ViewSample::Surface::kCalibrationPlate, point, kCalibrationPlateAlbedo);
+    return FlatGreySample(ViewSample::Surface::kCalibrationPlate, point, albedo);
   });
 }
 
@@ -338,6 +338,7 @@ double CameraRenderer::LaserPeakIrradiance() const {
 struct CameraRenderer::RenderCache {
   double turntable_rad = 0.0;
   std::optional<double> plate_height_mm;
+  float plate_albedo = kCalibrationPlateAlbedo;
   CameraView view;
   // The sweep's stripe samples, for the laser at `laser_mount` with the arc
   // at `laser_arc_rad`; empty until the laser is first on.
@@ -352,14 +353,25 @@ CameraRenderer::RenderCache& CameraRenderer::CachedRender(const SimulatedRigStat
   }
   if (cache_.empty()) cache_.resize(rig_.cameras.size());
   std::shared_ptr<RenderCache>& entry = cache_[camera];
-  const bool stale = !entry || entry->plate_height_mm != state.calibration_plate_height_mm ||
-                     (!state.calibration_plate_height_mm && entry->turntable_rad != state.turntable_rad);
+  // The white reference is a plate too, of the rig's own albedo.
+  std::optional<double> plate_height_mm = state.calibration_plate_height_mm;
+  float plate_albedo = kCalibrationPlateAlbedo;
+  if (state.white_reference_height_mm) {
+    if (!rig_.white_reference) {
+      throw core::Error("camera renderer: rig " + core::Quoted(rig_.name) + " has no white_reference");
+    }
+    plate_height_mm = state.white_reference_height_mm;
+    plate_albedo = static_cast<float>(rig_.white_reference->albedo);
+  }
+  const bool stale = !entry || entry->plate_height_mm != plate_height_mm || entry->plate_albedo != plate_albedo ||
+                     (!plate_height_mm && entry->turntable_rad != state.turntable_rad);
   if (stale) {
     entry = std::make_shared<RenderCache>();
     entry->turntable_rad = state.turntable_rad;
-    entry->plate_height_mm = state.calibration_plate_height_mm;
-    entry->view = state.calibration_plate_height_mm ? TracePlate(camera, *state.calibration_plate_height_mm)
-                                                    : TraceSample(camera, state.turntable_rad);
+    entry->plate_height_mm = plate_height_mm;
+    entry->plate_albedo = plate_albedo;
+    entry->view = plate_height_mm ? TracePlate(camera, *plate_height_mm, plate_albedo)
+                                  : TraceSample(camera, state.turntable_rad);
   }
   if (state.laser_on &&
       (!entry->sweep || entry->laser_mount != state.laser_mount || entry->laser_arc_rad != state.light_arc_rad)) {

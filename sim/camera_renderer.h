@@ -128,8 +128,9 @@ class CameraRenderer : public FrameRenderer {
   CameraView TraceSample(int camera, double turntable_rad) const;
   // First hits on the laser calibration plate: a flat diffuse plate
   // (albedo 0.5) at z = height_mm over the whole turntable, no sample
-  // (Sec. 3.2: the stripe on two planes of different height).
-  CameraView TracePlate(int camera, double height_mm) const;
+  // (Sec. 3.2: the stripe on two planes of different height); with another
+  // albedo, the white reference of the radiometric calibration.
+  CameraView TracePlate(int camera, double height_mm, float albedo = kCalibrationPlateAlbedo) const;
 
   // What the ray through pixel position (u, v) meets on the sample (or the
   // turntable) at a turntable angle: one ray, no sub-pixel samples.

@@ -1,6 +1,7 @@
 // The operator of the simulated rig (drivers/rig_operator.h): lays the
-// calibration plate and sets the calibration board into the simulated state and moves the laser unit by
-// hand, instantly (simulated time does not model the person).
+// calibration plate and the white reference and sets the calibration board
+// into the simulated state and moves the laser unit by hand, instantly
+// (simulated time does not model the person).
 #pragma once
 
 #include <memory>
@@ -21,6 +22,8 @@ class SimulatedOperator : public drivers::RigOperator {
   void MountLaser(int /*mount*/) override {}
   void PlaceCalibrationBoard(int holder, double /*tilt_rad*/) override { state_->calibration_board_holder = holder; }
   void RemoveCalibrationBoard() override { state_->calibration_board_holder.reset(); }
+  void PlaceWhiteReference(double height_mm) override { state_->white_reference_height_mm = height_mm; }
+  void RemoveWhiteReference() override { state_->white_reference_height_mm.reset(); }
 
  private:
   std::shared_ptr<SimulatedRigState> state_;

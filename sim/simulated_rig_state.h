@@ -26,6 +26,9 @@ struct SimulatedRigState {
   // description's calibration_board.holder_tilts); while it stands there the
   // cameras see it, lit evenly, and not the sample.
   std::optional<int> calibration_board_holder;
+  // The white reference of the radiometric calibration, its top at this
+  // height: a plate like the one above, of the rig description's albedo.
+  std::optional<double> white_reference_height_mm;
   double clock_s = 0.0;  // simulated time; moves advance it, nobody sleeps
 };
 

@@ -2,8 +2,9 @@
 // a shipped rig (MESOCAP_CALIBRATION_RIG: the small rig as an accuracy test,
 // the tiny one everywhere, the sanitizers included), against the simulated
 // rig's exact calibration: the sample area's image, the cameras' focal
-// lengths and centres within their reported uncertainty, and honest
-// cross-validation. The tiny rig's 128 x 96 cameras see the board's corners
+// lengths and centres within their reported uncertainty, honest
+// cross-validation, and the gains and lamp intensities from the white
+// reference. The tiny rig's 128 x 96 cameras see the board's corners
 // less sharply and its focal lengths only to a few percent, hence its own
 // bounds on the reported figures; the truth must lie within the same number
 // of sigmas on both.
@@ -85,8 +86,26 @@ TEST_F(CalibrateRigCli, CamerasAndTurntableWithinTheirUncertainty) {
     EXPECT_LT(row["cross_validation_px"].get<double>(), bounds.cross_validation_px) << e.id;
   }
   EXPECT_EQ(report["turntable"]["holders"].size(), 5u);
-  EXPECT_NE(report["nominal_parts"].get<std::string>().find("lamps"), std::string::npos);
-  EXPECT_EQ(estimate.lamps.size(), truth.lamps.size());
+  EXPECT_NE(report["nominal_parts"].get<std::string>().find("lamp positions"), std::string::npos);
+  // Gains and intensities from the white reference: within 1 % of the truth
+  // and within 4 of their sigmas.
+  for (std::size_t c = 0; c < truth.cameras.size(); ++c) {
+    ASSERT_TRUE(estimate.cameras[c].radiometry.has_value()) << estimate.cameras[c].id;
+    const formats::CameraRadiometry& e = *estimate.cameras[c].radiometry;
+    const double t = truth.cameras[c].radiometry->signal_per_radiance_second;
+    EXPECT_NEAR(e.signal_per_radiance_second, t, 0.01 * t) << estimate.cameras[c].id;
+    EXPECT_NEAR(e.signal_per_radiance_second, t, 4 * *e.uncertainty.signal_per_radiance_second) << estimate.cameras[c].id;
+    EXPECT_EQ(report["cameras"][c]["gain"].get<double>(), e.signal_per_radiance_second);
+  }
+  ASSERT_EQ(estimate.lamps.size(), truth.lamps.size());
+  ASSERT_EQ(report["lamps"].size(), truth.lamps.size());
+  for (std::size_t l = 0; l < truth.lamps.size(); ++l) {
+    for (int ch = 0; ch < 3; ++ch) {
+      EXPECT_NEAR(estimate.lamps[l].intensity[ch], truth.lamps[l].intensity[ch], 0.01) << truth.lamps[l].id;
+      EXPECT_NEAR(estimate.lamps[l].intensity[ch], truth.lamps[l].intensity[ch],
+                  4 * (*estimate.lamps[l].uncertainty.intensity)[ch]) << truth.lamps[l].id;
+    }
+  }
 }
 
 }  // namespace
