@@ -133,7 +133,9 @@ RadiometryResult CalibrateRadiometry(const formats::Calibration& geometry, const
     }
   }
   std::vector<std::unique_ptr<CameraRays>> rays;
-  for (const formats::CameraCalibration& camera : geometry.cameras) rays.push_back(std::make_unique<CameraRays>(camera));
+  for (const formats::CameraCalibration& camera : geometry.cameras) {
+    rays.push_back(std::make_unique<CameraRays>(camera));
+  }
   std::vector<Product> products;
   for (const auto& [key, image] : pairs) {
     for (const Product& p : MeasureProducts(geometry, *rays[key.first], exposure_s[key.first], *image, o)) {

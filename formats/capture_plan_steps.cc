@@ -242,8 +242,9 @@ CaptureStep ReadCaptureStep(const PlannedStep& step, std::size_t index, const Ri
     case StepKind::kOther:
       break;
   }
-  throw core::FormatError(manifest_file, "plan[" + std::to_string(index) + "].kind",
-                          "a step the rig runs (laser_calibration, btf_image, laser_sweep, board_image or white_reference)");
+  throw core::FormatError(
+      manifest_file, "plan[" + std::to_string(index) + "].kind",
+      "a step the rig runs (laser_calibration, btf_image, laser_sweep, board_image or white_reference)");
 }
 
 const std::vector<CameraFile>& Files(const CaptureStep& step) {

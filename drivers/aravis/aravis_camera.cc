@@ -124,84 +124,100 @@ void AravisCamera::Open() {
   }
   device_->control_lost_handler = g_signal_connect(arv_camera_get_device(device_->camera), "control-lost",
                                                    G_CALLBACK(Device::OnControlLost), device_.get());
+  // A camera refused or failing on the way (in the constructor, where no
+  // destructor follows) is let go at once, with its control socket.
+  try {
+    ArvCamera* cam = device_->camera;
+    // GigE Vision gives one application control; without it every setting
+    // would fail as if the camera were gone.
+    if (arv_camera_is_gv_device(cam) && !arv_gv_device_is_controller(ARV_GV_DEVICE(arv_camera_get_device(cam)))) {
+      throw DeviceError("camera " + options_.id + " (" + options_.device +
+                        "): another program controls it (a GigE Vision camera takes one controller); close it first");
+    }
+    info_.id = options_.id;
+    const char* model = arv_camera_get_model_name(cam, &error);
+    Check("reading DeviceModelName", error);
+    const char* vendor = arv_camera_get_vendor_name(cam, &error);
+    Check("reading DeviceVendorName", error);
+    info_.model = std::string(vendor ? vendor : "") + " " + (model ? model : "");
+    arv_camera_get_sensor_size(cam, &info_.sensor_width, &info_.sensor_height, &error);
+    Check("reading the sensor size", error);
 
-  ArvCamera* cam = device_->camera;
-  // GigE Vision gives one application control; without it every setting
-  // would fail as if the camera were gone.
-  if (arv_camera_is_gv_device(cam) && !arv_gv_device_is_controller(ARV_GV_DEVICE(arv_camera_get_device(cam)))) {
-    throw DeviceError("camera " + options_.id + " (" + options_.device +
-                      "): another program controls it (a GigE Vision camera takes one controller); close it first");
-  }
-  info_.id = options_.id;
-  const char* model = arv_camera_get_model_name(cam, &error);
-  Check("reading DeviceModelName", error);
-  const char* vendor = arv_camera_get_vendor_name(cam, &error);
-  Check("reading DeviceVendorName", error);
-  info_.model = std::string(vendor ? vendor : "") + " " + (model ? model : "");
-  arv_camera_get_sensor_size(cam, &info_.sensor_width, &info_.sensor_height, &error);
-  Check("reading the sensor size", error);
-
-  guint n = 0;
-  const char** names = arv_camera_dup_available_pixel_formats_as_strings(cam, &n, &error);
-  Check("reading the pixel formats", error);
-  std::vector<std::string> offered;
-  for (guint i = 0; i < n; ++i) offered.emplace_back(names[i]);
-  g_free(names);
-  // Most bits first; for colour an RGB format before a Bayer mosaic. A
-  // mono-only camera delivers mono frames as its native ones.
-  auto pick = [&](const std::string& wanted, bool mono) -> std::optional<PixelFormatTraits> {
-    if (!wanted.empty()) {
-      if (std::find(offered.begin(), offered.end(), wanted) == offered.end()) {
-        throw DeviceError("camera " + options_.id + ": pixel format " + core::Quoted(wanted) +
-                          " is not offered (offered: " + Formats(offered) + ")");
+    guint n = 0;
+    const char** names = arv_camera_dup_available_pixel_formats_as_strings(cam, &n, &error);
+    Check("reading the pixel formats", error);
+    std::vector<std::string> offered;
+    for (guint i = 0; i < n; ++i) offered.emplace_back(names[i]);
+    g_free(names);
+    // Most bits first; for colour an RGB format before a Bayer mosaic. A
+    // mono-only camera delivers mono frames as its native ones.
+    auto pick = [&](const std::string& wanted, bool mono) -> std::optional<PixelFormatTraits> {
+      if (!wanted.empty()) {
+        if (std::find(offered.begin(), offered.end(), wanted) == offered.end()) {
+          throw DeviceError("camera " + options_.id + ": pixel format " + core::Quoted(wanted) +
+                            " is not offered (offered: " + Formats(offered) + ")");
+        }
+        return FindPixelFormat(wanted);
       }
-      return FindPixelFormat(wanted);
+      std::optional<PixelFormatTraits> best;
+      auto rank = [](const PixelFormatTraits& f) { return f.bit_depth * 2 + (f.bayer == BayerPattern::kNone ? 1 : 0); };
+      for (const auto& o : offered) {
+        const auto f = FindPixelFormat(o);
+        if (!f || (f->channels == 1) != mono) continue;
+        if (!best || rank(*f) > rank(*best)) best = f;
+      }
+      return best;
+    };
+    const auto mono = pick(options_.mono_pixel_format, true);
+    const auto native = pick(options_.native_pixel_format, false);
+    if (!mono && !native) {
+      throw DeviceError("camera " + options_.id + ": none of its pixel formats (" + Formats(offered) +
+                        ") is one mesocap reads");
     }
-    std::optional<PixelFormatTraits> best;
-    auto rank = [](const PixelFormatTraits& f) { return f.bit_depth * 2 + (f.bayer == BayerPattern::kNone ? 1 : 0); };
-    for (const auto& o : offered) {
-      const auto f = FindPixelFormat(o);
-      if (!f || (f->channels == 1) != mono) continue;
-      if (!best || rank(*f) > rank(*best)) best = f;
-    }
-    return best;
-  };
-  const auto mono = pick(options_.mono_pixel_format, true);
-  const auto native = pick(options_.native_pixel_format, false);
-  if (!mono && !native) {
-    throw DeviceError("camera " + options_.id + ": none of its pixel formats (" + Formats(offered) +
-                      ") is one mesocap reads");
-  }
-  native_format_ = native ? *native : *mono;
-  mono_format_ = mono ? *mono : *native;
-  info_.channels = native_format_.channels;
-  info_.bit_depth = native_format_.bit_depth;
+    native_format_ = native ? *native : *mono;
+    mono_format_ = mono ? *mono : *native;
+    info_.channels = native_format_.channels;
+    info_.bit_depth = native_format_.bit_depth;
 
-  if (arv_camera_is_gv_device(cam)) {
-    if (options_.packet_size > 0) {
-      arv_camera_gv_set_packet_size(cam, options_.packet_size, &error);
-      Check("setting the packet size", error);
-      packet_size_ = options_.packet_size;
-    } else {
-      packet_size_ = static_cast<int>(arv_camera_gv_auto_packet_size(cam, &error));
-      Check("negotiating the packet size", error);
+    if (arv_camera_is_gv_device(cam)) {
+      if (options_.packet_size > 0) {
+        arv_camera_gv_set_packet_size(cam, options_.packet_size, &error);
+        Check("setting the packet size", error);
+        packet_size_ = options_.packet_size;
+      } else {
+        packet_size_ = static_cast<int>(arv_camera_gv_auto_packet_size(cam, &error));
+        Check("negotiating the packet size", error);
+      }
     }
-  }
-  if (options_.frame_rate_hz > 0.0) {
-    arv_camera_set_frame_rate(cam, options_.frame_rate_hz, &error);
-    Check("setting AcquisitionFrameRate", error);
-  }
-  // A reopened camera gets the settings it had; a new one keeps the device's.
-  if (!opened_before_) {
-    opened_before_ = true;
-    settings_.exposure_us = arv_camera_get_exposure_time(cam, &error);
-    Check("reading the exposure time", error);
-    if (arv_camera_is_gain_available(cam, nullptr)) {
-      settings_.gain_db = arv_camera_get_gain(cam, &error);
-      Check("reading the gain", error);
+    if (options_.frame_rate_hz > 0.0) {
+      arv_camera_set_frame_rate(cam, options_.frame_rate_hz, &error);
+      Check("setting AcquisitionFrameRate", error);
     }
+    // A reopened camera gets the settings it had; a new one keeps the device's.
+    if (!opened_before_) {
+      opened_before_ = true;
+      settings_.exposure_us = arv_camera_get_exposure_time(cam, &error);
+      Check("reading the exposure time", error);
+      if (arv_camera_is_gain_available(cam, nullptr)) {
+        settings_.gain_db = arv_camera_get_gain(cam, &error);
+        Check("reading the gain", error);
+      }
+    }
+    ApplySettings();
+  } catch (...) {
+    ReleaseCamera();
+    throw;
   }
-  ApplySettings();
+}
+
+void AravisCamera::ReleaseCamera() {
+  if (!device_ || !device_->camera) return;
+  if (device_->control_lost_handler != 0) {
+    g_signal_handler_disconnect(arv_camera_get_device(device_->camera), device_->control_lost_handler);
+    device_->control_lost_handler = 0;
+  }
+  g_object_unref(device_->camera);
+  device_->camera = nullptr;
 }
 
 void AravisCamera::ApplySettings() {
@@ -217,12 +233,7 @@ void AravisCamera::ApplySettings() {
 void AravisCamera::Close() {
   if (!device_) return;
   StopStream();
-  if (device_->camera) {
-    if (device_->control_lost_handler != 0) {
-      g_signal_handler_disconnect(arv_camera_get_device(device_->camera), device_->control_lost_handler);
-    }
-    g_object_unref(device_->camera);
-  }
+  ReleaseCamera();
   device_.reset();
 }
 

@@ -88,6 +88,8 @@ class AravisCamera : public Camera {
   // Throws the typed error for a failed Aravis call (takes `error`).
   [[noreturn]] void Fail(const std::string& what, ::_GError* error) const;
   void Check(const std::string& what, ::_GError* error) const;
+  // Disconnects and frees the ArvCamera, leaving device_ without one.
+  void ReleaseCamera();
   // Counts the frames missing before frame `id` as dropped.
   void CountFrameId(std::uint64_t id);
 

@@ -57,4 +57,6 @@ std::string ResolveCamera(const std::string& device) {
                     "); name it by its device id");
 }
 
+void ReleaseDiscovery() { arv_shutdown(); }
+
 }  // namespace mesocap::drivers::aravis

@@ -25,4 +25,10 @@ std::vector<DiscoveredCamera> DiscoverCameras();
 // when nothing matches, or when `device` matches several cameras.
 std::string ResolveCamera(const std::string& device);
 
+// Aravis keeps its interfaces' discovery sockets from one discovery to the
+// next, for the life of the process; this closes them (arv_shutdown), for a
+// long-running program done with its cameras and for tests that check
+// nothing is left open. A later discovery opens them again.
+void ReleaseDiscovery();
+
 }  // namespace mesocap::drivers::aravis

@@ -11,12 +11,14 @@
 #include "acquisition/capture_session_runner.h"
 #include "drivers/aravis/aravis_camera.h"
 #include "drivers/aravis/aravis_rig_backend.h"
+#include "drivers/aravis/camera_discovery.h"
 #include "formats/capture_session.h"
 #include "sim/builtin_scenes.h"
 #include "sim/camera_renderer.h"
 #include "sim/served_cameras.h"
 #include "sim/simulated_operator.h"
 #include "sim/simulated_rig_backend.h"
+#include "tests/common/no_leftovers.h"
 #include "tests/common/normalized_tree.h"
 #include "tests/common/one_sweep_rig.h"
 #include "tests/common/temporary_directory.h"
@@ -117,6 +119,11 @@ TEST(ServedCameraCapture, KilledServerStopsTheCaptureAndResumeIsByteIdentical) {
   EXPECT_EQ(testing::Differences(testing::Normalized(dir / "reference" / "S"), testing::Normalized(dir / "served" / "S")),
             "");
 }
+
+// No process or socket outlives the tests (tests/common/no_leftovers.h),
+// once Aravis has let go of its discovery sockets.
+::testing::Environment* const kNoLeftovers =
+    ::testing::AddGlobalTestEnvironment(new ::mesocap::testing::NoLeftovers(drivers::aravis::ReleaseDiscovery));
 
 }  // namespace
 }  // namespace mesocap::acquisition

@@ -75,8 +75,8 @@ TEST_F(CalibrateRigCli, CamerasAndTurntableWithinTheirUncertainty) {
     const double sigma = row["projection_uncertainty_px"].get<double>();
     EXPECT_LT(sigma, bounds.projection_sigma_px) << e.id;
     const double half = 0.5 * bounds.sample_mm;
-    for (const Eigen::Vector3d& point :
-         {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(0.8 * half, -0.8 * half, 0), Eigen::Vector3d(-0.8 * half, 0.5 * half, 0)}) {
+    for (const Eigen::Vector3d& point : {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(0.8 * half, -0.8 * half, 0),
+                                         Eigen::Vector3d(-0.8 * half, 0.5 * half, 0)}) {
       const auto image = [&](const formats::CameraCalibration& cam) {
         return calibration::ProjectInCamera(
             cam, cam.pose.transform.rotation.transpose() * (point - cam.pose.transform.translation));
@@ -94,7 +94,8 @@ TEST_F(CalibrateRigCli, CamerasAndTurntableWithinTheirUncertainty) {
     const formats::CameraRadiometry& e = *estimate.cameras[c].radiometry;
     const double t = truth.cameras[c].radiometry->signal_per_radiance_second;
     EXPECT_NEAR(e.signal_per_radiance_second, t, 0.01 * t) << estimate.cameras[c].id;
-    EXPECT_NEAR(e.signal_per_radiance_second, t, 4 * *e.uncertainty.signal_per_radiance_second) << estimate.cameras[c].id;
+    EXPECT_NEAR(e.signal_per_radiance_second, t, 4 * *e.uncertainty.signal_per_radiance_second)
+        << estimate.cameras[c].id;
     EXPECT_EQ(report["cameras"][c]["gain"].get<double>(), e.signal_per_radiance_second);
   }
   ASSERT_EQ(estimate.lamps.size(), truth.lamps.size());

@@ -13,6 +13,7 @@
 #include <thread>
 
 #include "tests/common/mesocap_command.h"
+#include "tests/common/no_leftovers.h"
 #include "tests/common/normalized_tree.h"
 #include "tests/common/one_sweep_rig.h"
 #include "tests/common/temporary_directory.h"
@@ -101,6 +102,9 @@ TEST(ServedCameras, AnyGenICamClientConnectsAndDevicesListsThem) {
   EXPECT_EQ(server.Stop(), 0);
   EXPECT_NE(testing::Slurp(dir / "serve.log").find("frames served"), std::string::npos);
 }
+
+// No process or socket outlives the tests (tests/common/no_leftovers.h).
+::testing::Environment* const kNoLeftovers = ::testing::AddGlobalTestEnvironment(new ::mesocap::testing::NoLeftovers);
 
 }  // namespace
 }  // namespace mesocap

@@ -18,6 +18,8 @@
 #include "drivers/device_error.h"
 #include "sim/served_cameras.h"
 
+#include "tests/common/no_leftovers.h"
+
 namespace mesocap::drivers::aravis {
 namespace {
 
@@ -380,6 +382,11 @@ TEST(PixelFormat, BayerMosaicsDemosaicToTheirColour) {
     EXPECT_NEAR(image.pixel(8, 8)[2], 50 / 255.0, 1e-3) << name;
   }
 }
+
+// No process or socket outlives the tests (tests/common/no_leftovers.h),
+// once Aravis has let go of its discovery sockets.
+::testing::Environment* const kNoLeftovers =
+    ::testing::AddGlobalTestEnvironment(new ::mesocap::testing::NoLeftovers(ReleaseDiscovery));
 
 }  // namespace
 }  // namespace mesocap::drivers::aravis

@@ -10,6 +10,8 @@
 #include "drivers/gpiod/libgpiod_chip.h"
 #include "drivers/gpiod/step_dir_stepper.h"
 
+#include "tests/common/no_leftovers.h"
+
 namespace mesocap::drivers::gpiod {
 namespace {
 
@@ -390,6 +392,9 @@ TEST(GpiodLibgpiodChipTest, AMissingChipIsNamedWithTheChipsThereAre) {
   EXPECT_EQ(MessageOf<DeviceError>([&] { GpioLampBank lamps(options, LibgpiodChipOpener()); }), expected);
   EXPECT_THROW(OpenLibgpiodChip("/dev/gpiochip0"), DeviceError);
 }
+
+// No process or socket outlives the tests (tests/common/no_leftovers.h).
+::testing::Environment* const kNoLeftovers = ::testing::AddGlobalTestEnvironment(new ::mesocap::testing::NoLeftovers);
 
 }  // namespace
 }  // namespace mesocap::drivers::gpiod

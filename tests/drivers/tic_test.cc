@@ -14,6 +14,7 @@
 #include "drivers/tic/tic_protocol.h"
 #include "drivers/tic/tic_rotary_stage.h"
 #include "tests/common/error_of.h"
+#include "tests/common/no_leftovers.h"
 
 namespace mesocap::drivers::tic {
 namespace {
@@ -491,6 +492,9 @@ TEST(LibusbTicTest, MapsLibusbErrors) {
   EXPECT_NE(start.find("libusb could not start"), std::string::npos) << start;
   EXPECT_NE(start.find("/dev/bus/usb"), std::string::npos) << start;
 }
+
+// No process or socket outlives the tests (tests/common/no_leftovers.h).
+::testing::Environment* const kNoLeftovers = ::testing::AddGlobalTestEnvironment(new ::mesocap::testing::NoLeftovers);
 
 }  // namespace
 }  // namespace mesocap::drivers::tic
