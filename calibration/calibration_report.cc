@@ -166,7 +166,7 @@ std::string FormatCalibrationReport(const CalibrationReport& report) {
     for (std::size_t l = 0; l < r.lamp_ids.size(); ++l) {
       const Eigen::Vector3d& i = r.lamp_intensity[l];
       const Eigen::Vector3d& s = r.lamp_intensity_sigma[l];
-      out << Line("  lamp %-12s intensity %.4f %.4f %.4f (std %.4f %.4f %.4f)\n", r.lamp_ids[l].c_str(), i.x(), i.y(),
+      out << Line("  lamp %-12s intensity %.4f %.4f %.4f (std %.2g %.2g %.2g)\n", r.lamp_ids[l].c_str(), i.x(), i.y(),
                   i.z(), s.x(), s.y(), s.z());
     }
   }
