@@ -93,5 +93,32 @@ TEST(CapturePlanSteps, UnknownMembersAreErrors) {
       << SweepError(step, rig);
 }
 
+// A white reference step names a lamp of the rig, and needs the rig's
+// white_reference.
+TEST(CapturePlanSteps, AWhiteReferenceStepIsReadStrictly) {
+  RigDescription rig = TinyRig();
+  WhiteReferenceStep white;
+  white.lamp = 1;
+  white.arc_rad = 0.5;
+  for (const CameraDescription& c : rig.cameras) white.files.push_back({c.id, "white/l1_" + c.id + ".png"});
+  const PlannedStep step = ToPlannedStep("white-l1", white);
+  const WhiteReferenceStep read = ReadWhiteReferenceStep(step, 2, rig, "manifest.json");
+  EXPECT_EQ(read.lamp, 1);
+  EXPECT_NEAR(read.arc_rad, 0.5, 1e-9);
+  EXPECT_EQ(read.files.size(), rig.cameras.size());
+  auto error = [&](const PlannedStep& s, const RigDescription& r) {
+    return ErrorOf<core::FormatError>([&] { ReadWhiteReferenceStep(s, 2, r, "manifest.json"); });
+  };
+  PlannedStep bad = step;
+  bad.params["lamp"] = static_cast<int>(rig.lamps.elevations_rad.size());
+  EXPECT_NE(error(bad, rig).find("field 'plan[2].lamp': expected an integer in [0, "), std::string::npos)
+      << error(bad, rig);
+  bad = step;
+  bad.params["albedo"] = 0.8;
+  EXPECT_NE(error(bad, rig).find("field 'plan[2].albedo': unknown member"), std::string::npos) << error(bad, rig);
+  rig.white_reference.reset();
+  EXPECT_NE(error(step, rig).find("needs the rig's white_reference"), std::string::npos) << error(step, rig);
+}
+
 }  // namespace
 }  // namespace mesocap::formats

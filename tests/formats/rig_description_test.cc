@@ -126,6 +126,12 @@ TEST(RigDescription, HostileDescriptionsNameTheField) {
   j = TinyJson();
   j["sample"]["backing"]["depth_mm"] = -2;
   EXPECT_NE(ErrorOf(j).find("sample.backing.depth_mm"), std::string::npos) << ErrorOf(j);
+  j = TinyJson();
+  j["white_reference"]["albedo"] = 0;
+  EXPECT_NE(ErrorOf(j).find("white_reference.albedo"), std::string::npos) << ErrorOf(j);
+  j = TinyJson();
+  j["white_reference"]["arc_angle_deg"] = 400;
+  EXPECT_NE(ErrorOf(j).find("white_reference.arc_angle_deg"), std::string::npos) << ErrorOf(j);
 }
 
 // The tiny rig with every device on a real backend.
@@ -205,6 +211,8 @@ TEST(RigDescription, UnknownMembersAreErrorsAtEveryLevel) {
       {nlohmann::json::json_pointer("/lamps/intensities"), "lamps.intensities"},
       {nlohmann::json::json_pointer("/laser/sweep_storge"), "laser.sweep_storge"},
       {nlohmann::json::json_pointer("/laser/locations/0/arc_deg"), "laser.locations[0].arc_deg"},
+      {nlohmann::json::json_pointer("/calibration_board/hieght_mm"), "calibration_board.hieght_mm"},
+      {nlohmann::json::json_pointer("/white_reference/albdeo"), "white_reference.albdeo"},
   };
   for (const auto& [pointer, field] : misspelt) {
     auto j = TinyJson();
