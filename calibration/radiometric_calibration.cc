@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
-#include <memory>
 #include <numbers>
 
 #include "calibration/camera_rays.h"
@@ -132,13 +131,10 @@ RadiometryResult CalibrateRadiometry(const formats::Calibration& geometry, const
       }
     }
   }
-  std::vector<std::unique_ptr<CameraRays>> rays;
-  for (const formats::CameraCalibration& camera : geometry.cameras) {
-    rays.push_back(std::make_unique<CameraRays>(camera));
-  }
+  std::vector<CameraRays> rays(geometry.cameras.begin(), geometry.cameras.end());
   std::vector<Product> products;
   for (const auto& [key, image] : pairs) {
-    for (const Product& p : MeasureProducts(geometry, *rays[key.first], exposure_s[key.first], *image, o)) {
+    for (const Product& p : MeasureProducts(geometry, rays[key.first], exposure_s[key.first], *image, o)) {
       products.push_back(p);
     }
   }
