@@ -69,12 +69,13 @@ class SessionRun {
       ++report_.steps_redone;
     }
     for (const formats::PlannedStep& step : manifest_.plan) report_.steps_done_before += journal_.IsDone(step.id);
+    report_.steps_total = manifest_.plan.size();
     // The journal's lock keeps other writers out, so what looks like a
     // temporary file was left by a writer that died.
     report_.stale_temporaries_removed = core::RemoveStaleTemporaries(dir_);
   }
 
-  CaptureRunReport Run() {
+  CaptureRunReport Run(const CaptureStepDone& step_done) {
     core::Progress progress("capture " + manifest_.rig.value("name", std::string()), manifest_.plan.size(),
                       options_.show_progress ? core::Progress::Style::kAuto : core::Progress::Style::kSilent);
     progress.Advance(report_.steps_done_before);
@@ -86,10 +87,15 @@ class SessionRun {
       for (; s < manifest_.plan.size(); ++s) {
         const formats::PlannedStep& step = manifest_.plan[s];
         if (journal_.IsDone(step.id)) continue;
+        if (options_.stop_before_step && options_.stop_before_step()) {
+          report_.stopped = true;
+          break;
+        }
         RunStep(step, steps_[s]);
         Journal(step, steps_[s]);
         ++report_.steps_run;
         progress.Advance();
+        if (step_done) step_done(report_, journal_.records().size());
       }
       AllOff();
       RemoveBoard();
@@ -394,10 +400,10 @@ core::CheckResult CaptureRunnerOptions::Check() const {
 }
 
 CaptureRunReport RunCaptureSession(const fs::path& dir, drivers::Rig& rig, drivers::RigOperator& rig_operator,
-                                   const CaptureRunnerOptions& options) {
+                                   const CaptureRunnerOptions& options, const CaptureStepDone& step_done) {
   if (const core::CheckResult problem = options.Check(); !problem.empty())
     throw core::Error("capture options: " + problem);
-  return SessionRun(dir, rig, rig_operator, options).Run();
+  return SessionRun(dir, rig, rig_operator, options).Run(step_done);
 }
 
 }  // namespace mesocap::acquisition

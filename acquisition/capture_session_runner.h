@@ -20,6 +20,7 @@
 #include <chrono>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <string>
 
 #include "core/error.h"
@@ -49,12 +50,18 @@ struct CaptureRunnerOptions {
   // for the error when a device stops the capture; empty: "run the capture
   // again".
   std::string resume_command;
+  // Asked before each step that is still to do: true ends the run there,
+  // lamps and laser off, with CaptureRunReport::stopped set (the journal
+  // holds every finished step, so a later run resumes). How a daemon pauses,
+  // cancels or shuts down between steps, never inside one.
+  std::function<bool()> stop_before_step;
 
   core::CheckResult Check() const;
 };
 
 // What a run did, for the log and for tests.
 struct CaptureRunReport {
+  std::size_t steps_total = 0;        // in the plan
   std::size_t steps_done_before = 0;  // journaled and intact when the run began
   std::size_t steps_redone = 0;       // journaled, but a file was damaged: captured again
   std::size_t steps_run = 0;
@@ -62,7 +69,12 @@ struct CaptureRunReport {
   std::uint64_t frames = 0;
   std::uint64_t dropped_frames = 0;  // sequence gaps the cameras reported
   std::uint64_t retries = 0;         // grabs, moves and tilts tried again
+  bool stopped = false;              // stop_before_step ended the run early
 };
+
+// Called after each journaled step with the run's report so far and the
+// number of steps journaled (of report.steps_total).
+using CaptureStepDone = std::function<void(const CaptureRunReport& report, std::size_t steps_journaled)>;
 
 // Runs every step of the session at `dir` (created with its manifest, see
 // core/capture_session.h) that its journal does not hold yet, in plan
@@ -70,6 +82,7 @@ struct CaptureRunReport {
 // turntable, light arc, lamp bank and laser unit. Throws Error as described
 // above; a step of kind "other" is refused before anything moves.
 CaptureRunReport RunCaptureSession(const std::filesystem::path& dir, drivers::Rig& rig,
-                                   drivers::RigOperator& rig_operator, const CaptureRunnerOptions& options = {});
+                                   drivers::RigOperator& rig_operator, const CaptureRunnerOptions& options = {},
+                                   const CaptureStepDone& step_done = {});
 
 }  // namespace mesocap::acquisition

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <functional>
 #include <map>
 
 #include "acquisition/capture_plan.h"
@@ -71,11 +72,13 @@ class SimulatedCapture {
         rig_(drivers::BuildRig(rig_description_, {{"sim", &backend_}})),
         operator_(backend_.shared_state()) {}
 
-  CaptureRunReport Run(const fs::path& dir, const formats::Calibration* calibration = nullptr) {
+  CaptureRunReport Run(const fs::path& dir, const formats::Calibration* calibration = nullptr,
+                       std::function<bool()> stop_before_step = {}, const CaptureStepDone& step_done = {}) {
     CaptureRunnerOptions options;
     options.show_progress = false;
     options.calibration = calibration;
-    return RunCaptureSession(dir, rig_, operator_, options);
+    options.stop_before_step = std::move(stop_before_step);
+    return RunCaptureSession(dir, rig_, operator_, options, step_done);
   }
 
   const sim::SimulatedRigState& state() const { return backend_.state(); }
@@ -270,6 +273,40 @@ TEST(CaptureSessionRunner, DisconnectStopsAndAResumeCompletes) {
   EXPECT_EQ(report.steps_run, 1u);
   EXPECT_EQ(report.stale_temporaries_removed, 1u);
   EXPECT_EQ(JournaledSteps(dir / "twice"), 5u);
+  EXPECT_EQ(SessionPixels(dir / "once"), SessionPixels(dir / "twice"));
+}
+
+// A stop asked for between steps ends the run there with the rig dark and
+// every finished step journaled; the next run completes the same data.
+TEST(CaptureSessionRunner, StopBetweenStepsKeepsTheJournalAndResumes) {
+  testing::TemporaryDirectory dir;
+  const auto rig = SmallPlanRig();
+  CreateSession(dir / "once", rig);
+  SimulatedCapture({rig}, {}).Run(dir / "once");
+
+  CreateSession(dir / "twice", rig);
+  std::vector<std::size_t> journaled;
+  {
+    SimulatedCapture capture(rig, {});
+    const CaptureRunReport report = capture.Run(
+        dir / "twice", nullptr, [&] { return journaled.size() == 3; },
+        [&](const CaptureRunReport& so_far, std::size_t steps) {
+          EXPECT_EQ(so_far.steps_total, 5u);
+          EXPECT_EQ(so_far.steps_run, steps);
+          journaled.push_back(steps);
+        });
+    EXPECT_TRUE(report.stopped);
+    EXPECT_EQ(report.steps_run, 3u);
+    EXPECT_FALSE(capture.state().laser_on);
+    for (bool on : capture.state().lamps_on) EXPECT_FALSE(on);
+  }
+  EXPECT_EQ(journaled, (std::vector<std::size_t>{1, 2, 3}));
+  EXPECT_EQ(JournaledSteps(dir / "twice"), 3u);
+
+  const CaptureRunReport rest = SimulatedCapture(rig, {}).Run(dir / "twice", nullptr, [] { return false; });
+  EXPECT_FALSE(rest.stopped);
+  EXPECT_EQ(rest.steps_done_before, 3u);
+  EXPECT_EQ(rest.steps_run, 2u);
   EXPECT_EQ(SessionPixels(dir / "once"), SessionPixels(dir / "twice"));
 }
 
