@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 
 #include <nlohmann/json.hpp>
+#include <vector>
 
 #include "acquisition/capture_plan.h"
 #include "core/atomic_file.h"
@@ -148,14 +149,6 @@ std::string SimulatedStation::scene_name() const { return devices_->scene->name(
 bool SimulatedStation::has_faults() const { return !devices_->faults.empty(); }
 double SimulatedStation::rig_clock_s() const { return devices_->backend.state().clock_s; }
 
-std::vector<std::string> SimulatedStation::served_camera_addresses() const {
-  std::vector<std::string> addresses;
-  if (devices_->served) {
-    for (std::size_t i = 0; i < devices_->served->size(); ++i) addresses.push_back(devices_->served->address(i).address);
-  }
-  return addresses;
-}
-
 void SimulatedStation::OpenSession(const fs::path& dir, const std::string& plan_kind) {
   Devices& d = *devices_;
   std::vector<formats::PlannedStep> plan;
@@ -212,10 +205,6 @@ acquisition::CaptureRunReport SimulatedStation::RunSession(const fs::path& dir,
                                                            const acquisition::CaptureStepDone& step_done) {
   options.calibration = &devices_->calibration;  // for sweeps the rig analyses as they are captured
   return acquisition::RunCaptureSession(dir, devices_->devices, devices_->rig_operator, options, step_done);
-}
-
-std::vector<acquisition::DeviceState> SimulatedStation::ReadDeviceStates() {
-  return acquisition::ReadRigDeviceStates(devices_->devices);
 }
 
 }  // namespace mesocap::pipelines

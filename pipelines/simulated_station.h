@@ -10,7 +10,6 @@
 #include <filesystem>
 #include <memory>
 #include <string>
-#include <vector>
 
 #include "acquisition/capture_station.h"
 #include "sim/mesostructure_scene.h"
@@ -40,19 +39,15 @@ class SimulatedStation : public acquisition::CaptureStation {
   ~SimulatedStation() override;
 
   std::string rig_name() const override;
-  std::vector<std::string> plan_kinds() const override { return {"capture", "calibration"}; }
   void OpenSession(const std::filesystem::path& dir, const std::string& plan_kind) override;
   acquisition::CaptureRunReport RunSession(const std::filesystem::path& dir, acquisition::CaptureRunnerOptions options,
                                            const acquisition::CaptureStepDone& step_done) override;
-  std::vector<acquisition::DeviceState> ReadDeviceStates() override;
 
   // The scene's name, whether faults are planned, and the rig's simulated
   // clock (seconds of rig time so far), for the log.
   std::string scene_name() const;
   bool has_faults() const;
   double rig_clock_s() const;
-  // Where each served camera listens (empty without serve_cameras).
-  std::vector<std::string> served_camera_addresses() const;
 
  private:
   struct Devices;

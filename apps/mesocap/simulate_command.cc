@@ -21,13 +21,11 @@
 #include <filesystem>
 #include <sstream>
 #include <string>
-#include <vector>
 
 #include "acquisition/capture_session_runner.h"
 #include "apps/mesocap/command.h"
 #include "apps/mesocap/scene_option.h"
 #include "core/error.h"
-#include "core/json_field_reader.h"
 #include "formats/capture_session.h"
 #include "pipelines/simulated_station.h"
 
