@@ -24,6 +24,9 @@ packages=(
   libegl-dev libgl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri libglfw3-dev libepoxy-dev
   # application plumbing
   libcli11-dev nlohmann-json3-dev libspdlog-dev
+  # the capture daemon: its HTTP server (libmicrohttpd), sd_notify and the
+  # watchdog (libsystemd), and the client's HTTP over a Unix socket (libcurl)
+  libmicrohttpd-dev libsystemd-dev libcurl4-openssl-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
   # fuzzing (scripts/fuzz.sh): clang and its runtimes, libFuzzer's among them

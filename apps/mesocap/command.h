@@ -26,6 +26,7 @@ void RegisterImportBonnCommand(CLI::App& app);  // `import bonn`
 void RegisterRigCheckCommand(CLI::App& app);    // `rig check`, `devices`
 void RegisterServeCamerasCommand(CLI::App& app);  // `sim serve-cameras`
 void RegisterCalibrateCommand(CLI::App& app);     // `calibrate`, `calibrate camera`
+void RegisterCaptureCommand(CLI::App& app);       // `capture submit|list|status|watch|...`
 
 // The group command `name` ("process", "eval"), created on first use so that
 // each of its subcommands registers itself independently.

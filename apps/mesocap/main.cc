@@ -53,6 +53,7 @@ int main(int argc, char** argv) {
   mesocap::RegisterRigCheckCommand(app);
   mesocap::RegisterServeCamerasCommand(app);
   mesocap::RegisterCalibrateCommand(app);
+  mesocap::RegisterCaptureCommand(app);
 
   // Subcommands report failure by throwing; every failure is one line on
   // stderr and a non-zero exit (1 for errors, CLI11's codes for usage).

@@ -1,0 +1,345 @@
+#include "acquisition/capture_daemon.h"
+
+#include <fcntl.h>
+#include <spdlog/spdlog.h>
+#include <sys/file.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "formats/capture_session.h"
+
+namespace mesocap::acquisition {
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+constexpr const char* kJobsFolder = "jobs";
+constexpr const char* kSessionsFolder = "sessions";
+constexpr const char* kLockFile = "mesocapd.lock";
+
+JobCommandResult NoSuchJob(const std::string& id) {
+  return {JobCommandResult::Outcome::kNoSuchJob, "no job " + core::Quoted(id), {}};
+}
+
+JobCommandResult NotNow(const CaptureJob& job, const std::string& what) {
+  return {JobCommandResult::Outcome::kNotNow,
+          "job " + job.id + " is " + std::string(JobStateName(job.state)) + ": cannot " + what + " it",
+          job};
+}
+
+}  // namespace
+
+std::string CaptureDaemonOptions::Check() const {
+  if (state_dir.empty()) return "state_dir must name the daemon's state directory";
+  if (fault_retry_interval.count() < 0) return "fault_retry_interval must not be negative";
+  if (const core::CheckResult problem = runner.Check(); !problem.empty()) return "runner: " + problem;
+  return {};
+}
+
+CaptureDaemon::CaptureDaemon(std::unique_ptr<CaptureStation> station, CaptureDaemonOptions options)
+    : station_(std::move(station)), options_(std::move(options)) {
+  if (const std::string problem = options_.Check(); !problem.empty()) throw core::Error("capture daemon: " + problem);
+  options_.runner.show_progress = false;
+  const fs::path& dir = options_.state_dir;
+  fs::create_directories(dir / kJobsFolder);
+  fs::create_directories(dir / kSessionsFolder);
+  lock_fd_ = ::open((dir / kLockFile).c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (lock_fd_ < 0) throw core::Error((dir / kLockFile).string() + ": cannot open: " + std::strerror(errno));
+  if (::flock(lock_fd_, LOCK_EX | LOCK_NB) != 0) {
+    ::close(lock_fd_);
+    lock_fd_ = -1;
+    throw core::Error(dir.string() + ": another mesocapd uses this state directory");
+  }
+  // Only this daemon writes here, so what a killed one left is stale.
+  core::RemoveStaleTemporaries(dir / kJobsFolder);
+  for (const fs::directory_entry& entry : fs::directory_iterator(dir / kJobsFolder)) {
+    if (entry.path().extension() != ".json") continue;
+    CaptureJob job = ReadCaptureJob(entry.path());
+    next_number_ = std::max<std::uint64_t>(next_number_, std::stoull(job.id.substr(4)) + 1);
+    // A fault-paused job is tried again at once after a restart: the
+    // device may have come back while the daemon was down.
+    if (job.state == JobState::kPaused && job.paused_by_fault) retry_at_[job.id] = Clock::now();
+    jobs_.emplace(job.id, std::move(job));
+  }
+}
+
+CaptureDaemon::~CaptureDaemon() {
+  Stop();
+  if (lock_fd_ >= 0) ::close(lock_fd_);
+}
+
+void CaptureDaemon::Start() {
+  std::lock_guard lock(mutex_);
+  if (worker_.joinable() || stopping_) return;
+  worker_ = std::thread([this] { RunWorker(); });
+}
+
+void CaptureDaemon::Stop() {
+  {
+    std::lock_guard lock(mutex_);
+    stopping_ = true;
+  }
+  wake_.notify_all();
+  if (worker_.joinable()) worker_.join();
+  events_.Close();
+}
+
+fs::path CaptureDaemon::RecordPath(const std::string& id) const {
+  return options_.state_dir / kJobsFolder / (id + ".json");
+}
+
+fs::path CaptureDaemon::SessionDir(const std::string& id) const {
+  return options_.state_dir / kSessionsFolder / id;
+}
+
+std::string CaptureDaemon::rig_name() const { return station_->rig_name(); }
+
+std::string CaptureDaemon::running_job() const {
+  std::lock_guard lock(mutex_);
+  return running_;
+}
+
+void CaptureDaemon::Log(const std::string& line) {
+  spdlog::info("{}", line);
+  events_.Add("log", {{"message", line}});
+}
+
+void CaptureDaemon::Save(const CaptureJob& job, const std::string& event_type) {
+  try {
+    WriteCaptureJob(RecordPath(job.id), job);
+  } catch (const std::exception& e) {
+    spdlog::warn("{}: the job record keeps its last state on disk: {}", job.id, e.what());
+    events_.Add("fault", {{"job", job.id}, {"message", std::string("cannot write the job record: ") + e.what()}});
+  }
+  events_.Add(event_type, ToJson(job));
+}
+
+CaptureJob CaptureDaemon::Submit(const std::string& plan_kind) {
+  if (plan_kind != "capture" && plan_kind != "calibration") {
+    throw core::Error("plan " + core::Quoted(plan_kind) + ": expected \"capture\" or \"calibration\"");
+  }
+  CaptureJob job;
+  {
+    std::lock_guard lock(mutex_);
+    job.id = JobId(next_number_);
+    job.plan_kind = plan_kind;
+    job.submitted_at = formats::UtcTimestamp(std::chrono::system_clock::now());
+    // The record is on disk before the id is given out: a submitted job
+    // survives a kill that follows.
+    WriteCaptureJob(RecordPath(job.id), job);
+    ++next_number_;
+    jobs_.emplace(job.id, job);
+    events_.Add("job", ToJson(job));
+  }
+  Log(job.id + " submitted (" + plan_kind + ")");
+  wake_.notify_all();
+  return job;
+}
+
+std::vector<CaptureJob> CaptureDaemon::Jobs() const {
+  std::lock_guard lock(mutex_);
+  std::vector<CaptureJob> out;
+  for (const auto& [id, job] : jobs_) out.push_back(job);
+  return out;
+}
+
+std::optional<CaptureJob> CaptureDaemon::Job(const std::string& id) const {
+  std::lock_guard lock(mutex_);
+  const auto it = jobs_.find(id);
+  if (it == jobs_.end()) return std::nullopt;
+  return it->second;
+}
+
+JobCommandResult CaptureDaemon::Pause(const std::string& id) {
+  std::lock_guard lock(mutex_);
+  const auto it = jobs_.find(id);
+  if (it == jobs_.end()) return NoSuchJob(id);
+  CaptureJob& job = it->second;
+  if (job.state == JobState::kRunning && running_ == id) {
+    job.pause_requested = true;  // the worker pauses it between steps
+  } else if (job.state == JobState::kQueued || job.state == JobState::kRunning) {
+    job.state = JobState::kPaused;
+    job.pause_reason = "paused by a client";
+    job.paused_by_fault = false;
+  } else if (job.state != JobState::kPaused) {
+    return NotNow(job, "pause");
+  }
+  Save(job);
+  return {JobCommandResult::Outcome::kDone, {}, job};
+}
+
+JobCommandResult CaptureDaemon::Resume(const std::string& id) {
+  JobCommandResult result;
+  {
+    std::lock_guard lock(mutex_);
+    const auto it = jobs_.find(id);
+    if (it == jobs_.end()) return NoSuchJob(id);
+    CaptureJob& job = it->second;
+    if (job.state == JobState::kPaused) {
+      job.state = JobState::kQueued;
+      job.pause_reason.clear();
+      job.paused_by_fault = false;
+      retry_at_.erase(id);
+    } else if (job.state == JobState::kRunning) {
+      job.pause_requested = false;
+    } else if (job.state != JobState::kQueued) {
+      return NotNow(job, "resume");
+    }
+    Save(job);
+    result.job = job;
+  }
+  wake_.notify_all();
+  return result;
+}
+
+JobCommandResult CaptureDaemon::Cancel(const std::string& id) {
+  std::lock_guard lock(mutex_);
+  const auto it = jobs_.find(id);
+  if (it == jobs_.end()) return NoSuchJob(id);
+  CaptureJob& job = it->second;
+  if (IsFinished(job.state)) return NotNow(job, "cancel");
+  if (running_ == id) {
+    job.cancel_requested = true;  // the worker cancels it between steps
+  } else {
+    job.state = JobState::kCancelled;
+    retry_at_.erase(id);
+  }
+  Save(job);
+  return {JobCommandResult::Outcome::kDone, {}, job};
+}
+
+CaptureJob* CaptureDaemon::NextJob(Clock::time_point now, std::optional<Clock::time_point>* wake_at) {
+  // Submission order, with the job a stop interrupted ("running") first.
+  for (auto& [id, job] : jobs_) {
+    if (job.state == JobState::kRunning) return &job;
+  }
+  for (auto& [id, job] : jobs_) {
+    if (job.state == JobState::kQueued) return &job;
+    if (job.state == JobState::kPaused && job.paused_by_fault) {
+      const auto at = retry_at_.find(id);
+      const Clock::time_point when = at == retry_at_.end() ? now : at->second;
+      if (when <= now) return &job;
+      if (!*wake_at || when < **wake_at) *wake_at = when;
+    }
+  }
+  return nullptr;
+}
+
+void CaptureDaemon::RunWorker() {
+  std::unique_lock lock(mutex_);
+  while (!stopping_) {
+    std::optional<Clock::time_point> wake_at;
+    CaptureJob* job = NextJob(Clock::now(), &wake_at);
+    if (job == nullptr) {
+      if (wake_at) {
+        wake_.wait_until(lock, *wake_at);
+      } else {
+        wake_.wait(lock);
+      }
+      continue;
+    }
+    const std::string id = job->id;
+    job->state = JobState::kRunning;
+    job->pause_reason.clear();
+    job->paused_by_fault = false;
+    retry_at_.erase(id);
+    running_ = id;
+    Save(*job);
+    lock.unlock();
+    RunJob(id);
+    lock.lock();
+    running_.clear();
+  }
+}
+
+void CaptureDaemon::RunJob(const std::string& id) {
+  const fs::path dir = SessionDir(id);
+  std::string plan_kind;
+  std::uint64_t frames_before = 0, dropped_before = 0, retries_before = 0;
+  {
+    std::lock_guard lock(mutex_);
+    const CaptureJob& job = jobs_.at(id);
+    plan_kind = job.plan_kind;
+    frames_before = job.frames;
+    dropped_before = job.dropped_frames;
+    retries_before = job.retries;
+  }
+  Log(id + " running");
+  try {
+    station_->OpenSession(dir, plan_kind);
+  } catch (const std::exception& e) {
+    // The session cannot be made or is another capture: no retry cures that.
+    std::lock_guard lock(mutex_);
+    CaptureJob& job = jobs_.at(id);
+    job.state = JobState::kFailed;
+    job.error = e.what();
+    Save(job);
+    events_.Add("log", {{"message", id + " failed: " + job.error}});
+    return;
+  }
+  {
+    std::lock_guard lock(mutex_);
+    jobs_.at(id).steps_total = formats::ReadSessionManifest(dir).plan.size();
+  }
+  CaptureRunnerOptions options = options_.runner;
+  options.stop_before_step = [this, id] {
+    std::lock_guard lock(mutex_);
+    const CaptureJob& job = jobs_.at(id);
+    return stopping_ || job.pause_requested || job.cancel_requested;
+  };
+  Clock::time_point step_start = Clock::now();
+  const CaptureStepDone step_done = [&](const CaptureRunReport& report, std::size_t journaled) {
+    const Clock::time_point now = Clock::now();
+    std::lock_guard lock(mutex_);
+    CaptureJob& job = jobs_.at(id);
+    job.steps_done = journaled;
+    job.steps_total = report.steps_total;
+    job.frames = frames_before + report.frames;
+    job.dropped_frames = dropped_before + report.dropped_frames;
+    job.retries = retries_before + report.retries;
+    job.running_s += std::chrono::duration<double>(now - step_start).count();
+    step_start = now;
+    Save(job, "step");
+  };
+  try {
+    const CaptureRunReport report = station_->RunSession(dir, options, step_done);
+    std::lock_guard lock(mutex_);
+    CaptureJob& job = jobs_.at(id);
+    job.steps_total = report.steps_total;
+    if (!report.stopped) {
+      job.state = JobState::kDone;
+      job.steps_done = report.steps_total;
+      job.pause_requested = job.cancel_requested = false;
+    } else if (job.cancel_requested) {
+      job.state = JobState::kCancelled;
+      job.cancel_requested = job.pause_requested = false;
+    } else if (job.pause_requested) {
+      job.state = JobState::kPaused;
+      job.pause_reason = "paused by a client";
+      job.pause_requested = false;
+    }  // else the daemon stops: the job stays running, and a restart resumes it
+    Save(job);
+    events_.Add("log", {{"message", id + " " + std::string(JobStateName(job.state))}});
+  } catch (const std::exception& e) {
+    std::lock_guard lock(mutex_);
+    CaptureJob& job = jobs_.at(id);
+    job.state = job.cancel_requested ? JobState::kCancelled : JobState::kPaused;
+    job.cancel_requested = job.pause_requested = false;
+    if (job.state == JobState::kPaused) {
+      job.paused_by_fault = true;
+      job.pause_reason = e.what();
+      ++job.faults;
+      retry_at_[id] = Clock::now() + options_.fault_retry_interval;
+    }
+    spdlog::warn("{} paused: {}", id, e.what());
+    events_.Add("fault", {{"job", id}, {"message", e.what()}});
+    Save(job);
+  }
+}
+
+}  // namespace mesocap::acquisition

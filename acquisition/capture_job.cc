@@ -1,0 +1,122 @@
+#include "acquisition/capture_job.h"
+
+#include <array>
+#include <nlohmann/json.hpp>
+
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "core/json_field_reader.h"
+
+namespace mesocap::acquisition {
+namespace {
+
+constexpr std::string_view kFormat = "mesocap.capture_job";
+constexpr int kVersion = 1;
+constexpr std::array<std::pair<JobState, std::string_view>, 6> kNames{{{JobState::kQueued, "queued"},
+                                                                        {JobState::kRunning, "running"},
+                                                                        {JobState::kPaused, "paused"},
+                                                                        {JobState::kDone, "done"},
+                                                                        {JobState::kFailed, "failed"},
+                                                                        {JobState::kCancelled, "cancelled"}}};
+
+}  // namespace
+
+std::string_view JobStateName(JobState state) {
+  for (const auto& [s, name] : kNames) {
+    if (s == state) return name;
+  }
+  return "unknown";
+}
+
+std::optional<JobState> JobStateFromName(std::string_view name) {
+  for (const auto& [s, n] : kNames) {
+    if (n == name) return s;
+  }
+  return std::nullopt;
+}
+
+bool IsFinished(JobState state) {
+  return state == JobState::kDone || state == JobState::kFailed || state == JobState::kCancelled;
+}
+
+std::optional<double> CaptureJob::EtaSeconds() const {
+  if (steps_done == 0 || steps_total == 0 || running_s <= 0) return std::nullopt;
+  return running_s / static_cast<double>(steps_done) * static_cast<double>(steps_total - steps_done);
+}
+
+nlohmann::json ToJson(const CaptureJob& job) {
+  nlohmann::json j{{"format", kFormat},
+                   {"version", kVersion},
+                   {"id", job.id},
+                   {"plan", job.plan_kind},
+                   {"state", JobStateName(job.state)},
+                   {"submitted_at", job.submitted_at},
+                   {"steps_done", job.steps_done},
+                   {"steps_total", job.steps_total},
+                   {"frames", job.frames},
+                   {"dropped_frames", job.dropped_frames},
+                   {"retries", job.retries},
+                   {"faults", job.faults},
+                   {"running_s", job.running_s},
+                   {"pause_reason", job.pause_reason},
+                   {"paused_by_fault", job.paused_by_fault},
+                   {"error", job.error},
+                   {"pause_requested", job.pause_requested},
+                   {"cancel_requested", job.cancel_requested}};
+  if (const std::optional<double> eta = job.EtaSeconds()) {
+    j["eta_s"] = *eta;
+  } else {
+    j["eta_s"] = nullptr;
+  }
+  return j;
+}
+
+CaptureJob ReadCaptureJob(const std::filesystem::path& file) {
+  const nlohmann::json document = core::ReadJsonFile(file, 1 << 20);
+  const core::JsonFieldReader r(document, file);
+  r.ExpectFormat(kFormat, kVersion);
+  r.RejectUnknownMembers({"format", "version", "id", "plan", "state", "submitted_at", "steps_done", "steps_total",
+                          "frames", "dropped_frames", "retries", "faults", "running_s", "pause_reason",
+                          "paused_by_fault", "error", "pause_requested", "cancel_requested", "eta_s"});
+  CaptureJob job;
+  job.id = r.String("id");
+  if (!IsJobId(job.id)) r.Fail("id", "expected \"job-\" and six digits, got " + core::Quoted(job.id));
+  if (file.stem() != job.id) r.Fail("id", "expected " + core::Quoted(file.stem().string()) + " (the file's name)");
+  job.plan_kind = r.Choice("plan", {"capture", "calibration"});
+  job.state = *JobStateFromName(r.Choice("state", {"queued", "running", "paused", "done", "failed", "cancelled"}));
+  job.submitted_at = r.String("submitted_at");
+  constexpr std::int64_t kMax = std::int64_t{1} << 53;
+  job.steps_done = static_cast<std::uint64_t>(r.Integer("steps_done", 0, kMax));
+  job.steps_total = static_cast<std::uint64_t>(r.Integer("steps_total", 0, kMax));
+  if (job.steps_done > job.steps_total) r.Fail("steps_done", "expected at most steps_total");
+  job.frames = static_cast<std::uint64_t>(r.Integer("frames", 0, kMax));
+  job.dropped_frames = static_cast<std::uint64_t>(r.Integer("dropped_frames", 0, kMax));
+  job.retries = static_cast<std::uint64_t>(r.Integer("retries", 0, kMax));
+  job.faults = static_cast<std::uint64_t>(r.Integer("faults", 0, kMax));
+  job.running_s = r.Number("running_s", 0, 1e12);
+  job.pause_reason = r.String("pause_reason");
+  job.paused_by_fault = r.Boolean("paused_by_fault");
+  job.error = r.String("error");
+  job.pause_requested = r.Boolean("pause_requested");
+  job.cancel_requested = r.Boolean("cancel_requested");
+  return job;
+}
+
+void WriteCaptureJob(const std::filesystem::path& file, const CaptureJob& job) {
+  core::WriteJsonFileAtomically(file, ToJson(job));
+}
+
+bool IsJobId(std::string_view id) {
+  if (id.size() != 10 || id.substr(0, 4) != "job-") return false;
+  for (const char c : id.substr(4)) {
+    if (c < '0' || c > '9') return false;
+  }
+  return true;
+}
+
+std::string JobId(std::uint64_t number) {
+  std::string digits = std::to_string(number % 1000000);
+  return "job-" + std::string(6 - digits.size(), '0') + digits;
+}
+
+}  // namespace mesocap::acquisition

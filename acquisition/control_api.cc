@@ -1,0 +1,152 @@
+#include "acquisition/control_api.h"
+
+#include <charconv>
+#include <nlohmann/json.hpp>
+#include <string_view>
+#include <vector>
+
+#include "core/error.h"
+#include "core/json_field_reader.h"
+
+namespace mesocap::acquisition {
+namespace {
+
+using nlohmann::json;
+
+ControlResponse Json(int status, const json& body) {
+  ControlResponse r;
+  r.status = status;
+  r.body = body.dump() + "\n";
+  return r;
+}
+
+ControlResponse Error(int status, const std::string& message) { return Json(status, {{"error", message}}); }
+
+std::vector<std::string_view> Segments(std::string_view path) {
+  std::vector<std::string_view> out;
+  std::size_t start = 1;
+  while (start <= path.size()) {
+    const std::size_t end = std::min(path.find('/', start), path.size());
+    out.push_back(path.substr(start, end - start));
+    start = end + 1;
+  }
+  return out;
+}
+
+ControlResponse MethodNotAllowed(const ControlRequest& request, const std::string& allowed) {
+  return Error(405, core::Cut(request.method) + " " + core::Cut(request.path) + ": method not allowed (use " +
+                        allowed + ")");
+}
+
+ControlResponse Submit(CaptureDaemon& daemon, const ControlRequest& request) {
+  const std::string where = "request body";
+  json body = json::parse(request.body, nullptr, /*allow_exceptions=*/false);
+  if (body.is_discarded()) return Error(400, where + ": not valid JSON");
+  try {
+    core::RejectDeepNesting(body, where, 8);
+    if (!body.is_object()) return Error(400, where + ": expected a JSON object such as {\"plan\": \"capture\"}");
+    const core::JsonFieldReader r(body, where);
+    r.RejectUnknownMembers({"plan"});
+    const std::string plan = r.Choice("plan", {"capture", "calibration"});
+    const CaptureJob job = daemon.Submit(plan);
+    return Json(201, ToJson(job));
+  } catch (const core::Error& e) {
+    return Error(400, e.what());
+  }
+}
+
+ControlResponse JobCommand(const JobCommandResult& result) {
+  switch (result.outcome) {
+    case JobCommandResult::Outcome::kNoSuchJob:
+      return Error(404, result.message);
+    case JobCommandResult::Outcome::kNotNow:
+      return Error(409, result.message);
+    case JobCommandResult::Outcome::kDone:
+      break;
+  }
+  return Json(200, ToJson(result.job));
+}
+
+ControlResponse Events(const ControlRequest& request) {
+  std::uint64_t after = 0;
+  std::string_view query = request.query;
+  while (!query.empty()) {
+    const std::size_t amp = query.find('&');
+    const std::string_view pair = query.substr(0, amp);
+    query = amp == std::string_view::npos ? std::string_view() : query.substr(amp + 1);
+    if (pair.substr(0, 6) != "after=") {
+      return Error(400, "query " + core::Quoted(pair) + ": the only parameter is after=N");
+    }
+    const std::string_view value = pair.substr(6);
+    const auto [end, ec] = std::from_chars(value.data(), value.data() + value.size(), after);
+    if (ec != std::errc() || end != value.data() + value.size()) {
+      return Error(400, "query after: expected an event number, got " + core::Quoted(value));
+    }
+  }
+  ControlResponse r;
+  r.content_type = "text/event-stream";
+  r.event_stream = true;
+  r.events_after = after;
+  return r;
+}
+
+}  // namespace
+
+ControlResponse HandleControlRequest(CaptureDaemon& daemon, const ControlRequest& request) {
+  const std::string_view path = request.path;
+  if (path.empty() || path[0] != '/') return Error(400, "path " + core::Quoted(path) + ": expected one from /v1/");
+  const std::vector<std::string_view> s = Segments(path);
+  const bool get = request.method == "GET", post = request.method == "POST";
+  if (s.size() >= 1 && s[0] == "v1") {
+    if (s.size() == 2 && s[1] == "rig") {
+      if (!get) return MethodNotAllowed(request, "GET");
+      const std::string running = daemon.running_job();
+      return Json(200, {{"rig", daemon.rig_name()},
+                        {"worker", running.empty() ? "idle" : "running"},
+                        {"running_job", running.empty() ? json(nullptr) : json(running)},
+                        {"last_event", daemon.events().last_number()}});
+    }
+    if (s.size() == 2 && s[1] == "events") {
+      if (!get) return MethodNotAllowed(request, "GET");
+      return Events(request);
+    }
+    if (s.size() == 2 && s[1] == "jobs") {
+      if (get) {
+        json jobs = json::array();
+        for (const CaptureJob& job : daemon.Jobs()) jobs.push_back(ToJson(job));
+        return Json(200, {{"jobs", jobs}, {"last_event", daemon.events().last_number()}});
+      }
+      if (post) return Submit(daemon, request);
+      return MethodNotAllowed(request, "GET or POST");
+    }
+    if ((s.size() == 3 || s.size() == 4) && s[1] == "jobs") {
+      const std::string id(s[2]);
+      if (!IsJobId(id)) return Error(404, "job id " + core::Quoted(id) + ": expected \"job-\" and six digits");
+      if (s.size() == 3) {
+        if (!get) return MethodNotAllowed(request, "GET");
+        const std::optional<CaptureJob> job = daemon.Job(id);
+        if (!job) return Error(404, "no job " + core::Quoted(id));
+        json body = ToJson(*job);
+        body["last_event"] = daemon.events().last_number();
+        return Json(200, body);
+      }
+      const std::string_view command = s[3];
+      if (command == "pause" || command == "resume" || command == "cancel") {
+        if (!post) return MethodNotAllowed(request, "POST");
+        if (command == "pause") return JobCommand(daemon.Pause(id));
+        if (command == "resume") return JobCommand(daemon.Resume(id));
+        return JobCommand(daemon.Cancel(id));
+      }
+      return Error(404, "job command " + core::Quoted(command) + ": expected pause, resume or cancel");
+    }
+  }
+  return Error(404, "path " + core::Quoted(path) +
+                        ": not an endpoint (GET /v1/rig, GET|POST /v1/jobs, GET /v1/jobs/ID, POST "
+                        "/v1/jobs/ID/pause|resume|cancel, GET /v1/events)");
+}
+
+std::string EventStreamMessage(const DaemonEvent& event) {
+  return "id: " + std::to_string(event.number) + "\nevent: " + event.type + "\ndata: " + event.data.dump() + "\n\n";
+}
+
+}  // namespace mesocap::acquisition

@@ -1,0 +1,49 @@
+// The capture daemon's control API as a pure function of a request: method,
+// path, headers that matter and body in; status, content type and body out.
+// The HTTP server (acquisition/control_server.h) only carries requests to
+// it, so every route and every error is testable without a socket.
+//
+//   GET  /v1/rig                     the rig and what the worker does
+//   GET  /v1/jobs                    every job, in submission order
+//   POST /v1/jobs  {"plan": KIND}    submit a job -> 201 and its record
+//   GET  /v1/jobs/ID                 one job (steps, ETA, frames, pause reason)
+//   POST /v1/jobs/ID/pause|resume|cancel
+//   GET  /v1/events?after=N          server-sent events after event N
+//
+// Every error is {"error": MESSAGE} with a message naming the field or the
+// path, and a 4xx status; the daemon never learns a path from a client.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "acquisition/capture_daemon.h"
+
+namespace mesocap::acquisition {
+
+inline constexpr std::size_t kMaxRequestBodyBytes = 64 * 1024;
+
+struct ControlRequest {
+  std::string method;  // "GET", "POST", ...
+  std::string path;    // without the query
+  std::string query;   // after '?', undecoded
+  std::string body;  // at most kMaxRequestBodyBytes: the server answers 413 to a longer one
+  bool body_too_large = false;  // for the server's own use
+};
+
+struct ControlResponse {
+  int status = 200;
+  std::string content_type = "application/json";
+  std::string body;
+  // For GET /v1/events: the server streams the daemon's events after
+  // `events_after` instead of sending `body`.
+  bool event_stream = false;
+  std::uint64_t events_after = 0;
+};
+
+ControlResponse HandleControlRequest(CaptureDaemon& daemon, const ControlRequest& request);
+
+// One event in the text/event-stream format ("id:", "event:", "data:").
+std::string EventStreamMessage(const DaemonEvent& event);
+
+}  // namespace mesocap::acquisition

@@ -1,0 +1,213 @@
+#include "acquisition/control_server.h"
+
+#include <microhttpd.h>
+#include <spdlog/spdlog.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <memory>
+
+#include "acquisition/control_api.h"
+#include "core/error.h"
+
+namespace mesocap::acquisition {
+namespace {
+
+namespace fs = std::filesystem;
+
+// One request as it arrives: libmicrohttpd calls the access handler first
+// with the headers, then with each piece of the body, then once more.
+struct PendingRequest {
+  ControlRequest request;
+  bool started = false;
+};
+
+// An event stream's state between the reader's calls.
+struct EventStream {
+  ControlServer* server = nullptr;
+  std::uint64_t after = 0;
+  std::string pending;  // bytes of messages not yet handed to libmicrohttpd
+};
+
+ssize_t ReadEvents(void* cls, std::uint64_t, char* buffer, std::size_t max) {
+  auto* stream = static_cast<EventStream*>(cls);
+  while (stream->pending.empty()) {
+    if (stream->server->stopping()) return MHD_CONTENT_READER_END_OF_STREAM;
+    const std::vector<DaemonEvent> events =
+        stream->server->daemon().events().After(stream->after, std::chrono::milliseconds(1000));
+    if (stream->server->daemon().events().closed()) return MHD_CONTENT_READER_END_OF_STREAM;
+    for (const DaemonEvent& e : events) {
+      stream->pending += EventStreamMessage(e);
+      stream->after = e.number;
+    }
+    // A comment line keeps an idle stream inside the idle timeout.
+    if (events.empty()) stream->pending = ": waiting\n\n";
+  }
+  const std::size_t n = std::min(max, stream->pending.size());
+  std::memcpy(buffer, stream->pending.data(), n);
+  stream->pending.erase(0, n);
+  return static_cast<ssize_t>(n);
+}
+
+void FreeEventStream(void* cls) { delete static_cast<EventStream*>(cls); }
+
+MHD_Result Respond(MHD_Connection* connection, const ControlResponse& r) {
+  MHD_Response* response = MHD_create_response_from_buffer(r.body.size(), const_cast<char*>(r.body.data()),
+                                                           MHD_RESPMEM_MUST_COPY);
+  if (response == nullptr) return MHD_NO;
+  MHD_add_response_header(response, "Content-Type", r.content_type.c_str());
+  MHD_add_response_header(response, "Cache-Control", "no-store");
+  const MHD_Result result = MHD_queue_response(connection, static_cast<unsigned>(r.status), response);
+  MHD_destroy_response(response);
+  return result;
+}
+
+ControlResponse TooLarge() {
+  ControlResponse r;
+  r.status = 413;
+  r.body = "{\"error\":\"request body: more than " + std::to_string(kMaxRequestBodyBytes) + " bytes\"}\n";
+  return r;
+}
+
+MHD_Result AddQueryArgument(void* cls, MHD_ValueKind, const char* key, const char* value) {
+  auto* query = static_cast<std::string*>(cls);
+  if (!query->empty()) *query += '&';
+  *query += key;
+  if (value != nullptr) *query += std::string("=") + value;
+  return MHD_YES;
+}
+
+MHD_Result HandleConnection(void* cls, MHD_Connection* connection, const char* url, const char* method, const char*,
+                            const char* upload_data, std::size_t* upload_data_size, void** con_cls) {
+  auto* server = static_cast<ControlServer*>(cls);
+  auto* pending = static_cast<PendingRequest*>(*con_cls);
+  if (pending == nullptr) {
+    pending = new PendingRequest;
+    *con_cls = pending;
+    pending->request.method = method;
+    pending->request.path = url;
+    MHD_get_connection_values(connection, MHD_GET_ARGUMENT_KIND, AddQueryArgument, &pending->request.query);
+    // A declared body over the limit is refused before any of it is read.
+    if (const char* length = MHD_lookup_connection_value(connection, MHD_HEADER_KIND, "Content-Length")) {
+      char* end = nullptr;
+      errno = 0;
+      const unsigned long long declared = std::strtoull(length, &end, 10);
+      if (errno != 0 || end == length || declared > kMaxRequestBodyBytes) {
+        pending->request.body_too_large = true;
+        return Respond(connection, TooLarge());
+      }
+    }
+    return MHD_YES;
+  }
+  if (*upload_data_size > 0) {
+    // A chunked body over the limit is read and dropped, never held.
+    if (pending->request.body.size() + *upload_data_size > kMaxRequestBodyBytes) {
+      pending->request.body_too_large = true;
+      pending->request.body.clear();
+    } else if (!pending->request.body_too_large) {
+      pending->request.body.append(upload_data, *upload_data_size);
+    }
+    *upload_data_size = 0;
+    return MHD_YES;
+  }
+  const ControlResponse response =
+      pending->request.body_too_large ? TooLarge() : HandleControlRequest(server->daemon(), pending->request);
+  if (!response.event_stream) return Respond(connection, response);
+  auto stream = std::make_unique<EventStream>();
+  stream->server = server;
+  stream->after = response.events_after;
+  MHD_Response* r = MHD_create_response_from_callback(MHD_SIZE_UNKNOWN, 4096, ReadEvents, stream.get(),
+                                                      FreeEventStream);
+  if (r == nullptr) return MHD_NO;
+  stream.release();
+  MHD_add_response_header(r, "Content-Type", "text/event-stream");
+  MHD_add_response_header(r, "Cache-Control", "no-store");
+  const MHD_Result result = MHD_queue_response(connection, MHD_HTTP_OK, r);
+  MHD_destroy_response(r);
+  return result;
+}
+
+void RequestCompleted(void*, MHD_Connection*, void** con_cls, MHD_RequestTerminationCode) {
+  delete static_cast<PendingRequest*>(*con_cls);
+  *con_cls = nullptr;
+}
+
+void LogServerError(void*, const char* format, va_list args) {
+  char text[512];
+  std::vsnprintf(text, sizeof text, format, args);
+  spdlog::debug("http: {}", text);
+}
+
+}  // namespace
+
+std::string ControlServerOptions::Check() const {
+  if (socket.empty()) return "socket must name the control socket's path";
+  if (socket.native().size() >= sizeof(sockaddr_un::sun_path)) {
+    return "socket " + socket.string() + ": longer than " + std::to_string(sizeof(sockaddr_un::sun_path) - 1) +
+           " bytes, the most a Unix socket's path may have";
+  }
+  if (connection_limit < 2) return "connection_limit must be at least 2";
+  if (idle_timeout.count() < 1) return "idle_timeout must be at least 1 s";
+  return {};
+}
+
+ControlServer::ControlServer(CaptureDaemon& daemon, ControlServerOptions options)
+    : daemon_(daemon), options_(std::move(options)) {
+  if (const std::string problem = options_.Check(); !problem.empty()) throw core::Error("control server: " + problem);
+  const std::string path = options_.socket.string();
+  listen_fd_ = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  if (listen_fd_ < 0) throw core::Error(path + ": cannot make a socket: " + std::strerror(errno));
+  sockaddr_un address{};
+  address.sun_family = AF_UNIX;
+  std::memcpy(address.sun_path, path.c_str(), path.size() + 1);
+  // A socket file left by a killed daemon is stale when nobody answers on it.
+  if (fs::is_socket(fs::symlink_status(options_.socket))) {
+    const int probe = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    const bool answered = ::connect(probe, reinterpret_cast<sockaddr*>(&address), sizeof address) == 0;
+    ::close(probe);
+    if (answered) {
+      ::close(listen_fd_);
+      throw core::Error(path + ": another daemon listens on this socket");
+    }
+    fs::remove(options_.socket);
+  }
+  // Mode 0660 from the start (no window in which others may connect).
+  const mode_t old_mask = ::umask(0117);
+  const int bound = ::bind(listen_fd_, reinterpret_cast<sockaddr*>(&address), sizeof address);
+  const int bind_errno = errno;
+  ::umask(old_mask);
+  if (bound != 0 || ::listen(listen_fd_, 64) != 0) {
+    const int e = bound != 0 ? bind_errno : errno;
+    ::close(listen_fd_);
+    throw core::Error(path + ": cannot listen: " + std::strerror(e));
+  }
+  http_ = MHD_start_daemon(
+      MHD_USE_THREAD_PER_CONNECTION | MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_POLL | MHD_USE_ERROR_LOG, 0,
+      nullptr, nullptr, &HandleConnection, this, MHD_OPTION_LISTEN_SOCKET, listen_fd_, MHD_OPTION_CONNECTION_LIMIT,
+      options_.connection_limit, MHD_OPTION_CONNECTION_TIMEOUT, static_cast<unsigned>(options_.idle_timeout.count()),
+      MHD_OPTION_CONNECTION_MEMORY_LIMIT, static_cast<std::size_t>(32 * 1024), MHD_OPTION_NOTIFY_COMPLETED,
+      &RequestCompleted, nullptr, MHD_OPTION_EXTERNAL_LOGGER, &LogServerError, nullptr, MHD_OPTION_END);
+  if (http_ == nullptr) {
+    ::close(listen_fd_);
+    fs::remove(options_.socket);
+    throw core::Error(path + ": the HTTP server did not start");
+  }
+}
+
+ControlServer::~ControlServer() { Stop(); }
+
+void ControlServer::Stop() {
+  if (http_ == nullptr) return;
+  stopping_ = true;
+  MHD_stop_daemon(http_);  // joins every connection's thread; event streams end within a second
+  http_ = nullptr;
+  ::close(listen_fd_);
+  std::error_code ec;
+  fs::remove(options_.socket, ec);
+}
+
+}  // namespace mesocap::acquisition

@@ -1,0 +1,161 @@
+// `mesocap capture submit|list|status|watch|pause|resume|cancel`: the
+// capture daemon's client (docs/DAEMON.md). Each subcommand is one request to
+// mesocapd's control API over its Unix socket; `watch` follows a job's
+// progress from the event stream until it is done, failed or cancelled.
+#include <unistd.h>
+
+#include <cstdio>
+#include <iostream>
+#include <memory>
+#include <string>
+
+#include "apps/mesocap/command.h"
+#include "apps/mesocap/control_client.h"
+#include "core/error.h"
+
+namespace mesocap {
+namespace {
+
+using nlohmann::json;
+
+struct CaptureClientOptions {
+  std::filesystem::path socket = DefaultControlSocket();
+  bool json_output = false;
+  std::string plan = "capture";
+  std::string id;
+};
+
+std::string Duration(double seconds) {
+  const long s = static_cast<long>(seconds + 0.5);
+  char text[32];
+  if (s >= 3600) {
+    std::snprintf(text, sizeof text, "%ldh%02ldm", s / 3600, s / 60 % 60);
+  } else {
+    std::snprintf(text, sizeof text, "%ldm%02lds", s / 60, s % 60);
+  }
+  return text;
+}
+
+std::string Steps(const json& job) {
+  return std::to_string(job.value("steps_done", 0)) + "/" + std::to_string(job.value("steps_total", 0));
+}
+
+// One line: "job-000001 running 12/40 steps, 480 frames (0 dropped, 1 retried), ETA 1m20s".
+std::string Summary(const json& job) {
+  std::string line = job.value("id", "") + " " + job.value("state", "") + " (" + job.value("plan", "") + ") " +
+                     Steps(job) + " steps, " + std::to_string(job.value("frames", 0)) + " frames (" +
+                     std::to_string(job.value("dropped_frames", 0)) + " dropped, " +
+                     std::to_string(job.value("retries", 0)) + " retried)";
+  if (job.value("state", "") == "running" && job.contains("eta_s") && job["eta_s"].is_number()) {
+    line += ", ETA " + Duration(job["eta_s"].get<double>());
+  }
+  if (!job.value("pause_reason", "").empty()) line += "; paused: " + job.value("pause_reason", "");
+  if (!job.value("error", "").empty()) line += "; error: " + job.value("error", "");
+  return line;
+}
+
+void Print(const json& value, bool as_json, const std::string& text) {
+  std::cout << (as_json ? value.dump(2) : text) << "\n";
+}
+
+bool Finished(const json& job) {
+  const std::string state = job.value("state", "");
+  return state == "done" || state == "failed" || state == "cancelled";
+}
+
+// Follows the job until it finishes; the exit status says how it ended.
+void Watch(const CaptureClientOptions& o) {
+  const ControlClient client(o.socket);
+  json job = client.Get("/v1/jobs/" + o.id);
+  const bool tty = ::isatty(STDOUT_FILENO) != 0;
+  std::string last_line;
+  const auto show = [&](const json& j) {
+    const std::string line = Summary(j);
+    if (line == last_line) return;
+    last_line = line;
+    if (tty) {
+      const double total = std::max(1, j.value("steps_total", 0));
+      const int filled = static_cast<int>(30 * j.value("steps_done", 0) / total);
+      std::cout << "\r\033[K[" << std::string(filled, '#') << std::string(30 - filled, '.') << "] " << line
+                << std::flush;
+    } else {
+      std::cout << line << "\n" << std::flush;
+    }
+  };
+  show(job);
+  if (!Finished(job)) {
+    const std::uint64_t after = job.value("last_event", std::uint64_t{0});
+    client.Stream("/v1/events?after=" + std::to_string(after), [&](std::string_view type, const json& data) {
+      if ((type == "job" || type == "step") && data.value("id", "") == o.id) {
+        job = data;
+        show(job);
+      }
+      return !Finished(job);
+    });
+  }
+  if (tty) std::cout << "\n";
+  if (!Finished(job)) throw core::Error("mesocapd stopped while " + o.id + " was " + job.value("state", "?"));
+  if (job.value("state", "") != "done") throw core::Error(o.id + " " + job.value("state", "") + ": " + Summary(job));
+}
+
+}  // namespace
+
+void RegisterCaptureCommand(CLI::App& app) {
+  auto o = std::make_shared<CaptureClientOptions>();
+  CLI::App* group = app.add_subcommand("capture", "Talk to mesocapd, the capture daemon: submit and steer captures");
+  group->require_subcommand(1);
+  const auto common = [o](CLI::App* sub) {
+    sub->add_option("--socket", o->socket, "mesocapd's control socket ($MESOCAP_SOCKET overrides the default)")
+        ->capture_default_str();
+    sub->add_flag("--json", o->json_output, "print the daemon's JSON answer");
+  };
+  const auto job_id = [o](CLI::App* sub) { sub->add_option("id", o->id, "the job's id (job-NNNNNN)")->required(); };
+
+  CLI::App* submit = group->add_subcommand("submit", "Queue a capture session; prints its job id");
+  common(submit);
+  submit->add_option("--plan", o->plan, "capture (BTF images, laser calibration and sweeps) or calibration")
+      ->check(CLI::IsMember({"capture", "calibration"}))
+      ->capture_default_str();
+  submit->callback([o] {
+    const json job = ControlClient(o->socket).Post("/v1/jobs", {{"plan", o->plan}});
+    Print(job, o->json_output, job.value("id", ""));
+  });
+
+  CLI::App* list = group->add_subcommand("list", "Every job, in submission order");
+  common(list);
+  list->callback([o] {
+    const json answer = ControlClient(o->socket).Get("/v1/jobs");
+    std::string text;
+    for (const json& job : answer.at("jobs")) text += (text.empty() ? "" : "\n") + Summary(job);
+    Print(answer, o->json_output, text.empty() ? "no jobs" : text);
+  });
+
+  CLI::App* status = group->add_subcommand("status", "One job: state, steps, frames, ETA, why it is paused");
+  common(status);
+  job_id(status);
+  status->callback([o] {
+    const json job = ControlClient(o->socket).Get("/v1/jobs/" + o->id);
+    Print(job, o->json_output, Summary(job));
+  });
+
+  for (const char* command : {"pause", "resume", "cancel"}) {
+    const std::string name = command;
+    CLI::App* sub = group->add_subcommand(
+        name, name == "pause"    ? "Pause a job (a running one stops after its current step)"
+              : name == "resume" ? "Resume a paused job (one paused on a fault is tried again at once)"
+                                 : "Cancel a job (a running one stops after its current step; its session stays)");
+    common(sub);
+    job_id(sub);
+    sub->callback([o, name] {
+      const json job = ControlClient(o->socket).Post("/v1/jobs/" + o->id + "/" + name, json::object());
+      Print(job, o->json_output, Summary(job));
+    });
+  }
+
+  CLI::App* watch = group->add_subcommand("watch", "Follow a job's progress until it ends (exit 0 when done)");
+  watch->add_option("--socket", o->socket, "mesocapd's control socket")->capture_default_str();
+  job_id(watch);
+  watch->callback([o] { Watch(*o); });
+}
+
+}  // namespace mesocap

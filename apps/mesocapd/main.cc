@@ -1,0 +1,114 @@
+// mesocapd: the capture session daemon (docs/DAEMON.md). Opens the rig once,
+// runs a queue of capture jobs from its state directory one at a time, and
+// serves the control API on a Unix socket. Started in the foreground or by
+// systemd (Type=notify: READY once the socket listens, WATCHDOG pings while
+// the main loop runs). SIGTERM or SIGINT lets the running step finish and
+// journal, then exits; the next start resumes that job.
+#include <signal.h>
+#include <spdlog/spdlog.h>
+#include <systemd/sd-daemon.h>
+
+#include <CLI/CLI.hpp>
+#include <chrono>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <memory>
+#include <string>
+
+#include "acquisition/capture_daemon.h"
+#include "acquisition/control_server.h"
+#include "apps/mesocap/scene_option.h"
+#include "core/error.h"
+#include "core/logging.h"
+#include "core/version.h"
+#include "pipelines/simulated_station.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using namespace mesocap;
+
+struct DaemonCommandOptions {
+  pipelines::SimulatedStationOptions station;
+  fs::path state;
+  fs::path socket;  // default: STATE/control.sock
+  double fault_retry_s = 30;
+};
+
+// Waits for SIGTERM or SIGINT, pinging systemd's watchdog at half its
+// interval meanwhile. The signals are blocked in every thread (main blocks
+// them before any thread starts), so only this wait sees them.
+int WaitForStop(const sigset_t& signals) {
+  std::uint64_t watchdog_us = 0;
+  const bool watchdog = sd_watchdog_enabled(0, &watchdog_us) > 0 && watchdog_us > 0;
+  const std::uint64_t wait_us = watchdog ? watchdog_us / 2 : 1000000;
+  timespec timeout{static_cast<time_t>(wait_us / 1000000), static_cast<long>(wait_us % 1000000) * 1000};
+  while (true) {
+    const int signal = sigtimedwait(&signals, nullptr, &timeout);
+    if (signal > 0) return signal;
+    if (watchdog) sd_notify(0, "WATCHDOG=1");
+  }
+}
+
+void RunDaemon(const DaemonCommandOptions& o, const sigset_t& signals) {
+  acquisition::CaptureDaemonOptions daemon_options;
+  daemon_options.state_dir = o.state;
+  daemon_options.fault_retry_interval = std::chrono::milliseconds(static_cast<std::int64_t>(o.fault_retry_s * 1000));
+  auto station = std::make_unique<pipelines::SimulatedStation>(o.station);
+  spdlog::info("rig {} open (simulated, scene {})", station->rig_name(), station->scene_name());
+  acquisition::CaptureDaemon daemon(std::move(station), daemon_options);
+  acquisition::ControlServerOptions server_options;
+  server_options.socket = o.socket.empty() ? o.state / "control.sock" : o.socket;
+  acquisition::ControlServer server(daemon, server_options);
+  daemon.Start();
+  spdlog::info("serving the control API on {}", server_options.socket.string());
+  sd_notify(0, "READY=1");
+  const int signal = WaitForStop(signals);
+  spdlog::info("{}: finishing the running step", strsignal(signal));
+  sd_notify(0, "STOPPING=1");
+  server.Stop();
+  daemon.Stop();
+  spdlog::info("stopped");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGTERM);
+  sigaddset(&signals, SIGINT);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+
+  CLI::App app{"mesocapd: the capture session daemon (runs a queue of captures on one rig)"};
+  app.set_version_flag("--version", std::string("mesocapd ") + core::Version());
+  int verbose = 0, quiet = 0;
+  app.add_flag("-v,--verbose", verbose, "more log output (-vv for trace)");
+  app.add_flag("-q,--quiet", quiet, "only warnings and errors in the log");
+  DaemonCommandOptions o;
+  app.add_option("--state", o.state, "state directory: the job queue and every job's capture session")->required();
+  app.add_option("--socket", o.socket, "control socket (default: STATE/control.sock)");
+  app.add_option("--rig", o.station.rig, "shipped rig (tiny, small, paper) or a rig description file")
+      ->capture_default_str();
+  AddSceneOptions(&app, &o.station.scene);
+  app.add_option("--seed", o.station.seed, "seed of the simulated sensor noise")->capture_default_str();
+  app.add_flag("--no-noise", o.station.no_noise, "no shot or read noise");
+  app.add_option("--faults", o.station.faults, "fault plan file (mesocap.faults) added to the rig's own faults");
+  app.add_flag("--serve-cameras", o.station.serve_cameras,
+               "serve the simulated cameras as GigE Vision devices on loopback and drive them through Aravis");
+  app.add_option("--fault-retry-s", o.fault_retry_s, "seconds before a job paused on a fault is tried again")
+      ->check(CLI::Range(0.0, 86400.0))
+      ->capture_default_str();
+  try {
+    app.parse(argc, argv);
+    core::ConfigureLogging(verbose - quiet);
+    RunDaemon(o, signals);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  } catch (const std::exception& e) {
+    std::fprintf(core::MessageStream(), "mesocapd: error: %s\n", core::Cut(e.what(), 4 * core::kMaxEchoedCharacters).c_str());
+    return 1;
+  }
+  return 0;
+}
