@@ -231,7 +231,10 @@ class SessionRun {
   }
 
   void Run(const formats::PlannedStep& step, const formats::LaserCalibrationStep& calibration) {
-    // Sec. 3.2: the stripe at tilt 0 on a flat plate at a known height.
+    // Sec. 3.2: the stripe at tilt 0 on a flat plate at a known height. The
+    // plate is imaged at the turntable's zero, so the step records the same
+    // images whatever the previous step (or session) left the turntable at.
+    Move(*rig_.turntable, 0.0);
     Move(*rig_.light_arc, calibration.arc_rad);
     MountLaser(calibration.mount);
     operator_.PlaceCalibrationPlate(calibration.height_mm);
@@ -271,6 +274,7 @@ class SessionRun {
       operator_.PlaceWhiteReference(rig_description_.white_reference->height_mm);
       white_reference_placed_ = true;
     }
+    Move(*rig_.turntable, 0.0);  // as for the laser plates: images independent of the previous step
     Move(*rig_.light_arc, white.arc_rad);
     rig_.lamps->SetLamp(white.lamp, true);
     WriteColourImages(GrabAll(step, white.files, drivers::PixelFormat::kNative), white.files);

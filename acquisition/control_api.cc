@@ -16,7 +16,8 @@ using nlohmann::json;
 ControlResponse Json(int status, const json& body) {
   ControlResponse r;
   r.status = status;
-  r.body = body.dump() + "\n";
+  // A message may quote a client's bytes that are not UTF-8.
+  r.body = body.dump(-1, ' ', false, json::error_handler_t::replace) + "\n";
   return r;
 }
 
@@ -146,7 +147,8 @@ ControlResponse HandleControlRequest(CaptureDaemon& daemon, const ControlRequest
 }
 
 std::string EventStreamMessage(const DaemonEvent& event) {
-  return "id: " + std::to_string(event.number) + "\nevent: " + event.type + "\ndata: " + event.data.dump() + "\n\n";
+  return "id: " + std::to_string(event.number) + "\nevent: " + event.type +
+         "\ndata: " + event.data.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n\n";
 }
 
 }  // namespace mesocap::acquisition
