@@ -1,8 +1,9 @@
 // The control API: each endpoint against the daemon's state, and 10 000
-// malformed or hostile requests (to the route table, and raw bytes through
-// the socket) while a capture runs: each gets a 4xx JSON error naming what is
-// wrong, or its connection is closed; the daemon stays up, its memory stays
-// bounded, and the capture ends with the session an undisturbed run records.
+// malformed or hostile requests while a capture runs (9000 to the route
+// table, 1000 raw through the socket): each gets a 4xx JSON error naming
+// what is wrong, or its connection is closed; the daemon stays up, and the
+// capture ends with the session an undisturbed run records. 9000 more with
+// the rig idle show the daemon's memory stays bounded.
 #include "acquisition/control_api.h"
 
 #include <gtest/gtest.h>
@@ -114,20 +115,26 @@ TEST_F(SimulatedDaemonTest, HostileRequestsToTheRouteTableLeaveTheCaptureUnaffec
   const std::string id = daemon->Submit("capture").id;
   daemon->Start();
   std::mt19937 rng(3);
+  const auto send = [&](int count) {
+    for (int i = 0; i < count; ++i) {
+      const ControlRequest request = HostileRequest(i % 10, rng);
+      const ControlResponse r = HandleControlRequest(*daemon, request);
+      ASSERT_GE(r.status, 400) << i << ": " << request.method << " " << request.path;
+      ASSERT_LT(r.status, 500) << i;
+      ASSERT_NE(ErrorOf(r), "(no error member)") << i << ": " << r.body;
+    }
+  };
+  send(9000);  // while the capture runs
+  WaitFor(*daemon, id, JobState::kDone);
+  // Memory: the same again with the rig idle (the capture's own memory,
+  // renderer caches and frames, would hide a leak), grows by little.
   const long resident_before = ResidentBytes();
-  for (int i = 0; i < 9000; ++i) {
-    const ControlRequest request = HostileRequest(i % 10, rng);
-    const ControlResponse r = HandleControlRequest(*daemon, request);
-    ASSERT_GE(r.status, 400) << i << ": " << request.method << " " << request.path;
-    ASSERT_LT(r.status, 500) << i;
-    ASSERT_NE(ErrorOf(r), "(no error member)") << i << ": " << r.body;
-  }
+  send(9000);
   const long growth = ResidentBytes() - resident_before;
 #if !defined(__SANITIZE_ADDRESS__)
-  EXPECT_LT(growth, 32l << 20) << "resident set grew by " << growth << " bytes";
+  EXPECT_LT(growth, 4l << 20) << "resident set grew by " << growth << " bytes";
 #endif
   ASSERT_EQ(daemon->Jobs().size(), 1u);  // nothing hostile became a job
-  WaitFor(*daemon, id, JobState::kDone);
   EXPECT_EQ(SessionDifferences(*daemon, id, "capture"), "");
 }
 

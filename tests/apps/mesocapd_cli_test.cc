@@ -1,0 +1,217 @@
+// mesocapd and `mesocap capture` as a user runs them, on the tiny rig: a
+// capture submitted to the daemon records the session `mesocap simulate`
+// records; kill -9 of the daemon at seeded random moments, then a restart,
+// completes every session byte-identical (but for times) with its frames
+// counted once; SIGTERM finishes the step and exits 0; one client watching
+// while another pauses and resumes sees a consistent job. MESOCAP_KILL_TRIALS
+// sets the kill trials (default 3; docs/BENCHMARKS.md reports a run of 50).
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <random>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "tests/common/mesocap_command.h"
+#include "tests/common/normalized_tree.h"
+#include "tests/common/temporary_directory.h"
+
+namespace mesocap {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+using testing::Mesocap;
+
+pid_t StartProcess(const char* binary, const std::vector<std::string>& args, const fs::path& log) {
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    std::vector<char*> argv{const_cast<char*>(binary)};
+    for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+    argv.push_back(nullptr);
+    if (std::freopen(log.c_str(), "a", stdout) == nullptr || std::freopen(log.c_str(), "a", stderr) == nullptr) {
+      ::_exit(126);
+    }
+    ::execv(binary, argv.data());
+    ::_exit(127);
+  }
+  return pid;
+}
+
+int WaitExit(pid_t pid) {
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+class Daemon {
+ public:
+  explicit Daemon(const fs::path& state) : state_(state) {
+    pid_ = StartProcess(MESOCAPD_BINARY, {"-q", "--rig", "tiny", "--seed", "4", "--state", state.string()},
+                        state.parent_path() / "daemon.log");
+    // Ready when it answers (building the rig takes a moment).
+    for (int i = 0; i < 6000; ++i) {
+      if (Client("list").exit_code == 0) return;
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    ADD_FAILURE() << "mesocapd did not answer on " << socket();
+  }
+  ~Daemon() {
+    if (pid_ > 0) Kill(SIGKILL);
+  }
+  int Kill(int signal) {
+    ::kill(pid_, signal);
+    const int code = WaitExit(pid_);
+    pid_ = -1;
+    return code;
+  }
+  std::string socket() const { return (state_ / "control.sock").string(); }
+  testing::CommandResult Client(const std::string& args) const {
+    return Mesocap("capture " + args + " --socket " + socket());
+  }
+  json Job(const std::string& id) const { return json::parse(Client("status " + id + " --json").out); }
+
+ private:
+  fs::path state_;
+  pid_t pid_ = -1;
+};
+
+int Trials() {
+  const char* env = std::getenv("MESOCAP_KILL_TRIALS");
+  return env ? std::max(1, std::atoi(env)) : 3;
+}
+
+class MesocapdTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new testing::TemporaryDirectory();
+    ASSERT_EQ(Mesocap("-q simulate --rig tiny --seed 4 --out " + (*dir_ / "reference").string()).exit_code, 0);
+    reference_ = new std::map<std::string, std::string>(testing::Normalized(*dir_ / "reference"));
+  }
+  static void TearDownTestSuite() {
+    delete reference_;
+    delete dir_;
+  }
+  std::string Differences(const fs::path& state, const std::string& id) {
+    return testing::Differences(testing::Normalized(state / "sessions" / id), *reference_);
+  }
+  static testing::TemporaryDirectory* dir_;
+  static std::map<std::string, std::string>* reference_;
+  testing::TemporaryDirectory work_;
+};
+
+testing::TemporaryDirectory* MesocapdTest::dir_ = nullptr;
+std::map<std::string, std::string>* MesocapdTest::reference_ = nullptr;
+
+TEST_F(MesocapdTest, ASubmittedCaptureRecordsTheSessionSimulateRecords) {
+  const fs::path state = work_ / "state";
+  Daemon daemon(state);
+  const testing::CommandResult submitted = daemon.Client("submit");
+  ASSERT_EQ(submitted.exit_code, 0) << submitted.err;
+  EXPECT_EQ(submitted.out, "job-000001\n");
+  const testing::CommandResult watched = daemon.Client("watch job-000001");
+  EXPECT_EQ(watched.exit_code, 0) << watched.err;
+  EXPECT_NE(watched.out.find("job-000001 done (capture) 34/34 steps"), std::string::npos) << watched.out;
+  EXPECT_EQ(Differences(state, "job-000001"), "");
+  const json job = daemon.Job("job-000001");
+  EXPECT_EQ(job.at("frames"), 1580);
+  EXPECT_EQ(job.at("dropped_frames"), 0);
+  // Errors come back with the daemon's message and a non-zero exit.
+  const testing::CommandResult missing = daemon.Client("status job-000009");
+  EXPECT_EQ(missing.exit_code, 1);
+  EXPECT_NE(missing.err.find("mesocapd: no job \"job-000009\""), std::string::npos) << missing.err;
+  const testing::CommandResult done = daemon.Client("pause job-000001");
+  EXPECT_NE(done.err.find("job job-000001 is done: cannot pause it"), std::string::npos) << done.err;
+  EXPECT_EQ(daemon.Kill(SIGTERM), 0);
+  EXPECT_FALSE(fs::exists(daemon.socket()));
+  // No daemon: the client names the socket.
+  const testing::CommandResult gone = daemon.Client("list");
+  EXPECT_EQ(gone.exit_code, 1);
+  EXPECT_NE(gone.err.find("cannot reach mesocapd at " + daemon.socket()), std::string::npos) << gone.err;
+}
+
+TEST_F(MesocapdTest, SigtermFinishesTheStepAndARestartResumes) {
+  const fs::path state = work_ / "state";
+  {
+    Daemon daemon(state);
+    ASSERT_EQ(daemon.Client("submit").exit_code, 0);
+    while (daemon.Job("job-000001").at("steps_done") < 3) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    EXPECT_EQ(daemon.Kill(SIGTERM), 0);
+  }
+  Daemon daemon(state);
+  const json resumed = daemon.Job("job-000001");
+  EXPECT_GE(resumed.at("steps_done"), 3);
+  EXPECT_EQ(daemon.Client("watch job-000001").exit_code, 0);
+  EXPECT_EQ(Differences(state, "job-000001"), "");
+  EXPECT_EQ(daemon.Job("job-000001").at("frames"), 1580);
+}
+
+TEST_F(MesocapdTest, KillAtARandomMomentThenRestartCompletesTheSameSession) {
+  // How long the capture takes in the daemon, to draw moments from.
+  double seconds = 0;
+  {
+    const fs::path state = work_ / "timed";
+    Daemon daemon(state);
+    const auto start = std::chrono::steady_clock::now();
+    ASSERT_EQ(daemon.Client("submit").exit_code, 0);
+    ASSERT_EQ(daemon.Client("watch job-000001").exit_code, 0);
+    seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  }
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<double> moment(0.0, seconds);
+  for (int trial = 0; trial < Trials(); ++trial) {
+    const double at = moment(rng);
+    SCOPED_TRACE("killed " + std::to_string(at) + " s after the submit, of " + std::to_string(seconds));
+    const fs::path state = work_ / ("trial" + std::to_string(trial));
+    {
+      Daemon daemon(state);
+      ASSERT_EQ(daemon.Client("submit").exit_code, 0);
+      std::this_thread::sleep_for(std::chrono::duration<double>(at));
+      daemon.Kill(SIGKILL);
+    }
+    Daemon daemon(state);
+    const testing::CommandResult watched = daemon.Client("watch job-000001");
+    ASSERT_EQ(watched.exit_code, 0) << watched.err;
+    EXPECT_EQ(Differences(state, "job-000001"), "");
+    // Every frame of the session counted once: none lost, none twice.
+    EXPECT_EQ(daemon.Job("job-000001").at("frames"), 1580);
+    daemon.Kill(SIGTERM);
+    fs::remove_all(state);
+  }
+}
+
+TEST_F(MesocapdTest, OneClientWatchesWhileAnotherPausesAndResumes) {
+  const fs::path state = work_ / "state";
+  Daemon daemon(state);
+  ASSERT_EQ(daemon.Client("submit").exit_code, 0);
+  testing::CommandResult watched;
+  std::thread watcher([&] { watched = daemon.Client("watch job-000001"); });
+  while (daemon.Job("job-000001").at("steps_done") < 2) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  EXPECT_EQ(daemon.Client("pause job-000001").exit_code, 0);
+  json job;
+  for (int i = 0; i < 6000 && (job = daemon.Job("job-000001")).at("state") != "paused"; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_EQ(job.at("state"), "paused");
+  const auto steps = job.at("steps_done").get<int>();
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  EXPECT_EQ(daemon.Job("job-000001").at("steps_done"), steps);  // nothing runs while paused
+  EXPECT_EQ(daemon.Client("resume job-000001").exit_code, 0);
+  watcher.join();
+  EXPECT_EQ(watched.exit_code, 0) << watched.err;
+  // The watcher saw the pause, then the end.
+  const std::size_t paused = watched.out.find("paused: paused by a client");
+  EXPECT_NE(paused, std::string::npos) << watched.out;
+  EXPECT_GT(watched.out.find("job-000001 done"), paused) << watched.out;
+  EXPECT_EQ(Differences(state, "job-000001"), "");
+}
+
+}  // namespace
+}  // namespace mesocap
