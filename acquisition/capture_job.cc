@@ -1,6 +1,7 @@
 #include "acquisition/capture_job.h"
 
 #include <array>
+#include <vector>
 #include <nlohmann/json.hpp>
 
 #include "core/atomic_file.h"
@@ -18,6 +19,12 @@ constexpr std::array<std::pair<JobState, std::string_view>, 6> kNames{{{JobState
                                                                         {JobState::kDone, "done"},
                                                                         {JobState::kFailed, "failed"},
                                                                         {JobState::kCancelled, "cancelled"}}};
+
+std::vector<std::string> JobStateNames() {
+  std::vector<std::string> names;
+  for (const auto& [state, name] : kNames) names.emplace_back(name);
+  return names;
+}
 
 }  // namespace
 
@@ -83,7 +90,7 @@ CaptureJob ReadCaptureJob(const std::filesystem::path& file) {
   if (!IsJobId(job.id)) r.Fail("id", "expected \"job-\" and six digits, got " + core::Quoted(job.id));
   if (file.stem() != job.id) r.Fail("id", "expected " + core::Quoted(file.stem().string()) + " (the file's name)");
   job.plan_kind = r.Choice("plan", {"capture", "calibration"});
-  job.state = *JobStateFromName(r.Choice("state", {"queued", "running", "paused", "done", "failed", "cancelled"}));
+  job.state = *JobStateFromName(r.Choice("state", JobStateNames()));
   job.submitted_at = r.String("submitted_at");
   constexpr std::int64_t kMax = std::int64_t{1} << 53;
   job.steps_done = static_cast<std::uint64_t>(r.Integer("steps_done", 0, kMax));

@@ -23,7 +23,6 @@ namespace fs = std::filesystem;
 // with the headers, then with each piece of the body, then once more.
 struct PendingRequest {
   ControlRequest request;
-  bool started = false;
 };
 
 // An event stream's state between the reader's calls.

@@ -30,15 +30,6 @@ std::uint64_t DaemonEventLog::last_number() const {
   return last_;
 }
 
-std::vector<DaemonEvent> DaemonEventLog::Latest(const std::string& type, std::size_t count) const {
-  std::lock_guard lock(mutex_);
-  std::vector<DaemonEvent> out;
-  for (auto e = events_.rbegin(); e != events_.rend() && out.size() < count; ++e) {
-    if (e->type == type) out.push_back(*e);
-  }
-  return {out.rbegin(), out.rend()};
-}
-
 void DaemonEventLog::Close() {
   {
     std::lock_guard lock(mutex_);

@@ -31,8 +31,6 @@ class DaemonEventLog {
   // Close().
   std::vector<DaemonEvent> After(std::uint64_t after, std::chrono::milliseconds timeout);
   std::uint64_t last_number() const;
-  // The latest `count` events of `type`, oldest first (the status page's log).
-  std::vector<DaemonEvent> Latest(const std::string& type, std::size_t count) const;
   // Wakes every waiter for good (the daemon is stopping).
   void Close();
   bool closed() const;

@@ -21,6 +21,7 @@
 #include <thread>
 #include <vector>
 
+#include "tests/common/child_process.h"
 #include "tests/common/killed_writer.h"
 #include "tests/common/mesocap_command.h"
 #include "tests/common/normalized_tree.h"
@@ -33,27 +34,8 @@ namespace fs = std::filesystem;
 using testing::Differences;
 using testing::Normalized;
 
-// Starts the binary with `args`, output discarded; returns its pid.
-pid_t Start(const std::vector<std::string>& args) {
-  const pid_t pid = ::fork();
-  if (pid == 0) {
-    std::vector<char*> argv{const_cast<char*>(MESOCAP_BINARY)};
-    for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-    argv.push_back(nullptr);
-    if (std::freopen("/dev/null", "w", stdout) == nullptr || std::freopen("/dev/null", "w", stderr) == nullptr) {
-      ::_exit(126);
-    }
-    ::execv(MESOCAP_BINARY, argv.data());
-    ::_exit(127);
-  }
-  return pid;
-}
-
-int Wait(pid_t pid) {
-  int status = 0;
-  ::waitpid(pid, &status, 0);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
+pid_t Start(const std::vector<std::string>& args) { return testing::StartProcess(MESOCAP_BINARY, args); }
+int Wait(pid_t pid) { return testing::WaitForExit(pid); }
 
 // Seconds an uninterrupted run takes.
 double Timed(const std::vector<std::string>& args) {

@@ -19,6 +19,7 @@
 #include <thread>
 #include <vector>
 
+#include "tests/common/child_process.h"
 #include "tests/common/mesocap_command.h"
 #include "tests/common/normalized_tree.h"
 #include "tests/common/temporary_directory.h"
@@ -30,31 +31,10 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 using testing::Mesocap;
 
-pid_t StartProcess(const char* binary, const std::vector<std::string>& args, const fs::path& log) {
-  const pid_t pid = ::fork();
-  if (pid == 0) {
-    std::vector<char*> argv{const_cast<char*>(binary)};
-    for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-    argv.push_back(nullptr);
-    if (std::freopen(log.c_str(), "a", stdout) == nullptr || std::freopen(log.c_str(), "a", stderr) == nullptr) {
-      ::_exit(126);
-    }
-    ::execv(binary, argv.data());
-    ::_exit(127);
-  }
-  return pid;
-}
-
-int WaitExit(pid_t pid) {
-  int status = 0;
-  ::waitpid(pid, &status, 0);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
-
 class Daemon {
  public:
   explicit Daemon(const fs::path& state) : state_(state) {
-    pid_ = StartProcess(MESOCAPD_BINARY, {"-q", "--rig", "tiny", "--seed", "4", "--state", state.string()},
+    pid_ = testing::StartProcess(MESOCAPD_BINARY, {"-q", "--rig", "tiny", "--seed", "4", "--state", state.string()},
                         state.parent_path() / "daemon.log");
     // Ready when it answers (building the rig takes a moment).
     for (int i = 0; i < 6000; ++i) {
@@ -68,7 +48,7 @@ class Daemon {
   }
   int Kill(int signal) {
     ::kill(pid_, signal);
-    const int code = WaitExit(pid_);
+    const int code = testing::WaitForExit(pid_);
     pid_ = -1;
     return code;
   }
