@@ -255,6 +255,16 @@ void AtomicDirectory::Commit() {
   fs::remove_all(old, ec);
 }
 
+std::string FullDiskNote(const fs::path& path) {
+  fs::path existing = path;
+  std::error_code ec;
+  while (!existing.empty() && !fs::exists(existing, ec)) existing = existing.parent_path();
+  if (existing.empty()) return "";
+  const fs::space_info space = fs::space(existing, ec);
+  if (ec || space.available >= (std::uintmax_t{1} << 20)) return "";
+  return "; no space left on the device (" + std::to_string(space.available) + " bytes free)";
+}
+
 void WriteTextFileAtomically(const fs::path& target, std::string_view contents) {
   AtomicFile file(target);
   {
@@ -262,7 +272,8 @@ void WriteTextFileAtomically(const fs::path& target, std::string_view contents) 
     if (!out) throw Error(file.temp_path().string() + ": cannot create file");
     out.write(contents.data(), static_cast<std::streamsize>(contents.size()));
     out.flush();
-    if (!out) throw Error(file.temp_path().string() + ": write failed");
+    out.close();
+    if (!out) throw Error(target.string() + ": write failed" + FullDiskNote(target));
   }
   file.Commit();
 }

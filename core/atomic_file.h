@@ -17,6 +17,11 @@ namespace mesocap::core {
 // over the target. Destroyed without Commit(), it removes the temporary file.
 // The temporary name keeps the target's extension, so writers that choose a
 // codec by extension (OpenImageIO) pick the right one.
+// "; no space left on the device (N bytes free)" when the file system that
+// holds `path` (or its nearest existing folder) has less than 1 MiB free,
+// so that a failed write says why; empty otherwise.
+std::string FullDiskNote(const std::filesystem::path& path);
+
 class AtomicFile {
  public:
   explicit AtomicFile(std::filesystem::path target);
@@ -73,6 +78,9 @@ class AtomicDirectory {
   bool committed_ = false;
 };
 
+// Writes `contents` (any bytes) to a temporary name, syncs it and renames
+// it to `target`; a write cut short (a full disk) throws Error naming the
+// target, and `target` keeps what it held.
 void WriteTextFileAtomically(const std::filesystem::path& target, std::string_view contents);
 // Pretty-printed (2-space indent) JSON with a trailing newline.
 void WriteJsonFileAtomically(const std::filesystem::path& target, const nlohmann::json& value);

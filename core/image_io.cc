@@ -1,11 +1,17 @@
 #include "core/image_io.h"
 
+#include <OpenImageIO/color.h>
+#include <OpenImageIO/filesystem.h>
+#include <OpenImageIO/imagebuf.h>
+#include <OpenImageIO/imagebufalgo.h>
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
+#include <cmath>
 #include <mutex>
 #include <new>
 #include <string>
+#include <vector>
 
 #include "core/atomic_file.h"
 #include "core/error.h"
@@ -180,7 +186,6 @@ void WriteImage(const fs::path& file, const Image& image, PixelEncoding encoding
     throw Error(file.string() + ": the " + file.extension().string() + " format cannot store " +
                 ToString(encoding) + " pixels");
   }
-  AtomicFile atomic(file);
   auto out = OIIO::ImageOutput::create(file.string());
   if (!out) throw Error(file.string() + ": no image writer: " + ImageLibraryMessage(OIIO::geterror()));
   OIIO::ImageSpec spec(image.width(), image.height(), image.channels(), TypeOf(encoding));
@@ -193,11 +198,55 @@ void WriteImage(const fs::path& file, const Image& image, PixelEncoding encoding
   // No write time in the file (OpenImageIO's TIFF writer adds one unless
   // told otherwise): the same data give the same bytes and checksum.
   spec.attribute("DateTime", "");
-  if (!out->open(atomic.temp_path().string(), spec) ||
-      !out->write_image(OIIO::TypeDesc::FLOAT, image.data()) || !out->close()) {
+  // Encoded in memory and written by a checked write: some of the image
+  // library's writers (PNG) do not report a write that a full disk cut
+  // short, and a truncated file would be committed as a good one.
+  std::vector<unsigned char> bytes;
+  OIIO::Filesystem::IOVecOutput memory(bytes);
+  if (!out->supports("ioproxy") || !out->set_ioproxy(&memory)) {
+    throw Error(file.string() + ": the " + file.extension().string() + " writer cannot encode in memory");
+  }
+  if (!out->open(file.string(), spec) || !out->write_image(OIIO::TypeDesc::FLOAT, image.data()) || !out->close()) {
     throw Error(file.string() + ": write failed: " + ImageLibraryMessage(out->geterror()));
   }
-  atomic.Commit();
+  WriteTextFileAtomically(file, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
+}
+
+Image ScaledToFit(const Image& image, int max_side) {
+  if (image.empty()) throw Error("scaling an empty image");
+  if (max_side < 1) throw Error("scaling an image to fit " + std::to_string(max_side) + " pixels");
+  const int longest = std::max(image.width(), image.height());
+  if (longest <= max_side) return image;
+  const double scale = static_cast<double>(max_side) / longest;
+  const int width = std::max(1, static_cast<int>(image.width() * scale + 0.5));
+  const int height = std::max(1, static_cast<int>(image.height() * scale + 0.5));
+  const OIIO::ImageBuf source(OIIO::ImageSpec(image.width(), image.height(), image.channels(), OIIO::TypeDesc::FLOAT),
+                              const_cast<float*>(image.data()));
+  Image scaled(width, height, image.channels());
+  OIIO::ImageBuf target(OIIO::ImageSpec(width, height, image.channels(), OIIO::TypeDesc::FLOAT), scaled.data());
+  if (!OIIO::ImageBufAlgo::resize(target, source)) {
+    throw Error("scaling an image: " + ImageLibraryMessage(target.geterror()));
+  }
+  return scaled;
+}
+
+std::string EncodePreviewPng(const Image& image) {
+  if (image.empty()) throw Error("encoding an empty image");
+  std::vector<unsigned char> codes(image.size());
+  for (std::size_t i = 0; i < image.size(); ++i) {
+    const float v = OIIO::linear_to_sRGB(std::clamp(image.data()[i], 0.0f, 1.0f));
+    codes[i] = static_cast<unsigned char>(std::lround(v * 255.0f));
+  }
+  std::vector<unsigned char> bytes;
+  OIIO::Filesystem::IOVecOutput memory(bytes);
+  auto out = OIIO::ImageOutput::create("preview.png");
+  if (!out) throw Error("no PNG writer: " + ImageLibraryMessage(OIIO::geterror()));
+  const OIIO::ImageSpec spec(image.width(), image.height(), image.channels(), OIIO::TypeDesc::UINT8);
+  if (!out->set_ioproxy(&memory) || !out->open("preview.png", spec) ||
+      !out->write_image(OIIO::TypeDesc::UINT8, codes.data()) || !out->close()) {
+    throw Error("encoding a PNG preview: " + ImageLibraryMessage(out->geterror()));
+  }
+  return std::string(bytes.begin(), bytes.end());
 }
 
 }  // namespace mesocap::core

@@ -6,6 +6,7 @@
 #include <cstddef>
 #include <filesystem>
 #include <memory>
+#include <string>
 
 #include "core/image.h"
 
@@ -40,6 +41,13 @@ void WriteImage(const std::filesystem::path& file, const Image& image,
                 PixelEncoding encoding = PixelEncoding::kFloat32);
 
 const char* ToString(PixelEncoding encoding);
+
+// `image` scaled down to fit within max_side x max_side pixels with
+// OpenImageIO's filtered resize (`image` itself when it fits already).
+Image ScaledToFit(const Image& image, int max_side);
+// What people look at (a camera's live preview): the bytes of an 8-bit PNG
+// file of `image`, sRGB-encoded from its linear values clamped to [0, 1].
+std::string EncodePreviewPng(const Image& image);
 
 // An OpenImageIO error for a message: its first line (OpenImageIO appends
 // the image library's own lines, "PNG library error"), cut as core::Cut().

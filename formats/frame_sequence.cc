@@ -7,6 +7,7 @@
 #include <mutex>
 #include <string>
 
+#include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/image_io.h"
 
@@ -90,7 +91,7 @@ void FrameSequenceWriter::Append(const core::Image& frame) {
   if (!out.open(atomic_.temp_path().string(), output_->spec, mode) ||
       !out.write_image(OIIO::TypeDesc::FLOAT, frame.data())) {
     throw core::Error(file_.string() + ": writing frame " + std::to_string(frame_count_) +
-                      " failed: " + core::ImageLibraryMessage(out.geterror()));
+                      " failed: " + core::ImageLibraryMessage(out.geterror()) + core::FullDiskNote(file_));
   }
   ++frame_count_;
   header_.frame_count = frame_count_;
@@ -99,7 +100,10 @@ void FrameSequenceWriter::Append(const core::Image& frame) {
 void FrameSequenceWriter::Commit() {
   if (committed_) return;
   if (frame_count_ == 0) throw core::Error(file_.string() + ": refusing to write a frame sequence without frames");
-  if (!output_->out->close()) throw core::Error(file_.string() + ": closing failed: " + core::ImageLibraryMessage(output_->out->geterror()));
+  if (!output_->out->close()) {
+    throw core::Error(file_.string() + ": closing failed: " + core::ImageLibraryMessage(output_->out->geterror()) +
+                      core::FullDiskNote(file_));
+  }
   atomic_.Commit();
   committed_ = true;
 }
