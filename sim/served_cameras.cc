@@ -161,42 +161,59 @@ ServedCameras::ServedCameras(std::vector<std::unique_ptr<drivers::Camera>> camer
     server->address = addresses[i];
     server->camera = std::move(cameras[i]);
     server->render_mutex = &render_mutex_;
-    const drivers::CameraInfo info = server->camera->info();
-    server->formats = ServedFormats(info);
-    // Aravis reads the description from a file: write it, start the
-    // device, and remove the file (the device keeps its contents).
-    const fs::path xml = fs::temp_directory_path() /
-                         ("mesocap-served-" + std::to_string(::getpid()) + "-" + std::to_string(i) + ".xml");
-    {
-      std::ofstream out(xml, std::ios::binary | std::ios::trunc);
-      out << GenICamDescription(server->formats);
-      if (!out.flush()) throw core::Error("cannot write " + xml.string());
-    }
-    server->device = arv_gv_fake_camera_new_full(server->address.address.c_str(), server->address.serial.c_str(),
-                                                 xml.c_str());
-    std::error_code ignored;
-    fs::remove(xml, ignored);
-    if (server->device == nullptr || !arv_gv_fake_camera_is_running(server->device)) {
-      throw core::Error("camera " + info.id + ": cannot serve it at " + server->address.address +
-                        ": not an address of this host's interfaces, or its GigE Vision port 3956 is taken (a "
-                        "loopback address other than 127.0.0.1 must be added first: ip addr add " +
-                        server->address.address + "/8 dev lo)");
-    }
-    ArvFakeCamera* fake = arv_gv_fake_camera_get_fake_camera(server->device);
-    for (const auto& [reg, value] :
-         {std::pair{ARV_FAKE_CAMERA_REGISTER_SENSOR_WIDTH, info.sensor_width},
-          std::pair{ARV_FAKE_CAMERA_REGISTER_SENSOR_HEIGHT, info.sensor_height},
-          std::pair{ARV_FAKE_CAMERA_REGISTER_WIDTH, info.sensor_width},
-          std::pair{ARV_FAKE_CAMERA_REGISTER_HEIGHT, info.sensor_height},
-          std::pair{ARV_FAKE_CAMERA_REGISTER_PIXEL_FORMAT, static_cast<int>(server->formats.back().code)},
-          std::pair{ARV_FAKE_CAMERA_REGISTER_EXPOSURE_TIME_US,
-                    static_cast<int>(std::lround(server->camera->settings().exposure_us))}}) {
-      arv_fake_camera_write_register(fake, reg, static_cast<guint32>(value));
-    }
-    arv_fake_camera_set_trigger_frequency(fake, kTriggerPollHz);
-    arv_fake_camera_set_fill_pattern(fake, &Server::Fill, server.get());
+    server->formats = ServedFormats(server->camera->info());
     servers_.push_back(std::move(server));
+    Serve(i);
   }
+}
+
+void ServedCameras::Serve(std::size_t i) {
+  Server& server = *servers_.at(i);
+  const drivers::CameraInfo info = server.camera->info();
+  // Aravis reads the description from a file: write it, start the
+  // device, and remove the file (the device keeps its contents).
+  const fs::path xml = fs::temp_directory_path() /
+                       ("mesocap-served-" + std::to_string(::getpid()) + "-" + std::to_string(i) + ".xml");
+  {
+    std::ofstream out(xml, std::ios::binary | std::ios::trunc);
+    out << GenICamDescription(server.formats);
+    if (!out.flush()) throw core::Error("cannot write " + xml.string());
+  }
+  server.device =
+      arv_gv_fake_camera_new_full(server.address.address.c_str(), server.address.serial.c_str(), xml.c_str());
+  std::error_code ignored;
+  fs::remove(xml, ignored);
+  if (server.device == nullptr || !arv_gv_fake_camera_is_running(server.device)) {
+    if (server.device) g_object_unref(server.device);
+    server.device = nullptr;
+    throw core::Error("camera " + info.id + ": cannot serve it at " + server.address.address +
+                      ": not an address of this host's interfaces, or its GigE Vision port 3956 is taken (a "
+                      "loopback address other than 127.0.0.1 must be added first: ip addr add " +
+                      server.address.address + "/8 dev lo)");
+  }
+  ArvFakeCamera* fake = arv_gv_fake_camera_get_fake_camera(server.device);
+  for (const auto& [reg, value] :
+       {std::pair{ARV_FAKE_CAMERA_REGISTER_SENSOR_WIDTH, info.sensor_width},
+        std::pair{ARV_FAKE_CAMERA_REGISTER_SENSOR_HEIGHT, info.sensor_height},
+        std::pair{ARV_FAKE_CAMERA_REGISTER_WIDTH, info.sensor_width},
+        std::pair{ARV_FAKE_CAMERA_REGISTER_HEIGHT, info.sensor_height},
+        std::pair{ARV_FAKE_CAMERA_REGISTER_PIXEL_FORMAT, static_cast<int>(server.formats.back().code)},
+        std::pair{ARV_FAKE_CAMERA_REGISTER_EXPOSURE_TIME_US,
+                  static_cast<int>(std::lround(server.camera->settings().exposure_us))}}) {
+    arv_fake_camera_write_register(fake, reg, static_cast<guint32>(value));
+  }
+  arv_fake_camera_set_trigger_frequency(fake, kTriggerPollHz);
+  arv_fake_camera_set_fill_pattern(fake, &Server::Fill, &server);
+}
+
+void ServedCameras::StopServing(std::size_t i) {
+  Server& server = *servers_.at(i);
+  if (server.device) g_object_unref(server.device);  // joins the device's threads
+  server.device = nullptr;
+}
+
+void ServedCameras::ServeAgain(std::size_t i) {
+  if (servers_.at(i)->device == nullptr) Serve(i);
 }
 
 ServedCameras::~ServedCameras() {

@@ -49,6 +49,11 @@ class ServedCameras {
   ServedCameras& operator=(const ServedCameras&) = delete;
 
   std::size_t size() const { return servers_.size(); }
+  // Stops serving camera i, as a camera unplugged or a killed server:
+  // clients lose its control channel. ServeAgain starts it again at the
+  // same address, its registers as after power-on (a client reopens it).
+  void StopServing(std::size_t i);
+  void ServeAgain(std::size_t i);
   const ServedCameraAddress& address(std::size_t i) const;
   // Frames sent, and frames whose Grab failed (sent black) by camera.
   std::uint64_t frames_served(std::size_t i) const;
@@ -56,6 +61,8 @@ class ServedCameras {
 
  private:
   struct Server;
+  void Serve(std::size_t i);
+
   // The cameras behind the servers share one rig state: one renders at a time.
   std::mutex render_mutex_;
   std::vector<std::unique_ptr<Server>> servers_;

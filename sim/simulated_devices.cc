@@ -189,8 +189,10 @@ drivers::Frame SimulatedCamera::Grab(std::chrono::milliseconds timeout) {
     frame.image = std::move(signal);
   } else {
     const std::uint64_t key = ImagedStateKey();
-    repeats_of_state_ = key == last_state_key_ ? repeats_of_state_ + 1 : 0;
+    const bool same_run = key == last_state_key_ && state_->changes == last_state_changes_;
+    repeats_of_state_ = same_run ? repeats_of_state_ + 1 : 0;
     last_state_key_ = key;
+    last_state_changes_ = state_->changes;
     std::mt19937_64 rng = ImageNoiseGenerator(seed_, {static_cast<std::uint64_t>(index_), key, repeats_of_state_});
     frame.image = ApplySensor(signal, description_, rng, sensor_ == SensorModel::kNoisy);
   }
@@ -296,6 +298,7 @@ SimulatedRotaryStage::Move SimulatedRotaryStage::Plan(double from, double delta,
 
 void SimulatedRotaryStage::Home() {
   Update();
+  ++state_->changes;
   const double t = state_->clock_s;
   const double from = PhysicalAt(t);
   move_.reset();
@@ -325,6 +328,7 @@ void SimulatedRotaryStage::Home() {
 
 void SimulatedRotaryStage::MoveTo(double angle_rad) {
   Update();
+  ++state_->changes;
   if (!std::isfinite(angle_rad)) Fail("target angle is not a number");
   if (!homed_) Fail("not homed (position unknown); call Home() first");
   const double t = state_->clock_s;
@@ -406,6 +410,7 @@ void SimulatedLampBank::SetLamp(int index, bool on) {
       throw drivers::LampFailureError("lamps: lamp " + std::to_string(index) + " does not light (burnt out)");
     }
   }
+  if (state_->lamps_on[index] != on) ++state_->changes;
   state_->lamps_on[index] = on;
 }
 
@@ -419,18 +424,27 @@ bool SimulatedLampBank::IsDead(int index) const {
   return dead_[index];
 }
 
+void SimulatedLampBank::ReplaceLamp(int index) {
+  CheckIndex(index);
+  dead_[index] = false;
+}
+
 // ---------------------------------------------------------------- laser
 
 SimulatedLaserUnit::SimulatedLaserUnit(const formats::RigDescription& rig, std::shared_ptr<SimulatedRigState> state)
     : state_(std::move(state)), mount_count_(static_cast<int>(rig.laser.mount_elevations_rad.size())) {}
 
-void SimulatedLaserUnit::SetEnabled(bool on) { state_->laser_on = on; }
+void SimulatedLaserUnit::SetEnabled(bool on) {
+  if (state_->laser_on != on) ++state_->changes;
+  state_->laser_on = on;
+}
 
 void SimulatedLaserUnit::SetTilt(double tilt_rad, std::chrono::milliseconds timeout) {
   if (!(std::abs(tilt_rad) <= kMaxTiltRad)) {
     throw drivers::DeviceError("laser unit: tilt " + std::to_string(tilt_rad) + " rad is outside " +
                                Range(-kMaxTiltRad, kMaxTiltRad, "rad"));
   }
+  ++state_->changes;
   const double from = state_->laser_tilt_rad;
   const double needed_s = std::abs(tilt_rad - from) / kTiltSpeedRadPerS;
   const double timeout_s = std::max(0.0, Seconds(timeout));
@@ -449,6 +463,7 @@ void SimulatedLaserUnit::SetMount(int mount) {
                                std::to_string(mount_count_ - 1) + ")");
   }
   state_->laser_mount = mount;
+  ++state_->changes;
 }
 
 }  // namespace mesocap::sim

@@ -49,7 +49,8 @@ enum class SensorModel {
 // A frame's noise is drawn from a generator seeded by the camera's seed, its
 // index, the rig state it images (stage angles, lamps, laser, plate) with
 // its exposure, gain and region, and how many frames it has delivered of
-// that same state in a row: the same capture gives the same images however
+// that same state in a row, with no change to the rig between them
+// (SimulatedRigState::changes): the same capture gives the same images however
 // often it was interrupted, resumed, or hit by dropped frames and timeouts
 // (a lost frame delivers nothing, so it draws nothing).
 //
@@ -64,6 +65,7 @@ class SimulatedCamera : public drivers::Camera {
 
   drivers::CameraInfo info() const override { return info_; }
   drivers::CameraSettings settings() const override { return settings_; }
+  bool IsConnected() override { return !disconnected_; }
   void SetExposure(double exposure_us) override;
   void SetGain(double gain_db) override;
   void SetRegion(const drivers::CameraRegion& region) override;
@@ -90,6 +92,7 @@ class SimulatedCamera : public drivers::Camera {
   std::uint64_t seed_;
   SensorModel sensor_;
   std::uint64_t last_state_key_ = 0;
+  std::uint64_t last_state_changes_ = 0;
   std::uint64_t repeats_of_state_ = 0;
   drivers::CameraInfo info_;
   drivers::CameraSettings settings_;
@@ -176,6 +179,9 @@ class SimulatedLampBank : public drivers::LampBank {
   void SetLamp(int index, bool on) override;
   bool IsOn(int index) const override;
   bool IsDead(int index) const;
+  // A new bulb in a burnt-out lamp's socket (what the person at the rig does
+  // before resuming the capture).
+  void ReplaceLamp(int index);
 
  private:
   void CheckIndex(int index) const;

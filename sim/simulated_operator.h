@@ -15,15 +15,33 @@ class SimulatedOperator : public drivers::RigOperator {
  public:
   explicit SimulatedOperator(std::shared_ptr<SimulatedRigState> state) : state_(std::move(state)) {}
 
-  void PlaceCalibrationPlate(double height_mm) override { state_->calibration_plate_height_mm = height_mm; }
-  void RemoveCalibrationPlate() override { state_->calibration_plate_height_mm.reset(); }
+  void PlaceCalibrationPlate(double height_mm) override {
+    state_->calibration_plate_height_mm = height_mm;
+    ++state_->changes;
+  }
+  void RemoveCalibrationPlate() override {
+    state_->calibration_plate_height_mm.reset();
+    ++state_->changes;
+  }
   // The unit's SetMount is how the capture confirms the mount; in the
   // simulated rig the unit's state is the mount, so there is nothing to move.
   void MountLaser(int /*mount*/) override {}
-  void PlaceCalibrationBoard(int holder, double /*tilt_rad*/) override { state_->calibration_board_holder = holder; }
-  void RemoveCalibrationBoard() override { state_->calibration_board_holder.reset(); }
-  void PlaceWhiteReference(double height_mm) override { state_->white_reference_height_mm = height_mm; }
-  void RemoveWhiteReference() override { state_->white_reference_height_mm.reset(); }
+  void PlaceCalibrationBoard(int holder, double /*tilt_rad*/) override {
+    state_->calibration_board_holder = holder;
+    ++state_->changes;
+  }
+  void RemoveCalibrationBoard() override {
+    state_->calibration_board_holder.reset();
+    ++state_->changes;
+  }
+  void PlaceWhiteReference(double height_mm) override {
+    state_->white_reference_height_mm = height_mm;
+    ++state_->changes;
+  }
+  void RemoveWhiteReference() override {
+    state_->white_reference_height_mm.reset();
+    ++state_->changes;
+  }
 
  private:
   std::shared_ptr<SimulatedRigState> state_;

@@ -4,6 +4,7 @@
 // an image.
 #pragma once
 
+#include <cstdint>
 #include <optional>
 #include <vector>
 
@@ -30,6 +31,11 @@ struct SimulatedRigState {
   // height: a plate like the one above, of the rig description's albedo.
   std::optional<double> white_reference_height_mm;
   double clock_s = 0.0;  // simulated time; moves advance it, nobody sleeps
+  // Discrete changes so far (a lamp or the laser switched, a stage sent
+  // moving or homing, the laser tilted or remounted, something laid on the
+  // turntable or taken off): a camera's run of frames of one state ends at
+  // each, so a step taken again after a fault images as it did the first time.
+  std::uint64_t changes = 0;
 };
 
 // Forms the image camera `camera` records in `state`: the noiseless linear
