@@ -5,11 +5,13 @@
 #include <sys/file.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/image_io.h"
 #include "formats/capture_session.h"
 
 namespace mesocap::acquisition {
@@ -37,6 +39,9 @@ JobCommandResult NotNow(const CaptureJob& job, const std::string& what) {
 std::string CaptureDaemonOptions::Check() const {
   if (state_dir.empty()) return "state_dir must name the daemon's state directory";
   if (fault_retry_interval.count() < 0) return "fault_retry_interval must not be negative";
+  if (idle_poll_interval.count() < 1) return "idle_poll_interval must be at least 1 ms";
+  if (preview_max_side < 8 || preview_max_side > 4096) return "preview_max_side must be 8..4096 pixels";
+  if (preview_interval.count() < 0) return "preview_interval must not be negative";
   if (const core::CheckResult problem = runner.Check(); !problem.empty()) return "runner: " + problem;
   return {};
 }
@@ -64,6 +69,13 @@ CaptureDaemon::CaptureDaemon(std::unique_ptr<CaptureStation> station, CaptureDae
     // A fault-paused job is tried again at once after a restart: the
     // device may have come back while the daemon was down.
     if (job.state == JobState::kPaused && job.paused_by_fault) retry_at_[job.id] = Clock::now();
+    // A job killed while it waited for the operator resumes its step from
+    // the start, which asks again.
+    if (!job.operator_prompt.empty()) {
+      job.state = JobState::kRunning;
+      job.operator_prompt.clear();
+      job.pause_reason.clear();
+    }
     jobs_.emplace(job.id, std::move(job));
   }
 }
@@ -160,8 +172,9 @@ JobCommandResult CaptureDaemon::Pause(const std::string& id) {
   const auto it = jobs_.find(id);
   if (it == jobs_.end()) return NoSuchJob(id);
   CaptureJob& job = it->second;
-  if (job.state == JobState::kRunning && running_ == id) {
-    job.pause_requested = true;  // the worker pauses it between steps
+  if (running_ == id && (job.state == JobState::kRunning || !job.operator_prompt.empty())) {
+    job.pause_requested = true;  // the worker pauses it between steps, or ends its operator prompt
+    wake_.notify_all();
   } else if (job.state == JobState::kQueued || job.state == JobState::kRunning) {
     job.state = JobState::kPaused;
     job.pause_reason = "paused by a client";
@@ -180,6 +193,10 @@ JobCommandResult CaptureDaemon::Resume(const std::string& id) {
     const auto it = jobs_.find(id);
     if (it == jobs_.end()) return NoSuchJob(id);
     CaptureJob& job = it->second;
+    if (!job.operator_prompt.empty()) {
+      return {JobCommandResult::Outcome::kNotNow,
+              "job " + id + " waits for the operator (" + job.operator_prompt + "): acknowledge it with ack", job};
+    }
     if (job.state == JobState::kPaused) {
       job.state = JobState::kQueued;
       job.pause_reason.clear();
@@ -204,13 +221,86 @@ JobCommandResult CaptureDaemon::Cancel(const std::string& id) {
   CaptureJob& job = it->second;
   if (IsFinished(job.state)) return NotNow(job, "cancel");
   if (running_ == id) {
-    job.cancel_requested = true;  // the worker cancels it between steps
+    job.cancel_requested = true;  // the worker cancels it between steps, or ends its operator prompt
+    wake_.notify_all();
   } else {
     job.state = JobState::kCancelled;
     retry_at_.erase(id);
   }
   Save(job);
   return {JobCommandResult::Outcome::kDone, {}, job};
+}
+
+JobCommandResult CaptureDaemon::Ack(const std::string& id) {
+  std::lock_guard lock(mutex_);
+  const auto it = jobs_.find(id);
+  if (it == jobs_.end()) return NoSuchJob(id);
+  CaptureJob& job = it->second;
+  if (job.operator_prompt.empty()) {
+    return {JobCommandResult::Outcome::kNotNow, "job " + id + " waits for no operator step", job};
+  }
+  job.operator_prompt.clear();
+  wake_.notify_all();
+  return {JobCommandResult::Outcome::kDone, {}, job};
+}
+
+CaptureDaemon::RigStatus CaptureDaemon::DeviceStates() const {
+  std::lock_guard lock(mutex_);
+  return rig_status_;
+}
+
+std::vector<std::string> CaptureDaemon::camera_ids() const { return station_->camera_ids(); }
+
+std::optional<CaptureDaemon::Preview> CaptureDaemon::CameraPreview(const std::string& camera_id) const {
+  std::lock_guard lock(preview_mutex_);
+  const auto it = previews_.find(camera_id);
+  if (it == previews_.end()) return std::nullopt;
+  return it->second;
+}
+
+bool CaptureDaemon::ReadDeviceStates() {
+  RigStatus status;
+  status.devices = station_->DeviceStates();
+  status.read_at = formats::UtcTimestamp(std::chrono::system_clock::now());
+  const bool all_ok =
+      std::all_of(status.devices.begin(), status.devices.end(), [](const drivers::DeviceState& d) { return d.ok; });
+  std::lock_guard lock(mutex_);
+  rig_status_ = std::move(status);
+  return all_ok;
+}
+
+void CaptureDaemon::KeepPreview(const std::string& id, const std::string& camera_id, const drivers::Frame& frame) {
+  const Clock::time_point now = Clock::now();
+  {
+    std::lock_guard lock(preview_mutex_);
+    const auto taken = preview_taken_.find(camera_id);
+    if (taken != preview_taken_.end() && now - taken->second < options_.preview_interval) return;
+    preview_taken_[camera_id] = now;
+  }
+  // Scaled outside the lock: a client reading a preview never waits for it.
+  Preview preview{core::ScaledToFit(frame.image, options_.preview_max_side), frame.sequence, id};
+  std::lock_guard lock(preview_mutex_);
+  previews_[camera_id] = std::move(preview);
+}
+
+void CaptureDaemon::WaitForOperator(const std::string& id, const std::string& instruction) {
+  std::unique_lock lock(mutex_);
+  CaptureJob& job = jobs_.at(id);
+  const auto interrupted = [&] { return stopping_ || job.pause_requested || job.cancel_requested; };
+  if (interrupted()) throw CaptureInterrupted(id + ": stopped before the operator step: " + instruction);
+  job.state = JobState::kPaused;
+  job.operator_prompt = instruction;
+  job.pause_reason = "waiting for the operator: " + instruction;
+  Save(job, "prompt");
+  spdlog::info("{} waits for the operator: {}", id, instruction);
+  wake_.wait(lock, [&] { return job.operator_prompt.empty() || interrupted(); });
+  const bool acknowledged = job.operator_prompt.empty();
+  job.state = JobState::kRunning;
+  job.operator_prompt.clear();
+  job.pause_reason.clear();
+  Save(job);
+  if (!acknowledged) throw CaptureInterrupted(id + ": stopped while waiting for the operator: " + instruction);
+  events_.Add("log", {{"message", id + ": the operator acknowledged: " + instruction}});
 }
 
 CaptureJob* CaptureDaemon::NextJob(Clock::time_point now, std::optional<Clock::time_point>* wake_at) {
@@ -231,19 +321,38 @@ CaptureJob* CaptureDaemon::NextJob(Clock::time_point now, std::optional<Clock::t
 }
 
 void CaptureDaemon::RunWorker() {
+  ReadDeviceStates();
   std::unique_lock lock(mutex_);
+  Clock::time_point next_poll = Clock::now() + options_.idle_poll_interval;
   while (!stopping_) {
     std::optional<Clock::time_point> wake_at;
     CaptureJob* job = NextJob(Clock::now(), &wake_at);
     if (job == nullptr) {
-      if (wake_at) {
-        wake_.wait_until(lock, *wake_at);
-      } else {
-        wake_.wait(lock);
+      if (Clock::now() >= next_poll) {
+        lock.unlock();
+        ReadDeviceStates();
+        lock.lock();
+        next_poll = Clock::now() + options_.idle_poll_interval;
+        continue;
       }
+      wake_.wait_until(lock, wake_at ? std::min(*wake_at, next_poll) : next_poll);
       continue;
     }
     const std::string id = job->id;
+    if (job->state == JobState::kPaused && job->paused_by_fault) {
+      // Suspended on a fault: run again only once every device answers.
+      lock.unlock();
+      const bool all_ok = ReadDeviceStates();
+      lock.lock();
+      next_poll = Clock::now() + options_.idle_poll_interval;
+      CaptureJob& suspended = jobs_.at(id);
+      if (suspended.state != JobState::kPaused || !suspended.paused_by_fault) continue;  // a client acted meanwhile
+      if (!all_ok) {
+        retry_at_[id] = Clock::now() + options_.fault_retry_interval;
+        continue;
+      }
+      job = &suspended;
+    }
     job->state = JobState::kRunning;
     job->pause_reason.clear();
     job->paused_by_fault = false;
@@ -292,9 +401,16 @@ void CaptureDaemon::RunJob(const std::string& id) {
     const CaptureJob& job = jobs_.at(id);
     return stopping_ || job.pause_requested || job.cancel_requested;
   };
+  options.frame_arrived = [this, id](const std::string& camera_id, const drivers::Frame& frame) {
+    KeepPreview(id, camera_id, frame);
+  };
+  if (options_.prompt_operator) {
+    options.operator_prompt = [this, id](const std::string& instruction) { WaitForOperator(id, instruction); };
+  }
   Clock::time_point step_start = Clock::now();
   const CaptureStepDone step_done = [&](const CaptureRunReport& report, std::size_t journaled) {
     const Clock::time_point now = Clock::now();
+    ReadDeviceStates();
     std::lock_guard lock(mutex_);
     CaptureJob& job = jobs_.at(id);
     job.steps_done = journaled;
@@ -325,7 +441,21 @@ void CaptureDaemon::RunJob(const std::string& id) {
     }  // else the daemon stops: the job stays running, and a restart resumes it
     Save(job);
     events_.Add("log", {{"message", id + " " + std::string(JobStateName(job.state))}});
+  } catch (const CaptureInterrupted& e) {
+    // A stop, pause or cancel that came while the operator was asked.
+    std::lock_guard lock(mutex_);
+    CaptureJob& job = jobs_.at(id);
+    if (job.cancel_requested) {
+      job.state = JobState::kCancelled;
+    } else if (job.pause_requested) {
+      job.state = JobState::kPaused;
+      job.pause_reason = "paused by a client";
+    }  // else the daemon stops: the job stays running, and a restart resumes it
+    job.cancel_requested = job.pause_requested = false;
+    Save(job);
+    events_.Add("log", {{"message", std::string(e.what())}});
   } catch (const std::exception& e) {
+    ReadDeviceStates();  // so that clients see which device is gone
     std::lock_guard lock(mutex_);
     CaptureJob& job = jobs_.at(id);
     job.state = job.cancel_requested ? JobState::kCancelled : JobState::kPaused;

@@ -67,6 +67,7 @@ nlohmann::json ToJson(const CaptureJob& job) {
                    {"running_s", job.running_s},
                    {"pause_reason", job.pause_reason},
                    {"paused_by_fault", job.paused_by_fault},
+                   {"operator_prompt", job.operator_prompt},
                    {"error", job.error},
                    {"pause_requested", job.pause_requested},
                    {"cancel_requested", job.cancel_requested}};
@@ -84,7 +85,8 @@ CaptureJob ReadCaptureJob(const std::filesystem::path& file) {
   r.ExpectFormat(kFormat, kVersion);
   r.RejectUnknownMembers({"format", "version", "id", "plan", "state", "submitted_at", "steps_done", "steps_total",
                           "frames", "dropped_frames", "retries", "faults", "running_s", "pause_reason",
-                          "paused_by_fault", "error", "pause_requested", "cancel_requested", "eta_s"});
+                          "paused_by_fault", "operator_prompt", "error", "pause_requested", "cancel_requested",
+                          "eta_s"});
   CaptureJob job;
   job.id = r.String("id");
   if (!IsJobId(job.id)) r.Fail("id", "expected \"job-\" and six digits, got " + core::Quoted(job.id));
@@ -103,6 +105,7 @@ CaptureJob ReadCaptureJob(const std::filesystem::path& file) {
   job.running_s = r.Number("running_s", 0, 1e12);
   job.pause_reason = r.String("pause_reason");
   job.paused_by_fault = r.Boolean("paused_by_fault");
+  job.operator_prompt = r.StringOr("operator_prompt", "");  // absent in records of daemons before prompts
   job.error = r.String("error");
   job.pause_requested = r.Boolean("pause_requested");
   job.cancel_requested = r.Boolean("cancel_requested");

@@ -32,6 +32,9 @@ struct CaptureJob {
   // runner's retries could not cure (its message). Empty otherwise.
   std::string pause_reason;
   bool paused_by_fault = false;
+  // What the person at the rig is asked to do while the job waits for
+  // their acknowledgement (the job is paused meanwhile). Empty otherwise.
+  std::string operator_prompt;
   std::string error;  // why a failed job failed
   std::string submitted_at;  // UTC, ISO 8601
   std::uint64_t steps_done = 0;

@@ -107,4 +107,11 @@ std::vector<formats::PlannedStep> MakeCalibrationPlan(const formats::RigDescript
   return plan;
 }
 
+std::vector<formats::PlannedStep> MakePlanOfKind(const formats::RigDescription& rig, const std::string& plan_kind,
+                                                 const nlohmann::json& recording) {
+  if (plan_kind == "capture") return MakeCapturePlan(rig, recording);
+  if (plan_kind == "calibration") return MakeCalibrationPlan(rig, recording);
+  throw core::Error("plan kind " + core::Quoted(plan_kind) + ": expected \"capture\" or \"calibration\"");
+}
+
 }  // namespace mesocap::acquisition

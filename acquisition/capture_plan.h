@@ -20,6 +20,7 @@
 #pragma once
 
 #include <nlohmann/json.hpp>
+#include <string>
 #include <vector>
 
 #include "formats/capture_session.h"
@@ -44,5 +45,10 @@ std::vector<formats::PlannedStep> MakeCapturePlan(const formats::RigDescription&
 // Throws FormatError naming the rig file when it has no calibration_board.
 std::vector<formats::PlannedStep> MakeCalibrationPlan(const formats::RigDescription& rig,
                                                       const nlohmann::json& recording = nullptr);
+
+// The plan of a kind a capture station runs: "capture" or "calibration".
+// Throws Error naming the kind otherwise.
+std::vector<formats::PlannedStep> MakePlanOfKind(const formats::RigDescription& rig, const std::string& plan_kind,
+                                                 const nlohmann::json& recording = nullptr);
 
 }  // namespace mesocap::acquisition

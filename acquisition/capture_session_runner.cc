@@ -102,6 +102,14 @@ class SessionRun {
       RemoveWhiteReference();
     } catch (const drivers::DeviceError& e) {
       throw core::Error(Stopped(s, e.what()));
+    } catch (const CaptureInterrupted&) {
+      // Ended on purpose inside step s: it is done again on resume.
+      try {
+        AllOff();
+      } catch (const drivers::DeviceError& e) {
+        spdlog::warn("{}: switching lamps and laser off: {}", dir_.string(), e.what());
+      }
+      throw;
     }
     progress.Finish();
     return report_;
@@ -192,6 +200,7 @@ class SessionRun {
         try {
           drivers::Frame frame = c->Grab(options_.frame_timeout);
           CountSequence(*c, frame.sequence);
+          if (options_.frame_arrived) options_.frame_arrived(c->info().id, frame);
           images.push_back(std::move(frame.image));
           break;
         } catch (const drivers::TimeoutError& e) {
@@ -407,6 +416,10 @@ CaptureRunReport RunCaptureSession(const fs::path& dir, drivers::Rig& rig, drive
                                    const CaptureRunnerOptions& options, const CaptureStepDone& step_done) {
   if (const core::CheckResult problem = options.Check(); !problem.empty())
     throw core::Error("capture options: " + problem);
+  if (options.operator_prompt) {
+    PromptedOperator prompted(rig_operator, options.operator_prompt);
+    return SessionRun(dir, rig, prompted, options).Run(step_done);
+  }
   return SessionRun(dir, rig, rig_operator, options).Run(step_done);
 }
 

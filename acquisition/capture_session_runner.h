@@ -23,6 +23,7 @@
 #include <functional>
 #include <string>
 
+#include "acquisition/prompted_operator.h"
 #include "core/error.h"
 #include "drivers/rig.h"
 #include "drivers/rig_operator.h"
@@ -55,6 +56,14 @@ struct CaptureRunnerOptions {
   // holds every finished step, so a later run resumes). How a daemon pauses,
   // cancels or shuts down between steps, never inside one.
   std::function<bool()> stop_before_step;
+  // Called with every frame a camera delivers, as it arrives (a daemon's
+  // live preview); must return quickly, the capture waits meanwhile.
+  std::function<void(const std::string& camera_id, const drivers::Frame& frame)> frame_arrived;
+  // When set, the operator's actions are asked of a person through it first
+  // (acquisition/prompted_operator.h); it may end the run by throwing
+  // CaptureInterrupted, which RunCaptureSession passes on with the lamps
+  // and laser off and the step not journaled.
+  OperatorPrompt operator_prompt;
 
   core::CheckResult Check() const;
 };

@@ -6,8 +6,10 @@
 
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "acquisition/capture_session_runner.h"
+#include "drivers/device_state.h"
 
 namespace mesocap::acquisition {
 
@@ -23,6 +25,12 @@ class CaptureStation {
   virtual void OpenSession(const std::filesystem::path& dir, const std::string& plan_kind) = 0;
   // Runs the session at `dir` through RunCaptureSession on the station's
   // devices, with the station's calibration for sweep analyses.
+  // The rig's camera ids, in the rig description's order.
+  virtual std::vector<std::string> camera_ids() const = 0;
+  // Every device's state now (drivers/device_state.h). A device that was
+  // gone and answers again (a camera back on the network) is reopened
+  // first. Called on the thread that runs sessions, never during a step.
+  virtual std::vector<drivers::DeviceState> DeviceStates() = 0;
   virtual CaptureRunReport RunSession(const std::filesystem::path& dir, CaptureRunnerOptions options,
                                       const CaptureStepDone& step_done) = 0;
 };

@@ -1,11 +1,13 @@
 #include "acquisition/control_api.h"
 
+#include <algorithm>
 #include <charconv>
 #include <nlohmann/json.hpp>
 #include <string_view>
 #include <vector>
 
 #include "core/error.h"
+#include "core/image_io.h"
 #include "core/json_field_reader.h"
 
 namespace mesocap::acquisition {
@@ -68,6 +70,21 @@ ControlResponse JobCommand(const JobCommandResult& result) {
   return Json(200, ToJson(result.job));
 }
 
+ControlResponse Preview(const CaptureDaemon& daemon, const std::string& camera_id) {
+  const std::vector<std::string> ids = daemon.camera_ids();
+  if (std::find(ids.begin(), ids.end(), camera_id) == ids.end()) {
+    std::string known;
+    for (const std::string& id : ids) known += (known.empty() ? "" : ", ") + id;
+    return Error(404, "camera " + core::Quoted(camera_id) + ": not a camera of this rig (its cameras: " + known + ")");
+  }
+  const std::optional<CaptureDaemon::Preview> preview = daemon.CameraPreview(camera_id);
+  if (!preview) return Error(404, "camera " + core::Quoted(camera_id) + ": no frame yet");
+  ControlResponse r;
+  r.content_type = "image/png";
+  r.body = core::EncodePreviewPng(preview->image);
+  return r;
+}
+
 ControlResponse Events(const ControlRequest& request) {
   std::uint64_t after = 0;
   std::string_view query = request.query;
@@ -102,9 +119,17 @@ ControlResponse HandleControlRequest(CaptureDaemon& daemon, const ControlRequest
     if (s.size() == 2 && s[1] == "rig") {
       if (!get) return MethodNotAllowed(request, "GET");
       const std::string running = daemon.running_job();
+      const CaptureDaemon::RigStatus status = daemon.DeviceStates();
+      json devices = json::array();
+      for (const drivers::DeviceState& d : status.devices) {
+        devices.push_back({{"device", d.device}, {"kind", d.kind}, {"ok", d.ok}, {"state", d.state}});
+      }
       return Json(200, {{"rig", daemon.rig_name()},
                         {"worker", running.empty() ? "idle" : "running"},
                         {"running_job", running.empty() ? json(nullptr) : json(running)},
+                        {"devices", devices},
+                        {"devices_read_at", status.read_at.empty() ? json(nullptr) : json(status.read_at)},
+                        {"cameras", daemon.camera_ids()},
                         {"last_event", daemon.events().last_number()}});
     }
     if (s.size() == 2 && s[1] == "events") {
@@ -120,6 +145,10 @@ ControlResponse HandleControlRequest(CaptureDaemon& daemon, const ControlRequest
       if (post) return Submit(daemon, request);
       return MethodNotAllowed(request, "GET or POST");
     }
+    if (s.size() == 4 && s[1] == "cameras" && s[3] == "preview.png") {
+      if (!get) return MethodNotAllowed(request, "GET");
+      return Preview(daemon, std::string(s[2]));
+    }
     if ((s.size() == 3 || s.size() == 4) && s[1] == "jobs") {
       const std::string id(s[2]);
       if (!IsJobId(id)) return Error(404, "job id " + core::Quoted(id) + ": expected \"job-\" and six digits");
@@ -132,18 +161,19 @@ ControlResponse HandleControlRequest(CaptureDaemon& daemon, const ControlRequest
         return Json(200, body);
       }
       const std::string_view command = s[3];
-      if (command == "pause" || command == "resume" || command == "cancel") {
+      if (command == "pause" || command == "resume" || command == "cancel" || command == "ack") {
         if (!post) return MethodNotAllowed(request, "POST");
         if (command == "pause") return JobCommand(daemon.Pause(id));
         if (command == "resume") return JobCommand(daemon.Resume(id));
+        if (command == "ack") return JobCommand(daemon.Ack(id));
         return JobCommand(daemon.Cancel(id));
       }
-      return Error(404, "job command " + core::Quoted(command) + ": expected pause, resume or cancel");
+      return Error(404, "job command " + core::Quoted(command) + ": expected pause, resume, cancel or ack");
     }
   }
   return Error(404, "path " + core::Quoted(path) +
                         ": not an endpoint (GET /v1/rig, GET|POST /v1/jobs, GET /v1/jobs/ID, POST "
-                        "/v1/jobs/ID/pause|resume|cancel, GET /v1/events)");
+                        "/v1/jobs/ID/pause|resume|cancel|ack, GET /v1/cameras/ID/preview.png, GET /v1/events)");
 }
 
 std::string EventStreamMessage(const DaemonEvent& event) {

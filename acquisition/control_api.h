@@ -3,11 +3,13 @@
 // The HTTP server (acquisition/control_server.h) only carries requests to
 // it, so every route and every error is testable without a socket.
 //
-//   GET  /v1/rig                     the rig and what the worker does
+//   GET  /v1/rig                     the rig, each device's state, what the worker does
 //   GET  /v1/jobs                    every job, in submission order
 //   POST /v1/jobs  {"plan": KIND}    submit a job -> 201 and its record
 //   GET  /v1/jobs/ID                 one job (steps, ETA, frames, pause reason)
 //   POST /v1/jobs/ID/pause|resume|cancel
+//   POST /v1/jobs/ID/ack             the operator did what the job's prompt asked
+//   GET  /v1/cameras/ID/preview.png  a camera's latest frame, scaled down
 //   GET  /v1/events?after=N          server-sent events after event N
 //
 // Every error is {"error": MESSAGE} with a message naming the field or the

@@ -35,6 +35,7 @@ class StillCamera : public drivers::Camera {
   }
   drivers::CameraInfo info() const override { return {id_, "still", kWidth, kHeight, 12, 3}; }
   drivers::CameraSettings settings() const override { return settings_; }
+  bool IsConnected() override { return true; }
   void SetExposure(double us) override { settings_.exposure_us = us; }
   void SetGain(double db) override { settings_.gain_db = db; }
   void SetRegion(const drivers::CameraRegion& r) override { settings_.region = r; }

@@ -65,6 +65,10 @@ class Camera {
 
   virtual CameraInfo info() const = 0;
   virtual CameraSettings settings() const = 0;
+  // Asks the device whether it still answers (info() and settings() are
+  // what it said when opened, and ask nothing); false once it is gone and
+  // must be reopened. Never counts as an operation of the capture.
+  virtual bool IsConnected() = 0;
   // Setters throw DeviceError for a value the device cannot take (the
   // message says the valid range) and DisconnectedError when gone.
   virtual void SetExposure(double exposure_us) = 0;

@@ -1,11 +1,10 @@
 #include "pipelines/rig_check.h"
 
 #include <functional>
-#include <sstream>
 
-#include "core/angles.h"
 #include "drivers/aravis/aravis_rig_backend.h"
 #include "drivers/aravis/camera_discovery.h"
+#include "drivers/device_state.h"
 #include "drivers/gpiod/gpiod_rig_backend.h"
 #include "drivers/gpiod/libgpiod_chip.h"
 #include "drivers/tic/libusb_tic_transport.h"
@@ -19,22 +18,9 @@ std::string GpioLine(const formats::GpioLineDescription& l) {
   return l.chip + " line " + (l.name.empty() ? std::to_string(l.offset) : l.name);
 }
 
-// Runs `read` and records its state, or the error it threw.
 DeviceCheck Probe(std::string device, std::string backend, const std::function<std::string()>& read) {
-  DeviceCheck c{std::move(device), std::move(backend), false, ""};
-  try {
-    c.state = read();
-    c.ok = true;
-  } catch (const std::exception& e) {
-    c.state = e.what();
-  }
-  return c;
-}
-
-std::string StageState(drivers::RotaryStage& stage) {
-  std::ostringstream s;
-  s << "at " << core::DegreesFromRadians(stage.Position()) << " deg, " << (stage.IsHomed() ? "homed" : "not homed");
-  return s.str();
+  drivers::DeviceState s = drivers::ReadDeviceState(std::move(device), "", read);
+  return {std::move(s.device), std::move(backend), s.ok, std::move(s.state)};
 }
 
 }  // namespace
@@ -55,10 +41,7 @@ std::vector<DeviceCheck> RunRigCheck(const RigCheckOptions& options) {
       continue;
     }
     checks.push_back(Probe("camera " + c.id, "aravis " + c.device, [&] {
-      const auto camera = aravis.MakeCamera(rig, i);
-      const auto info = camera->info();
-      return info.model + ", " + std::to_string(info.sensor_width) + " x " + std::to_string(info.sensor_height) +
-             ", " + std::to_string(info.bit_depth) + " bits, " + std::to_string(info.channels) + " channels";
+      return drivers::DescribeCamera(*aravis.MakeCamera(rig, i));
     }));
   }
   const std::pair<const char*, const formats::StageDescription*> stages[] = {{"turntable", &rig.turntable},
@@ -69,26 +52,21 @@ std::vector<DeviceCheck> RunRigCheck(const RigCheckOptions& options) {
       continue;
     }
     checks.push_back(Probe(name, "tic " + stage->tic.serial, [&, name = std::string(name)] {
-      auto s = name == "turntable" ? tic.MakeTurntable(rig) : tic.MakeLightArc(rig);
-      return StageState(*s);
+      return drivers::DescribeStage(*(name == "turntable" ? tic.MakeTurntable(rig) : tic.MakeLightArc(rig)));
     }));
   }
   if (rig.lamps.backend != "gpiod") {
     checks.push_back({"lamps", rig.lamps.backend, true, simulated});
   } else {
     checks.push_back(Probe("lamps", "gpiod " + GpioLine(rig.lamps.lines.front()), [&] {
-      const auto lamps = gpiod.MakeLampBank(rig);
-      return std::to_string(lamps->lamp_count()) + " lamps, all off";
+      return drivers::DescribeLamps(*gpiod.MakeLampBank(rig));
     }));
   }
   if (rig.laser.backend != "gpiod") {
     checks.push_back({"laser unit", rig.laser.backend, true, simulated});
   } else {
     checks.push_back(Probe("laser unit", "gpiod " + GpioLine(rig.laser.enable), [&] {
-      const auto laser = gpiod.MakeLaserUnit(rig);
-      std::ostringstream s;
-      s << "off, tilt " << core::DegreesFromRadians(laser->Tilt()) << " deg";
-      return s.str();
+      return drivers::DescribeLaser(*gpiod.MakeLaserUnit(rig));
     }));
   }
   return checks;

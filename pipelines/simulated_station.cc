@@ -12,10 +12,12 @@
 #include "core/json_field_reader.h"
 #include "drivers/aravis/aravis_rig_backend.h"
 #include "formats/capture_session.h"
+#include "pipelines/station_session.h"
 #include "sim/camera_renderer.h"
 #include "sim/fault_plan.h"
 #include "sim/served_cameras.h"
 #include "sim/shipped_rigs.h"
+#include "sim/simulated_devices.h"
 #include "sim/simulated_operator.h"
 #include "sim/simulated_rig_backend.h"
 #include "sim/true_calibration.h"
@@ -25,34 +27,6 @@ namespace {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
-
-constexpr const char* kCalibrationFile = "calibration.json";
-
-// Where `old` and `now` first differ, as "FIELD was X, now Y" (FIELD a path
-// such as "cameras[0].bit_depth" below `where`).
-std::string FirstDifference(const json& old, const json& now, const std::string& where) {
-  const json patch = json::diff(old, now);
-  if (patch.empty()) return where + " is the same";
-  const json::json_pointer pointer(patch[0].at("path").get<std::string>());
-  std::vector<std::string> parts;
-  for (json::json_pointer p = pointer; !p.empty(); p = p.parent_pointer()) parts.push_back(p.back());
-  std::string field = where;
-  for (auto part = parts.rbegin(); part != parts.rend(); ++part) {
-    const bool index = !part->empty() && part->find_first_not_of("0123456789") == std::string::npos;
-    field += index ? "[" + *part + "]" : "." + *part;
-  }
-  const auto value = [&](const json& document) {
-    return document.contains(pointer) ? core::JsonExcerpt(document.at(pointer)) : std::string("absent");
-  };
-  return core::Cut(field) + " was " + value(old) + ", now " + value(now);
-}
-
-json PlanJson(const std::vector<formats::PlannedStep>& plan) {
-  formats::SessionManifest m;
-  m.rig = {{"name", "-"}};
-  m.plan = plan;
-  return ToJson(m).at("plan");
-}
 
 sim::FaultPlan LoadFaults(const formats::RigDescription& rig, const SimulatedStationOptions& o) {
   sim::FaultPlan faults = sim::FaultPlanOfRig(rig);
@@ -150,54 +124,28 @@ bool SimulatedStation::has_faults() const { return !devices_->faults.empty(); }
 double SimulatedStation::rig_clock_s() const { return devices_->backend.state().clock_s; }
 
 void SimulatedStation::OpenSession(const fs::path& dir, const std::string& plan_kind) {
-  Devices& d = *devices_;
-  std::vector<formats::PlannedStep> plan;
-  if (plan_kind == "capture") {
-    plan = acquisition::MakeCapturePlan(d.rig, d.recording);
-  } else if (plan_kind == "calibration") {
-    plan = acquisition::MakeCalibrationPlan(d.rig, d.recording);
-  } else {
-    throw core::Error("plan kind " + core::Quoted(plan_kind) + ": expected \"capture\" or \"calibration\"");
-  }
-  const bool existing = fs::exists(dir / formats::kSessionManifestName);
-  if (existing) {
-    const formats::SessionManifest manifest = formats::ReadSessionManifest(dir);
-    // A resumed session must be the same capture: same rig, scene, seed,
-    // noise and sampling (all in the plan's step params).
-    if (manifest.rig != d.rig.json) {
-      throw core::Error(dir.string() + ": the session was started with another rig: " +
-                        FirstDifference(manifest.rig, d.rig.json, "rig"));
-    }
-    const json old_plan = PlanJson(manifest.plan), new_plan = PlanJson(plan);
-    if (old_plan != new_plan) {
-      // The options live in each step's "recording"; name them as such.
-      const json old_recording = old_plan.at("steps").at(0).value("recording", json());
-      const json new_recording = new_plan.at("steps").at(0).value("recording", json());
-      throw core::Error(dir.string() + ": the session was started with other options: " +
-                        (old_recording != new_recording ? FirstDifference(old_recording, new_recording, "recording")
-                                                        : FirstDifference(old_plan, new_plan, "plan")));
-    }
-    if (manifest.calibration_checksum && *manifest.calibration_checksum != d.calibration_checksum) {
-      throw core::Error(dir.string() + ": the session records another calibration than this rig's true one (" +
-                        formats::kSessionManifestName + " calibration.xxh3_64)");
-    }
-  } else {
-    // A folder without a manifest is a session whose creation was killed:
-    // CreateCaptureSession clears what that run left.
-    formats::SessionManifest manifest;
-    manifest.rig = d.rig.json;
-    manifest.calibration = kCalibrationFile;
-    manifest.calibration_checksum = d.calibration_checksum;
-    manifest.plan = plan;
-    formats::CreateCaptureSession(dir, manifest);
-  }
-  // The session's calibration is the rig's true one: written after the
-  // manifest, and written again when a resume finds it missing or damaged.
-  if (const std::string problem = core::ChecksumProblem(dir / kCalibrationFile, d.calibration_checksum);
-      !problem.empty()) {
-    if (existing) spdlog::warn("{}: {} {}; writing it again", dir.string(), kCalibrationFile, problem);
-    core::WriteTextFileAtomically(dir / kCalibrationFile, d.calibration_text);
-  }
+  const Devices& d = *devices_;
+  OpenStationSession(dir, {d.rig.json, acquisition::MakePlanOfKind(d.rig, plan_kind, d.recording), d.calibration_text,
+                           d.calibration_checksum, "this rig's true one"});
+}
+
+sim::ServedCameras* SimulatedStation::served_cameras() { return devices_->served.get(); }
+
+void SimulatedStation::ReplaceLamp(int index) {
+  auto* lamps = dynamic_cast<sim::SimulatedLampBank*>(devices_->devices.lamps.get());
+  if (lamps == nullptr) throw core::Error("lamp " + std::to_string(index) + ": the lamps are not simulated");
+  lamps->ReplaceLamp(index);
+}
+
+std::vector<std::string> SimulatedStation::camera_ids() const {
+  std::vector<std::string> ids;
+  for (const formats::CameraDescription& c : devices_->rig.cameras) ids.push_back(c.id);
+  return ids;
+}
+
+std::vector<drivers::DeviceState> SimulatedStation::DeviceStates() {
+  drivers::aravis::ReopenGoneCameras(devices_->devices);
+  return drivers::ReadDeviceStates(devices_->devices);
 }
 
 acquisition::CaptureRunReport SimulatedStation::RunSession(const fs::path& dir,

@@ -10,9 +10,11 @@
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "acquisition/capture_station.h"
 #include "sim/mesostructure_scene.h"
+#include "sim/served_cameras.h"
 
 namespace mesocap::pipelines {
 
@@ -40,6 +42,10 @@ class SimulatedStation : public acquisition::CaptureStation {
 
   std::string rig_name() const override;
   void OpenSession(const std::filesystem::path& dir, const std::string& plan_kind) override;
+  std::vector<std::string> camera_ids() const override;
+  // Served cameras (`serve_cameras`) that stopped answering are reopened
+  // through Aravis when their server is back.
+  std::vector<drivers::DeviceState> DeviceStates() override;
   acquisition::CaptureRunReport RunSession(const std::filesystem::path& dir, acquisition::CaptureRunnerOptions options,
                                            const acquisition::CaptureStepDone& step_done) override;
 
@@ -48,6 +54,12 @@ class SimulatedStation : public acquisition::CaptureStation {
   std::string scene_name() const;
   bool has_faults() const;
   double rig_clock_s() const;
+
+  // What the person at the rig does about faults: the cameras' GigE Vision
+  // servers (nullptr without serve_cameras: a test stops and restarts
+  // them), and a new bulb for a burnt-out lamp. Not while a session runs.
+  sim::ServedCameras* served_cameras();
+  void ReplaceLamp(int index);
 
  private:
   struct Devices;

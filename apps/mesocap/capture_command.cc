@@ -1,4 +1,4 @@
-// `mesocap capture submit|list|status|watch|pause|resume|cancel`: the
+// `mesocap capture submit|list|status|watch|pause|resume|cancel|ack`: the
 // capture daemon's client (docs/DAEMON.md). Each subcommand is one request to
 // mesocapd's control API over its Unix socket; `watch` follows a job's
 // progress from the event stream until it is done, failed or cancelled.
@@ -49,7 +49,12 @@ std::string Summary(const json& job) {
   if (job.value("state", "") == "running" && job.contains("eta_s") && job["eta_s"].is_number()) {
     line += ", ETA " + Duration(job["eta_s"].get<double>());
   }
-  if (!job.value("pause_reason", "").empty()) line += "; paused: " + job.value("pause_reason", "");
+  if (!job.value("operator_prompt", "").empty()) {
+    line += "; the operator is asked: " + job.value("operator_prompt", "") +
+            " (when done: mesocap capture ack " + job.value("id", "") + ")";
+  } else if (!job.value("pause_reason", "").empty()) {
+    line += "; paused: " + job.value("pause_reason", "");
+  }
   if (!job.value("error", "").empty()) line += "; error: " + job.value("error", "");
   return line;
 }
@@ -86,7 +91,7 @@ void Watch(const CaptureClientOptions& o) {
   if (!Finished(job)) {
     const std::uint64_t after = job.value("last_event", std::uint64_t{0});
     client.Stream("/v1/events?after=" + std::to_string(after), [&](std::string_view type, const json& data) {
-      if ((type == "job" || type == "step") && data.value("id", "") == o.id) {
+      if ((type == "job" || type == "step" || type == "prompt") && data.value("id", "") == o.id) {
         job = data;
         show(job);
       }
@@ -138,11 +143,12 @@ void RegisterCaptureCommand(CLI::App& app) {
     Print(job, o->json_output, Summary(job));
   });
 
-  for (const char* command : {"pause", "resume", "cancel"}) {
+  for (const char* command : {"pause", "resume", "cancel", "ack"}) {
     const std::string name = command;
     CLI::App* sub = group->add_subcommand(
         name, name == "pause"    ? "Pause a job (a running one stops after its current step)"
               : name == "resume" ? "Resume a paused job (one paused on a fault is tried again at once)"
+              : name == "ack"    ? "Say that the operator step a job asks for is done (its capture goes on)"
                                  : "Cancel a job (a running one stops after its current step; its session stays)");
     common(sub);
     job_id(sub);

@@ -22,7 +22,9 @@
 #include "core/error.h"
 #include "core/logging.h"
 #include "core/version.h"
+#include "pipelines/rig_station.h"
 #include "pipelines/simulated_station.h"
+#include "sim/shipped_rigs.h"
 
 namespace {
 
@@ -31,9 +33,11 @@ using namespace mesocap;
 
 struct DaemonCommandOptions {
   pipelines::SimulatedStationOptions station;
+  fs::path calibration;  // a real rig's
   fs::path state;
   fs::path socket;  // default: STATE/control.sock
   double fault_retry_s = 30;
+  bool prompt_operator = false;
 };
 
 // Waits for SIGTERM or SIGINT, pinging systemd's watchdog at half its
@@ -55,8 +59,22 @@ void RunDaemon(const DaemonCommandOptions& o, const sigset_t& signals) {
   acquisition::CaptureDaemonOptions daemon_options;
   daemon_options.state_dir = o.state;
   daemon_options.fault_retry_interval = std::chrono::milliseconds(static_cast<std::int64_t>(o.fault_retry_s * 1000));
-  auto station = std::make_unique<pipelines::SimulatedStation>(o.station);
-  spdlog::info("rig {} open (simulated, scene {})", station->rig_name(), station->scene_name());
+  daemon_options.prompt_operator = o.prompt_operator;
+  std::unique_ptr<acquisition::CaptureStation> station;
+  if (pipelines::DrivesRealDevices(sim::LoadRig(o.station.rig))) {
+    // A person does the operator steps of a real rig: they are always asked.
+    station = std::make_unique<pipelines::RigStation>(pipelines::RigStationOptions{o.station.rig, o.calibration});
+    daemon_options.prompt_operator = true;
+    spdlog::info("rig {} open (its devices; calibration {})", station->rig_name(), o.calibration.string());
+  } else {
+    if (!o.calibration.empty()) {
+      throw core::Error("--calibration " + o.calibration.string() + ": rig " + o.station.rig +
+                        " is simulated and uses its true calibration; --calibration is for a real rig");
+    }
+    auto simulated = std::make_unique<pipelines::SimulatedStation>(o.station);
+    spdlog::info("rig {} open (simulated, scene {})", simulated->rig_name(), simulated->scene_name());
+    station = std::move(simulated);
+  }
   acquisition::CaptureDaemon daemon(std::move(station), daemon_options);
   acquisition::ControlServerOptions server_options;
   server_options.socket = o.socket.empty() ? o.state / "control.sock" : o.socket;
@@ -89,14 +107,22 @@ int main(int argc, char** argv) {
   DaemonCommandOptions o;
   app.add_option("--state", o.state, "state directory: the job queue and every job's capture session")->required();
   app.add_option("--socket", o.socket, "control socket (default: STATE/control.sock)");
-  app.add_option("--rig", o.station.rig, "shipped rig (tiny, small, paper) or a rig description file")
+  app.add_option("--rig", o.station.rig,
+                 "shipped rig (tiny, small, paper) or a rig description file; one that drives real devices "
+                 "(Tic stages, GPIO lamps and laser, Aravis cameras) is opened as it is, the others are simulated")
       ->capture_default_str();
+  app.add_option("--calibration", o.calibration,
+                 "a real rig's calibration (mesocap calibrate --session): written into each session, used for "
+                 "the sweeps analysed as they arrive");
   AddSceneOptions(&app, &o.station.scene);
   app.add_option("--seed", o.station.seed, "seed of the simulated sensor noise")->capture_default_str();
   app.add_flag("--no-noise", o.station.no_noise, "no shot or read noise");
   app.add_option("--faults", o.station.faults, "fault plan file (mesocap.faults) added to the rig's own faults");
   app.add_flag("--serve-cameras", o.station.serve_cameras,
                "serve the simulated cameras as GigE Vision devices on loopback and drive them through Aravis");
+  app.add_flag("--prompt-operator", o.prompt_operator,
+               "pause at each operator step (plates, laser mounts, board tilts) until a client acknowledges it "
+               "(mesocap capture ack); without it the simulated operator acts at once");
   app.add_option("--fault-retry-s", o.fault_retry_s, "seconds before a job paused on a fault is tried again")
       ->check(CLI::Range(0.0, 86400.0))
       ->capture_default_str();

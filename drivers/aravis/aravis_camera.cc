@@ -35,6 +35,14 @@ std::uint64_t FrameIdGap(std::uint64_t last, std::uint64_t id) {
   return 0;  // a late or repeated frame, or the camera restarted its count
 }
 
+// Errors that say the control channel no longer answers (after Aravis'
+// own retries), as opposed to a request the camera refused.
+bool IsUnreachable(const GError* error) {
+  return error && error->domain == ARV_DEVICE_ERROR &&
+         (error->code == ARV_DEVICE_ERROR_TIMEOUT || error->code == ARV_DEVICE_ERROR_NOT_CONNECTED ||
+          error->code == ARV_DEVICE_ERROR_NOT_FOUND || error->code == ARV_DEVICE_ERROR_TRANSFER_ERROR);
+}
+
 std::string Formats(const std::vector<std::string>& names) {
   std::string list;
   for (const auto& n : names) list += (list.empty() ? "" : ", ") + n;
@@ -93,9 +101,7 @@ void AravisCamera::Check(const std::string& what, GError* error) const {
 
 void AravisCamera::Fail(const std::string& what, GError* error) const {
   const std::string message = error ? error->message : "failed";
-  const bool unreachable = error && error->domain == ARV_DEVICE_ERROR &&
-                           (error->code == ARV_DEVICE_ERROR_TIMEOUT || error->code == ARV_DEVICE_ERROR_NOT_CONNECTED ||
-                            error->code == ARV_DEVICE_ERROR_NOT_FOUND || error->code == ARV_DEVICE_ERROR_TRANSFER_ERROR);
+  const bool unreachable = IsUnreachable(error);
   if (error) g_error_free(error);
   const std::string camera = "camera " + options_.id + " (" + options_.device + "): ";
   // A control channel that no longer answers after Aravis' retries is a
@@ -237,6 +243,23 @@ void AravisCamera::Close() {
   device_.reset();
 }
 
+ArvCamera* AravisCamera::Connected() const {
+  if (!device_ || !device_->camera) {
+    throw DisconnectedError("camera " + options_.id + " (" + options_.device +
+                            "): disconnected (it went away and could not be opened again)");
+  }
+  return device_->camera;
+}
+
+bool AravisCamera::IsConnected() {
+  if (!device_ || !device_->camera || device_->control_lost) return false;
+  GError* error = nullptr;
+  arv_camera_get_exposure_time(device_->camera, &error);
+  const bool unreachable = IsUnreachable(error);
+  if (error) g_error_free(error);
+  return !unreachable && !device_->control_lost;
+}
+
 void AravisCamera::Reopen() {
   Close();
   Open();
@@ -244,7 +267,7 @@ void AravisCamera::Reopen() {
 
 void AravisCamera::StartStream() {
   if (device_->acquiring) return;
-  ArvCamera* cam = device_->camera;
+  ArvCamera* cam = Connected();
   GError* error = nullptr;
   const guint payload = arv_camera_get_payload(cam, &error);
   Check("reading PayloadSize", error);
@@ -292,13 +315,13 @@ void AravisCamera::SetBounded(const std::string& what, const std::string& unit, 
                               void (*set)(ArvCamera*, double, GError**)) {
   GError* error = nullptr;
   double lo = 0.0, hi = 0.0;
-  bounds(device_->camera, &lo, &hi, &error);
+  bounds(Connected(), &lo, &hi, &error);
   Check("reading the " + what + " bounds", error);
   if (!(value >= lo && value <= hi)) {
     throw DeviceError("camera " + options_.id + ": " + what + " " + std::to_string(value) + " " + unit +
                       " is outside [" + std::to_string(lo) + ", " + std::to_string(hi) + "] " + unit);
   }
-  set(device_->camera, value, &error);
+  set(Connected(), value, &error);
   Check("setting the " + what, error);
 }
 
@@ -308,7 +331,7 @@ void AravisCamera::SetExposure(double exposure_us) {
 }
 
 void AravisCamera::SetGain(double gain_db) {
-  if (!arv_camera_is_gain_available(device_->camera, nullptr)) {
+  if (!arv_camera_is_gain_available(Connected(), nullptr)) {
     if (gain_db == 0.0) return;
     throw DeviceError("camera " + options_.id + ": has no gain control");
   }
@@ -329,9 +352,9 @@ void AravisCamera::SetRegion(const CameraRegion& region) {
   StopStream();  // the payload changes
   GError* error = nullptr;
   // Shrink before moving, so that no intermediate region leaves the sensor.
-  arv_camera_set_region(device_->camera, 0, 0, width, height, &error);
+  arv_camera_set_region(Connected(), 0, 0, width, height, &error);
   Check("setting the region size", error);
-  arv_camera_set_region(device_->camera, region.x, region.y, width, height, &error);
+  arv_camera_set_region(Connected(), region.x, region.y, width, height, &error);
   Check("setting the region", error);
   settings_.region = region;
 }
@@ -340,7 +363,7 @@ void AravisCamera::SetPixelFormat(PixelFormat format) {
   StopStream();
   const PixelFormatTraits& traits = format == PixelFormat::kMono ? mono_format_ : native_format_;
   GError* error = nullptr;
-  arv_camera_set_pixel_format(device_->camera, traits.code, &error);
+  arv_camera_set_pixel_format(Connected(), traits.code, &error);
   Check("setting PixelFormat " + traits.name, error);
   settings_.pixel_format = format;
 }
@@ -349,10 +372,10 @@ void AravisCamera::SetTrigger(TriggerMode mode) {
   StopStream();  // frames of the old mode must not answer the new one's triggers
   GError* error = nullptr;
   if (mode == TriggerMode::kSoftware) {
-    arv_camera_set_trigger(device_->camera, "Software", &error);
+    arv_camera_set_trigger(Connected(), "Software", &error);
     Check("setting the software trigger", error);
   } else {
-    arv_camera_clear_triggers(device_->camera, &error);
+    arv_camera_clear_triggers(Connected(), &error);
     Check("clearing the triggers", error);
   }
   settings_.trigger = mode;
@@ -370,7 +393,7 @@ void AravisCamera::Trigger() {
     arv_stream_push_buffer(device_->stream, stale);
   }
   GError* error = nullptr;
-  arv_camera_software_trigger(device_->camera, &error);
+  arv_camera_software_trigger(Connected(), &error);
   Check("TriggerSoftware", error);
 }
 
@@ -393,7 +416,7 @@ Frame AravisCamera::Grab(std::chrono::milliseconds timeout) {
     if (buffer == nullptr) {
       // Tell a slow frame from a camera that is gone: ask the camera.
       GError* error = nullptr;
-      if (!device_->control_lost) arv_camera_get_integer(device_->camera, "Width", &error);
+      if (!device_->control_lost) arv_camera_get_integer(Connected(), "Width", &error);
       if (device_->control_lost || error != nullptr) Fail("no frame", error);
       throw TimeoutError("camera " + options_.id + ": no frame within " + std::to_string(timeout.count()) + " ms");
     }

@@ -56,6 +56,8 @@ class AravisCamera : public Camera {
 
   CameraInfo info() const override { return info_; }
   CameraSettings settings() const override { return settings_; }
+  // Reads the exposure time over the control channel.
+  bool IsConnected() override;
   void SetExposure(double exposure_us) override;
   void SetGain(double gain_db) override;
   void SetRegion(const CameraRegion& region) override;
@@ -78,6 +80,8 @@ class AravisCamera : public Camera {
 
   void Open();
   void Close();
+  // The open camera; DisconnectedError when a reopen failed and left none.
+  ::_ArvCamera* Connected() const;
   void StartStream();
   void StopStream();
   void ApplySettings();

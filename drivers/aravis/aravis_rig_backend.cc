@@ -1,5 +1,7 @@
 #include "drivers/aravis/aravis_rig_backend.h"
 
+#include <spdlog/spdlog.h>
+
 #include "drivers/aravis/aravis_camera.h"
 #include "drivers/device_error.h"
 
@@ -21,6 +23,19 @@ std::unique_ptr<Camera> AravisRigBackend::MakeCamera(const formats::RigDescripti
   }
   camera->SetExposure(description.exposure_us);
   return camera;
+}
+
+void ReopenGoneCameras(Rig& rig) {
+  for (const std::unique_ptr<Camera>& camera : rig.cameras) {
+    auto* gige = dynamic_cast<AravisCamera*>(camera.get());
+    if (gige == nullptr || gige->IsConnected()) continue;
+    try {
+      gige->Reopen();
+      spdlog::info("camera {}: answers again, reopened", gige->info().id);
+    } catch (const DeviceError& e) {
+      spdlog::debug("camera {}: still gone: {}", gige->info().id, e.what());
+    }
+  }
 }
 
 }  // namespace mesocap::drivers::aravis

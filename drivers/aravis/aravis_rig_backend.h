@@ -15,4 +15,9 @@ class AravisRigBackend : public RigBackend {
   std::unique_ptr<Camera> MakeCamera(const formats::RigDescription& rig, int camera_index) override;
 };
 
+// Reopens each of `rig`'s Aravis cameras that no longer answers (unplugged,
+// powered off, its server killed), when it answers again; a camera still
+// gone stays as it is. For between steps, never during one.
+void ReopenGoneCameras(Rig& rig);
+
 }  // namespace mesocap::drivers::aravis

@@ -36,12 +36,21 @@ std::unique_ptr<RotaryStage> OpenTicStage(const std::string& id, const formats::
                                           std::make_unique<SteadyStageClock>());
 }
 
+TicRigBackend::TicRigBackend(TicOpener open, ClockMaker make_clock)
+    : open_(std::move(open)), make_clock_(std::move(make_clock)) {}
+
+std::unique_ptr<RotaryStage> TicRigBackend::Open(const std::string& id, const formats::StageDescription& stage) const {
+  if (!open_) return OpenTicStage(id, stage.tic, stage.speed_rad_per_s);
+  return std::make_unique<TicRotaryStage>(StageOptions(id, stage.tic, stage.speed_rad_per_s), open_,
+                                          make_clock_(stage.tic.serial));
+}
+
 std::unique_ptr<RotaryStage> TicRigBackend::MakeTurntable(const formats::RigDescription& rig) {
-  return OpenTicStage("turntable", rig.turntable.tic, rig.turntable.speed_rad_per_s);
+  return Open("turntable", rig.turntable);
 }
 
 std::unique_ptr<RotaryStage> TicRigBackend::MakeLightArc(const formats::RigDescription& rig) {
-  return OpenTicStage("light arc", rig.light_arc.tic, rig.light_arc.speed_rad_per_s);
+  return Open("light arc", rig.light_arc);
 }
 
 }  // namespace mesocap::drivers::tic

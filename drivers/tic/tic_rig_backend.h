@@ -3,6 +3,7 @@
 // stage options a description gives (also for a laser tilt on a Tic).
 #pragma once
 
+#include <functional>
 #include <memory>
 #include <string>
 
@@ -20,9 +21,20 @@ std::unique_ptr<RotaryStage> OpenTicStage(const std::string& id, const formats::
 
 class TicRigBackend : public RigBackend {
  public:
+  // Opens Tics by serial number: over USB (libusb) with the steady clock by
+  // default; emulated Tics with their own clocks in tests.
+  using ClockMaker = std::function<std::unique_ptr<StageClock>(const std::string& serial_number)>;
+  TicRigBackend() = default;
+  TicRigBackend(TicOpener open, ClockMaker make_clock);
   std::string name() const override { return "tic"; }
   std::unique_ptr<RotaryStage> MakeTurntable(const formats::RigDescription& rig) override;
   std::unique_ptr<RotaryStage> MakeLightArc(const formats::RigDescription& rig) override;
+
+ private:
+  std::unique_ptr<RotaryStage> Open(const std::string& id, const formats::StageDescription& stage) const;
+
+  TicOpener open_;
+  ClockMaker make_clock_;
 };
 
 }  // namespace mesocap::drivers::tic

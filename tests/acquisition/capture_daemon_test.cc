@@ -141,3 +141,148 @@ TEST_F(SimulatedDaemonTest, ADamagedJobRecordIsNamedAtStart) {
 
 }  // namespace
 }  // namespace mesocap::acquisition
+
+namespace mesocap::acquisition {
+namespace {
+
+// What the operator was asked, in order, acknowledging each prompt as it
+// comes until the job is in `state`.
+std::vector<std::string> AcknowledgeUntil(CaptureDaemon& daemon, const std::string& id, JobState state) {
+  std::vector<std::string> prompts;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::minutes(10);
+  while (daemon.Job(id)->state != state && std::chrono::steady_clock::now() < deadline) {
+    const CaptureJob job = *daemon.Job(id);
+    if (!job.operator_prompt.empty()) {
+      EXPECT_EQ(job.state, JobState::kPaused);
+      EXPECT_EQ(job.pause_reason, "waiting for the operator: " + job.operator_prompt);
+      prompts.push_back(job.operator_prompt);
+      EXPECT_EQ(daemon.Ack(id).outcome, JobCommandResult::Outcome::kDone);
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  EXPECT_EQ(daemon.Job(id)->state, state);
+  return prompts;
+}
+
+TEST_F(SimulatedDaemonTest, OperatorStepsPauseTheJobUntilAcknowledged) {
+  auto daemon = MakeDaemon({}, std::chrono::milliseconds(0), /*prompt_operator=*/true);
+  const std::string id = daemon->Submit("capture").id;
+  EXPECT_EQ(daemon->Ack(id).outcome, JobCommandResult::Outcome::kNotNow);  // nothing asked yet
+  daemon->Start();
+  // The first operator step of the capture: the laser plate of Sec. 3.2.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::minutes(5);
+  while (daemon->Job(id)->operator_prompt.empty() && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  const CaptureJob asking = *daemon->Job(id);
+  ASSERT_FALSE(asking.operator_prompt.empty());
+  EXPECT_EQ(asking.state, JobState::kPaused);
+  EXPECT_FALSE(asking.paused_by_fault);
+  // The record on disk says so too, and nothing moves until the answer.
+  EXPECT_EQ(ReadCaptureJob(state_ / "state" / "jobs" / (id + ".json")).operator_prompt, asking.operator_prompt);
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  EXPECT_EQ(daemon->Job(id)->steps_done, asking.steps_done);
+  // A resume is not an answer.
+  const JobCommandResult resume = daemon->Resume(id);
+  EXPECT_EQ(resume.outcome, JobCommandResult::Outcome::kNotNow);
+  EXPECT_NE(resume.message.find("acknowledge it with ack"), std::string::npos) << resume.message;
+  const std::vector<std::string> prompts = AcknowledgeUntil(*daemon, id, JobState::kDone);
+  // One plate laid and taken off per calibration height, at least.
+  ASSERT_GE(prompts.size(), 4u);
+  EXPECT_NE(prompts.front().find("Lay the flat calibration plate over the turntable"), std::string::npos)
+      << prompts.front();
+  EXPECT_EQ(SessionDifferences(*daemon, id, "capture"), "");
+  EXPECT_EQ(daemon->Ack(id).outcome, JobCommandResult::Outcome::kNotNow);
+}
+
+TEST_F(SimulatedDaemonTest, AStopWhileTheOperatorIsAskedResumesTheStepAndAsksAgain) {
+  std::string id, first_prompt;
+  {
+    auto daemon = MakeDaemon({}, std::chrono::milliseconds(0), true);
+    id = daemon->Submit("capture").id;
+    daemon->Start();
+    while (daemon->Job(id)->operator_prompt.empty()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    first_prompt = daemon->Job(id)->operator_prompt;
+    daemon->Stop();  // SIGTERM while the prompt waits
+    EXPECT_EQ(daemon->Job(id)->state, JobState::kRunning);
+    EXPECT_EQ(daemon->Job(id)->operator_prompt, "");
+  }
+  auto daemon = MakeDaemon({}, std::chrono::milliseconds(0), true);
+  daemon->Start();
+  const std::vector<std::string> prompts = AcknowledgeUntil(*daemon, id, JobState::kDone);
+  ASSERT_FALSE(prompts.empty());
+  EXPECT_EQ(prompts.front(), first_prompt);
+  EXPECT_EQ(SessionDifferences(*daemon, id, "capture"), "");
+}
+
+TEST_F(SimulatedDaemonTest, APauseOrCancelWhileTheOperatorIsAskedEndsThePrompt) {
+  auto daemon = MakeDaemon({}, std::chrono::milliseconds(0), true);
+  const std::string id = daemon->Submit("capture").id;
+  daemon->Start();
+  while (daemon->Job(id)->operator_prompt.empty()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  ASSERT_EQ(daemon->Pause(id).outcome, JobCommandResult::Outcome::kDone);
+  // The job is paused already (by the prompt); the client's pause ends the prompt.
+  while (!daemon->Job(id)->operator_prompt.empty()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  const CaptureJob paused = WaitFor(*daemon, id, JobState::kPaused);
+  EXPECT_EQ(paused.pause_reason, "paused by a client");
+  EXPECT_EQ(paused.operator_prompt, "");
+  ASSERT_EQ(daemon->Resume(id).outcome, JobCommandResult::Outcome::kDone);
+  while (daemon->Job(id)->operator_prompt.empty()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  ASSERT_EQ(daemon->Cancel(id).outcome, JobCommandResult::Outcome::kDone);
+  WaitFor(*daemon, id, JobState::kCancelled);
+}
+
+TEST_F(SimulatedDaemonTest, DeviceStatesAndCameraPreviewsFollowTheCapture) {
+  auto daemon = MakeDaemon();
+  const std::string id = daemon->Submit("capture").id;
+  daemon->Start();
+  WaitFor(*daemon, id, JobState::kDone);
+  const CaptureDaemon::RigStatus status = daemon->DeviceStates();
+  const std::vector<std::string> cameras = daemon->camera_ids();
+  ASSERT_EQ(status.devices.size(), cameras.size() + 4);  // cameras, turntable, light arc, lamps, laser
+  EXPECT_FALSE(status.read_at.empty());
+  for (std::size_t i = 0; i < cameras.size(); ++i) {
+    EXPECT_EQ(status.devices[i].device, "camera " + cameras[i]);
+    EXPECT_TRUE(status.devices[i].ok) << status.devices[i].state;
+  }
+  EXPECT_EQ(status.devices[cameras.size()].device, "turntable");
+  EXPECT_NE(status.devices[cameras.size()].state.find("homed"), std::string::npos);
+  EXPECT_EQ(status.devices.back().device, "laser unit");
+  EXPECT_NE(status.devices.back().state.find("off"), std::string::npos);  // the capture switched it off
+  // Each camera's preview is its last frame, scaled to fit and PNG-encoded.
+  for (const std::string& camera : cameras) {
+    const std::optional<CaptureDaemon::Preview> preview = daemon->CameraPreview(camera);
+    ASSERT_TRUE(preview) << camera;
+    EXPECT_EQ(preview->job, id);
+    EXPECT_LE(std::max(preview->image.width(), preview->image.height()), 320);
+    EXPECT_GT(preview->sequence, 0u);
+  }
+  EXPECT_FALSE(daemon->CameraPreview("no-such-camera"));
+}
+
+// A camera that is gone pauses the job; the daemon reads the devices at each
+// retry and runs the job again only once every device answers.
+TEST_F(SimulatedDaemonTest, AJobPausedOnAGoneCameraWaitsWhileTheCameraDoesNotAnswer) {
+  const fs::path faults = state_ / "faults.json";
+  std::ofstream(faults) << R"({"format": "mesocap.faults", "version": 1,
+    "camera_disconnect": {"at": [5]}})";
+  auto daemon = MakeDaemon(faults, std::chrono::milliseconds(20));
+  const std::string id = daemon->Submit("capture").id;
+  daemon->Start();
+  const CaptureJob paused = WaitFor(*daemon, id, JobState::kPaused);
+  EXPECT_TRUE(paused.paused_by_fault);
+  EXPECT_NE(paused.pause_reason.find("disconnected"), std::string::npos) << paused.pause_reason;
+  // Many retry intervals later: still paused, not run again and failed again.
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  const CaptureJob later = *daemon->Job(id);
+  EXPECT_EQ(later.state, JobState::kPaused);
+  EXPECT_EQ(later.faults, 1u);
+  bool camera_reported_gone = false;
+  for (const drivers::DeviceState& d : daemon->DeviceStates().devices) {
+    if (d.kind == "camera" && !d.ok) camera_reported_gone = d.state.find("disconnected") != std::string::npos;
+  }
+  EXPECT_TRUE(camera_reported_gone);
+}
+
+}  // namespace
+}  // namespace mesocap::acquisition

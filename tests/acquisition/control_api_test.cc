@@ -56,6 +56,45 @@ TEST_F(SimulatedDaemonTest, EndpointsAnswerWithTheDaemonsState) {
   EXPECT_EQ(r.events_after, 3u);
 }
 
+TEST_F(SimulatedDaemonTest, RigStatusPreviewsAndAcknowledgements) {
+  auto daemon = MakeDaemon();
+  const std::string id = daemon->Submit("capture").id;
+  const std::string camera = daemon->camera_ids().front();
+  ControlResponse r = Call(*daemon, "GET", "/v1/cameras/" + camera + "/preview.png");
+  EXPECT_EQ(r.status, 404);
+  EXPECT_EQ(ErrorOf(r), "camera \"" + camera + "\": no frame yet");
+  r = Call(*daemon, "GET", "/v1/cameras/..%2Fjobs/preview.png");
+  EXPECT_EQ(r.status, 404);
+  EXPECT_NE(ErrorOf(r).find("not a camera of this rig (its cameras: " + camera), std::string::npos) << r.body;
+  r = Call(*daemon, "POST", "/v1/jobs/" + id + "/ack");
+  EXPECT_EQ(r.status, 409);
+  EXPECT_EQ(ErrorOf(r), "job " + id + " waits for no operator step");
+  EXPECT_EQ(Call(*daemon, "GET", "/v1/jobs/" + id + "/ack").status, 405);
+  daemon->Start();
+  WaitFor(*daemon, id, JobState::kDone);
+  r = Call(*daemon, "GET", "/v1/rig");
+  const json rig = json::parse(r.body);
+  EXPECT_EQ(rig.at("devices").size(), daemon->camera_ids().size() + 4);
+  EXPECT_EQ(rig.at("devices").at(0).at("device"), "camera " + camera);
+  EXPECT_EQ(rig.at("devices").at(0).at("ok"), true);
+  EXPECT_EQ(rig.at("cameras").at(0), camera);
+  EXPECT_TRUE(rig.at("devices_read_at").is_string());
+  r = Call(*daemon, "GET", "/v1/cameras/" + camera + "/preview.png");
+  ASSERT_EQ(r.status, 200) << r.body;
+  EXPECT_EQ(r.content_type, "image/png");
+  ASSERT_GT(r.body.size(), 8u);
+  EXPECT_EQ(r.body.substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8));
+  // The PNG's size is the preview's (IHDR: width and height, big-endian).
+  const auto be32 = [&](std::size_t at) {
+    std::uint32_t v = 0;
+    for (std::size_t i = 0; i < 4; ++i) v = v << 8 | static_cast<unsigned char>(r.body[at + i]);
+    return v;
+  };
+  const CaptureDaemon::Preview preview = *daemon->CameraPreview(camera);
+  EXPECT_EQ(be32(16), static_cast<std::uint32_t>(preview.image.width()));
+  EXPECT_EQ(be32(20), static_cast<std::uint32_t>(preview.image.height()));
+}
+
 TEST_F(SimulatedDaemonTest, ErrorsNameTheFieldOrThePath) {
   auto daemon = MakeDaemon();
   const auto expect = [&](const ControlResponse& r, int status, const std::string& message) {
@@ -72,7 +111,7 @@ TEST_F(SimulatedDaemonTest, ErrorsNameTheFieldOrThePath) {
          "request body: expected a JSON object such as {\"plan\": \"capture\"}");
   expect(Call(*daemon, "GET", "/v1/jobs/../../etc/passwd"), 404,
          "path \"/v1/jobs/../../etc/passwd\": not an endpoint (GET /v1/rig, GET|POST /v1/jobs, GET /v1/jobs/ID, POST "
-         "/v1/jobs/ID/pause|resume|cancel, GET /v1/events)");
+         "/v1/jobs/ID/pause|resume|cancel|ack, GET /v1/cameras/ID/preview.png, GET /v1/events)");
   expect(Call(*daemon, "GET", "/v1/jobs/..%2F..%2Fetc"), 404,
          "job id \"..%2F..%2Fetc\": expected \"job-\" and six digits");
   expect(Call(*daemon, "GET", "/v1/jobs/job-000042"), 404, "no job \"job-000042\"");
@@ -95,9 +134,13 @@ ControlRequest HostileRequest(int kind, std::mt19937& rng) {
     case 2: return {"POST", "/v1/jobs", "", R"({"plan": "capture", "path": "../../x"})", false};  // unknown field
     case 3: return {"POST", "/v1/jobs", "", R"({"plan": ")" + std::string(rng() % 5000, 'x') + "\"}", false};
     case 4: return {"GET", "/v1/jobs/" + random_bytes(rng() % 40), "", "", false};
-    case 5: return {"GET", "/" + std::string(rng() % 3000, '.') + "/etc/passwd", "", "", false};
+    case 5:
+      if (rng() % 2 == 0) return {"GET", "/v1/cameras/" + random_bytes(rng() % 40) + "/preview.png", "", "", false};
+      return {"GET", "/" + std::string(rng() % 3000, '.') + "/etc/passwd", "", "", false};
     case 6: return {random_bytes(1 + rng() % 10), "/v1/jobs", "", "", false};  // a method that does not exist
-    case 7: return {"POST", "/v1/jobs/job-00000" + std::to_string(rng() % 10) + "/explode", "", "", false};
+    case 7:  // a command that does not exist, or an acknowledgement nothing asked for
+      return {"POST", "/v1/jobs/job-00000" + std::to_string(rng() % 10) + (rng() % 2 ? "/explode" : "/ack"), "", "",
+              false};
     case 8: return {"GET", "/v1/events", "after=x" + random_bytes(rng() % 30), "", false};
     default: return {"POST", "/v1/jobs", "", R"({"plan": ["capture"], "plan2": null})", false};
   }

@@ -44,10 +44,13 @@ class SimulatedDaemonTest : public ::testing::Test {
     return o;
   }
   std::unique_ptr<CaptureDaemon> MakeDaemon(const fs::path& faults = {},
-                                            std::chrono::milliseconds retry = std::chrono::milliseconds(0)) {
+                                            std::chrono::milliseconds retry = std::chrono::milliseconds(0),
+                                            bool prompt_operator = false) {
     CaptureDaemonOptions o;
     o.state_dir = state_ / "state";
     o.fault_retry_interval = retry;
+    o.prompt_operator = prompt_operator;
+    o.preview_interval = std::chrono::milliseconds(0);  // every frame: the latest is the last one delivered
     return std::make_unique<CaptureDaemon>(std::make_unique<pipelines::SimulatedStation>(StationOptions(faults)), o);
   }
   // Polls until the job is in `state`; fails the test after `seconds`.

@@ -41,6 +41,7 @@ class PatternCamera : public Camera {
  public:
   CameraInfo info() const override { return {"pattern", "test pattern", kWidth, kHeight, kBits, 3}; }
   CameraSettings settings() const override { return settings_; }
+  bool IsConnected() override { return true; }
   void SetExposure(double us) override { settings_.exposure_us = us; }
   void SetGain(double db) override { settings_.gain_db = db; }
   void SetRegion(const CameraRegion& r) override { settings_.region = r; }
