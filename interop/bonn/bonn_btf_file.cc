@@ -541,8 +541,9 @@ void WriteBonnBtfFile(const fs::path& file, const BonnBtfFile& btf, BonnScalar s
   CheckForWriting(btf);
   // With as many texels as direction pairs the counts cannot tell the
   // orientation, and readers (btflib, btf.hh, ReadBonnBtfFile) take U's
-  // rows as directions: write it so. A DFMF matrix is transposed by swapping its
-  // factors; an FMF's is not (its channel index belongs to the texel side).
+  // rows as directions: write it so. A DFMF matrix is transposed by
+  // swapping its factors; an FMF's is not (its channel index belongs to the
+  // texel side).
   if (btf.row_space == BonnRowSpace::kTexels &&
       static_cast<long long>(btf.width) * btf.height == static_cast<long long>(btf.view_count()) * btf.light_count()) {
     if (btf.form == BonnBtfForm::kFmf) {

@@ -50,9 +50,10 @@ const char* ToString(BonnForm form);  // "ubo2003", "fmf", "dfmf"
 // A per_texel factored BTF as a DFMF (direction rows). Throws Error for the paper layout.
 BonnBtfFile BonnDfmfFromFactored(const core::FactoredBtf& btf);
 // The FMF of a full BTF (direction rows): the SVD of the (channel, light,
-// view) x (x, y) matrix by CompressBtf (per_texel, rgb) with `options`' rank
-// or budget, at most min(kMaxBtfRank, W H, 3 Nview Nlight) components. Needs the BTF
-// three times over in memory (the stacked channels).
+// view) x (x, y) matrix by CompressBtf (per_texel, rgb) with `options`'
+// rank or budget, at most min(kMaxBtfRank, W H, 3 Nview Nlight)
+// components. Needs the BTF three times over in memory (the stacked
+// channels).
 BonnBtfFile BonnFmfFromFullBtf(const core::FullBtf& btf, const btf::BtfCompressionOptions& options,
                                btf::BtfCompressionReport* report = nullptr);
 // A Bonn file's direction lists as sampling sets, in the file's order;
