@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "acquisition/capture_plan.h"
@@ -252,7 +253,12 @@ void AddBonnForms(Corpus& corpus) {
   bonn::WriteBonnBtfFile(dir / "tiny.fmf", fmf, bonn::BonnScalar::kHalf);
   const core::FactoredBtf factored = bonn::FactoredFromBonn(bonn::ReadBonnBtfFile(dir / "tiny.fmf"), dir / "tiny.fmf");
   bonn::WriteBonnBtfFile(dir / "tiny.dfmf", bonn::BonnDfmfFromFactored(factored), bonn::BonnScalar::kFloat);
-  for (const char* name : {"tiny.fmf", "tiny.dfmf"}) {
+  // The other orientation (U rows = texels), which the reader also takes.
+  bonn::BonnBtfFile texel_rows = bonn::BonnDfmfFromFactored(factored);
+  texel_rows.row_space = bonn::BonnRowSpace::kTexels;
+  for (auto& f : texel_rows.factors) std::swap(f.u, f.sxv);
+  bonn::WriteBonnBtfFile(dir / "tiny_texel_rows.dfmf", texel_rows, bonn::BonnScalar::kHalf);
+  for (const char* name : {"tiny.fmf", "tiny.dfmf", "tiny_texel_rows.dfmf"}) {
     bonn::FactoredFromBonn(bonn::ReadBonnBtfFile(dir / name), dir / name);
     corpus.AddFile("bonn_btf_file", name, dir / name);
   }

@@ -88,6 +88,11 @@ void ExportBonnFile(const ExportBonnOptions& o, const formats::MaterialManifest&
     report->compression = compression;
   }
   FillBonnMeta(manifest.description, &file);
+  if (file.view_count() != file.light_count()) {
+    spdlog::warn("{}: {} views and {} lights; the Free BTF Library (btf.hh, which btf-extractor uses) reads only "
+                 "files with as many views as lights, btflib reads this one",
+                 o.out.string(), file.view_count(), file.light_count());
+  }
   report->rank = 0;
   for (const auto& f : file.factors) report->rank = std::max(report->rank, f.rank());
   bonn::WriteBonnBtfFile(o.out, file, o.scalar);

@@ -259,21 +259,23 @@ BonnScalar ScalarOf(ByteReader& in, std::uint8_t size, const std::string& field)
 }
 
 // Which way round a matrix of `rows` x `columns` lies; `channels` is 3 for
-// FMF (the channel is part of the row index) and 1 for DFMF.
+// FMF (the channel is part of the row index) and 1 for DFMF. When both fit
+// (width x height = views x lights) it is direction rows: the database's
+// orientation, which btflib's decoders test first.
 BonnRowSpace RowSpaceOf(const ByteReader& in, const BonnBtfFile& btf, std::uint64_t rows, std::uint64_t columns,
                         int channels, const std::string& field) {
   const std::uint64_t texels = static_cast<std::uint64_t>(btf.width) * btf.height;
   const std::uint64_t directions = static_cast<std::uint64_t>(btf.view_count()) * btf.light_count();
-  // Directions first, as btflib's decoders test them first.
   if (rows == channels * directions && columns == texels) return BonnRowSpace::kDirections;
   if (rows == channels * texels && columns == directions) return BonnRowSpace::kTexels;
   const std::string c = channels == 1 ? "" : std::to_string(channels) + " x ";
   throw core::FormatError(in.file(), field,
-                          "expected " + c + "width x height = " + std::to_string(channels * texels) +
-                              " rows and lights x views = " + std::to_string(directions) + " columns, or " + c +
-                              "lights x views = " + std::to_string(channels * directions) +
-                              " rows and width x height = " + std::to_string(texels) + " columns; got " +
-                              std::to_string(rows) + " x " + std::to_string(columns));
+                          "expected " + c + "lights x views = " + std::to_string(channels * directions) +
+                              " rows and width x height = " + std::to_string(texels) +
+                              " columns (the database's orientation), or " + c + "width x height = " +
+                              std::to_string(channels * texels) + " rows and lights x views = " +
+                              std::to_string(directions) + " columns; got " + std::to_string(rows) + " x " +
+                              std::to_string(columns));
 }
 
 BonnFactors ReadFactors(ByteReader& in, BonnScalar scalar, int rank, std::uint64_t rows, std::uint64_t columns,
@@ -538,9 +540,10 @@ void WriteBonnBtfFile(const fs::path& file, const BonnBtfFile& btf, BonnScalar s
   if (scalar == BonnScalar::kDouble) throw core::Error("Bonn BTF: mesocap writes half or float factors, not double");
   CheckForWriting(btf);
   // With as many texels as direction pairs the counts cannot tell the
-  // orientation, and btflib (like ReadBonnBtfFile) takes U's rows as
-  // directions: write it so. A DFMF matrix is transposed by swapping its
-  // factors; an FMF's is not (its channel index belongs to the texel side).
+  // orientation, and readers (btflib, btf.hh, ReadBonnBtfFile) take U's
+  // rows as directions: write it so. A DFMF matrix is transposed by
+  // swapping its factors; an FMF's is not (its channel index belongs to the
+  // texel side).
   if (btf.row_space == BonnRowSpace::kTexels &&
       static_cast<long long>(btf.width) * btf.height == static_cast<long long>(btf.view_count()) * btf.light_count()) {
     if (btf.form == BonnBtfForm::kFmf) {

@@ -3,8 +3,10 @@
 // DFMF ("!DFMF08FCR"), read and written byte for byte as btflib
 // (github.com/cgbonn/btflib, matlab/@btf/private/{read,write}_ubo_{fmf,dfmf}.m,
 // {read,write}_common_header.m, {read,write}_meta_data.m,
-// {read,write}_bidir_sampling.m) reads and writes them. Re-implemented from
-// the layout those readers document; no code taken from there.
+// {read,write}_bidir_sampling.m) reads and writes them and as the Free BTF
+// Library (github.com/zeroeffects/btf, btf.hh: LoadBTF) loads them.
+// Re-implemented from the layout those readers document; no code taken
+// from there.
 //
 // Facts relied on (docs/FORMATS.md "Bonn BTF files" has the full table):
 // - Every number is little-endian (btflib reads with the machine's order on
@@ -32,11 +34,16 @@
 // - DFMF: u32 largest component count, i32 colour model, f32[3] colour mean,
 //   f32[9] colour matrix (row-major), then per colour channel: u8 scalar
 //   size, u32 component count, u32 rows, u32 columns, S, U, SxV as above.
-// - Matrix orientation (btflib's decode_{fmf,dfmf}_{texture,abrdf}): either
-//   U's rows index texels (FMF: channel + 3 * (x + W * y); DFMF: x + W * y,
-//   x fastest, row 0 the first image row) and SxV's rows index directions
-//   (light + Nlight * view), or the other way round; told apart by the
-//   counts, the direction case tested first as btflib does.
+// - Matrix orientation. The database's files (what the Free BTF Library,
+//   github.com/zeroeffects/btf btf.hh, reads for btf-extractor) have U's
+//   rows index directions (DFMF: light + Nlight * view; FMF: channel + 3 *
+//   (light + Nlight * view)) and SxV's rows texels (x + W * y, x fastest,
+//   row 0 the first image row). btf.hh requires U's rows = Nlight^2 (x 3
+//   for FMF) and SxV's = W * H, so it reads only files with as many views
+//   as lights, and refuses the other orientation. btflib's
+//   decoders (decode_{fmf,dfmf}_{texture,abrdf}) also take the other way
+//   round (U rows = texels, FMF: channel + 3 * texel), which mesocap wrote
+//   before; the counts tell them apart, direction rows tested first.
 #pragma once
 
 #include <Eigen/Core>
@@ -55,7 +62,8 @@ enum class BonnBtfForm { kFmf, kDfmf };
 // 8 double (read only).
 enum class BonnScalar : int { kHalf = 2, kFloat = 4, kDouble = 8 };
 
-// What U's rows index; SxV's rows index the other.
+// What U's rows index; SxV's rows index the other. kDirections is the
+// database's orientation.
 enum class BonnRowSpace { kTexels, kDirections };
 
 // DFMF colour models (btflib's undecorrelate.m). mesocap reads the linear ones.
@@ -111,7 +119,7 @@ struct BonnBtfFile {
   Eigen::Vector3f color_mean = Eigen::Vector3f::Zero();
   Eigen::Matrix3f color_matrix = Eigen::Matrix3f::Identity();
   // FMF: one entry (channels inside the matrix); DFMF: one per channel.
-  BonnRowSpace row_space = BonnRowSpace::kTexels;
+  BonnRowSpace row_space = BonnRowSpace::kDirections;
   std::vector<BonnFactors> factors;
   BonnScalar scalar = BonnScalar::kHalf;  // as read (the first channel's, for DFMF)
 
@@ -122,10 +130,13 @@ struct BonnBtfFile {
 // Reads and validates a whole file: signature, every count against the
 // others and against the file's size before anything is allocated, the
 // meta block's size, the matrix sizes against width, height and the
-// direction counts, and no bytes past the end of the data. Accepts the
-// signatures btflib does for FMF ("!FMF12FCER", "!FMF06FCR", "!FMF06FC") and
-// DFMF ("!DFMF08FCR"). Only 3 colour channels (RGB) are accepted. Throws
-// FormatError naming the file, the field and what was expected.
+// direction counts (either orientation; when width x height equals views x
+// lights the counts cannot tell, and U's rows are taken as directions, the
+// database's orientation and what every mesocap export writes then), and no
+// bytes past the end of the data. Accepts the signatures btflib does for FMF
+// ("!FMF12FCER", "!FMF06FCR", "!FMF06FC") and DFMF ("!DFMF08FCR"). Only 3
+// colour channels (RGB) are accepted. Throws FormatError naming the file,
+// the field and what was expected.
 BonnBtfFile ReadBonnBtfFile(const std::filesystem::path& file);
 
 // Whether `file` is a regular file that starts with the signature of one of
@@ -133,11 +144,12 @@ BonnBtfFile ReadBonnBtfFile(const std::filesystem::path& file);
 bool IsBonnBtfFile(const std::filesystem::path& file);
 
 // Writes "!FMF12FCER" (header version 2, no height map) or "!DFMF08FCR" with
-// meta version 4 and no rotations, atomically. Throws Error on inconsistent
-// sizes or when a value does not fit `scalar` (half: |v| <= 65504). When
-// width x height equals views x lights the counts cannot tell the matrix
-// orientation and readers assume direction rows: a texel-rows DFMF is then
-// written transposed (U and SxV swapped), a texel-rows FMF refused.
+// meta version 4 and no rotations, atomically, in the orientation
+// `btf.row_space` gives (mesocap's exports build the database's). Throws
+// Error on inconsistent sizes or when a value does not fit `scalar` (half:
+// |v| <= 65504). When width x height equals views x lights readers take
+// U's rows as directions: a texel-rows DFMF is then written transposed (U
+// and SxV swapped), a texel-rows FMF refused.
 void WriteBonnBtfFile(const std::filesystem::path& file, const BonnBtfFile& btf, BonnScalar scalar);
 
 // rgb = to_rgb * f + offset for the decorrelated channels f of a linear

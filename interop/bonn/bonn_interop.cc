@@ -13,15 +13,15 @@ namespace {
 // btflib's restore_dynamic_range.m: the stored values are log(value + eps).
 constexpr double kDynamicRangeEps = 1e-5;
 
-// Splits r c^T into U = r / |r| (unit left vector, what btflib calls U),
-// SxV = c |r|, S = |r| |c|: the same product, with U well inside the half
-// range whatever the texture size.
-void PutComponent(const Eigen::VectorXd& r, const Eigen::VectorXd& c, int k, BonnFactors* f) {
-  const double rn = r.norm();
-  f->singular_values[k] = static_cast<float>(rn * c.norm());
-  if (rn > 0.0) {
-    f->u.col(k) = (r / rn).cast<float>();
-    f->sxv.col(k) = (c * rn).cast<float>();
+// Splits the term a b^T (a: U's side, b: SxV's side) into U = a / |a| (a
+// unit vector, what btflib calls U), SxV = b |a|, S = |a| |b|: the same
+// product, with U well inside the half range whatever the sizes.
+void PutComponent(const Eigen::VectorXd& a, const Eigen::VectorXd& b, int k, BonnFactors* f) {
+  const double an = a.norm();
+  f->singular_values[k] = static_cast<float>(an * b.norm());
+  if (an > 0.0) {
+    f->u.col(k) = (a / an).cast<float>();
+    f->sxv.col(k) = (b * an).cast<float>();
   } else {
     f->u.col(k).setZero();
     f->sxv.col(k).setZero();
@@ -85,6 +85,7 @@ BonnBtfFile BonnDfmfFromFactored(const core::FactoredBtf& btf) {
   }
   BonnBtfFile b;
   b.form = BonnBtfForm::kDfmf;
+  b.row_space = BonnRowSpace::kDirections;
   b.width = btf.width;
   b.height = btf.height;
   for (int v = 0; v < btf.view_count(); ++v) b.views.push_back(BonnFromAngles(btf.views.angles(v)));
@@ -97,14 +98,14 @@ BonnBtfFile BonnDfmfFromFactored(const core::FactoredBtf& btf) {
   const int texels = btf.width * btf.height;
   const int nl = btf.light_count(), nv = btf.view_count();
   for (int c = 0; c < 3; ++c) {
-    BonnFactors f = MakeFactors(texels, nl * nv, btf.rank());
+    BonnFactors f = MakeFactors(nl * nv, texels, btf.rank());
     for (int k = 0; k < btf.rank(); ++k) {
       Eigen::VectorXd r(texels), col(nl * nv);
       for (int y = 0; y < btf.height; ++y)
         for (int x = 0; x < btf.width; ++x) r[x + btf.width * y] = btf.rows[k].at(x, y, c);
       // mesocap column view * Nlight + light is btflib's light + Nlight * view.
       for (int j = 0; j < nl * nv; ++j) col[j] = btf.columns.at(j, k, c);
-      PutComponent(r, col, k, &f);
+      PutComponent(col, r, k, &f);
     }
     b.factors.push_back(std::move(f));
   }
@@ -114,17 +115,21 @@ BonnBtfFile BonnDfmfFromFactored(const core::FactoredBtf& btf) {
 BonnBtfFile BonnFmfFromFullBtf(const core::FullBtf& btf, const btf::BtfCompressionOptions& options,
                                btf::BtfCompressionReport* report) {
   const int w = btf.width, h = btf.height, nl = btf.light_count(), nv = btf.view_count();
-  // The FMF matrix has rows (channel, x, y): stack the channels along y in
-  // channel 0 of a BTF three times as tall, so that CompressBtf's per_texel
-  // SVD of channel 0 is the SVD of that matrix (channels 1 and 2 stay zero,
-  // which CompressBtf factors as zero).
-  core::FullBtf stacked = core::MakeFullBtf(w, 3 * h, btf.views, btf.lights);
+  // The database's FMF factors one matrix with rows (channel, light, view),
+  // channel fastest, and columns (x, y); its SVD is that of the transpose,
+  // texels x (channel, light, view). CompressBtf's per_texel layout factors
+  // texels x (view, light) per channel: put channel c of light l at light
+  // 3 l + c (channel 0) of a BTF with 3 Nlight lights, and its column
+  // view * 3 Nlight + 3 l + c is the FMF row c + 3 (l + Nlight view).
+  // Channels 1 and 2 stay zero, which CompressBtf factors as zero; the
+  // stand-in light set only carries the count.
+  core::FullBtf stacked = core::MakeFullBtf(w, h, btf.views, core::SamplingSet::RegularGrid(3 * nl, 1));
   for (int v = 0; v < nv; ++v)
     for (int l = 0; l < nl; ++l)
       for (int c = 0; c < 3; ++c)
         for (int y = 0; y < h; ++y)
           for (int x = 0; x < w; ++x)
-            stacked.view_images[v].pixel(x, l * 3 * h + c * h + y)[0] = btf.view_images[v].pixel(x, l * h + y)[c];
+            stacked.view_images[v].pixel(x, (3 * l + c) * h + y)[0] = btf.view_images[v].pixel(x, l * h + y)[c];
   btf::BtfCompressionOptions o = options;
   o.layout = core::BtfFactorLayout::kPerTexel;
   o.color = core::BtfFactorColor::kRgb;
@@ -133,18 +138,18 @@ BonnBtfFile BonnFmfFromFullBtf(const core::FullBtf& btf, const btf::BtfCompressi
 
   BonnBtfFile b;
   b.form = BonnBtfForm::kFmf;
+  b.row_space = BonnRowSpace::kDirections;
   b.width = w;
   b.height = h;
   for (int v = 0; v < nv; ++v) b.views.push_back(BonnFromAngles(btf.views.angles(v)));
   for (int l = 0; l < nl; ++l) b.lights.push_back(BonnFromAngles(btf.lights.angles(l)));
-  BonnFactors f = MakeFactors(3 * w * h, nl * nv, factored.rank());
+  BonnFactors f = MakeFactors(3 * nl * nv, w * h, factored.rank());
   for (int k = 0; k < factored.rank(); ++k) {
-    Eigen::VectorXd r(3 * w * h), col(nl * nv);
-    for (int c = 0; c < 3; ++c)
-      for (int y = 0; y < h; ++y)
-        for (int x = 0; x < w; ++x) r[c + 3 * (x + w * y)] = factored.rows[k].at(x, c * h + y, 0);
-    for (int j = 0; j < nl * nv; ++j) col[j] = factored.columns.at(j, k, 0);
-    PutComponent(r, col, k, &f);
+    Eigen::VectorXd r(w * h), col(3 * nl * nv);
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) r[x + w * y] = factored.rows[k].at(x, y, 0);
+    for (int j = 0; j < 3 * nl * nv; ++j) col[j] = factored.columns.at(j, k, 0);
+    PutComponent(col, r, k, &f);
   }
   b.factors.push_back(std::move(f));
   return b;

@@ -13,15 +13,20 @@
 //   decodes (after undoing the colour model, the dynamic-range reduction and,
 //   when the cosine flag is set, dividing by cos theta_light). The RGB scale
 //   factor of the meta data is not applied, as btflib does not apply it.
+// - Both files are written in the database's orientation (U's rows
+//   directions, SxV's rows texels: bonn_btf_file.h); both orientations are
+//   read.
 // - DFMF is the per-channel SVD of mesocap's per_texel layout (rows x, y;
 //   columns view x light, column view * Nlight + light = btflib's
 //   light + Nlight * view): a per_texel factored BTF is written as it is,
-//   r_k = sigma_k u_k split into U = r_k / |r_k| and SxV = c_k |r_k|. The
-//   colour channels are RGB (model 0) or, for mesocap's decorrelated
-//   channels f = M rgb, the PCA model 3 with matrix (M^-1)^T and mean 0.
-// - FMF factors one matrix whose rows are (channel, x, y): written from the
-//   SVD (btf/btf_compression.h) of that matrix, read as a per_texel
-//   factored BTF whose column factors are the same for the 3 channels.
+//   r_k c_k^T split into U = c_k / |c_k| and SxV = r_k |c_k|. The colour
+//   channels are RGB (model 0) or, for mesocap's decorrelated channels
+//   f = M rgb, the PCA model 3 with matrix (M^-1)^T and mean 0.
+// - FMF factors one matrix whose rows are (channel, light, view) and
+//   columns (x, y): written from the SVD (btf/btf_compression.h) of that
+//   matrix, read as a per_texel factored BTF whose row factors (textures)
+//   are the same for the 3 channels (or, for a file with texel rows
+//   (channel, x, y), whose column factors are).
 // - Importing a factored file as mesocap's factored BTF is exact (up to
 //   float rounding); a PCA mean becomes one extra component. Nonlinear
 //   decodes (dynamic-range reduction, logarithmic colour models) can only
@@ -42,11 +47,13 @@ namespace mesocap::bonn {
 enum class BonnForm { kUbo2003, kFmf, kDfmf };
 const char* ToString(BonnForm form);  // "ubo2003", "fmf", "dfmf"
 
-// A per_texel factored BTF as a DFMF (texel rows). Throws Error for the paper layout.
+// A per_texel factored BTF as a DFMF (direction rows). Throws Error for the paper layout.
 BonnBtfFile BonnDfmfFromFactored(const core::FactoredBtf& btf);
-// The FMF of a full BTF: the SVD of the (channel, x, y) x (view, light)
-// matrix by CompressBtf (per_texel, rgb) with `options`' rank or budget.
-// Needs the BTF three times over in memory (the stacked channels).
+// The FMF of a full BTF (direction rows): the SVD of the (channel, light,
+// view) x (x, y) matrix by CompressBtf (per_texel, rgb) with `options`'
+// rank or budget, at most min(kMaxBtfRank, W H, 3 Nview Nlight)
+// components. Needs the BTF three times over in memory (the stacked
+// channels).
 BonnBtfFile BonnFmfFromFullBtf(const core::FullBtf& btf, const btf::BtfCompressionOptions& options,
                                btf::BtfCompressionReport* report = nullptr);
 // A Bonn file's direction lists as sampling sets, in the file's order;

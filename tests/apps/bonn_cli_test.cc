@@ -15,6 +15,7 @@
 #include "formats/material_package.h"
 #include "formats/material_package_reader.h"
 #include "formats/material_package_writer.h"
+#include "interop/bonn/bonn_btf_file.h"
 #include "tests/common/mesocap_command.h"
 #include "tests/common/temporary_directory.h"
 
@@ -60,6 +61,10 @@ TEST(BonnCli, RoundTripsThroughDfmfAndImages) {
   CommandResult r = Mesocap("export bonn --in " + in + " --out " + (dir / "a.btf").string() +
                             " --form dfmf --rank 24 --scalar float");
   ASSERT_EQ(r.exit_code, 0) << r.err;
+  // The database's orientation: U's rows are the 8 x 6 direction pairs.
+  const bonn::BonnBtfFile written = bonn::ReadBonnBtfFile(dir / "a.btf");
+  EXPECT_EQ(written.row_space, bonn::BonnRowSpace::kDirections);
+  EXPECT_EQ(written.factors[0].u.rows(), 48);
   r = Mesocap("import bonn --in " + (dir / "a.btf").string() + " --out " + (dir / "back").string() +
               " --d-max-mm 1 --btf both");
   ASSERT_EQ(r.exit_code, 0) << r.err;
@@ -91,6 +96,7 @@ TEST(BonnCli, BadInputFailsWithOneLineAndNoOutput) {
   CommandResult r = Mesocap("export bonn --in " + (dir / "in").string() + " --out " + (dir / "a.btf").string() +
                             " --form fmf --rank 10");
   ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(bonn::ReadBonnBtfFile(dir / "a.btf").factors[0].u.rows(), 3 * 48);
   std::filesystem::resize_file(dir / "a.btf", std::filesystem::file_size(dir / "a.btf") / 2);
   r = Mesocap("import bonn --in " + (dir / "a.btf").string() + " --out " + (dir / "out").string() + " --d-max-mm 1");
   EXPECT_EQ(r.exit_code, 1);

@@ -33,10 +33,12 @@ void Patch(std::string* bytes, std::size_t offset, T value) {
   std::memcpy(bytes->data() + offset, &value, sizeof value);
 }
 
-// A small DFMF (texel rows): 4 x 2 texels, 2 views x 3 lights, ranks 2, 1, 2.
+// A small DFMF in the database's orientation (U rows = 6 directions, SxV
+// rows = 8 texels): 4 x 2 texels, 2 views x 3 lights, ranks 2, 1, 2.
 BonnBtfFile SmallDfmf() {
   BonnBtfFile b;
   b.form = BonnBtfForm::kDfmf;
+  b.row_space = BonnRowSpace::kDirections;
   b.measurement_setup = "test dome";
   b.pixels_per_mm = 4.0f;
   b.xml = "<measurement/>";
@@ -51,8 +53,8 @@ BonnBtfFile SmallDfmf() {
   for (int c = 0; c < 3; ++c) {
     BonnFactors f;
     f.singular_values = Eigen::VectorXf::LinSpaced(ranks[c], 3.0f, 1.0f);
-    f.u = BonnMatrix::Random(8, ranks[c]);
-    f.sxv = BonnMatrix::Random(6, ranks[c]) * 10.0f;
+    f.u = BonnMatrix::Random(6, ranks[c]);
+    f.sxv = BonnMatrix::Random(8, ranks[c]) * 10.0f;
     b.factors.push_back(f);
   }
   return b;
@@ -105,7 +107,7 @@ TEST(BonnBtfFile, FloatRoundTripIsExact) {
   EXPECT_EQ(r.color_model, kBonnColorPca);
   EXPECT_EQ(r.color_mean, b.color_mean);
   EXPECT_EQ(r.color_matrix, b.color_matrix);
-  EXPECT_EQ(r.row_space, BonnRowSpace::kTexels);
+  EXPECT_EQ(r.row_space, BonnRowSpace::kDirections);
   EXPECT_EQ(r.scalar, BonnScalar::kFloat);
   ASSERT_EQ(r.factors.size(), 3u);
   for (int c = 0; c < 3; ++c) {
@@ -118,16 +120,16 @@ TEST(BonnBtfFile, FloatRoundTripIsExact) {
 TEST(BonnBtfFile, HalfRoundTripIsWithinHalfRounding) {
   testing::TemporaryDirectory dir;
   BonnBtfFile b = SmallDfmf();
-  b.form = BonnBtfForm::kFmf;  // one matrix, channels in the rows: 3 * 8 texels x 6 directions
-  b.factors = {BonnFactors{Eigen::VectorXf::Constant(3, 1.0f), BonnMatrix::Random(24, 3) * 0.01f,
-                           BonnMatrix::Random(6, 3) * 300.0f}};
+  b.form = BonnBtfForm::kFmf;  // one matrix, channels in the rows: 3 * 6 directions x 8 texels
+  b.factors = {BonnFactors{Eigen::VectorXf::Constant(3, 1.0f), BonnMatrix::Random(18, 3) * 0.01f,
+                           BonnMatrix::Random(8, 3) * 300.0f}};
   b.dynamic_range_reduction = 0;
   WriteBonnBtfFile(dir / "a.btf", b, BonnScalar::kHalf);
   const BonnBtfFile r = ReadBonnBtfFile(dir / "a.btf");
   EXPECT_EQ(r.form, BonnBtfForm::kFmf);
   EXPECT_EQ(r.signature, "!FMF12FCER");
   EXPECT_EQ(r.scalar, BonnScalar::kHalf);
-  EXPECT_EQ(r.row_space, BonnRowSpace::kTexels);
+  EXPECT_EQ(r.row_space, BonnRowSpace::kDirections);
   // Half keeps 11 significant bits: relative error <= 2^-11 for normal
   // values (|v| >= 2^-14), absolute <= 2^-25 below.
   auto expect_half = [](const BonnMatrix& got, const BonnMatrix& want) {
@@ -142,32 +144,60 @@ TEST(BonnBtfFile, HalfRoundTripIsWithinHalfRounding) {
   expect_half(r.factors[0].sxv, b.factors[0].sxv);
 }
 
-TEST(BonnBtfFile, DirectionRowsAreRecognised) {
+// What mesocap wrote before (and btflib also reads): U rows = texels.
+TEST(BonnBtfFile, TexelRowsAreRead) {
   testing::TemporaryDirectory dir;
   BonnBtfFile b = SmallDfmf();
-  b.row_space = BonnRowSpace::kDirections;
+  b.row_space = BonnRowSpace::kTexels;
   for (auto& f : b.factors) std::swap(f.u, f.sxv);
   WriteBonnBtfFile(dir / "a.btf", b, BonnScalar::kFloat);
-  const BonnBtfFile r = ReadBonnBtfFile(dir / "a.btf");
-  EXPECT_EQ(r.row_space, BonnRowSpace::kDirections);
+  BonnBtfFile r = ReadBonnBtfFile(dir / "a.btf");
+  EXPECT_EQ(r.row_space, BonnRowSpace::kTexels);
   EXPECT_EQ(r.factors[2].u, b.factors[2].u);
+  EXPECT_EQ(r.factors[2].sxv, b.factors[2].sxv);
+  // FMF: U rows channel + 3 * texel.
+  b.form = BonnBtfForm::kFmf;
+  b.factors = {BonnFactors{Eigen::VectorXf::Ones(2), BonnMatrix::Random(24, 2), BonnMatrix::Random(6, 2)}};
+  WriteBonnBtfFile(dir / "b.btf", b, BonnScalar::kFloat);
+  r = ReadBonnBtfFile(dir / "b.btf");
+  EXPECT_EQ(r.row_space, BonnRowSpace::kTexels);
+  EXPECT_EQ(r.factors[0].u, b.factors[0].u);
 }
 
-TEST(BonnBtfFile, AmbiguousCountsAreWrittenAsReadersTakeThem) {
-  // 3 x 2 texels = 2 views x 3 lights: readers take U's rows as directions.
+// Rule: when width x height = views x lights the counts cannot tell, and
+// U's rows are directions (the database's orientation). The writer keeps
+// to it: a texel-rows DFMF is written transposed, a texel-rows FMF refused.
+TEST(BonnBtfFile, AmbiguousCountsAreDirectionRows) {
+  // 3 x 2 texels = 2 views x 3 lights.
   testing::TemporaryDirectory dir;
   BonnBtfFile b = SmallDfmf();
   b.width = 3;
-  for (auto& f : b.factors) f.u.conservativeResize(6, Eigen::NoChange);
+  for (auto& f : b.factors) f.sxv.conservativeResize(6, Eigen::NoChange);
   WriteBonnBtfFile(dir / "a.btf", b, BonnScalar::kFloat);
-  const BonnBtfFile r = ReadBonnBtfFile(dir / "a.btf");
+  BonnBtfFile r = ReadBonnBtfFile(dir / "a.btf");
   EXPECT_EQ(r.row_space, BonnRowSpace::kDirections);
-  EXPECT_EQ(r.factors[1].sxv, b.factors[1].u);  // the texel side, now SxV
-  EXPECT_EQ(r.factors[1].u, b.factors[1].sxv);
-  b.form = BonnBtfForm::kFmf;
-  b.factors = {BonnFactors{Eigen::VectorXf::Ones(1), BonnMatrix::Random(18, 1), BonnMatrix::Random(6, 1)}};
-  EXPECT_THROW(WriteBonnBtfFile(dir / "b.btf", b, BonnScalar::kFloat), core::Error);
-  EXPECT_FALSE(std::filesystem::exists(dir / "b.btf"));
+  EXPECT_EQ(r.factors[1].u, b.factors[1].u);
+  EXPECT_EQ(r.factors[1].sxv, b.factors[1].sxv);
+
+  BonnBtfFile texel_rows = b;
+  texel_rows.row_space = BonnRowSpace::kTexels;
+  for (auto& f : texel_rows.factors) std::swap(f.u, f.sxv);
+  WriteBonnBtfFile(dir / "b.btf", texel_rows, BonnScalar::kFloat);
+  r = ReadBonnBtfFile(dir / "b.btf");
+  EXPECT_EQ(r.row_space, BonnRowSpace::kDirections);
+  EXPECT_EQ(r.factors[1].sxv, texel_rows.factors[1].u);  // the texel side, now SxV
+  EXPECT_EQ(r.factors[1].u, texel_rows.factors[1].sxv);
+
+  texel_rows.form = BonnBtfForm::kFmf;
+  texel_rows.factors = {BonnFactors{Eigen::VectorXf::Ones(1), BonnMatrix::Random(18, 1), BonnMatrix::Random(6, 1)}};
+  EXPECT_THROW(WriteBonnBtfFile(dir / "c.btf", texel_rows, BonnScalar::kFloat), core::Error);
+  EXPECT_FALSE(std::filesystem::exists(dir / "c.btf"));
+  // The same FMF with direction rows is written and read as it is.
+  texel_rows.row_space = BonnRowSpace::kDirections;
+  WriteBonnBtfFile(dir / "c.btf", texel_rows, BonnScalar::kFloat);
+  r = ReadBonnBtfFile(dir / "c.btf");
+  EXPECT_EQ(r.row_space, BonnRowSpace::kDirections);
+  EXPECT_EQ(r.factors[0].u, texel_rows.factors[0].u);
 }
 
 TEST(BonnBtfFile, HalfOverflowIsRefusedAndNothingWritten) {
@@ -229,10 +259,34 @@ TEST(BonnBtfFile, BadFilesNameTheFieldAndWhatWasExpected) {
   Spit(bad, s);
   ExpectBad(bad, "views[0].theta", "[0, pi/2)");
 
+  // Matrix sizes that fit neither orientation: the rows, the columns, both
+  // swapped against each other but with a wrong count.
   s = good;
   Patch<std::uint32_t>(&s, channel0 + 1 + 4, 7);  // channel 0's row count
   Spit(bad, s);
-  ExpectBad(bad, "channels[0].rows", "expected width x height = 8 rows");
+  ExpectBad(bad, "channels[0].rows",
+            "expected lights x views = 6 rows and width x height = 8 columns (the database's orientation), or "
+            "width x height = 8 rows and lights x views = 6 columns; got 7 x 8");
+  s = good;
+  Patch<std::uint32_t>(&s, channel0 + 1 + 8, 9);  // channel 0's column count
+  Spit(bad, s);
+  ExpectBad(bad, "channels[0].rows", "got 6 x 9");
+  s = good;
+  Patch<std::uint32_t>(&s, channel0 + 1 + 4, 8);
+  Patch<std::uint32_t>(&s, channel0 + 1 + 8, 8);
+  Spit(bad, s);
+  ExpectBad(bad, "channels[0].rows", "got 8 x 8");
+
+  // FMF: the channel is part of U's row count. Its rows follow the version
+  // byte, the method, the height-map size and K, scalar size, K.
+  BonnBtfFile fmf = SmallDfmf();
+  fmf.form = BonnBtfForm::kFmf;
+  fmf.factors = {BonnFactors{Eigen::VectorXf::Ones(1), BonnMatrix::Random(18, 1), BonnMatrix::Random(8, 1)}};
+  WriteBonnBtfFile(dir / "good.fmf", fmf, BonnScalar::kHalf);
+  s = Slurp(dir / "good.fmf");
+  Patch<std::uint32_t>(&s, after_header + 1 + 4 + 8 + 4 + 1 + 4, 6);
+  Spit(bad, s);
+  ExpectBad(bad, "rows", "expected 3 x lights x views = 18 rows and width x height = 8 columns");
 
   s = good;
   Patch<std::uint8_t>(&s, channel0, 3);  // scalar size
@@ -285,7 +339,7 @@ TEST(BonnBtfFile, OlderFmfSignaturesAreRead) {
   testing::TemporaryDirectory dir;
   BonnBtfFile b = SmallDfmf();
   b.form = BonnBtfForm::kFmf;
-  b.factors = {BonnFactors{Eigen::VectorXf::Ones(1), BonnMatrix::Random(24, 1), BonnMatrix::Random(6, 1)}};
+  b.factors = {BonnFactors{Eigen::VectorXf::Ones(1), BonnMatrix::Random(18, 1), BonnMatrix::Random(8, 1)}};
   WriteBonnBtfFile(dir / "a.btf", b, BonnScalar::kFloat);
   std::string s = Slurp(dir / "a.btf");
   std::uint32_t meta_size;

@@ -62,13 +62,17 @@ double WorstRatio(const core::FullBtf& want, const std::function<core::Image(int
   return worst;
 }
 
-// sum_k |U| |SxV| of one value of a texel-rows Bonn file: what bounds the
-// rounding of its factors.
+// sum_k |U| |SxV| of one value of a Bonn file (either orientation): what
+// bounds the rounding of its factors.
 inline double TermSum(const bonn::BonnBtfFile& b, int x, int y, int v, int l, int c) {
   const int t = x + b.width * y, j = l + b.light_count() * v;
-  const bonn::BonnFactors& f = b.factors[b.form == bonn::BonnBtfForm::kFmf ? 0 : c];
-  const int row = b.form == bonn::BonnBtfForm::kFmf ? c + 3 * t : t;
-  return (f.u.row(row).cwiseAbs().array() * f.sxv.row(j).cwiseAbs().array()).sum();
+  const bool fmf = b.form == bonn::BonnBtfForm::kFmf;
+  const bonn::BonnFactors& f = b.factors[fmf ? 0 : c];
+  const bool texel_rows = b.row_space == bonn::BonnRowSpace::kTexels;
+  // The FMF's channel is part of U's row index, channel fastest.
+  const int u_row = (fmf ? 3 : 1) * (texel_rows ? t : j) + (fmf ? c : 0);
+  const int sxv_row = texel_rows ? j : t;
+  return (f.u.row(u_row).cwiseAbs().array() * f.sxv.row(sxv_row).cwiseAbs().array()).sum();
 }
 
 }  // namespace mesocap::testing
