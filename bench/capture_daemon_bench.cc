@@ -19,7 +19,9 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
+#include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -45,14 +47,23 @@ using Clock = std::chrono::steady_clock;
 
 constexpr const char* kOnePosition = "-one-position";
 
+enum class Mode { kDirect, kDaemon, kPollingFlatOut, kPollingAtRate };
+// The daemon's modes by their flag names. The station alone always runs:
+// its first run records the reference session, and it is what the others
+// are measured against.
+const std::map<std::string, Mode> kDaemonModes = {
+    {"daemon", Mode::kDaemon}, {"flat-out", Mode::kPollingFlatOut}, {"at-rate", Mode::kPollingAtRate}};
+
 struct BenchOptions {
   // A shipped rig, whole ("tiny") or cut to one turntable angle, one arc
   // angle and one laser location ("small-one-position").
-  std::vector<std::string> rigs = {"tiny", "small-one-position"};
+  std::vector<std::string> rigs = {"tiny"};
+  std::vector<std::string> modes = {"daemon", "flat-out", "at-rate"};
   int runs = 3;
   int clients = 4;
   double poll_hz = 20;  // the polling mode "at a rate"; the other polls flat out
   std::uint64_t seed = 7;
+  int samples_per_pixel_side = 3;  // the simulated cameras' rays per pixel side
   fs::path json_out;
 
   std::string Check() const {
@@ -65,15 +76,16 @@ struct BenchOptions {
         return "--rig " + rig + ": expected tiny, small or paper, whole or cut (e.g. small-one-position)";
       }
     }
+    for (const std::string& mode : modes) {
+      if (!kDaemonModes.count(mode)) return "--modes " + mode + ": expected daemon, flat-out or at-rate";
+    }
+    if (samples_per_pixel_side < 1 || samples_per_pixel_side > 16) return "--samples-per-pixel-side must be 1..16";
     if (runs < 1) return "--runs must be at least 1";
     if (clients < 1 || clients > 32) return "--clients must be 1..32 (the server takes 64 connections)";
     if (!(poll_hz > 0 && poll_hz <= 1000)) return "--poll-hz must be in (0, 1000]";
     return {};
   }
 };
-
-enum class Mode { kDirect, kDaemon, kPollingFlatOut, kPollingAtRate };
-constexpr Mode kModes[] = {Mode::kDirect, Mode::kDaemon, Mode::kPollingFlatOut, Mode::kPollingAtRate};
 
 std::string ModeName(Mode mode, const BenchOptions& o) {
   switch (mode) {
@@ -251,7 +263,8 @@ json RunJson(const RunResult& r) {
 // the runs' paired ratios: run i of a mode against run i alone, which ran
 // next to it), the process's CPU, and the latency of every request of every
 // run together.
-json Summarize(const std::string& rig, const std::vector<std::vector<RunResult>>& results, const BenchOptions& o) {
+json Summarize(const std::string& rig, const std::vector<Mode>& modes, const std::vector<std::vector<RunResult>>& results,
+               const BenchOptions& o) {
   const auto fps = [](const RunResult& r) { return r.frames / r.wall_s; };
   std::vector<double> direct_fps;
   for (const RunResult& r : results[0]) direct_fps.push_back(fps(r));
@@ -259,7 +272,7 @@ json Summarize(const std::string& rig, const std::vector<std::vector<RunResult>>
   std::printf("\n%s (frames a session: %llu)\n", rig.c_str(), static_cast<unsigned long long>(results[0][0].frames));
   std::printf("| mode | median s | frames/s median (min-max) | ratio to alone (paired) | CPU cores busy | requests "
               "| latency ms p50 / p99 / max | failed | sessions equal |\n|---|---|---|---|---|---|---|---|---|\n");
-  json modes = json::array();
+  json figures = json::array();
   for (std::size_t m = 0; m < results.size(); ++m) {
     std::vector<double> wall, rate, paired, busy, latencies;
     std::uint64_t failed = 0;
@@ -279,7 +292,7 @@ json Summarize(const std::string& rig, const std::vector<std::vector<RunResult>>
     std::sort(latencies.begin(), latencies.end());
     const double ratio = Median(rate) / direct;
     const double paired_ratio = Median(paired);
-    const std::string name = ModeName(kModes[m], o);
+    const std::string name = ModeName(modes[m], o);
     std::printf("| %s | %.2f | %.1f (%.1f-%.1f) | %.3f (%.3f) | %.2f | ", name.c_str(), Median(wall), Median(rate),
                 *std::min_element(rate.begin(), rate.end()), *std::max_element(rate.begin(), rate.end()), ratio,
                 paired_ratio, Median(busy));
@@ -306,44 +319,53 @@ json Summarize(const std::string& rig, const std::vector<std::vector<RunResult>>
                             {"p99", Percentile(latencies, 0.99)},
                             {"max", latencies.back()}};
     }
-    modes.push_back(mode);
+    figures.push_back(mode);
   }
   std::fflush(stdout);
-  return {{"rig", rig}, {"frames_per_session", results[0][0].frames}, {"modes", modes}};
+  return {{"rig", rig}, {"frames_per_session", results[0][0].frames}, {"modes", figures}};
 }
 
 int Run(const BenchOptions& o) {
   curl_global_init(CURL_GLOBAL_DEFAULT);  // before any client thread: it is not thread-safe
   const unsigned cores = std::thread::hardware_concurrency();
   std::printf("machine: %s, %u cores; load average at start %s\n", CpuModel().c_str(), cores, LoadAverage().c_str());
-  std::printf("%d runs a mode, modes interleaved; %d clients; times are submission (or OpenSession) to done\n\n",
-              o.runs, o.clients);
+  std::printf("%d runs a mode, modes interleaved; %d clients; seed %llu; %d x %d rays a pixel; times are submission "
+              "(or OpenSession) to done\n\n",
+              o.runs, o.clients, static_cast<unsigned long long>(o.seed), o.samples_per_pixel_side,
+              o.samples_per_pixel_side);
   json out = {{"machine", {{"cpu", CpuModel()}, {"cores", cores}, {"load_average_start", LoadAverage()}}},
               {"runs", o.runs},
               {"clients", o.clients},
               {"poll_hz", o.poll_hz},
               {"seed", o.seed},
+              {"samples_per_pixel_side", o.samples_per_pixel_side},
               {"rigs", json::array()}};
   acquisition::CaptureRunnerOptions run;
   run.show_progress = false;
   // A frame late on a loaded machine is waited for, not retaken with fresh
   // noise (which would make the session differ from the reference).
   run.frame_timeout = std::chrono::milliseconds(5000);
+  std::vector<Mode> modes = {Mode::kDirect};
+  for (const std::string& mode : o.modes) modes.push_back(kDaemonModes.at(mode));
   bool all_equal = true;
   for (const std::string& rig : o.rigs) {
     testing::TemporaryDirectory dir;
     pipelines::SimulatedStationOptions station;
     station.seed = o.seed;
+    station.samples_per_pixel_side = o.samples_per_pixel_side;
     station.serve_cameras = true;
     station.rig = rig;
     if (rig.ends_with(kOnePosition)) {
       station.rig = testing::WriteRig(dir / "rig.json", testing::OnePositionRig(rig.substr(0, rig.size() - std::strlen(kOnePosition))));
     }
     const fs::path reference = dir / "reference";
-    std::vector<std::vector<RunResult>> results(std::size(kModes));
+    std::vector<std::vector<RunResult>> results(modes.size());
     for (int run_index = 0; run_index < o.runs; ++run_index) {
-      for (std::size_t m = 0; m < std::size(kModes); ++m) {
-        const Mode mode = kModes[m];
+      // Each round starts one mode later, so no mode always runs first
+      // (after the last round's clean-up) or last.
+      for (std::size_t k = 0; k < modes.size(); ++k) {
+        const std::size_t m = (k + run_index) % modes.size();
+        const Mode mode = modes[m];
         RunResult r;
         if (mode == Mode::kDirect) {
           const fs::path session = run_index == 0 ? reference : dir / "direct";
@@ -369,7 +391,7 @@ int Run(const BenchOptions& o) {
         results[m].push_back(std::move(r));
       }
     }
-    out["rigs"].push_back(Summarize(rig, results, o));
+    out["rigs"].push_back(Summarize(rig, modes, results, o));
   }
   out["machine"]["load_average_end"] = LoadAverage();
   std::printf("load average at the end %s\n", LoadAverage().c_str());
@@ -392,16 +414,25 @@ int main(int argc, char** argv) {
   app.add_option("--rig", o.rigs, "tiny, small or paper, whole or cut to one position (small-one-position); repeatable")
       ->capture_default_str();
   app.add_option("--runs", o.runs, "runs of each mode (the figure is their median)")->capture_default_str();
+  app.add_option("--modes", o.modes,
+                 "the daemon's modes to run besides the station alone: daemon (no client), flat-out (clients "
+                 "back to back), at-rate (each client at --poll-hz)")
+      ->delimiter(',')
+      ->capture_default_str();
   app.add_option("--clients", o.clients, "polling client threads")->capture_default_str();
   app.add_option("--poll-hz", o.poll_hz, "each client's rate in the at-a-rate mode")->capture_default_str();
   app.add_option("--seed", o.seed, "the simulated sensor's noise seed")->capture_default_str();
+  app.add_option("--samples-per-pixel-side", o.samples_per_pixel_side, "the simulated cameras' rays per pixel side")
+      ->capture_default_str();
+  int verbose = 0;
+  app.add_flag("-v,--verbose", verbose, "the station's and the daemon's log on stderr (-vv for debug)");
   app.add_option("--json", o.json_out, "also write the figures and every run as JSON to this file");
   CLI11_PARSE(app, argc, argv);
   if (const std::string problem = o.Check(); !problem.empty()) {
     std::fprintf(stderr, "mesocap_capture_daemon_bench: %s\n", problem.c_str());
     return 2;
   }
-  mesocap::core::ConfigureLogging(-1);
+  mesocap::core::ConfigureLogging(verbose - 1);
   try {
     return mesocap::Run(o);
   } catch (const std::exception& e) {
