@@ -6,9 +6,10 @@
 // GET /v1/jobs/ID and GET /v1/rig on the Unix socket, as fast as they can
 // and at a UI's rate, with each request's latency. Modes are interleaved run
 // by run, so a machine that slows down slows every mode. Every session is
-// compared with the first direct one (files equal but for times): a fast but
-// wrong run shows. Served cameras take port 3956 of 127.0.0.N, so run it in a
-// network namespace of its own:
+// compared with a reference session of the station alone, recorded before
+// the timed runs (files equal but for times): a fast but wrong run shows.
+// Served cameras take port 3956 of 127.0.0.N, so run it in a network
+// namespace of its own:
 //   scripts/in-network-namespace.sh build/release/bench/mesocap_capture_daemon_bench --json out.json
 #include <curl/curl.h>
 #include <sys/resource.h>
@@ -109,6 +110,7 @@ struct RunResult {
   std::uint64_t failed_requests = 0;
   std::string last_request_error;
   std::string differences;  // files unlike the reference session's; empty when equal
+  std::string failure;      // why the session did not complete; empty when it did
 };
 
 double CpuSeconds() {
@@ -251,6 +253,7 @@ std::string LoadAverage() {
 }
 
 json RunJson(const RunResult& r) {
+  if (!r.failure.empty()) return {{"failure", r.failure}};
   return {{"wall_s", r.wall_s},         {"cpu_s", r.cpu_s},       {"frames", r.frames},
           {"frames_per_s", r.frames / r.wall_s},                  {"dropped_frames", r.dropped},
           {"retries", r.retries},       {"requests", r.latencies_ms.size()},
@@ -258,52 +261,63 @@ json RunJson(const RunResult& r) {
           {"session_equal", r.differences.empty()},               {"differences", r.differences}};
 }
 
-// Prints the rig's table and returns its figures: per mode the median
-// frames/s, its ratio to the station alone (of the medians, and the median of
-// the runs' paired ratios: run i of a mode against run i alone, which ran
-// next to it), the process's CPU, and the latency of every request of every
-// run together.
-json Summarize(const std::string& rig, const std::vector<Mode>& modes, const std::vector<std::vector<RunResult>>& results,
-               const BenchOptions& o) {
+// Prints the rig's table and returns its figures: per mode, over its
+// completed sessions, the median frames/s, its ratio to the station alone
+// (of the medians, and the median of the rounds' paired ratios: round i of a
+// mode against round i alone, which ran next to it), the process's CPU, and
+// the latency of every request of every run together; and how many sessions
+// failed (a device stopped the capture).
+json Summarize(const std::string& rig, std::uint64_t frames, const std::vector<Mode>& modes,
+               const std::vector<std::vector<RunResult>>& results, const BenchOptions& o) {
   const auto fps = [](const RunResult& r) { return r.frames / r.wall_s; };
   std::vector<double> direct_fps;
-  for (const RunResult& r : results[0]) direct_fps.push_back(fps(r));
-  const double direct = Median(direct_fps);
-  std::printf("\n%s (frames a session: %llu)\n", rig.c_str(), static_cast<unsigned long long>(results[0][0].frames));
-  std::printf("| mode | median s | frames/s median (min-max) | ratio to alone (paired) | CPU cores busy | requests "
-              "| latency ms p50 / p99 / max | failed | sessions equal |\n|---|---|---|---|---|---|---|---|---|\n");
+  for (const RunResult& r : results[0]) {
+    if (r.failure.empty()) direct_fps.push_back(fps(r));
+  }
+  const double direct = direct_fps.empty() ? NAN : Median(direct_fps);
+  std::printf("\n%s (frames a session: %llu)\n", rig.c_str(), static_cast<unsigned long long>(frames));
+  std::printf("| mode | sessions done | median s | frames/s median (min-max) | ratio to alone (paired) | CPU cores busy "
+              "| requests | latency ms p50 / p99 / max | failed requests | sessions equal |\n"
+              "|---|---|---|---|---|---|---|---|---|---|\n");
   json figures = json::array();
   for (std::size_t m = 0; m < results.size(); ++m) {
     std::vector<double> wall, rate, paired, busy, latencies;
     std::uint64_t failed = 0;
-    int equal = 0;
+    int equal = 0, done = 0;
     json runs = json::array();
     for (std::size_t i = 0; i < results[m].size(); ++i) {
       const RunResult& r = results[m][i];
+      runs.push_back(RunJson(r));
+      if (!r.failure.empty()) continue;
+      ++done;
       wall.push_back(r.wall_s);
       rate.push_back(fps(r));
-      paired.push_back(fps(r) / direct_fps[i]);
+      if (results[0][i].failure.empty()) paired.push_back(fps(r) / fps(results[0][i]));
       busy.push_back(r.cpu_s / r.wall_s);
       latencies.insert(latencies.end(), r.latencies_ms.begin(), r.latencies_ms.end());
       failed += r.failed_requests;
       equal += r.differences.empty() ? 1 : 0;
-      runs.push_back(RunJson(r));
+    }
+    const std::string name = ModeName(modes[m], o);
+    json mode = {{"mode", name}, {"sessions_done", done}, {"sessions_failed", results[m].size() - done}, {"runs", runs}};
+    if (done == 0) {
+      std::printf("| %s | 0/%zu | - | - | - | - | - | - | - | - |\n", name.c_str(), results[m].size());
+      figures.push_back(mode);
+      continue;
     }
     std::sort(latencies.begin(), latencies.end());
     const double ratio = Median(rate) / direct;
-    const double paired_ratio = Median(paired);
-    const std::string name = ModeName(modes[m], o);
-    std::printf("| %s | %.2f | %.1f (%.1f-%.1f) | %.3f (%.3f) | %.2f | ", name.c_str(), Median(wall), Median(rate),
-                *std::min_element(rate.begin(), rate.end()), *std::max_element(rate.begin(), rate.end()), ratio,
-                paired_ratio, Median(busy));
+    const double paired_ratio = paired.empty() ? NAN : Median(paired);
+    std::printf("| %s | %d/%zu | %.2f | %.1f (%.1f-%.1f) | %.3f (%.3f) | %.2f | ", name.c_str(), done, results[m].size(),
+                Median(wall), Median(rate), *std::min_element(rate.begin(), rate.end()),
+                *std::max_element(rate.begin(), rate.end()), ratio, paired_ratio, Median(busy));
     if (latencies.empty()) {
-      std::printf("0 | - | - | %d/%zu |\n", equal, results[m].size());
+      std::printf("0 | - | - | %d/%d |\n", equal, done);
     } else {
-      std::printf("%zu | %.2f / %.2f / %.2f | %llu | %d/%zu |\n", latencies.size(), Percentile(latencies, 0.5),
-                  Percentile(latencies, 0.99), latencies.back(), static_cast<unsigned long long>(failed), equal,
-                  results[m].size());
+      std::printf("%zu | %.2f / %.2f / %.2f | %llu | %d/%d |\n", latencies.size(), Percentile(latencies, 0.5),
+                  Percentile(latencies, 0.99), latencies.back(), static_cast<unsigned long long>(failed), equal, done);
     }
-    json mode = {{"mode", name},
+    mode.update({
                  {"median_wall_s", Median(wall)},
                  {"median_frames_per_s", Median(rate)},
                  {"ratio_to_station_alone", ratio},
@@ -312,8 +326,7 @@ json Summarize(const std::string& rig, const std::vector<Mode>& modes, const std
                  {"median_cpu_cores_busy", Median(busy)},
                  {"requests", latencies.size()},
                  {"failed_requests", failed},
-                 {"sessions_equal", equal},
-                 {"runs", runs}};
+                 {"sessions_equal", equal}});
     if (!latencies.empty()) {
       mode["latency_ms"] = {{"p50", Percentile(latencies, 0.5)},
                             {"p99", Percentile(latencies, 0.99)},
@@ -322,7 +335,7 @@ json Summarize(const std::string& rig, const std::vector<Mode>& modes, const std
     figures.push_back(mode);
   }
   std::fflush(stdout);
-  return {{"rig", rig}, {"frames_per_session", results[0][0].frames}, {"modes", figures}};
+  return {{"rig", rig}, {"frames_per_session", frames}, {"modes", figures}};
 }
 
 int Run(const BenchOptions& o) {
@@ -358,8 +371,12 @@ int Run(const BenchOptions& o) {
     if (rig.ends_with(kOnePosition)) {
       station.rig = testing::WriteRig(dir / "rig.json", testing::OnePositionRig(rig.substr(0, rig.size() - std::strlen(kOnePosition))));
     }
+    // The reference every session is compared with: a run of the station
+    // alone before the timed ones (a device that stops it ends the bench).
     const fs::path reference = dir / "reference";
+    const std::uint64_t frames = RunDirect(station, run, reference).frames;
     std::vector<std::vector<RunResult>> results(modes.size());
+    int failures = 0;
     for (int run_index = 0; run_index < o.runs; ++run_index) {
       // Each round starts one mode later, so no mode always runs first
       // (after the last round's clean-up) or last.
@@ -367,20 +384,32 @@ int Run(const BenchOptions& o) {
         const std::size_t m = (k + run_index) % modes.size();
         const Mode mode = modes[m];
         RunResult r;
-        if (mode == Mode::kDirect) {
-          const fs::path session = run_index == 0 ? reference : dir / "direct";
-          r = RunDirect(station, run, session);
-          if (run_index > 0) {
-            r.differences = testing::Differences(testing::Normalized(session), testing::Normalized(reference));
-            fs::remove_all(session);
+        // A session a device stops (a served camera that sends no frame on a
+        // loaded machine) is counted and shown, and leaves the medians.
+        try {
+          if (mode == Mode::kDirect) {
+            r = RunDirect(station, run, dir / "direct");
+            r.differences = testing::Differences(testing::Normalized(dir / "direct"), testing::Normalized(reference));
+          } else {
+            const Clock::duration period =
+                mode == Mode::kPollingAtRate
+                    ? std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / o.poll_hz))
+                    : Clock::duration::zero();
+            r = RunThroughDaemon(station, run, dir / "state", mode == Mode::kDaemon ? 0 : o.clients, period, reference);
           }
-        } else {
-          const Clock::duration period =
-              mode == Mode::kPollingAtRate
-                  ? std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / o.poll_hz))
-                  : Clock::duration::zero();
-          r = RunThroughDaemon(station, run, dir / "state", mode == Mode::kDaemon ? 0 : o.clients, period, reference);
-          fs::remove_all(dir / "state");
+        } catch (const std::exception& e) {
+          r = RunResult();
+          r.failure = e.what();
+          ++failures;
+        }
+        fs::remove_all(dir / "direct");
+        fs::remove_all(dir / "state");
+        results[m].push_back(r);
+        if (!r.failure.empty()) {
+          std::printf("  %s run %d, %s: FAILED: %s\n", rig.c_str(), run_index + 1, ModeName(mode, o).c_str(),
+                      r.failure.c_str());
+          std::fflush(stdout);
+          continue;
         }
         all_equal = all_equal && r.differences.empty();
         std::printf("  %s run %d, %s: %.2f s, %llu frames, %.1f frames/s, %zu requests%s\n", rig.c_str(),
@@ -388,10 +417,10 @@ int Run(const BenchOptions& o) {
                     r.frames / r.wall_s, r.latencies_ms.size(),
                     r.differences.empty() ? "" : (", SESSION DIFFERS:" + r.differences).c_str());
         std::fflush(stdout);
-        results[m].push_back(std::move(r));
       }
     }
-    out["rigs"].push_back(Summarize(rig, modes, results, o));
+    out["rigs"].push_back(Summarize(rig, frames, modes, results, o));
+    out["rigs"].back()["sessions_failed"] = failures;
   }
   out["machine"]["load_average_end"] = LoadAverage();
   std::printf("load average at the end %s\n", LoadAverage().c_str());
