@@ -50,8 +50,7 @@ constexpr const char* kOnePosition = "-one-position";
 
 enum class Mode { kDirect, kDaemon, kPollingFlatOut, kPollingAtRate };
 // The daemon's modes by their flag names. The station alone always runs:
-// its first run records the reference session, and it is what the others
-// are measured against.
+// it is what the others are measured against.
 const std::map<std::string, Mode> kDaemonModes = {
     {"daemon", Mode::kDaemon}, {"flat-out", Mode::kPollingFlatOut}, {"at-rate", Mode::kPollingAtRate}};
 
@@ -84,6 +83,11 @@ struct BenchOptions {
     if (runs < 1) return "--runs must be at least 1";
     if (clients < 1 || clients > 32) return "--clients must be 1..32 (the server takes 64 connections)";
     if (!(poll_hz > 0 && poll_hz <= 1000)) return "--poll-hz must be in (0, 1000]";
+    // Checked before the runs, not after them.
+    const fs::path json_dir = json_out.has_parent_path() ? json_out.parent_path() : fs::path(".");
+    if (!json_out.empty() && !fs::is_directory(json_dir)) {
+      return "--json " + json_out.string() + ": " + json_dir.string() + " is not a directory";
+    }
     return {};
   }
 };
@@ -276,8 +280,8 @@ json Summarize(const std::string& rig, std::uint64_t frames, const std::vector<M
   }
   const double direct = direct_fps.empty() ? NAN : Median(direct_fps);
   std::printf("\n%s (frames a session: %llu)\n", rig.c_str(), static_cast<unsigned long long>(frames));
-  std::printf("| mode | sessions done | median s | frames/s median (min-max) | ratio to alone (paired) | CPU cores busy "
-              "| requests | latency ms p50 / p99 / max | failed requests | sessions equal |\n"
+  std::printf("| mode | sessions done | median s | frames/s median (min-max) | ratio to alone (paired) "
+              "| CPU cores busy | requests | latency ms p50 / p99 / max | failed requests | sessions equal |\n"
               "|---|---|---|---|---|---|---|---|---|---|\n");
   json figures = json::array();
   for (std::size_t m = 0; m < results.size(); ++m) {
@@ -299,7 +303,8 @@ json Summarize(const std::string& rig, std::uint64_t frames, const std::vector<M
       equal += r.differences.empty() ? 1 : 0;
     }
     const std::string name = ModeName(modes[m], o);
-    json mode = {{"mode", name}, {"sessions_done", done}, {"sessions_failed", results[m].size() - done}, {"runs", runs}};
+    json mode = {
+        {"mode", name}, {"sessions_done", done}, {"sessions_failed", results[m].size() - done}, {"runs", runs}};
     if (done == 0) {
       std::printf("| %s | 0/%zu | - | - | - | - | - | - | - | - |\n", name.c_str(), results[m].size());
       figures.push_back(mode);
@@ -308,8 +313,8 @@ json Summarize(const std::string& rig, std::uint64_t frames, const std::vector<M
     std::sort(latencies.begin(), latencies.end());
     const double ratio = Median(rate) / direct;
     const double paired_ratio = paired.empty() ? NAN : Median(paired);
-    std::printf("| %s | %d/%zu | %.2f | %.1f (%.1f-%.1f) | %.3f (%.3f) | %.2f | ", name.c_str(), done, results[m].size(),
-                Median(wall), Median(rate), *std::min_element(rate.begin(), rate.end()),
+    std::printf("| %s | %d/%zu | %.2f | %.1f (%.1f-%.1f) | %.3f (%.3f) | %.2f | ", name.c_str(), done,
+                results[m].size(), Median(wall), Median(rate), *std::min_element(rate.begin(), rate.end()),
                 *std::max_element(rate.begin(), rate.end()), ratio, paired_ratio, Median(busy));
     if (latencies.empty()) {
       std::printf("0 | - | - | %d/%d |\n", equal, done);
@@ -369,7 +374,8 @@ int Run(const BenchOptions& o) {
     station.serve_cameras = true;
     station.rig = rig;
     if (rig.ends_with(kOnePosition)) {
-      station.rig = testing::WriteRig(dir / "rig.json", testing::OnePositionRig(rig.substr(0, rig.size() - std::strlen(kOnePosition))));
+      const std::string shipped = rig.substr(0, rig.size() - std::strlen(kOnePosition));
+      station.rig = testing::WriteRig(dir / "rig.json", testing::OnePositionRig(shipped));
     }
     // The reference every session is compared with: a run of the station
     // alone before the timed ones (a device that stops it ends the bench).
