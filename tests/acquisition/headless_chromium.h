@@ -100,11 +100,11 @@ class HeadlessChromium {
     return {std::istreambuf_iterator<char>(in), {}};
   }
 
-  // The value of a JavaScript expression in the page (null on an exception
-  // or a closed browser).
+  // The value of a JavaScript expression in the page, a promise's once it
+  // settles (null on an exception or a closed browser).
   nlohmann::json Evaluate(const std::string& expression) {
     const nlohmann::json answer =
-        Call("Runtime.evaluate", {{"expression", expression}, {"returnByValue", true}}, session_);
+        Call("Runtime.evaluate", {{"expression", expression}, {"returnByValue", true}, {"awaitPromise", true}}, session_);
     if (!answer.contains("result") || answer["result"].contains("exceptionDetails")) return nullptr;
     return answer["result"]["result"].value("value", nlohmann::json());
   }

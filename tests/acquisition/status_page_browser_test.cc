@@ -183,6 +183,37 @@ TEST_F(StatusPageBrowserTest, ThePageShowsTheRunningJobsStepsAndFollowsThem) {
   browser.Close();
 }
 
+// Members this daemon does not report yet (a rig's "devices", a job's
+// "operator_prompt", camera previews) as the page shows them when present:
+// its own functions fed such records, in one synchronous evaluation (the
+// next poll would replace what they drew).
+TEST_F(StatusPageBrowserTest, ThePageShowsDeviceStatesPromptsAndPreviewsWhenReported) {
+  testing::HeadlessChromium browser(address_ + "#token=" + kToken);
+  ASSERT_TRUE(browser.attached());
+  browser.EvaluateUntil("document.body.dataset.polls", [](const json& v) { return v.is_string(); });
+  EXPECT_EQ(browser.Evaluate(R"((() => {
+    showDevices([{device: 'camera cam0', kind: 'camera', ok: true, state: 'grabbing'},
+                 {device: 'turntable', kind: 'stage', ok: false, state: 'stalled at 12.5 deg'}]);
+    const items = [...document.querySelectorAll('#devices li')];
+    return items.map((li) => li.firstChild.className + ' ' + li.textContent).join('; ');
+  })())"),
+            "state-ok camera cam0: grabbing; state-bad turntable: stalled at 12.5 deg");
+  EXPECT_EQ(browser.Evaluate(R"((() => {
+    const row = jobRow({id: 'job-000007', plan: 'calibration', state: 'paused', steps_done: 3, steps_total: 9,
+                        eta_s: null, frames: 12, dropped_frames: 0, retries: 1,
+                        pause_reason: 'waiting for the operator', operator_prompt: 'Place the checkerboard', error: ''});
+    return row.querySelector('.prompt').textContent + ' | ' + row.querySelector('.steps').textContent;
+  })())"),
+            "waiting for the operator: Place the checkerboard | 3/9");
+  // A camera without a preview endpoint (or without a frame yet): said so.
+  const json previews = browser.Evaluate(R"((async () => {
+    await showPreviews([{device: 'camera cam0', kind: 'camera', ok: true, state: 'idle'}]);
+    return document.getElementById('previews').textContent;
+  })())");
+  EXPECT_EQ(previews, "cam0no frame yet");
+  browser.Close();
+}
+
 TEST_F(StatusPageBrowserTest, APageWithAWrongTokenSaysItWasRefused) {
   testing::HeadlessChromium browser(address_ + "#token=" + std::string(64, '0'));
   ASSERT_TRUE(browser.attached());
