@@ -153,13 +153,13 @@ ControlResponse TooLarge() {
 std::optional<ControlResponse> RefusedAccess(const ControlRequest& request, std::string_view bearer_token) {
   if (!request.over_tcp) return std::nullopt;  // the Unix socket's mode is its guard
   if (request.method == "GET" && IsStatusPage(request.path)) return std::nullopt;  // holds no data
-  if (!request.authorization) {
+  if (request.authorization.empty()) {
     return Unauthorized("missing Authorization header: expected \"Authorization: Bearer TOKEN\" with the token in "
                         "mesocapd's control.token",
                         false);
   }
   // "Bearer" is case-insensitive (RFC 7235); one or more spaces follow it.
-  std::string_view value = *request.authorization;
+  std::string_view value = request.authorization;
   constexpr std::string_view kScheme = "bearer ";
   bool bearer = value.size() > kScheme.size();
   for (std::size_t i = 0; bearer && i < kScheme.size(); ++i) {

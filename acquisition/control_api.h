@@ -41,7 +41,7 @@ struct ControlRequest {
   std::string body;  // at most kMaxRequestBodyBytes: the server answers 413 to a longer one
   bool body_too_large = false;  // for the server's own use
   bool over_tcp = false;        // came to the loopback TCP listener (else the Unix socket)
-  std::optional<std::string> authorization = std::nullopt;  // the Authorization header, when sent
+  std::string authorization{};  // the Authorization header; empty when none came
 };
 
 struct ControlResponse {

@@ -31,12 +31,12 @@ ControlResponse Call(CaptureDaemon& daemon, const std::string& method, const std
 }
 
 // A request to the loopback TCP listener, with `authorization` as its
-// Authorization header (none when nullopt).
+// Authorization header (none when empty).
 ControlResponse CallOverTcp(CaptureDaemon& daemon, const std::string& method, const std::string& path,
-                            std::optional<std::string> authorization, const std::string& body = "") {
+                            const std::string& authorization, const std::string& body = "") {
   ControlRequest request{method, path, "", body, false};
   request.over_tcp = true;
-  request.authorization = std::move(authorization);
+  request.authorization = authorization;
   return HandleControlRequest(daemon, request, kToken);
 }
 
@@ -121,7 +121,7 @@ TEST_F(SimulatedDaemonTest, OverTcpEveryRequestButTheStatusPageNeedsTheBearerTok
   const std::string wrong = "wrong bearer token: use the one in mesocapd's control.token";
   const std::string plain = "Bearer realm=\"mesocapd\"";
   const std::string invalid = "Bearer realm=\"mesocapd\", error=\"invalid_token\"";
-  expect_refused(CallOverTcp(*daemon, "GET", "/v1/rig", std::nullopt), missing, plain);
+  expect_refused(CallOverTcp(*daemon, "GET", "/v1/rig", ""), missing, plain);
   expect_refused(CallOverTcp(*daemon, "GET", "/v1/rig", "Bearer " + std::string(64, 'b')), wrong, invalid);
   // One digit off, a prefix, the token twice: wrong all the same.
   expect_refused(CallOverTcp(*daemon, "GET", "/v1/rig", "Bearer " + kToken.substr(1) + "b"), wrong, invalid);
@@ -132,7 +132,7 @@ TEST_F(SimulatedDaemonTest, OverTcpEveryRequestButTheStatusPageNeedsTheBearerTok
   expect_refused(CallOverTcp(*daemon, "GET", "/v1/rig", "Bearer "), "Authorization header: expected \"Bearer TOKEN\"",
                  plain);
   // A refused request does nothing: no job, whatever its body.
-  expect_refused(CallOverTcp(*daemon, "POST", "/v1/jobs", std::nullopt, R"({"plan": "capture"})"), missing, plain);
+  expect_refused(CallOverTcp(*daemon, "POST", "/v1/jobs", "", R"({"plan": "capture"})"), missing, plain);
   expect_refused(CallOverTcp(*daemon, "POST", "/v1/jobs", "Bearer x", R"({"plan": "capture"})"), wrong, invalid);
   EXPECT_TRUE(daemon->Jobs().empty());
   // Refused before a body over the limit is looked at.
@@ -159,15 +159,15 @@ TEST_F(SimulatedDaemonTest, OverTcpEveryRequestButTheStatusPageNeedsTheBearerTok
   // The status page's document holds no data: served without a token, by
   // GET only; over the Unix socket nothing needs one.
   for (const char* path : {"/", "/index.html"}) {
-    r = CallOverTcp(*daemon, "GET", path, std::nullopt);
+    r = CallOverTcp(*daemon, "GET", path, "");
     EXPECT_EQ(r.status, 200) << path;
     EXPECT_EQ(r.content_type, "text/html; charset=utf-8");
     EXPECT_EQ(r.body, std::string(StatusPageHtml()));
     EXPECT_NE(r.body.find("<title>mesocapd status</title>"), std::string::npos);
     EXPECT_EQ(HeaderOf(r, "Content-Security-Policy").find("default-src 'none'"), 0u);
   }
-  expect_refused(CallOverTcp(*daemon, "POST", "/", std::nullopt), missing, plain);
-  expect_refused(CallOverTcp(*daemon, "HEAD", "/", std::nullopt), missing, plain);
+  expect_refused(CallOverTcp(*daemon, "POST", "/", ""), missing, plain);
+  expect_refused(CallOverTcp(*daemon, "HEAD", "/", ""), missing, plain);
   EXPECT_EQ(Call(*daemon, "GET", "/v1/rig").status, 200);
   EXPECT_EQ(Call(*daemon, "GET", "/").status, 200);
 }
