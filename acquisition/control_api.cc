@@ -1,11 +1,14 @@
 #include "acquisition/control_api.h"
 
 #include <algorithm>
+#include <cctype>
 #include <charconv>
 #include <nlohmann/json.hpp>
 #include <string_view>
 #include <vector>
 
+#include "acquisition/bearer_token.h"
+#include "acquisition/status_page.h"
 #include "core/error.h"
 #include "core/image_io.h"
 #include "core/json_field_reader.h"
@@ -85,22 +88,31 @@ ControlResponse Preview(const CaptureDaemon& daemon, const std::string& camera_i
   return r;
 }
 
-ControlResponse Events(const ControlRequest& request) {
-  std::uint64_t after = 0;
+// Reads the query's one parameter `name`=N into `value` (left alone when the
+// query is empty); an error response naming the parameter otherwise.
+std::optional<ControlResponse> QueryNumber(const ControlRequest& request, std::string_view name,
+                                           const std::string& expected, std::uint64_t* value) {
   std::string_view query = request.query;
+  const std::string prefix = std::string(name) + "=";
   while (!query.empty()) {
     const std::size_t amp = query.find('&');
     const std::string_view pair = query.substr(0, amp);
     query = amp == std::string_view::npos ? std::string_view() : query.substr(amp + 1);
-    if (pair.substr(0, 6) != "after=") {
-      return Error(400, "query " + core::Quoted(pair) + ": the only parameter is after=N");
+    if (pair.substr(0, prefix.size()) != prefix) {
+      return Error(400, "query " + core::Quoted(pair) + ": the only parameter is " + prefix + "N");
     }
-    const std::string_view value = pair.substr(6);
-    const auto [end, ec] = std::from_chars(value.data(), value.data() + value.size(), after);
-    if (ec != std::errc() || end != value.data() + value.size()) {
-      return Error(400, "query after: expected an event number, got " + core::Quoted(value));
+    const std::string_view text = pair.substr(prefix.size());
+    const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), *value);
+    if (ec != std::errc() || end != text.data() + text.size()) {
+      return Error(400, "query " + std::string(name) + ": expected " + expected + ", got " + core::Quoted(text));
     }
   }
+  return std::nullopt;
+}
+
+ControlResponse Events(const ControlRequest& request) {
+  std::uint64_t after = 0;
+  if (auto error = QueryNumber(request, "after", "an event number", &after)) return *error;
   ControlResponse r;
   r.content_type = "text/event-stream";
   r.event_stream = true;
@@ -108,13 +120,91 @@ ControlResponse Events(const ControlRequest& request) {
   return r;
 }
 
+constexpr std::uint64_t kMaxLogLines = 1000;
+
+ControlResponse LogLines(CaptureDaemon& daemon, const ControlRequest& request) {
+  std::uint64_t lines = 20;
+  const std::string expected = "a number of lines from 1 to " + std::to_string(kMaxLogLines);
+  if (auto error = QueryNumber(request, "lines", expected, &lines)) return *error;
+  if (lines < 1 || lines > kMaxLogLines) {
+    return Error(400, "query lines: expected " + expected + ", got " + std::to_string(lines));
+  }
+  json out = json::array();
+  for (const DaemonEvent& e : daemon.events().Latest(lines, {"log", "fault"})) {
+    json line = {{"number", e.number}, {"type", e.type}, {"message", e.data.value("message", "")}};
+    if (e.data.contains("job")) line["job"] = e.data["job"];
+    out.push_back(std::move(line));
+  }
+  return Json(200, {{"lines", out}, {"last_event", daemon.events().last_number()}});
+}
+
+ControlResponse StatusPage() {
+  ControlResponse r;
+  r.content_type = "text/html; charset=utf-8";
+  r.body = std::string(StatusPageHtml());
+  // Its own inline script and style and requests to this origin only; the
+  // token in the address's fragment is never sent, not even as a referrer.
+  r.headers = {{"Content-Security-Policy",
+                "default-src 'none'; script-src 'unsafe-inline'; style-src 'unsafe-inline'; connect-src 'self'; "
+                "img-src 'self' blob:; base-uri 'none'; form-action 'none'; frame-ancestors 'none'"},
+               {"Referrer-Policy", "no-referrer"},
+               {"X-Content-Type-Options", "nosniff"}};
+  return r;
+}
+
+bool IsStatusPage(std::string_view path) { return path == "/" || path == "/index.html"; }
+
+ControlResponse Unauthorized(const std::string& message, bool wrong_token) {
+  ControlResponse r = Error(401, message);
+  r.headers = {{"WWW-Authenticate",
+                wrong_token ? "Bearer realm=\"mesocapd\", error=\"invalid_token\"" : "Bearer realm=\"mesocapd\""}};
+  return r;
+}
+
+ControlResponse TooLarge() {
+  return Error(413, "request body: more than " + std::to_string(kMaxRequestBodyBytes) + " bytes");
+}
+
 }  // namespace
 
-ControlResponse HandleControlRequest(CaptureDaemon& daemon, const ControlRequest& request) {
+std::optional<ControlResponse> RefusedAccess(const ControlRequest& request, std::string_view bearer_token) {
+  if (!request.over_tcp) return std::nullopt;  // the Unix socket's mode is its guard
+  if (request.method == "GET" && IsStatusPage(request.path)) return std::nullopt;  // holds no data
+  if (request.authorization.empty()) {
+    return Unauthorized("missing Authorization header: expected \"Authorization: Bearer TOKEN\" with the token in "
+                        "mesocapd's control.token",
+                        false);
+  }
+  // "Bearer" is case-insensitive (RFC 7235); one or more spaces follow it.
+  std::string_view value = request.authorization;
+  constexpr std::string_view kScheme = "bearer ";
+  bool bearer = value.size() > kScheme.size();
+  for (std::size_t i = 0; bearer && i < kScheme.size(); ++i) {
+    bearer = std::tolower(static_cast<unsigned char>(value[i])) == kScheme[i];
+  }
+  if (!bearer) return Unauthorized("Authorization header: expected \"Bearer TOKEN\"", false);
+  value.remove_prefix(kScheme.size());
+  while (!value.empty() && value.front() == ' ') value.remove_prefix(1);
+  while (!value.empty() && (value.back() == ' ' || value.back() == '\t')) value.remove_suffix(1);
+  // Without a token of its own the daemon admits nobody over TCP.
+  if (bearer_token.empty() || !BearerTokensEqual(value, bearer_token)) {
+    return Unauthorized("wrong bearer token: use the one in mesocapd's control.token", true);
+  }
+  return std::nullopt;
+}
+
+ControlResponse HandleControlRequest(CaptureDaemon& daemon, const ControlRequest& request,
+                                     std::string_view bearer_token) {
+  if (auto refused = RefusedAccess(request, bearer_token)) return *refused;
+  if (request.body_too_large) return TooLarge();
   const std::string_view path = request.path;
   if (path.empty() || path[0] != '/') return Error(400, "path " + core::Quoted(path) + ": expected one from /v1/");
-  const std::vector<std::string_view> s = Segments(path);
   const bool get = request.method == "GET", post = request.method == "POST";
+  if (IsStatusPage(path)) {
+    if (!get) return MethodNotAllowed(request, "GET");
+    return StatusPage();
+  }
+  const std::vector<std::string_view> s = Segments(path);
   if (s.size() >= 1 && s[0] == "v1") {
     if (s.size() == 2 && s[1] == "rig") {
       if (!get) return MethodNotAllowed(request, "GET");
@@ -135,6 +225,10 @@ ControlResponse HandleControlRequest(CaptureDaemon& daemon, const ControlRequest
     if (s.size() == 2 && s[1] == "events") {
       if (!get) return MethodNotAllowed(request, "GET");
       return Events(request);
+    }
+    if (s.size() == 2 && s[1] == "log") {
+      if (!get) return MethodNotAllowed(request, "GET");
+      return LogLines(daemon, request);
     }
     if (s.size() == 2 && s[1] == "jobs") {
       if (get) {
@@ -172,8 +266,9 @@ ControlResponse HandleControlRequest(CaptureDaemon& daemon, const ControlRequest
     }
   }
   return Error(404, "path " + core::Quoted(path) +
-                        ": not an endpoint (GET /v1/rig, GET|POST /v1/jobs, GET /v1/jobs/ID, POST "
-                        "/v1/jobs/ID/pause|resume|cancel|ack, GET /v1/cameras/ID/preview.png, GET /v1/events)");
+                        ": not an endpoint (GET /, GET /v1/rig, GET|POST /v1/jobs, GET /v1/jobs/ID, POST "
+                        "/v1/jobs/ID/pause|resume|cancel|ack, GET /v1/cameras/ID/preview.png, GET /v1/events, "
+                        "GET /v1/log)");
 }
 
 std::string EventStreamMessage(const DaemonEvent& event) {

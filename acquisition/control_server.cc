@@ -1,6 +1,8 @@
 #include "acquisition/control_server.h"
 
+#include <arpa/inet.h>
 #include <microhttpd.h>
+#include <netinet/in.h>
 #include <spdlog/spdlog.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
@@ -11,6 +13,7 @@
 #include <cstring>
 #include <memory>
 
+#include "acquisition/bearer_token.h"
 #include "acquisition/control_api.h"
 #include "core/error.h"
 
@@ -60,16 +63,10 @@ MHD_Result Respond(MHD_Connection* connection, const ControlResponse& r) {
   if (response == nullptr) return MHD_NO;
   MHD_add_response_header(response, "Content-Type", r.content_type.c_str());
   MHD_add_response_header(response, "Cache-Control", "no-store");
+  for (const auto& [name, value] : r.headers) MHD_add_response_header(response, name.c_str(), value.c_str());
   const MHD_Result result = MHD_queue_response(connection, static_cast<unsigned>(r.status), response);
   MHD_destroy_response(response);
   return result;
-}
-
-ControlResponse TooLarge() {
-  ControlResponse r;
-  r.status = 413;
-  r.body = "{\"error\":\"request body: more than " + std::to_string(kMaxRequestBodyBytes) + " bytes\"}\n";
-  return r;
 }
 
 MHD_Result AddQueryArgument(void* cls, MHD_ValueKind, const char* key, const char* value) {
@@ -82,22 +79,30 @@ MHD_Result AddQueryArgument(void* cls, MHD_ValueKind, const char* key, const cha
 
 MHD_Result HandleConnection(void* cls, MHD_Connection* connection, const char* url, const char* method, const char*,
                             const char* upload_data, std::size_t* upload_data_size, void** con_cls) {
-  auto* server = static_cast<ControlServer*>(cls);
+  const auto* listener = static_cast<ControlServer::Listener*>(cls);
+  ControlServer* server = listener->server;
   auto* pending = static_cast<PendingRequest*>(*con_cls);
   if (pending == nullptr) {
     pending = new PendingRequest;
     *con_cls = pending;
-    pending->request.method = method;
-    pending->request.path = url;
-    MHD_get_connection_values(connection, MHD_GET_ARGUMENT_KIND, AddQueryArgument, &pending->request.query);
-    // A declared body over the limit is refused before any of it is read.
+    ControlRequest& request = pending->request;
+    request.method = method;
+    request.path = url;
+    MHD_get_connection_values(connection, MHD_GET_ARGUMENT_KIND, AddQueryArgument, &request.query);
+    request.over_tcp = listener->tcp;
+    if (const char* value = MHD_lookup_connection_value(connection, MHD_HEADER_KIND, "Authorization")) {
+      request.authorization = value;
+    }
+    // A request without the right token is refused before its body is read.
+    if (auto refused = RefusedAccess(request, server->bearer_token())) return Respond(connection, *refused);
+    // So is a declared body over the limit.
     if (const char* length = MHD_lookup_connection_value(connection, MHD_HEADER_KIND, "Content-Length")) {
       char* end = nullptr;
       errno = 0;
       const unsigned long long declared = std::strtoull(length, &end, 10);
       if (errno != 0 || end == length || declared > kMaxRequestBodyBytes) {
-        pending->request.body_too_large = true;
-        return Respond(connection, TooLarge());
+        request.body_too_large = true;
+        return Respond(connection, HandleControlRequest(server->daemon(), request, server->bearer_token()));
       }
     }
     return MHD_YES;
@@ -113,8 +118,7 @@ MHD_Result HandleConnection(void* cls, MHD_Connection* connection, const char* u
     *upload_data_size = 0;
     return MHD_YES;
   }
-  const ControlResponse response =
-      pending->request.body_too_large ? TooLarge() : HandleControlRequest(server->daemon(), pending->request);
+  const ControlResponse response = HandleControlRequest(server->daemon(), pending->request, server->bearer_token());
   if (!response.event_stream) return Respond(connection, response);
   auto stream = std::make_unique<EventStream>();
   stream->server = server;
@@ -149,17 +153,48 @@ std::string ControlServerOptions::Check() const {
     return "socket " + socket.string() + ": longer than " + std::to_string(sizeof(sockaddr_un::sun_path) - 1) +
            " bytes, the most a Unix socket's path may have";
   }
+  if (tcp_port && !IsBearerToken(bearer_token)) {
+    return "bearer_token must be a token (" + std::to_string(kBearerTokenHexDigits) +
+           " lowercase hex digits) when tcp_port is set";
+  }
   if (connection_limit < 2) return "connection_limit must be at least 2";
   if (idle_timeout.count() < 1) return "idle_timeout must be at least 1 s";
   return {};
 }
 
+void ControlServer::Serve(Listener& listener, const std::string& name) {
+  listener.http = MHD_start_daemon(
+      MHD_USE_THREAD_PER_CONNECTION | MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_POLL | MHD_USE_ERROR_LOG, 0,
+      nullptr, nullptr, &HandleConnection, &listener, MHD_OPTION_LISTEN_SOCKET, listener.fd,
+      MHD_OPTION_CONNECTION_LIMIT, options_.connection_limit, MHD_OPTION_CONNECTION_TIMEOUT,
+      static_cast<unsigned>(options_.idle_timeout.count()), MHD_OPTION_CONNECTION_MEMORY_LIMIT,
+      static_cast<std::size_t>(32 * 1024), MHD_OPTION_NOTIFY_COMPLETED, &RequestCompleted, nullptr,
+      MHD_OPTION_EXTERNAL_LOGGER, &LogServerError, nullptr, MHD_OPTION_END);
+  if (listener.http == nullptr) throw core::Error(name + ": the HTTP server did not start");
+  listener.fd = -1;  // MHD_stop_daemon closes it
+}
+
 ControlServer::ControlServer(CaptureDaemon& daemon, ControlServerOptions options)
     : daemon_(daemon), options_(std::move(options)) {
   if (const std::string problem = options_.Check(); !problem.empty()) throw core::Error("control server: " + problem);
+  ListenOnUnixSocket();
+  try {
+    Serve(unix_, options_.socket.string());
+    if (options_.tcp_port) {
+      ListenOnLoopback();
+      Serve(tcp_, "127.0.0.1:" + std::to_string(tcp_port_));
+    }
+  } catch (...) {
+    Stop();
+    throw;
+  }
+}
+
+void ControlServer::ListenOnUnixSocket() {
   const std::string path = options_.socket.string();
-  listen_fd_ = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
-  if (listen_fd_ < 0) throw core::Error(path + ": cannot make a socket: " + std::strerror(errno));
+  int& fd = unix_.fd;
+  fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  if (fd < 0) throw core::Error(path + ": cannot make a socket: " + std::strerror(errno));
   sockaddr_un address{};
   address.sun_family = AF_UNIX;
   std::memcpy(address.sun_path, path.c_str(), path.size() + 1);
@@ -169,44 +204,67 @@ ControlServer::ControlServer(CaptureDaemon& daemon, ControlServerOptions options
     const bool answered = ::connect(probe, reinterpret_cast<sockaddr*>(&address), sizeof address) == 0;
     ::close(probe);
     if (answered) {
-      ::close(listen_fd_);
+      ::close(fd);
+      fd = -1;
       throw core::Error(path + ": another daemon listens on this socket");
     }
     fs::remove(options_.socket);
   }
   // Mode 0660 from the start (no window in which others may connect).
   const mode_t old_mask = ::umask(0117);
-  const int bound = ::bind(listen_fd_, reinterpret_cast<sockaddr*>(&address), sizeof address);
+  const int bound = ::bind(fd, reinterpret_cast<sockaddr*>(&address), sizeof address);
   const int bind_errno = errno;
   ::umask(old_mask);
-  if (bound != 0 || ::listen(listen_fd_, 64) != 0) {
+  if (bound != 0 || ::listen(fd, 64) != 0) {
     const int e = bound != 0 ? bind_errno : errno;
-    ::close(listen_fd_);
+    ::close(fd);
+    fd = -1;
+    if (bound == 0) fs::remove(options_.socket);
     throw core::Error(path + ": cannot listen: " + std::strerror(e));
   }
-  http_ = MHD_start_daemon(
-      MHD_USE_THREAD_PER_CONNECTION | MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_POLL | MHD_USE_ERROR_LOG, 0,
-      nullptr, nullptr, &HandleConnection, this, MHD_OPTION_LISTEN_SOCKET, listen_fd_, MHD_OPTION_CONNECTION_LIMIT,
-      options_.connection_limit, MHD_OPTION_CONNECTION_TIMEOUT, static_cast<unsigned>(options_.idle_timeout.count()),
-      MHD_OPTION_CONNECTION_MEMORY_LIMIT, static_cast<std::size_t>(32 * 1024), MHD_OPTION_NOTIFY_COMPLETED,
-      &RequestCompleted, nullptr, MHD_OPTION_EXTERNAL_LOGGER, &LogServerError, nullptr, MHD_OPTION_END);
-  if (http_ == nullptr) {
-    ::close(listen_fd_);
-    fs::remove(options_.socket);
-    throw core::Error(path + ": the HTTP server did not start");
+  socket_bound_ = true;
+}
+
+void ControlServer::ListenOnLoopback() {
+  const std::string name = "127.0.0.1:" + std::to_string(*options_.tcp_port);
+  int& fd = tcp_.fd;
+  fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  if (fd < 0) throw core::Error(name + ": cannot make a socket: " + std::strerror(errno));
+  // A restarted daemon takes its port back while old connections linger.
+  const int one = 1;
+  ::setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_port = htons(*options_.tcp_port);
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);  // never another address
+  if (::bind(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0 || ::listen(fd, 64) != 0) {
+    const int e = errno;
+    ::close(fd);
+    fd = -1;
+    throw core::Error(name + ": cannot listen: " + std::strerror(e));
   }
+  socklen_t size = sizeof address;
+  ::getsockname(fd, reinterpret_cast<sockaddr*>(&address), &size);
+  tcp_port_ = ntohs(address.sin_port);
 }
 
 ControlServer::~ControlServer() { Stop(); }
 
 void ControlServer::Stop() {
-  if (http_ == nullptr) return;
   stopping_ = true;
-  MHD_stop_daemon(http_);  // joins every connection's thread; event streams end within a second
-  http_ = nullptr;
-  ::close(listen_fd_);
-  std::error_code ec;
-  fs::remove(options_.socket, ec);
+  // Joins every connection's thread (event streams end within a second) and
+  // closes the listening socket; one it never took is closed here.
+  for (Listener* listener : {&unix_, &tcp_}) {
+    if (listener->http != nullptr) MHD_stop_daemon(listener->http);
+    listener->http = nullptr;
+    if (listener->fd >= 0) ::close(listener->fd);
+    listener->fd = -1;
+  }
+  if (socket_bound_) {
+    std::error_code ec;
+    fs::remove(options_.socket, ec);
+    socket_bound_ = false;
+  }
 }
 
 }  // namespace mesocap::acquisition

@@ -30,6 +30,21 @@ std::uint64_t DaemonEventLog::last_number() const {
   return last_;
 }
 
+std::vector<DaemonEvent> DaemonEventLog::Latest(std::size_t count,
+                                               std::initializer_list<std::string_view> types) const {
+  std::lock_guard lock(mutex_);
+  std::vector<DaemonEvent> out;
+  for (auto e = events_.rbegin(); e != events_.rend() && out.size() < count; ++e) {
+    for (const std::string_view type : types) {
+      if (e->type == type) {
+        out.push_back(*e);
+        break;
+      }
+    }
+  }
+  return {out.rbegin(), out.rend()};
+}
+
 void DaemonEventLog::Close() {
   {
     std::lock_guard lock(mutex_);

@@ -8,9 +8,11 @@
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
+#include <initializer_list>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace mesocap::acquisition {
@@ -31,6 +33,9 @@ class DaemonEventLog {
   // Close().
   std::vector<DaemonEvent> After(std::uint64_t after, std::chrono::milliseconds timeout);
   std::uint64_t last_number() const;
+  // The latest `count` events still held whose type is one of `types`,
+  // oldest first; never waits.
+  std::vector<DaemonEvent> Latest(std::size_t count, std::initializer_list<std::string_view> types) const;
   // Wakes every waiter for good (the daemon is stopping).
   void Close();
   bool closed() const;

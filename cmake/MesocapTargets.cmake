@@ -70,7 +70,8 @@ endfunction()
 # expensive and would otherwise be rebuilt in every test's process.
 # RUN_SERIAL keeps other tests off the cores while it runs: for a test whose
 # claim (frames on loopback arrive in time) a loaded host would falsify.
-# The label `accuracy` marks end-to-end accuracy tests on the small rig (minutes of CPU in release):
+# The label `accuracy` marks end-to-end accuracy tests on the small rig (minutes of CPU in release),
+# the label `browser` tests in headless Chromium (not our code, so not run under the sanitizers):
 # they run in the release and debug presets; the sanitize preset leaves them
 # out, since the code they run is covered there by the smaller tests.
 function(mesocap_test name)

@@ -27,8 +27,9 @@ packages=(
   # the capture daemon: its HTTP server (libmicrohttpd), sd_notify and the
   # watchdog (libsystemd), and the client's HTTP over a Unix socket (libcurl)
   libmicrohttpd-dev libsystemd-dev libcurl4-openssl-dev
-  # tests and benchmarks
-  libgtest-dev libgmock-dev libbenchmark-dev
+  # tests and benchmarks; chromium (/usr/bin/chromium) runs the daemon's
+  # status page headless in a test
+  libgtest-dev libgmock-dev libbenchmark-dev chromium
   # fuzzing (scripts/fuzz.sh): clang and its runtimes, libFuzzer's among them
   clang libclang-rt-14-dev
 )

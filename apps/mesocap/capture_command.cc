@@ -1,6 +1,7 @@
 // `mesocap capture submit|list|status|watch|pause|resume|cancel|ack`: the
 // capture daemon's client (docs/DAEMON.md). Each subcommand is one request to
-// mesocapd's control API over its Unix socket; `watch` follows a job's
+// mesocapd's control API over its Unix socket (or its loopback TCP port with
+// --url and --token-file); `watch` follows a job's
 // progress from the event stream until it is done, failed or cancelled.
 #include <unistd.h>
 
@@ -20,9 +21,16 @@ using nlohmann::json;
 
 struct CaptureClientOptions {
   std::filesystem::path socket = DefaultControlSocket();
+  std::string url;                    // instead of the socket
+  std::filesystem::path token_file;  // with url
   bool json_output = false;
   std::string plan = "capture";
   std::string id;
+
+  ControlClient Client() const {
+    if (url.empty() && token_file.empty()) return ControlClient(ControlEndpoint{socket, {}, {}});
+    return ControlClient(LoopbackControlEndpoint(url, token_file));
+  }
 };
 
 std::string Duration(double seconds) {
@@ -70,7 +78,7 @@ bool Finished(const json& job) {
 
 // Follows the job until it finishes; the exit status says how it ended.
 void Watch(const CaptureClientOptions& o) {
-  const ControlClient client(o.socket);
+  const ControlClient client = o.Client();
   json job = client.Get("/v1/jobs/" + o.id);
   const bool tty = ::isatty(STDOUT_FILENO) != 0;
   std::string last_line;
@@ -109,9 +117,20 @@ void RegisterCaptureCommand(CLI::App& app) {
   auto o = std::make_shared<CaptureClientOptions>();
   CLI::App* group = app.add_subcommand("capture", "Talk to mesocapd, the capture daemon: submit and steer captures");
   group->require_subcommand(1);
-  const auto common = [o](CLI::App* sub) {
-    sub->add_option("--socket", o->socket, "mesocapd's control socket ($MESOCAP_SOCKET overrides the default)")
-        ->capture_default_str();
+  const auto address = [o](CLI::App* sub) {
+    CLI::Option* socket =
+        sub->add_option("--socket", o->socket, "mesocapd's control socket ($MESOCAP_SOCKET overrides the default)")
+            ->capture_default_str();
+    CLI::Option* url = sub->add_option("--url", o->url,
+                                       "mesocapd's loopback TCP address, http://127.0.0.1:PORT (mesocapd --tcp-port), "
+                                       "instead of its socket");
+    CLI::Option* token = sub->add_option("--token-file", o->token_file,
+                                         "with --url: the file holding mesocapd's bearer token (STATE/control.token)");
+    url->excludes(socket)->needs(token);
+    token->needs(url);
+  };
+  const auto common = [o, address](CLI::App* sub) {
+    address(sub);
     sub->add_flag("--json", o->json_output, "print the daemon's JSON answer");
   };
   const auto job_id = [o](CLI::App* sub) { sub->add_option("id", o->id, "the job's id (job-NNNNNN)")->required(); };
@@ -122,14 +141,14 @@ void RegisterCaptureCommand(CLI::App& app) {
       ->check(CLI::IsMember({"capture", "calibration"}))
       ->capture_default_str();
   submit->callback([o] {
-    const json job = ControlClient(o->socket).Post("/v1/jobs", {{"plan", o->plan}});
+    const json job = o->Client().Post("/v1/jobs", {{"plan", o->plan}});
     Print(job, o->json_output, job.value("id", ""));
   });
 
   CLI::App* list = group->add_subcommand("list", "Every job, in submission order");
   common(list);
   list->callback([o] {
-    const json answer = ControlClient(o->socket).Get("/v1/jobs");
+    const json answer = o->Client().Get("/v1/jobs");
     std::string text;
     for (const json& job : answer.at("jobs")) text += (text.empty() ? "" : "\n") + Summary(job);
     Print(answer, o->json_output, text.empty() ? "no jobs" : text);
@@ -139,7 +158,7 @@ void RegisterCaptureCommand(CLI::App& app) {
   common(status);
   job_id(status);
   status->callback([o] {
-    const json job = ControlClient(o->socket).Get("/v1/jobs/" + o->id);
+    const json job = o->Client().Get("/v1/jobs/" + o->id);
     Print(job, o->json_output, Summary(job));
   });
 
@@ -153,13 +172,13 @@ void RegisterCaptureCommand(CLI::App& app) {
     common(sub);
     job_id(sub);
     sub->callback([o, name] {
-      const json job = ControlClient(o->socket).Post("/v1/jobs/" + o->id + "/" + name, json::object());
+      const json job = o->Client().Post("/v1/jobs/" + o->id + "/" + name, json::object());
       Print(job, o->json_output, Summary(job));
     });
   }
 
   CLI::App* watch = group->add_subcommand("watch", "Follow a job's progress until it ends (exit 0 when done)");
-  watch->add_option("--socket", o->socket, "mesocapd's control socket")->capture_default_str();
+  address(watch);
   job_id(watch);
   watch->callback([o] { Watch(*o); });
 }

@@ -1,6 +1,6 @@
 // The `mesocap capture` commands' side of the capture daemon's control API
-// (acquisition/control_api.h): HTTP over the daemon's Unix socket through
-// libcurl.
+// (acquisition/control_api.h): HTTP through libcurl over the daemon's Unix
+// socket, or over its loopback TCP port with the bearer token.
 #pragma once
 
 #include <filesystem>
@@ -11,9 +11,24 @@
 
 namespace mesocap {
 
+// Where mesocapd listens: its Unix socket, or its loopback TCP address with
+// the bearer token.
+struct ControlEndpoint {
+  std::filesystem::path socket;
+  std::string url;    // "http://127.0.0.1:PORT" instead of the socket
+  std::string token;  // with url
+
+  std::string Name() const { return url.empty() ? socket.string() : url; }
+};
+
+// The endpoint of `mesocap capture --url URL --token-file FILE`. Throws
+// Error naming the flag when the URL is not mesocapd's loopback form
+// (http://127.0.0.1:PORT) or the file holds no token.
+ControlEndpoint LoopbackControlEndpoint(const std::string& url, const std::filesystem::path& token_file);
+
 class ControlClient {
  public:
-  explicit ControlClient(std::filesystem::path socket);
+  explicit ControlClient(ControlEndpoint endpoint);
 
   // The response's JSON body. Throws Error with the daemon's message when
   // it answers with an error status, and naming the socket when it cannot
@@ -27,7 +42,7 @@ class ControlClient {
 
  private:
   nlohmann::json Request(const std::string& method, const std::string& path, const std::string* body) const;
-  std::filesystem::path socket_;
+  ControlEndpoint endpoint_;
 };
 
 // The socket a client uses without --socket: $MESOCAP_SOCKET, or the one

@@ -1,6 +1,7 @@
 // mesocapd: the capture session daemon (docs/DAEMON.md). Opens the rig once,
 // runs a queue of capture jobs from its state directory one at a time, and
-// serves the control API on a Unix socket. Started in the foreground or by
+// serves the control API on a Unix socket, and with --tcp-port on loopback
+// TCP with a bearer token (and the status page). Started in the foreground or by
 // systemd (Type=notify: READY once the socket listens, WATCHDOG pings while
 // the main loop runs). SIGTERM or SIGINT lets the running step finish and
 // journal, then exits; the next start resumes that job.
@@ -14,11 +15,14 @@
 #include <cstdio>
 #include <cstring>
 #include <memory>
+#include <optional>
 #include <string>
 
+#include "acquisition/bearer_token.h"
 #include "acquisition/capture_daemon.h"
 #include "acquisition/control_server.h"
 #include "apps/mesocap/scene_option.h"
+#include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/logging.h"
 #include "core/version.h"
@@ -36,6 +40,7 @@ struct DaemonCommandOptions {
   fs::path calibration;  // a real rig's
   fs::path state;
   fs::path socket;  // default: STATE/control.sock
+  std::optional<std::uint16_t> tcp_port;  // 0: one the kernel picks
   double fault_retry_s = 30;
   bool prompt_operator = false;
 };
@@ -78,14 +83,29 @@ void RunDaemon(const DaemonCommandOptions& o, const sigset_t& signals) {
   acquisition::CaptureDaemon daemon(std::move(station), daemon_options);
   acquisition::ControlServerOptions server_options;
   server_options.socket = o.socket.empty() ? o.state / "control.sock" : o.socket;
+  // Made or checked only now that the daemon holds the state directory's lock.
+  const fs::path token_file = o.state / "control.token", port_file = o.state / "control.port";
+  std::error_code ec;
+  fs::remove(port_file, ec);  // a killed daemon's; clients find no port while none listens
+  if (o.tcp_port) {
+    server_options.tcp_port = *o.tcp_port;
+    server_options.bearer_token = acquisition::OpenOrCreateBearerTokenFile(token_file);
+  }
   acquisition::ControlServer server(daemon, server_options);
   daemon.Start();
   spdlog::info("serving the control API on {}", server_options.socket.string());
+  if (o.tcp_port) {
+    core::WriteTextFileAtomically(port_file, std::to_string(server.tcp_port()) + "\n");
+    spdlog::info("serving the control API on 127.0.0.1:{} (bearer token in {})", server.tcp_port(),
+                 token_file.string());
+    spdlog::info("status page: http://127.0.0.1:{}/#token={}", server.tcp_port(), server_options.bearer_token);
+  }
   sd_notify(0, "READY=1");
   const int signal = WaitForStop(signals);
   spdlog::info("{}: finishing the running step", strsignal(signal));
   sd_notify(0, "STOPPING=1");
   server.Stop();
+  fs::remove(port_file, ec);
   daemon.Stop();
   spdlog::info("stopped");
 }
@@ -107,6 +127,12 @@ int main(int argc, char** argv) {
   DaemonCommandOptions o;
   app.add_option("--state", o.state, "state directory: the job queue and every job's capture session")->required();
   app.add_option("--socket", o.socket, "control socket (default: STATE/control.sock)");
+  int tcp_port = 0;
+  CLI::Option* tcp_option =
+      app.add_option("--tcp-port", tcp_port,
+                     "also serve the API and the status page on 127.0.0.1 at this port (0: any free port; "
+                     "written to STATE/control.port), with the bearer token in STATE/control.token")
+          ->check(CLI::Range(0, 65535));
   app.add_option("--rig", o.station.rig,
                  "shipped rig (tiny, small, paper) or a rig description file; one that drives real devices "
                  "(Tic stages, GPIO lamps and laser, Aravis cameras) is opened as it is, the others are simulated")
@@ -128,6 +154,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   try {
     app.parse(argc, argv);
+    if (*tcp_option) o.tcp_port = static_cast<std::uint16_t>(tcp_port);
     core::ConfigureLogging(verbose - quiet);
     RunDaemon(o, signals);
   } catch (const CLI::ParseError& e) {

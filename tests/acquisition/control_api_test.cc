@@ -1,20 +1,21 @@
-// The control API: each endpoint against the daemon's state, and 10 000
-// malformed or hostile requests while a capture runs (9000 to the route
-// table, 1000 raw through the socket): each gets a 4xx JSON error naming
+// The control API: each endpoint against the daemon's state, who may ask
+// over TCP, and 10 000 malformed or hostile requests while a capture runs
+// (9000 to the route table, 1000 raw through the Unix socket and the TCP
+// port), bad bearer tokens among them: each gets a 4xx JSON error naming
 // what is wrong, or its connection is closed; the daemon stays up, and the
 // capture ends with the session an undisturbed run records. 9000 more with
 // the rig idle show the daemon's memory stays bounded.
 #include "acquisition/control_api.h"
 
 #include <gtest/gtest.h>
-#include <sys/socket.h>
-#include <sys/un.h>
 #include <unistd.h>
 
 #include <fstream>
 #include <random>
 
 #include "acquisition/control_server.h"
+#include "acquisition/status_page.h"
+#include "tests/acquisition/raw_http.h"
 #include "tests/acquisition/simulated_daemon.h"
 
 namespace mesocap::acquisition {
@@ -22,9 +23,28 @@ namespace {
 
 using nlohmann::json;
 
+const std::string kToken(64, 'a');
+
 ControlResponse Call(CaptureDaemon& daemon, const std::string& method, const std::string& path,
                      const std::string& body = "", const std::string& query = "") {
   return HandleControlRequest(daemon, {method, path, query, body, false});
+}
+
+// A request to the loopback TCP listener, with `authorization` as its
+// Authorization header (none when empty).
+ControlResponse CallOverTcp(CaptureDaemon& daemon, const std::string& method, const std::string& path,
+                            const std::string& authorization, const std::string& body = "") {
+  ControlRequest request{method, path, "", body, false};
+  request.over_tcp = true;
+  request.authorization = authorization;
+  return HandleControlRequest(daemon, request, kToken);
+}
+
+std::string HeaderOf(const ControlResponse& r, const std::string& name) {
+  for (const auto& [key, value] : r.headers) {
+    if (key == name) return value;
+  }
+  return "(no " + name + ")";
 }
 
 std::string ErrorOf(const ControlResponse& r) {
@@ -110,15 +130,103 @@ TEST_F(SimulatedDaemonTest, ErrorsNameTheFieldOrThePath) {
   expect(Call(*daemon, "POST", "/v1/jobs", "[1]"), 400,
          "request body: expected a JSON object such as {\"plan\": \"capture\"}");
   expect(Call(*daemon, "GET", "/v1/jobs/../../etc/passwd"), 404,
-         "path \"/v1/jobs/../../etc/passwd\": not an endpoint (GET /v1/rig, GET|POST /v1/jobs, GET /v1/jobs/ID, POST "
-         "/v1/jobs/ID/pause|resume|cancel|ack, GET /v1/cameras/ID/preview.png, GET /v1/events)");
+         "path \"/v1/jobs/../../etc/passwd\": not an endpoint (GET /, GET /v1/rig, GET|POST /v1/jobs, GET "
+         "/v1/jobs/ID, POST /v1/jobs/ID/pause|resume|cancel|ack, GET /v1/cameras/ID/preview.png, GET /v1/events, "
+         "GET /v1/log)");
   expect(Call(*daemon, "GET", "/v1/jobs/..%2F..%2Fetc"), 404,
          "job id \"..%2F..%2Fetc\": expected \"job-\" and six digits");
   expect(Call(*daemon, "GET", "/v1/jobs/job-000042"), 404, "no job \"job-000042\"");
   expect(Call(*daemon, "DELETE", "/v1/jobs"), 405, "DELETE /v1/jobs: method not allowed (use GET or POST)");
   expect(Call(*daemon, "GET", "/v1/events", "", "after=-1"), 400,
          "query after: expected an event number, got \"-1\"");
+  expect(Call(*daemon, "GET", "/v1/log", "", "lines=0"), 400,
+         "query lines: expected a number of lines from 1 to 1000, got 0");
+  expect(Call(*daemon, "GET", "/v1/log", "", "lines=x"), 400,
+         "query lines: expected a number of lines from 1 to 1000, got \"x\"");
+  expect(Call(*daemon, "GET", "/v1/log", "", "after=3"), 400, "query \"after=3\": the only parameter is lines=N");
+  expect(Call(*daemon, "POST", "/"), 405, "POST /: method not allowed (use GET)");
   EXPECT_TRUE(daemon->Jobs().empty());
+}
+
+TEST_F(SimulatedDaemonTest, OverTcpEveryRequestButTheStatusPageNeedsTheBearerToken) {
+  auto daemon = MakeDaemon();
+  const auto expect_refused = [&](const ControlResponse& r, const std::string& message, const std::string& challenge) {
+    EXPECT_EQ(r.status, 401) << r.body;
+    EXPECT_EQ(ErrorOf(r), message);
+    EXPECT_EQ(HeaderOf(r, "WWW-Authenticate"), challenge);
+  };
+  const std::string missing =
+      "missing Authorization header: expected \"Authorization: Bearer TOKEN\" with the token in mesocapd's "
+      "control.token";
+  const std::string wrong = "wrong bearer token: use the one in mesocapd's control.token";
+  const std::string plain = "Bearer realm=\"mesocapd\"";
+  const std::string invalid = "Bearer realm=\"mesocapd\", error=\"invalid_token\"";
+  expect_refused(CallOverTcp(*daemon, "GET", "/v1/rig", ""), missing, plain);
+  expect_refused(CallOverTcp(*daemon, "GET", "/v1/rig", "Bearer " + std::string(64, 'b')), wrong, invalid);
+  // One digit off, a prefix, the token twice: wrong all the same.
+  expect_refused(CallOverTcp(*daemon, "GET", "/v1/rig", "Bearer " + kToken.substr(1) + "b"), wrong, invalid);
+  expect_refused(CallOverTcp(*daemon, "GET", "/v1/rig", "Bearer " + kToken.substr(0, 63)), wrong, invalid);
+  expect_refused(CallOverTcp(*daemon, "GET", "/v1/rig", "Bearer " + kToken + kToken), wrong, invalid);
+  expect_refused(CallOverTcp(*daemon, "GET", "/v1/rig", "Basic " + kToken), "Authorization header: expected \"Bearer TOKEN\"",
+                 plain);
+  expect_refused(CallOverTcp(*daemon, "GET", "/v1/rig", "Bearer "), "Authorization header: expected \"Bearer TOKEN\"",
+                 plain);
+  // A refused request does nothing: no job, whatever its body.
+  expect_refused(CallOverTcp(*daemon, "POST", "/v1/jobs", "", R"({"plan": "capture"})"), missing, plain);
+  expect_refused(CallOverTcp(*daemon, "POST", "/v1/jobs", "Bearer x", R"({"plan": "capture"})"), wrong, invalid);
+  EXPECT_TRUE(daemon->Jobs().empty());
+  // Refused before a body over the limit is looked at.
+  ControlRequest large{"POST", "/v1/jobs", "", "", true};
+  large.over_tcp = true;
+  EXPECT_EQ(HandleControlRequest(*daemon, large, kToken).status, 401);
+  large.authorization = "Bearer " + kToken;
+  EXPECT_EQ(HandleControlRequest(*daemon, large, kToken).status, 413);
+
+  // The right token, the scheme in any case.
+  ControlResponse r = CallOverTcp(*daemon, "POST", "/v1/jobs", "Bearer " + kToken, R"({"plan": "capture"})");
+  EXPECT_EQ(r.status, 201) << r.body;
+  r = CallOverTcp(*daemon, "GET", "/v1/jobs/job-000001", "bearer  " + kToken);
+  EXPECT_EQ(r.status, 200) << r.body;
+  EXPECT_EQ(json::parse(r.body).at("state"), "queued");
+  // A daemon without a token of its own admits nobody over TCP.
+  ControlRequest tokenless{"GET", "/v1/rig", "", "", false};
+  tokenless.over_tcp = true;
+  tokenless.authorization = "Bearer ";
+  EXPECT_EQ(HandleControlRequest(*daemon, tokenless).status, 401);
+  tokenless.authorization = "Bearer " + kToken;
+  EXPECT_EQ(HandleControlRequest(*daemon, tokenless).status, 401);
+
+  // The status page's document holds no data: served without a token, by
+  // GET only; over the Unix socket nothing needs one.
+  for (const char* path : {"/", "/index.html"}) {
+    r = CallOverTcp(*daemon, "GET", path, "");
+    EXPECT_EQ(r.status, 200) << path;
+    EXPECT_EQ(r.content_type, "text/html; charset=utf-8");
+    EXPECT_EQ(r.body, std::string(StatusPageHtml()));
+    EXPECT_NE(r.body.find("<title>mesocapd status</title>"), std::string::npos);
+    EXPECT_EQ(HeaderOf(r, "Content-Security-Policy").find("default-src 'none'"), 0u);
+  }
+  expect_refused(CallOverTcp(*daemon, "POST", "/", ""), missing, plain);
+  expect_refused(CallOverTcp(*daemon, "HEAD", "/", ""), missing, plain);
+  EXPECT_EQ(Call(*daemon, "GET", "/v1/rig").status, 200);
+  EXPECT_EQ(Call(*daemon, "GET", "/").status, 200);
+}
+
+TEST_F(SimulatedDaemonTest, TheLogEndpointGivesTheLatestLogAndFaultMessages) {
+  auto daemon = MakeDaemon();
+  daemon->Submit("capture");
+  daemon->Submit("calibration");
+  ControlResponse r = Call(*daemon, "GET", "/v1/log");
+  ASSERT_EQ(r.status, 200) << r.body;
+  json lines = json::parse(r.body).at("lines");
+  ASSERT_EQ(lines.size(), 2u) << r.body;
+  EXPECT_EQ(lines[0].at("message"), "job-000001 submitted (capture)");
+  EXPECT_EQ(lines[1].at("message"), "job-000002 submitted (calibration)");
+  EXPECT_EQ(lines[1].at("type"), "log");
+  EXPECT_LT(lines[0].at("number"), lines[1].at("number"));
+  lines = json::parse(Call(*daemon, "GET", "/v1/log", "", "lines=1").body).at("lines");
+  ASSERT_EQ(lines.size(), 1u);
+  EXPECT_EQ(lines[0].at("message"), "job-000002 submitted (calibration)");
 }
 
 // A request of the hostile kind `kind`, varied by `rng`.
@@ -142,9 +250,27 @@ ControlRequest HostileRequest(int kind, std::mt19937& rng) {
       return {"POST", "/v1/jobs/job-00000" + std::to_string(rng() % 10) + (rng() % 2 ? "/explode" : "/ack"), "", "",
               false};
     case 8: return {"GET", "/v1/events", "after=x" + random_bytes(rng() % 30), "", false};
-    default: return {"POST", "/v1/jobs", "", R"({"plan": ["capture"], "plan2": null})", false};
+    case 9: return {"POST", "/v1/jobs", "", R"({"plan": ["capture"], "plan2": null})", false};
+    default: {
+      // Over TCP, a request that would succeed but for its token: none, a
+      // wrong one, one digit off, random bytes.
+      static const char* const kPaths[] = {"/v1/rig", "/v1/jobs", "/v1/jobs/job-000001", "/v1/log", "/v1/events"};
+      ControlRequest request{"GET", kPaths[rng() % 5], "", "", false};
+      if (rng() % 2 == 0) request = {"POST", "/v1/jobs", "", R"({"plan": "capture"})", false};
+      request.over_tcp = true;
+      std::string wrong = kToken;
+      wrong[rng() % wrong.size()] = 'b';
+      switch (kind) {
+        case 10: break;
+        case 11: request.authorization = "Bearer " + wrong; break;
+        default: request.authorization = (rng() % 2 ? "Bearer " : "") + random_bytes(rng() % 100); break;
+      }
+      return request;
+    }
   }
 }
+
+constexpr int kHostileKinds = 13;
 
 // Bytes of the process's resident set.
 long ResidentBytes() {
@@ -160,8 +286,8 @@ TEST_F(SimulatedDaemonTest, HostileRequestsToTheRouteTableLeaveTheCaptureUnaffec
   std::mt19937 rng(3);
   const auto send = [&](int count) {
     for (int i = 0; i < count; ++i) {
-      const ControlRequest request = HostileRequest(i % 10, rng);
-      const ControlResponse r = HandleControlRequest(*daemon, request);
+      const ControlRequest request = HostileRequest(i % kHostileKinds, rng);
+      const ControlResponse r = HandleControlRequest(*daemon, request, kToken);
       ASSERT_GE(r.status, 400) << i << ": " << request.method << " " << request.path;
       ASSERT_LT(r.status, 500) << i;
       ASSERT_NE(ErrorOf(r), "(no error member)") << i << ": " << r.body;
@@ -181,38 +307,16 @@ TEST_F(SimulatedDaemonTest, HostileRequestsToTheRouteTableLeaveTheCaptureUnaffec
   EXPECT_EQ(SessionDifferences(*daemon, id, "capture"), "");
 }
 
-// Raw bytes to the socket: what a broken or hostile client sends. Returns
-// what came back before the server closed the connection (or the timeout).
-std::string SendRaw(const fs::path& socket, const std::string& bytes, bool half_close = true) {
-  const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
-  sockaddr_un address{};
-  address.sun_family = AF_UNIX;
-  std::snprintf(address.sun_path, sizeof address.sun_path, "%s", socket.c_str());
-  if (::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0) {
-    ::close(fd);
-    return "(no connection)";
-  }
-  timeval timeout{20, 0};
-  ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
-  ::send(fd, bytes.data(), bytes.size(), MSG_NOSIGNAL);
-  if (half_close) ::shutdown(fd, SHUT_WR);
-  std::string answer;
-  char buffer[4096];
-  for (ssize_t n; (n = ::recv(fd, buffer, sizeof buffer, 0)) > 0;) answer.append(buffer, static_cast<std::size_t>(n));
-  ::close(fd);
-  return answer;
-}
-
-int StatusOf(const std::string& answer) {
-  return answer.rfind("HTTP/1.1 ", 0) == 0 ? std::atoi(answer.c_str() + 9) : 0;
-}
-
-TEST_F(SimulatedDaemonTest, HostileBytesThroughTheSocketGetAnErrorOrAClosedConnection) {
+TEST_F(SimulatedDaemonTest, HostileBytesThroughTheSocketAndThePortGetAnErrorOrAClosedConnection) {
   auto daemon = MakeDaemon();
   ControlServerOptions server_options;
   server_options.socket = state_ / "control.sock";
+  server_options.tcp_port = 0;
+  server_options.bearer_token = kToken;
   server_options.idle_timeout = std::chrono::seconds(1);
   ControlServer server(*daemon, server_options);
+  const std::uint16_t port = server.tcp_port();
+  ASSERT_NE(port, 0);
   EXPECT_EQ(fs::status(server_options.socket).permissions() & fs::perms::all,
             fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read | fs::perms::group_write);
   const std::string id = daemon->Submit("capture").id;
@@ -229,13 +333,34 @@ TEST_F(SimulatedDaemonTest, HostileBytesThroughTheSocketGetAnErrorOrAClosedConne
       "GET / HTTP/1.1\r\nHost: x\r\nX: " + std::string(100000, 'h') + "\r\n\r\n",
       "NOT HTTP AT ALL\r\n\r\n",
   };
+  // Requests the daemon would carry out but for their token: over TCP only.
+  const std::string submit = "POST /v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Length: 19\r\nConnection: close\r\n";
+  const std::vector<std::string> tokenless = {
+      submit + "\r\n{\"plan\": \"capture\"}",
+      submit + "Authorization: Bearer " + std::string(64, 'b') + "\r\n\r\n{\"plan\": \"capture\"}",
+      submit + "Authorization: Basic " + kToken + "\r\n\r\n{\"plan\": \"capture\"}",
+      "GET /v1/jobs HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer " + kToken.substr(1) + "\r\nConnection: close\r\n\r\n",
+      "GET /v1/events HTTP/1.1\r\nHost: x\r\nAuthorization: " + std::string(3000, 'A') + "\r\nConnection: close\r\n\r\n",
+  };
   for (int i = 0; i < 1000; ++i) {
-    const std::string& request = requests[static_cast<std::size_t>(i) % requests.size()];
-    const std::string answer = SendRaw(server_options.socket, request);
+    const std::size_t n = static_cast<std::size_t>(i / 3);
+    std::string answer;
+    bool needs_token = false;
+    if (i % 3 == 0) {
+      answer = SendRaw(server_options.socket, requests[n % requests.size()]);
+    } else if (i % 3 == 1) {
+      answer = SendRaw(ConnectTcp(port), requests[n % requests.size()]);
+    } else {
+      answer = SendRaw(ConnectTcp(port), tokenless[n % tokenless.size()]);
+      needs_token = true;
+    }
     const int status = StatusOf(answer);
-    // An HTTP error with a JSON body from the API, an HTTP error from
-    // libmicrohttpd for what is not HTTP, or a closed connection.
-    if (status != 0) {
+    if (needs_token) {
+      ASSERT_EQ(status, 401) << i << ": " << answer.substr(0, 300);
+      ASSERT_NE(answer.find("WWW-Authenticate: Bearer"), std::string::npos) << i << ": " << answer.substr(0, 300);
+    } else if (status != 0) {
+      // An HTTP error with a JSON body from the API, an HTTP error from
+      // libmicrohttpd for what is not HTTP, or a closed connection.
       ASSERT_GE(status, 400) << i << ": " << answer.substr(0, 200);
       ASSERT_LT(status, 500) << i << ": " << answer.substr(0, 200);
     }
@@ -247,11 +372,12 @@ TEST_F(SimulatedDaemonTest, HostileBytesThroughTheSocketGetAnErrorOrAClosedConne
   const std::string big = SendRaw(server_options.socket, requests[1]);
   EXPECT_EQ(StatusOf(big), 413) << big;
   EXPECT_NE(big.find("request body: more than 65536 bytes"), std::string::npos) << big;
-  ASSERT_EQ(daemon->Jobs().size(), 1u);
+  ASSERT_EQ(daemon->Jobs().size(), 1u);  // no tokenless submit became a job
   WaitFor(*daemon, id, JobState::kDone);
   EXPECT_EQ(SessionDifferences(*daemon, id, "capture"), "");
   server.Stop();
   EXPECT_FALSE(fs::exists(server_options.socket));
+  EXPECT_EQ(ConnectTcp(port), -1);
 }
 
 }  // namespace

@@ -3,11 +3,13 @@
 // records; kill -9 of the daemon at seeded random moments, then a restart,
 // completes every session byte-identical (but for times) with its frames
 // counted once; SIGTERM finishes the step and exits 0; one client watching
-// while another pauses and resumes sees a consistent job. MESOCAP_KILL_TRIALS
-// sets the kill trials (default 3; docs/BENCHMARKS.md reports a run of 50),
-// MESOCAP_DAEMON_RIG the rig (default tiny). Built twice: with the simulated
-// cameras in process, and served over GigE Vision on loopback
-// (MESOCAPD_SERVE_CAMERAS, run in scripts/in-network-namespace.sh).
+// while another pauses and resumes sees a consistent job; over loopback TCP
+// the client steers the daemon with the token file, and bad address flags
+// get clear errors. MESOCAP_KILL_TRIALS sets the kill trials (default 3;
+// docs/BENCHMARKS.md reports a run of 50), MESOCAP_DAEMON_RIG the rig
+// (default tiny). Built twice: with the simulated cameras in process, and
+// served over GigE Vision on loopback (MESOCAPD_SERVE_CAMERAS, run in
+// scripts/in-network-namespace.sh).
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/wait.h>
@@ -23,6 +25,7 @@
 #include <vector>
 
 #include "tests/common/child_process.h"
+#include "tests/common/file_bytes.h"
 #include "tests/common/mesocap_command.h"
 #include "tests/common/normalized_tree.h"
 #include "tests/common/temporary_directory.h"
@@ -56,11 +59,12 @@ std::string Joined(const std::vector<std::string>& args) {
 
 class Daemon {
  public:
-  explicit Daemon(const fs::path& state) : state_(state) {
+  explicit Daemon(const fs::path& state, const std::vector<std::string>& options = {"-q"}) : state_(state) {
     std::vector<std::string> args = RigArguments();
-    for (const char* a : {"-q", "--state"}) args.push_back(a);
+    args.push_back("--state");
     args.push_back(state.string());
-    pid_ = testing::StartProcess(MESOCAPD_BINARY, args, state.parent_path() / "daemon.log");
+    args.insert(args.end(), options.begin(), options.end());
+    pid_ = testing::StartProcess(MESOCAPD_BINARY, args, log());
     // Ready when it answers (building the rig takes a moment).
     for (int i = 0; i < 6000; ++i) {
       if (Client("list").exit_code == 0) return;
@@ -78,6 +82,7 @@ class Daemon {
     return code;
   }
   std::string socket() const { return (state_ / "control.sock").string(); }
+  fs::path log() const { return state_.parent_path() / "daemon.log"; }
   testing::CommandResult Client(const std::string& args) const {
     return Mesocap("capture " + args + " --socket " + socket());
   }
@@ -228,6 +233,105 @@ TEST_F(MesocapdTest, OneClientWatchesWhileAnotherPausesAndResumes) {
   EXPECT_NE(paused, std::string::npos) << watched.out;
   EXPECT_GT(watched.out.find("job-000001 done"), paused) << watched.out;
   EXPECT_EQ(Differences(state, "job-000001"), "");
+}
+
+TEST_F(MesocapdTest, OverLoopbackTcpTheClientSteersTheDaemonWithTheTokenFile) {
+  const fs::path state = work_ / "state";
+  const fs::path token_file = state / "control.token", port_file = state / "control.port";
+  std::string token;
+  {
+    Daemon daemon(state, {"--tcp-port", "0"});
+    EXPECT_EQ(fs::status(token_file).permissions() & fs::perms::all, fs::perms::owner_read | fs::perms::owner_write);
+    token = testing::Slurp(token_file);
+    ASSERT_EQ(token.size(), 65u);
+    ASSERT_EQ(token.back(), '\n');
+    token.pop_back();
+    EXPECT_EQ(token.find_first_not_of("0123456789abcdef"), std::string::npos) << token;
+    const std::string port = testing::Slurp(port_file);
+    ASSERT_FALSE(port.empty());
+    EXPECT_EQ(port.back(), '\n');
+    const int number = std::atoi(port.c_str());
+    ASSERT_GT(number, 0);
+    ASSERT_LE(number, 65535);
+    const std::string url = "http://127.0.0.1:" + std::to_string(number);
+    const std::string over_tcp = " --url " + url + " --token-file " + token_file.string();
+
+    const testing::CommandResult submitted = Mesocap("capture submit" + over_tcp);
+    ASSERT_EQ(submitted.exit_code, 0) << submitted.err;
+    EXPECT_EQ(submitted.out, "job-000001\n");
+    const testing::CommandResult watched = Mesocap("capture watch job-000001" + over_tcp);
+    EXPECT_EQ(watched.exit_code, 0) << watched.err;
+    EXPECT_NE(watched.out.find("job-000001 done (capture) 34/34 steps"), std::string::npos) << watched.out;
+    EXPECT_EQ(Differences(state, "job-000001"), "");
+    // The daemon logged the port and the status page's address, the token in its fragment.
+    const std::string log = testing::Slurp(daemon.log());
+    EXPECT_NE(log.find("serving the control API on 127.0.0.1:" + std::to_string(number)), std::string::npos) << log;
+    EXPECT_NE(log.find("status page: " + url + "/#token=" + token), std::string::npos) << log;
+
+    // Another token: refused with the daemon's message.
+    std::ofstream(work_ / "wrong.token") << std::string(64, '0') << "\n";
+    const testing::CommandResult wrong =
+        Mesocap("capture list --url " + url + " --token-file " + (work_ / "wrong.token").string());
+    EXPECT_EQ(wrong.exit_code, 1);
+    EXPECT_NE(wrong.err.find("mesocapd: wrong bearer token: use the one in mesocapd's control.token"),
+              std::string::npos)
+        << wrong.err;
+    EXPECT_EQ(daemon.Kill(SIGTERM), 0);
+    EXPECT_FALSE(fs::exists(port_file));  // no port while none listens
+    const testing::CommandResult gone = Mesocap("capture list" + over_tcp);
+    EXPECT_EQ(gone.exit_code, 1);
+    EXPECT_NE(gone.err.find("cannot reach mesocapd at " + url + ": "), std::string::npos) << gone.err;
+  }
+  {
+    // A restart reuses the token.
+    Daemon daemon(state, {"-q", "--tcp-port", "0"});
+    EXPECT_EQ(testing::Slurp(token_file), token + "\n");
+    EXPECT_EQ(daemon.Kill(SIGTERM), 0);
+  }
+  // A token file others may read is refused, by name.
+  fs::permissions(token_file, fs::perms::group_read | fs::perms::others_read, fs::perm_options::add);
+  const fs::path log = work_ / "refused.log";
+  const pid_t pid = testing::StartProcess(
+      MESOCAPD_BINARY, {"-q", "--rig", "tiny", "--state", state.string(), "--tcp-port", "0"}, log);
+  EXPECT_EQ(testing::WaitForExit(pid), 1);
+  EXPECT_EQ(testing::Slurp(log), "mesocapd: error: " + token_file.string() +
+                                     ": mode 0644, expected 0600 (only mesocapd's user may read the bearer token); "
+                                     "remove it and mesocapd makes a new one\n");
+}
+
+TEST_F(MesocapdTest, BadAddressFlagsGetClearErrors) {
+  const fs::path token_file = work_ / "control.token";
+  std::ofstream(token_file) << std::string(64, 'a') << "\n";
+  const std::string token = " --token-file " + token_file.string();
+  const auto expect = [](const std::string& args, const std::string& message) {
+    const testing::CommandResult r = Mesocap(args);
+    EXPECT_NE(r.exit_code, 0) << args;
+    EXPECT_NE(r.err.find(message), std::string::npos) << args << "\n" << r.err;
+  };
+  const std::string loopback_only =
+      "--url: expected http://127.0.0.1:PORT (mesocapd listens on loopback only; its port is in STATE/control.port), "
+      "got ";
+  expect("capture list --url http://0.0.0.0:8080" + token, loopback_only + "\"http://0.0.0.0:8080\"");
+  expect("capture list --url https://127.0.0.1:8080" + token, loopback_only + "\"https://127.0.0.1:8080\"");
+  expect("capture list --url http://127.0.0.1:99999" + token, loopback_only + "\"http://127.0.0.1:99999\"");
+  expect("capture status job-000001 --url http://127.0.0.1:" + token, loopback_only + "\"http://127.0.0.1:\"");
+  expect("capture list --url http://127.0.0.1:8080", "--url requires --token-file");
+  expect("capture watch job-000001" + token, "--token-file requires --url");
+  expect("capture list --url http://127.0.0.1:8080 --socket /tmp/x.sock" + token, "--socket excludes --url");
+  std::ofstream(work_ / "short.token") << "abc\n";
+  expect("capture list --url http://127.0.0.1:8080 --token-file " + (work_ / "short.token").string(),
+         "--token-file: " + (work_ / "short.token").string() +
+             ": expected a bearer token (64 lowercase hex digits and a newline, as mesocapd writes it)");
+  // The daemon's port: a number up to 65535; no option names an address.
+  const fs::path log = work_ / "mesocapd.log";
+  for (const char* bad : {"70000", "-1", "http"}) {
+    const pid_t pid =
+        testing::StartProcess(MESOCAPD_BINARY, {"--state", (work_ / "state").string(), "--tcp-port", bad}, log);
+    EXPECT_NE(testing::WaitForExit(pid), 0) << bad;
+  }
+  const std::string refused = testing::Slurp(log);
+  EXPECT_NE(refused.find("--tcp-port: Value 70000 not in range 0 to 65535"), std::string::npos) << refused;
+  EXPECT_FALSE(fs::exists(work_ / "state" / "control.token"));
 }
 
 }  // namespace
