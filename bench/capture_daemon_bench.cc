@@ -152,7 +152,7 @@ struct ClientRecord {
 // them); every `period` when it is not zero, else back to back.
 void Poll(const fs::path& socket, const std::string& id, Clock::duration period, const std::atomic<bool>& stop,
           ClientRecord* out) {
-  const ControlClient client(socket);
+  const ControlClient client(ControlEndpoint{socket, "", ""});
   Clock::time_point next = Clock::now();
   for (std::uint64_t i = 0; !stop; ++i) {
     if (period.count() > 0) {

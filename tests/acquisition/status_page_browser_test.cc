@@ -33,6 +33,8 @@ class SteppedStation : public CaptureStation {
   explicit SteppedStation(std::unique_ptr<CaptureStation> station) : station_(std::move(station)) {}
 
   std::string rig_name() const override { return station_->rig_name(); }
+  std::vector<std::string> camera_ids() const override { return station_->camera_ids(); }
+  std::vector<drivers::DeviceState> DeviceStates() override { return station_->DeviceStates(); }
   void OpenSession(const fs::path& dir, const std::string& plan_kind) override {
     station_->OpenSession(dir, plan_kind);
   }
