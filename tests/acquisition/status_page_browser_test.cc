@@ -168,8 +168,12 @@ TEST_F(StatusPageBrowserTest, ThePageShowsTheRunningJobsStepsAndFollowsThem) {
   EXPECT_TRUE(eta.is_string() && eta.get<std::string>().find('m') != std::string::npos) << eta;
   const json log = browser.Evaluate("document.getElementById('log').textContent");
   EXPECT_TRUE(log.is_string() && log.get<std::string>().find(id + " running") != std::string::npos) << log;
-  // No "devices" member in /v1/rig here: the page says so instead of failing.
-  EXPECT_EQ(browser.Evaluate("document.getElementById('devices').textContent"), "no device states reported");
+  // Each device's state as /v1/rig reports it.
+  const json devices = browser.Evaluate("document.getElementById('devices').textContent");
+  ASSERT_TRUE(devices.is_string()) << devices;
+  for (const char* line : {"camera cam0: ", "turntable: at 0 deg, homed", "lamps: 2 lamps", "laser unit: "}) {
+    EXPECT_NE(devices.get<std::string>().find(line), std::string::npos) << line << " in " << devices;
+  }
   EXPECT_EQ(browser.Evaluate("document.getElementById('connection').className"), "");
 
   // Three more steps; the same page (no reload: a mark set on it stays)
