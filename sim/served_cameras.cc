@@ -4,10 +4,15 @@
 #include <arv.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
+#include <chrono>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <span>
+#include <thread>
 
 #include "core/error.h"
 #include "drivers/aravis/pixel_format.h"
@@ -22,9 +27,17 @@ using drivers::aravis::PixelFormatTraits;
 
 // GigE Vision bootstrap registers hold a 16-byte serial number string.
 constexpr std::size_t kMaxSerialLength = 15;
-// A served camera answers a software trigger within 5 ms instead
-// of the fake device's default 25 Hz trigger clock.
+// A served camera sends a rendered frame within 5 ms instead of at the fake
+// device's default 25 Hz trigger clock.
 constexpr double kTriggerPollHz = 200.0;
+// The client's TriggerSoftware command is redirected to this otherwise unused
+// register of the fake device's memory, which the server's own render thread
+// watches: the device's thread answers the control channel, and a frame that
+// takes seconds to render must not keep it from answering (Aravis declares a
+// device gone after its control channel is silent for a few retries).
+constexpr guint32 kRedirectedTriggerRegister = 0x8000;
+// How often the render thread looks at that register.
+constexpr auto kTriggerWatchPeriod = std::chrono::milliseconds(1);
 
 bool IsIpv4Address(const std::string& s) {
   in_addr address{};
@@ -64,7 +77,17 @@ std::string GenICamDescription(const std::vector<PixelFormatTraits>& formats) {
     entries += "<EnumEntry Name=\"" + f.name + "\" NameSpace=\"Standard\"><Value>" + std::to_string(f.code) +
                "</Value></EnumEntry>\n\t\t";
   }
-  return text.substr(0, first) + entries + text.substr(value);
+  text = text.substr(0, first) + entries + text.substr(value);
+
+  const auto trigger = text.find("<IntReg Name=\"TriggerSoftwareCommandRegister\"");
+  const auto address = text.find("<Address>", trigger);
+  const auto address_end = text.find("</Address>", address);
+  if (trigger == std::string::npos || address == std::string::npos || address_end == std::string::npos) {
+    throw core::Error("Aravis' fake camera has no TriggerSoftwareCommandRegister to redirect");
+  }
+  char redirected[16];
+  std::snprintf(redirected, sizeof redirected, "0x%x", kRedirectedTriggerRegister);
+  return text.substr(0, address + 9) + redirected + text.substr(address_end);
 }
 
 }  // namespace
@@ -78,17 +101,65 @@ struct ServedCameras::Server {
   std::atomic<std::uint64_t> served{0};
   std::atomic<std::uint64_t> failed{0};
 
-  ~Server() {
-    if (device) g_object_unref(device);  // joins the device's threads
-  }
+  // The frame rendered for the latest software trigger, until the device's
+  // thread sends it.
+  std::mutex rendered_mutex;
+  std::vector<std::byte> rendered;
+  bool has_rendered = false;
+  std::thread render_thread;
+  std::atomic<bool> stop_rendering{false};
+
+  ~Server() { Stop(); }
+
+  ArvFakeCamera* fake() const { return arv_gv_fake_camera_get_fake_camera(device); }
 
   std::uint32_t Register(std::uint32_t address_of) const {
     guint32 value = 0;
-    arv_fake_camera_read_register(arv_gv_fake_camera_get_fake_camera(device), address_of, &value);
+    arv_fake_camera_read_register(fake(), address_of, &value);
     return value;
   }
 
-  // Called on the device's stream thread for every frame it sends.
+  void StartRendering() {
+    stop_rendering = false;
+    render_thread = std::thread([this] { WatchTriggers(); });
+  }
+
+  // Stops the render thread, then the device (which joins the device's threads).
+  void Stop() {
+    stop_rendering = true;
+    if (render_thread.joinable()) render_thread.join();
+    if (device) g_object_unref(device);
+    device = nullptr;
+    std::lock_guard lock(rendered_mutex);
+    has_rendered = false;
+  }
+
+  // A client's software trigger lands in the redirected register: render the
+  // frame here, then pass the trigger on to the device, whose thread sends
+  // what was rendered at its next frame-clock tick.
+  void WatchTriggers() {
+    while (!stop_rendering) {
+      if (Register(kRedirectedTriggerRegister) == 0) {
+        std::this_thread::sleep_for(kTriggerWatchPeriod);
+        continue;
+      }
+      arv_fake_camera_write_register(fake(), kRedirectedTriggerRegister, 0);
+      if (!arv_fake_camera_is_in_software_trigger_mode(fake())) continue;  // a real device ignores it too
+      std::vector<std::byte> frame(arv_fake_camera_get_payload(fake()));
+      Render(frame, Register(ARV_FAKE_CAMERA_REGISTER_EXPOSURE_TIME_US), Register(ARV_FAKE_CAMERA_REGISTER_GAIN_RAW),
+             Register(ARV_FAKE_CAMERA_REGISTER_PIXEL_FORMAT));
+      {
+        std::lock_guard lock(rendered_mutex);
+        rendered = std::move(frame);
+        has_rendered = true;
+      }
+      arv_fake_camera_write_register(fake(), ARV_FAKE_CAMERA_REGISTER_TRIGGER_SOFTWARE, 1);
+    }
+  }
+
+  // Called on the device's thread for every frame it sends: the frame the
+  // render thread made for this trigger, or, free running (no trigger), one
+  // rendered here.
   static void Fill(ArvBuffer* buffer, void* self, guint32 exposure_us, guint32 gain, ArvPixelFormat pixel_format) {
     static_cast<Server*>(self)->FillFrame(buffer, exposure_us, gain, pixel_format);
   }
@@ -98,12 +169,27 @@ struct ServedCameras::Server {
     // reports no size before it is filled; the device checked that it holds
     // the current payload before calling.
     auto* data = static_cast<std::byte*>(const_cast<void*>(arv_buffer_get_data(buffer, nullptr)));
-    const std::size_t size = arv_fake_camera_get_payload(arv_gv_fake_camera_get_fake_camera(device));
+    const std::span<std::byte> payload(data, arv_fake_camera_get_payload(fake()));
+    {
+      std::lock_guard lock(rendered_mutex);
+      const bool ready = has_rendered && rendered.size() == payload.size();
+      has_rendered = false;
+      if (ready) {
+        std::copy(rendered.begin(), rendered.end(), payload.begin());
+        return;
+      }
+    }
+    Render(payload, exposure_us, gain, pixel_format);
+  }
+
+  // One Grab of the camera behind, with the settings the client wrote to the
+  // device's registers, encoded in the served pixel format.
+  void Render(std::span<std::byte> payload, guint32 exposure_us, guint32 gain, guint32 pixel_format) {
     std::lock_guard lock(*render_mutex);
     try {
       const PixelFormatTraits* format = nullptr;
       for (const auto& f : formats) {
-        if (f.code == static_cast<std::uint32_t>(pixel_format)) format = &f;
+        if (f.code == pixel_format) format = &f;
       }
       if (format == nullptr) throw core::Error("pixel format " + std::to_string(pixel_format) + " is not served");
       const drivers::CameraSettings now = camera->settings();
@@ -129,11 +215,11 @@ struct ServedCameras::Server {
       if (now.trigger != drivers::TriggerMode::kSoftware) camera->SetTrigger(drivers::TriggerMode::kSoftware);
       camera->Trigger();
       const drivers::Frame frame = camera->Grab(std::chrono::milliseconds(0));
-      drivers::aravis::EncodePixels(frame.image, *format, {data, size});
+      drivers::aravis::EncodePixels(frame.image, *format, payload);
       ++served;
     } catch (const std::exception&) {
       // The device sends a frame whatever happens here: a black one, counted.
-      std::fill(data, data + size, std::byte{0});
+      std::fill(payload.begin(), payload.end(), std::byte{0});
       ++failed;
     }
   }
@@ -204,13 +290,10 @@ void ServedCameras::Serve(std::size_t i) {
   }
   arv_fake_camera_set_trigger_frequency(fake, kTriggerPollHz);
   arv_fake_camera_set_fill_pattern(fake, &Server::Fill, &server);
+  server.StartRendering();
 }
 
-void ServedCameras::StopServing(std::size_t i) {
-  Server& server = *servers_.at(i);
-  if (server.device) g_object_unref(server.device);  // joins the device's threads
-  server.device = nullptr;
-}
+void ServedCameras::StopServing(std::size_t i) { servers_.at(i)->Stop(); }
 
 void ServedCameras::ServeAgain(std::size_t i) {
   if (servers_.at(i)->device == nullptr) Serve(i);
@@ -218,10 +301,7 @@ void ServedCameras::ServeAgain(std::size_t i) {
 
 ServedCameras::~ServedCameras() {
   // Stop every device before the cameras and the mutex their threads use go.
-  for (auto& s : servers_) {
-    if (s->device) g_object_unref(s->device);
-    s->device = nullptr;
-  }
+  for (auto& s : servers_) s->Stop();
 }
 
 const ServedCameraAddress& ServedCameras::address(std::size_t i) const { return servers_.at(i)->address; }

@@ -5,7 +5,9 @@
 // sends is one Grab of the camera behind it, made with the exposure, gain,
 // region, pixel format the client set; a simulated camera behind it renders
 // the shared rig state, so stages, lamps and laser driven in this process
-// show in the served frames.
+// show in the served frames. A triggered frame is rendered on a thread of
+// the server's own, so the device answers its control channel while a
+// frame takes seconds to render.
 //
 // The served device offers the pixel formats of the camera behind it: Mono
 // and RGB at its bit depth (Mono12 and RGB12 for a 12-bit sensor), with
