@@ -183,6 +183,12 @@ struct RigDescription {
   int light_count() const {
     return static_cast<int>(light_arc.angles_rad.size() * lamps.elevations_rad.size());
   }
+  // The cameras' ids, in the description's order.
+  std::vector<std::string> camera_ids() const {
+    std::vector<std::string> ids;
+    for (const CameraDescription& c : cameras) ids.push_back(c.id);
+    return ids;
+  }
 };
 
 // Reads and validates a rig description; errors name the file and field.

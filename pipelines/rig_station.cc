@@ -74,11 +74,7 @@ RigStation::~RigStation() = default;
 
 std::string RigStation::rig_name() const { return description_.name; }
 
-std::vector<std::string> RigStation::camera_ids() const {
-  std::vector<std::string> ids;
-  for (const formats::CameraDescription& c : description_.cameras) ids.push_back(c.id);
-  return ids;
-}
+std::vector<std::string> RigStation::camera_ids() const { return description_.camera_ids(); }
 
 std::vector<drivers::DeviceState> RigStation::DeviceStates() {
   drivers::aravis::ReopenGoneCameras(rig_);

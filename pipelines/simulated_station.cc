@@ -137,11 +137,7 @@ void SimulatedStation::ReplaceLamp(int index) {
   lamps->ReplaceLamp(index);
 }
 
-std::vector<std::string> SimulatedStation::camera_ids() const {
-  std::vector<std::string> ids;
-  for (const formats::CameraDescription& c : devices_->rig.cameras) ids.push_back(c.id);
-  return ids;
-}
+std::vector<std::string> SimulatedStation::camera_ids() const { return devices_->rig.camera_ids(); }
 
 std::vector<drivers::DeviceState> SimulatedStation::DeviceStates() {
   drivers::aravis::ReopenGoneCameras(devices_->devices);

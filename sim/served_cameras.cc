@@ -11,6 +11,8 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <optional>
 #include <span>
 #include <thread>
 
@@ -92,11 +94,23 @@ std::string GenICamDescription(const std::vector<PixelFormatTraits>& formats) {
 
 }  // namespace
 
+// What a client set through the device's registers, read at a trigger.
+struct ServedSettings {
+  guint32 exposure_us = 0, gain = 0, pixel_format = 0;
+  drivers::CameraRegion region;
+  bool operator==(const ServedSettings& o) const {
+    return exposure_us == o.exposure_us && gain == o.gain && pixel_format == o.pixel_format &&
+           region.x == o.region.x && region.y == o.region.y && region.width == o.region.width &&
+           region.height == o.region.height;
+  }
+};
+
 struct ServedCameras::Server {
   ServedCameraAddress address;
   std::unique_ptr<drivers::Camera> camera;
   std::vector<PixelFormatTraits> formats;
   std::mutex* render_mutex = nullptr;
+  std::function<std::uint64_t()> scene_changes;
   ArvGvFakeCamera* device = nullptr;
   std::atomic<std::uint64_t> served{0};
   std::atomic<std::uint64_t> failed{0};
@@ -108,6 +122,14 @@ struct ServedCameras::Server {
   bool has_rendered = false;
   std::thread render_thread;
   std::atomic<bool> stop_rendering{false};
+  // The last frame rendered for a trigger, with the scene and settings it
+  // shows (render thread only).
+  struct LastFrame {
+    std::uint64_t scene_changes = 0;
+    ServedSettings settings;
+    std::vector<std::byte> bytes;
+  };
+  std::optional<LastFrame> last;
 
   ~Server() { Stop(); }
 
@@ -117,6 +139,18 @@ struct ServedCameras::Server {
     guint32 value = 0;
     arv_fake_camera_read_register(fake(), address_of, &value);
     return value;
+  }
+
+  ServedSettings Settings() const {
+    ServedSettings s;
+    s.exposure_us = Register(ARV_FAKE_CAMERA_REGISTER_EXPOSURE_TIME_US);
+    s.gain = Register(ARV_FAKE_CAMERA_REGISTER_GAIN_RAW);
+    s.pixel_format = Register(ARV_FAKE_CAMERA_REGISTER_PIXEL_FORMAT);
+    s.region.x = static_cast<int>(Register(ARV_FAKE_CAMERA_REGISTER_X_OFFSET));
+    s.region.y = static_cast<int>(Register(ARV_FAKE_CAMERA_REGISTER_Y_OFFSET));
+    s.region.width = static_cast<int>(Register(ARV_FAKE_CAMERA_REGISTER_WIDTH));
+    s.region.height = static_cast<int>(Register(ARV_FAKE_CAMERA_REGISTER_HEIGHT));
+    return s;
   }
 
   void StartRendering() {
@@ -134,9 +168,13 @@ struct ServedCameras::Server {
     has_rendered = false;
   }
 
-  // A client's software trigger lands in the redirected register: render the
-  // frame here, then pass the trigger on to the device, whose thread sends
-  // what was rendered at its next frame-clock tick.
+  // A client's software trigger lands in the redirected register: the frame
+  // is made here, then the trigger passed on to the device, whose thread
+  // sends it at its next frame-clock tick. A trigger with nothing changed
+  // since the last one (a client that timed out and triggered again) sends
+  // the same frame again: a late frame and its retry are one exposure, as a
+  // frame lost in process draws no noise (SimulatedCamera), so the session
+  // does not depend on when a client gave up waiting.
   void WatchTriggers() {
     while (!stop_rendering) {
       if (Register(kRedirectedTriggerRegister) == 0) {
@@ -145,13 +183,28 @@ struct ServedCameras::Server {
       }
       arv_fake_camera_write_register(fake(), kRedirectedTriggerRegister, 0);
       if (!arv_fake_camera_is_in_software_trigger_mode(fake())) continue;  // a real device ignores it too
-      std::vector<std::byte> frame(arv_fake_camera_get_payload(fake()));
-      Render(frame, Register(ARV_FAKE_CAMERA_REGISTER_EXPOSURE_TIME_US), Register(ARV_FAKE_CAMERA_REGISTER_GAIN_RAW),
-             Register(ARV_FAKE_CAMERA_REGISTER_PIXEL_FORMAT));
-      {
-        std::lock_guard lock(rendered_mutex);
-        rendered = std::move(frame);
-        has_rendered = true;
+      const ServedSettings settings = Settings();
+      const std::uint64_t changes = scene_changes ? scene_changes() : 0;
+      std::vector<std::byte> frame;
+      if (scene_changes && last && last->scene_changes == changes && last->settings == settings) {
+        frame = last->bytes;
+        ++served;
+      } else {
+        frame.resize(arv_fake_camera_get_payload(fake()));
+        Render(frame, settings);
+        if (scene_changes) last = LastFrame{changes, settings, frame};
+      }
+      // The device sends one frame a trigger: the previous one must be sent.
+      while (!stop_rendering) {
+        {
+          std::lock_guard lock(rendered_mutex);
+          if (!has_rendered && Register(ARV_FAKE_CAMERA_REGISTER_TRIGGER_SOFTWARE) == 0) {
+            rendered = std::move(frame);
+            has_rendered = true;
+            break;
+          }
+        }
+        std::this_thread::sleep_for(kTriggerWatchPeriod);
       }
       arv_fake_camera_write_register(fake(), ARV_FAKE_CAMERA_REGISTER_TRIGGER_SOFTWARE, 1);
     }
@@ -160,11 +213,11 @@ struct ServedCameras::Server {
   // Called on the device's thread for every frame it sends: the frame the
   // render thread made for this trigger, or, free running (no trigger), one
   // rendered here.
-  static void Fill(ArvBuffer* buffer, void* self, guint32 exposure_us, guint32 gain, ArvPixelFormat pixel_format) {
-    static_cast<Server*>(self)->FillFrame(buffer, exposure_us, gain, pixel_format);
+  static void Fill(ArvBuffer* buffer, void* self, guint32, guint32, ArvPixelFormat) {
+    static_cast<Server*>(self)->FillFrame(buffer);
   }
 
-  void FillFrame(ArvBuffer* buffer, guint32 exposure_us, guint32 gain, ArvPixelFormat pixel_format) {
+  void FillFrame(ArvBuffer* buffer) {
     // The fill callback's contract: write the frame into this buffer. It
     // reports no size before it is filled; the device checked that it holds
     // the current payload before calling.
@@ -179,25 +232,21 @@ struct ServedCameras::Server {
         return;
       }
     }
-    Render(payload, exposure_us, gain, pixel_format);
+    Render(payload, Settings());
   }
 
   // One Grab of the camera behind, with the settings the client wrote to the
   // device's registers, encoded in the served pixel format.
-  void Render(std::span<std::byte> payload, guint32 exposure_us, guint32 gain, guint32 pixel_format) {
+  void Render(std::span<std::byte> payload, const ServedSettings& wanted) {
     std::lock_guard lock(*render_mutex);
     try {
       const PixelFormatTraits* format = nullptr;
       for (const auto& f : formats) {
-        if (f.code == pixel_format) format = &f;
+        if (f.code == wanted.pixel_format) format = &f;
       }
-      if (format == nullptr) throw core::Error("pixel format " + std::to_string(pixel_format) + " is not served");
+      if (format == nullptr) throw core::Error("pixel format " + std::to_string(wanted.pixel_format) + " is not served");
       const drivers::CameraSettings now = camera->settings();
-      drivers::CameraRegion region;
-      region.x = static_cast<int>(Register(ARV_FAKE_CAMERA_REGISTER_X_OFFSET));
-      region.y = static_cast<int>(Register(ARV_FAKE_CAMERA_REGISTER_Y_OFFSET));
-      region.width = static_cast<int>(Register(ARV_FAKE_CAMERA_REGISTER_WIDTH));
-      region.height = static_cast<int>(Register(ARV_FAKE_CAMERA_REGISTER_HEIGHT));
+      drivers::CameraRegion region = wanted.region;
       // The whole sensor is the interface's default region, {0, 0, 0, 0}.
       const drivers::CameraInfo info = camera->info();
       if (region.x == 0 && region.y == 0 && region.width == info.sensor_width && region.height == info.sensor_height) {
@@ -205,8 +254,8 @@ struct ServedCameras::Server {
       }
       const auto mode = format->channels == 1 && info.channels != 1 ? drivers::PixelFormat::kMono
                                                                                : drivers::PixelFormat::kNative;
-      if (now.exposure_us != exposure_us) camera->SetExposure(exposure_us);
-      if (now.gain_db != gain) camera->SetGain(gain);
+      if (now.exposure_us != wanted.exposure_us) camera->SetExposure(wanted.exposure_us);
+      if (now.gain_db != wanted.gain) camera->SetGain(wanted.gain);
       if (now.region.x != region.x || now.region.y != region.y || now.region.width != region.width ||
           now.region.height != region.height) {
         camera->SetRegion(region);
@@ -240,13 +289,14 @@ std::vector<ServedCameraAddress> ServedAddresses(const formats::RigDescription& 
 }
 
 ServedCameras::ServedCameras(std::vector<std::unique_ptr<drivers::Camera>> cameras,
-                             std::vector<ServedCameraAddress> addresses) {
+                             std::vector<ServedCameraAddress> addresses, std::function<std::uint64_t()> scene_changes) {
   if (cameras.size() != addresses.size()) throw core::Error("served cameras: one address per camera expected");
   for (std::size_t i = 0; i < cameras.size(); ++i) {
     auto server = std::make_unique<Server>();
     server->address = addresses[i];
     server->camera = std::move(cameras[i]);
     server->render_mutex = &render_mutex_;
+    server->scene_changes = scene_changes;
     server->formats = ServedFormats(server->camera->info());
     servers_.push_back(std::move(server));
     Serve(i);
@@ -311,7 +361,8 @@ std::uint64_t ServedCameras::frames_failed(std::size_t i) const { return servers
 std::unique_ptr<ServedCameras> ServeRigCameras(const formats::RigDescription& rig, SimulatedRigBackend& backend) {
   std::vector<std::unique_ptr<drivers::Camera>> cameras;
   for (int i = 0; i < static_cast<int>(rig.cameras.size()); ++i) cameras.push_back(backend.MakeCamera(rig, i));
-  return std::make_unique<ServedCameras>(std::move(cameras), ServedAddresses(rig));
+  return std::make_unique<ServedCameras>(std::move(cameras), ServedAddresses(rig),
+                                         [state = backend.shared_state()] { return state->changes.load(); });
 }
 
 }  // namespace mesocap::sim

@@ -16,6 +16,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -44,7 +45,12 @@ class ServedCameras {
   // Starts one GigE Vision device per camera. Throws Error naming the
   // address when one cannot be served (not an address of this host's
   // interfaces, or its port is taken); nothing stays served then.
-  ServedCameras(std::vector<std::unique_ptr<drivers::Camera>> cameras, std::vector<ServedCameraAddress> addresses);
+  // `scene_changes`, when given, counts the changes to what the cameras
+  // image (SimulatedRigState::changes): a camera triggered again with no
+  // change and the same settings sends its last frame again rather than a
+  // new exposure.
+  ServedCameras(std::vector<std::unique_ptr<drivers::Camera>> cameras, std::vector<ServedCameraAddress> addresses,
+                std::function<std::uint64_t()> scene_changes = {});
   // Stops serving: clients lose their control channel.
   ~ServedCameras();
   ServedCameras(const ServedCameras&) = delete;

@@ -4,6 +4,7 @@
 // an image.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <optional>
 #include <vector>
@@ -35,7 +36,8 @@ struct SimulatedRigState {
   // moving or homing, the laser tilted or remounted, something laid on the
   // turntable or taken off): a camera's run of frames of one state ends at
   // each, so a step taken again after a fault images as it did the first time.
-  std::uint64_t changes = 0;
+  // Atomic: served cameras read it on their own threads.
+  std::atomic<std::uint64_t> changes{0};
 };
 
 // Forms the image camera `camera` records in `state`: the noiseless linear

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <utility>
 #include <vector>
 
 #include "core/error.h"
@@ -292,6 +293,7 @@ void AravisCamera::StartStream() {
   Check("starting the acquisition", error);
   device_->acquiring = true;
   have_frame_id_ = false;
+  owed_frames_ = 0;
 }
 
 void AravisCamera::StopStream() {
@@ -389,30 +391,47 @@ void AravisCamera::Trigger() {
   // trigger's frame, taken before the rig moved on. It is not lost, so it
   // moves the frame id on without counting as dropped.
   while (ArvBuffer* stale = arv_stream_try_pop_buffer(device_->stream)) {
-    CountFrameId(arv_buffer_get_frame_id(stale));
+    SettleOwedFrames(CountFrameId(arv_buffer_get_frame_id(stale)));
     arv_stream_push_buffer(device_->stream, stale);
   }
   GError* error = nullptr;
   arv_camera_software_trigger(Connected(), &error);
   Check("TriggerSoftware", error);
+  ++owed_frames_;
 }
 
-void AravisCamera::CountFrameId(std::uint64_t id) {
-  if (id == 0) return;  // no id: GigE Vision never sends 0
+std::uint64_t AravisCamera::CountFrameId(std::uint64_t id) {
+  if (id == 0) return 0;  // no id: GigE Vision never sends 0
   const std::uint64_t gap = have_frame_id_ ? FrameIdGap(last_frame_id_, id) : 0;
   dropped_frames_ += gap;
   next_sequence_ += gap;
   last_frame_id_ = id;
   have_frame_id_ = true;
+  return gap;
+}
+
+void AravisCamera::SettleOwedFrames(std::uint64_t missing_before) {
+  const std::uint64_t settled = missing_before + 1;
+  owed_frames_ = settled >= owed_frames_ ? 0 : owed_frames_ - settled;
 }
 
 Frame AravisCamera::Grab(std::chrono::milliseconds timeout) {
   StartStream();
   const auto deadline = std::chrono::steady_clock::now() + timeout;
+  // A frame that answers an earlier trigger of this one's (it timed out and
+  // was retried, the rig unchanged): the retry's own frame comes after it
+  // and is the answer, so that which frame answers does not depend on when
+  // the first was given up; if none comes (a busy camera may ignore a
+  // trigger), this one is.
+  ArvBuffer* earlier = nullptr;
   for (;;) {
     const auto left = std::chrono::duration_cast<std::chrono::microseconds>(deadline - std::chrono::steady_clock::now());
     ArvBuffer* buffer =
         left.count() > 0 ? arv_stream_timeout_pop_buffer(device_->stream, static_cast<guint64>(left.count())) : nullptr;
+    if (buffer == nullptr && earlier != nullptr) {
+      owed_frames_ = 0;
+      return Decoded(std::exchange(earlier, nullptr));
+    }
     if (buffer == nullptr) {
       // Tell a slow frame from a camera that is gone: ask the camera.
       GError* error = nullptr;
@@ -422,35 +441,45 @@ Frame AravisCamera::Grab(std::chrono::milliseconds timeout) {
     }
     // Every GVSP packet carries its frame's id, so an incomplete frame has
     // one too: it and the frames missing before it are dropped.
-    CountFrameId(arv_buffer_get_frame_id(buffer));
+    SettleOwedFrames(CountFrameId(arv_buffer_get_frame_id(buffer)));
     if (arv_buffer_get_status(buffer) != ARV_BUFFER_STATUS_SUCCESS) {
       ++dropped_frames_;
       ++next_sequence_;
       arv_stream_push_buffer(device_->stream, buffer);
       continue;
     }
-
-    Frame frame;
-    frame.sequence = next_sequence_++;
-    frame.timestamp_s = static_cast<double>(arv_buffer_get_timestamp(buffer)) * 1e-9;
-    frame.settings = settings_;
-    const auto format = FindPixelFormat(static_cast<std::uint32_t>(arv_buffer_get_image_pixel_format(buffer)));
-    size_t size = 0;
-    const void* data = arv_buffer_get_image_data(buffer, &size);
-    const int width = arv_buffer_get_image_width(buffer);
-    const int height = arv_buffer_get_image_height(buffer);
-    try {
-      if (!format) throw DeviceError("a frame arrived in a pixel format mesocap does not read");
-      frame.bit_depth = format->bit_depth;
-      frame.saturated_pixels =
-          DecodePixels({static_cast<const std::byte*>(data), size}, width, height, *format, frame.image);
-    } catch (const core::Error& e) {
-      arv_stream_push_buffer(device_->stream, buffer);
-      throw DeviceError("camera " + options_.id + ": " + e.what());
+    // Set aside, not dropped: its id moved the count on.
+    if (earlier != nullptr) arv_stream_push_buffer(device_->stream, earlier);
+    earlier = nullptr;
+    if (owed_frames_ > 0) {
+      earlier = buffer;
+      continue;
     }
-    arv_stream_push_buffer(device_->stream, buffer);
-    return frame;
+    return Decoded(buffer);
   }
+}
+
+Frame AravisCamera::Decoded(ArvBuffer* buffer) {
+  Frame frame;
+  frame.sequence = next_sequence_++;
+  frame.timestamp_s = static_cast<double>(arv_buffer_get_timestamp(buffer)) * 1e-9;
+  frame.settings = settings_;
+  const auto format = FindPixelFormat(static_cast<std::uint32_t>(arv_buffer_get_image_pixel_format(buffer)));
+  size_t size = 0;
+  const void* data = arv_buffer_get_image_data(buffer, &size);
+  const int width = arv_buffer_get_image_width(buffer);
+  const int height = arv_buffer_get_image_height(buffer);
+  try {
+    if (!format) throw DeviceError("a frame arrived in a pixel format mesocap does not read");
+    frame.bit_depth = format->bit_depth;
+    frame.saturated_pixels =
+        DecodePixels({static_cast<const std::byte*>(data), size}, width, height, *format, frame.image);
+  } catch (const core::Error& e) {
+    arv_stream_push_buffer(device_->stream, buffer);
+    throw DeviceError("camera " + options_.id + ": " + e.what());
+  }
+  arv_stream_push_buffer(device_->stream, buffer);
+  return frame;
 }
 
 }  // namespace mesocap::drivers::aravis

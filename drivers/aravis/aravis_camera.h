@@ -18,8 +18,9 @@
 #include "drivers/aravis/pixel_format.h"
 #include "drivers/camera.h"
 
-struct _GError;     // GLib's GError and Aravis' camera, without their
-struct _ArvCamera;  // headers in this one
+struct _GError;     // GLib's GError and Aravis' camera and buffer, without
+struct _ArvCamera;  // their headers in this one
+struct _ArvBuffer;
 
 namespace mesocap::drivers::aravis {
 
@@ -94,8 +95,13 @@ class AravisCamera : public Camera {
   void Check(const std::string& what, ::_GError* error) const;
   // Disconnects and frees the ArvCamera, leaving device_ without one.
   void ReleaseCamera();
-  // Counts the frames missing before frame `id` as dropped.
-  void CountFrameId(std::uint64_t id);
+  // Counts the frames missing before frame `id` as dropped; returns how many.
+  std::uint64_t CountFrameId(std::uint64_t id);
+  // A frame arrived after `missing_before` lost ones: that many triggers
+  // and one more are answered.
+  void SettleOwedFrames(std::uint64_t missing_before);
+  // The frame in `buffer`, which goes back to the stream.
+  Frame Decoded(::_ArvBuffer* buffer);
 
   AravisCameraOptions options_;
   std::unique_ptr<Device> device_;
@@ -108,6 +114,9 @@ class AravisCamera : public Camera {
   std::uint64_t next_sequence_ = 0;
   std::uint64_t last_frame_id_ = 0;
   bool have_frame_id_ = false;
+  // Software triggers whose frame has not arrived: more than one while a
+  // Grab that timed out is retried (Grab).
+  std::uint64_t owed_frames_ = 0;
   bool opened_before_ = false;
 };
 

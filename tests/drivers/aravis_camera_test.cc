@@ -10,6 +10,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <thread>
@@ -49,6 +50,7 @@ class PatternCamera : public Camera {
   void SetTrigger(TriggerMode m) override { settings_.trigger = m; }
   void Trigger() override {}
   Frame Grab(std::chrono::milliseconds) override {
+    std::this_thread::sleep_for(render_time);
     const auto& r = settings_.region;
     const int w = r.width ? r.width : kWidth, h = r.height ? r.height : kHeight;
     const int channels = settings_.pixel_format == PixelFormat::kMono ? 1 : 3;
@@ -64,6 +66,7 @@ class PatternCamera : public Camera {
     return f;
   }
   CameraSettings last_settings;
+  std::chrono::milliseconds render_time{0};  // how long a frame takes to make
 
  private:
   CameraSettings settings_;
@@ -191,6 +194,51 @@ TEST(AravisCamera, AFrameLaterThanItsTimeoutIsNotTakenForTheNextTrigger) {
   EXPECT_EQ(std::lround(f.image.pixel(0, 0)[0] * kMaxCode), 1);
   EXPECT_EQ(WrongPixels(f), 0);
   EXPECT_EQ(camera.dropped_frames(), 0u);
+}
+
+TEST(AravisCamera, ARetriedTriggersLateFrameIsSetAsideNotTakenForALaterTrigger) {
+  // Frames take 300 ms to make: the first Grab gives up after 100 ms and the
+  // trigger is retried while frame 0 is on its way. Each Grab must get the
+  // frame of the trigger just before it (frame 1, then 2), not frame 0 late
+  // and then frame 1 as the answer to the next trigger (the rig moved on).
+  PatternCamera* pattern = nullptr;
+  auto served = Serve(&pattern);
+  pattern->render_time = std::chrono::milliseconds(300);
+  AravisCamera camera(Options());
+  camera.SetTrigger(TriggerMode::kSoftware);
+  camera.Trigger();
+  EXPECT_THROW(camera.Grab(std::chrono::milliseconds(100)), TimeoutError);
+  camera.Trigger();
+  const Frame retried = camera.Grab(std::chrono::milliseconds(2000));
+  EXPECT_EQ(std::lround(retried.image.pixel(0, 0)[0] * kMaxCode), 1);
+  camera.Trigger();
+  const Frame next = camera.Grab(std::chrono::milliseconds(2000));
+  EXPECT_EQ(std::lround(next.image.pixel(0, 0)[0] * kMaxCode), 2);
+  EXPECT_EQ(WrongPixels(next), 0);
+  EXPECT_EQ(camera.dropped_frames(), 0u);
+}
+
+TEST(AravisCamera, ATriggerWithNothingChangedGetsTheSameFrameFromASimulatedScene) {
+  // With a scene whose changes the served cameras can count, a camera
+  // triggered again with nothing changed sends its last frame again (a
+  // retry must not draw new noise); a change makes a new frame.
+  std::atomic<std::uint64_t> changes{0};
+  std::vector<std::unique_ptr<Camera>> cameras;
+  cameras.push_back(std::make_unique<PatternCamera>());
+  sim::ServedCameras served(std::move(cameras), {{"127.0.0.1", "PATTERN01"}}, [&] { return changes.load(); });
+  AravisCamera camera(Options());
+  camera.SetTrigger(TriggerMode::kSoftware);
+  auto next = [&camera] {
+    camera.Trigger();
+    return std::lround(camera.Grab(std::chrono::milliseconds(2000)).image.pixel(0, 0)[0] * kMaxCode);
+  };
+  EXPECT_EQ(next(), 0);
+  EXPECT_EQ(next(), 0);
+  ++changes;
+  EXPECT_EQ(next(), 1);
+  camera.SetExposure(12000.0);  // new settings: a new frame too
+  EXPECT_EQ(next(), 2);
+  EXPECT_EQ(served.frames_served(0), 4u);
 }
 
 TEST(AravisCamera, EverySettingRoundTripsToTheDevice) {
