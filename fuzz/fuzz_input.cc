@@ -22,9 +22,10 @@ const fs::path& ScratchDir() {
     const fs::path path = fs::temp_directory_path() / ("mesocap-fuzz-" + std::to_string(::getpid()));
     fs::remove_all(path);
     fs::create_directories(path);
-    std::atexit(RemoveScratchDir);
     return path;
   }();
+  // Registered once `dir` is made, so that it runs before `dir` is destroyed.
+  [[maybe_unused]] static const int removed_at_exit = std::atexit(RemoveScratchDir);
   return dir;
 }
 
