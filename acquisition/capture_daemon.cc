@@ -369,12 +369,11 @@ void CaptureDaemon::RunWorker() {
 void CaptureDaemon::RunJob(const std::string& id) {
   const fs::path dir = SessionDir(id);
   std::string plan_kind;
-  std::uint64_t frames_before = 0, dropped_before = 0, retries_before = 0;
+  std::uint64_t dropped_before = 0, retries_before = 0;
   {
     std::lock_guard lock(mutex_);
     const CaptureJob& job = jobs_.at(id);
     plan_kind = job.plan_kind;
-    frames_before = job.frames;
     dropped_before = job.dropped_frames;
     retries_before = job.retries;
   }
@@ -415,7 +414,9 @@ void CaptureDaemon::RunJob(const std::string& id) {
     CaptureJob& job = jobs_.at(id);
     job.steps_done = journaled;
     job.steps_total = report.steps_total;
-    job.frames = frames_before + report.frames;
+    // From the journal, not the job record, which a kill may have caught
+    // between a step's journal line and the record's update.
+    job.frames = report.frames_done_before + report.frames;
     job.dropped_frames = dropped_before + report.dropped_frames;
     job.retries = retries_before + report.retries;
     job.running_s += std::chrono::duration<double>(now - step_start).count();
@@ -427,6 +428,7 @@ void CaptureDaemon::RunJob(const std::string& id) {
     std::lock_guard lock(mutex_);
     CaptureJob& job = jobs_.at(id);
     job.steps_total = report.steps_total;
+    job.frames = report.frames_done_before + report.frames;
     if (!report.stopped) {
       job.state = JobState::kDone;
       job.steps_done = report.steps_total;

@@ -28,6 +28,13 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// The frames a step takes: one a camera, each frame of a sweep.
+std::uint64_t PlannedFrames(const formats::CaptureStep& step) {
+  const std::uint64_t cameras = formats::Files(step).size();
+  const auto* sweep = std::get_if<formats::LaserSweepStep>(&step);
+  return sweep ? cameras * sweep->offsets_mm.size() : cameras;
+}
+
 class SessionRun {
  public:
   SessionRun(const fs::path& dir, drivers::Rig& rig, drivers::RigOperator& rig_operator,
@@ -68,7 +75,11 @@ class SessionRun {
       journal_.Redo(damaged.step);
       ++report_.steps_redone;
     }
-    for (const formats::PlannedStep& step : manifest_.plan) report_.steps_done_before += journal_.IsDone(step.id);
+    for (std::size_t s = 0; s < manifest_.plan.size(); ++s) {
+      if (!journal_.IsDone(manifest_.plan[s].id)) continue;
+      ++report_.steps_done_before;
+      report_.frames_done_before += PlannedFrames(steps_[s]);
+    }
     report_.steps_total = manifest_.plan.size();
     // The journal's lock keeps other writers out, so what looks like a
     // temporary file was left by a writer that died.

@@ -96,6 +96,30 @@ TEST_F(SimulatedDaemonTest, StopLeavesTheJobRunningAndARestartResumesItToTheSame
   EXPECT_EQ(done.frames, capture_frames_);
 }
 
+TEST_F(SimulatedDaemonTest, AJobRecordOneStepBehindItsJournalStillCountsEveryFrameOnce) {
+  // kill -9 between a step's journal line and the job record's update: the
+  // record says a step less, with fewer frames, than the session holds.
+  std::string id;
+  {
+    auto daemon = MakeDaemon();
+    id = daemon->Submit("capture").id;
+    daemon->Start();
+    while (daemon->Job(id)->steps_done < 2) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    daemon->Stop();
+  }
+  const fs::path record = state_ / "state" / "jobs" / (id + ".json");
+  CaptureJob behind = ReadCaptureJob(record);
+  ASSERT_GE(behind.steps_done, 2u);
+  behind.steps_done -= 1;
+  behind.frames = 0;
+  WriteCaptureJob(record, behind);
+  auto daemon = MakeDaemon();
+  daemon->Start();
+  const CaptureJob done = WaitFor(*daemon, id, JobState::kDone);
+  EXPECT_EQ(SessionDifferences(*daemon, id, "capture"), "");
+  EXPECT_EQ(done.frames, capture_frames_);
+}
+
 TEST_F(SimulatedDaemonTest, OnlyOneDaemonPerStateDirectory) {
   auto daemon = MakeDaemon();
   try {
