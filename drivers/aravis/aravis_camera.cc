@@ -428,10 +428,9 @@ Frame AravisCamera::Grab(std::chrono::milliseconds timeout) {
     const auto left = std::chrono::duration_cast<std::chrono::microseconds>(deadline - std::chrono::steady_clock::now());
     ArvBuffer* buffer =
         left.count() > 0 ? arv_stream_timeout_pop_buffer(device_->stream, static_cast<guint64>(left.count())) : nullptr;
-    if (buffer == nullptr && earlier != nullptr) {
-      owed_frames_ = 0;
-      return Decoded(std::exchange(earlier, nullptr));
-    }
+    // The retry's frame stays owed: should it come late, the next Grab sets
+    // it aside too.
+    if (buffer == nullptr && earlier != nullptr) return Decoded(std::exchange(earlier, nullptr));
     if (buffer == nullptr) {
       // Tell a slow frame from a camera that is gone: ask the camera.
       GError* error = nullptr;
