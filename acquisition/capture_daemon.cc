@@ -9,6 +9,7 @@
 #include <cerrno>
 #include <cstring>
 
+#include "acquisition/capture_plan.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/image_io.h"
@@ -132,8 +133,8 @@ void CaptureDaemon::Save(const CaptureJob& job, const std::string& event_type) {
 }
 
 CaptureJob CaptureDaemon::Submit(const std::string& plan_kind) {
-  if (plan_kind != "capture" && plan_kind != "calibration") {
-    throw core::Error("plan " + core::Quoted(plan_kind) + ": expected \"capture\" or \"calibration\"");
+  if (std::find(kPlanKinds.begin(), kPlanKinds.end(), plan_kind) == kPlanKinds.end()) {
+    throw core::Error("plan " + core::Quoted(plan_kind) + ": expected \"capture\", \"btf\" or \"calibration\"");
   }
   CaptureJob job;
   {

@@ -4,6 +4,7 @@
 #include <vector>
 #include <nlohmann/json.hpp>
 
+#include "acquisition/capture_plan.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/json_field_reader.h"
@@ -91,7 +92,7 @@ CaptureJob ReadCaptureJob(const std::filesystem::path& file) {
   job.id = r.String("id");
   if (!IsJobId(job.id)) r.Fail("id", "expected \"job-\" and six digits, got " + core::Quoted(job.id));
   if (file.stem() != job.id) r.Fail("id", "expected " + core::Quoted(file.stem().string()) + " (the file's name)");
-  job.plan_kind = r.Choice("plan", {"capture", "calibration"});
+  job.plan_kind = r.Choice("plan", kPlanKinds);
   job.state = *JobStateFromName(r.Choice("state", JobStateNames()));
   job.submitted_at = r.String("submitted_at");
   constexpr std::int64_t kMax = std::int64_t{1} << 53;

@@ -74,6 +74,14 @@ std::vector<formats::PlannedStep> MakeCapturePlan(const formats::RigDescription&
   return plan;
 }
 
+std::vector<formats::PlannedStep> MakeBtfPlan(const formats::RigDescription& rig, const nlohmann::json& recording) {
+  std::vector<formats::PlannedStep> plan;
+  for (formats::PlannedStep& step : MakeCapturePlan(rig, recording)) {
+    if (step.kind == formats::StepKind::kBtfImage) plan.push_back(std::move(step));
+  }
+  return plan;
+}
+
 std::vector<formats::PlannedStep> MakeCalibrationPlan(const formats::RigDescription& rig,
                                                       const nlohmann::json& recording) {
   if (!rig.calibration_board) {
@@ -110,8 +118,9 @@ std::vector<formats::PlannedStep> MakeCalibrationPlan(const formats::RigDescript
 std::vector<formats::PlannedStep> MakePlanOfKind(const formats::RigDescription& rig, const std::string& plan_kind,
                                                  const nlohmann::json& recording) {
   if (plan_kind == "capture") return MakeCapturePlan(rig, recording);
+  if (plan_kind == "btf") return MakeBtfPlan(rig, recording);
   if (plan_kind == "calibration") return MakeCalibrationPlan(rig, recording);
-  throw core::Error("plan kind " + core::Quoted(plan_kind) + ": expected \"capture\" or \"calibration\"");
+  throw core::Error("plan kind " + core::Quoted(plan_kind) + ": expected \"capture\", \"btf\" or \"calibration\"");
 }
 
 }  // namespace mesocap::acquisition

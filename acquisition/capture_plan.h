@@ -46,8 +46,16 @@ std::vector<formats::PlannedStep> MakeCapturePlan(const formats::RigDescription&
 std::vector<formats::PlannedStep> MakeCalibrationPlan(const formats::RigDescription& rig,
                                                       const nlohmann::json& recording = nullptr);
 
-// The plan of a kind a capture station runs: "capture" or "calibration".
-// Throws Error naming the kind otherwise.
+// The BTF images of the capture plan alone (`simulate --plan btf`): a
+// BTF-only session, without the laser calibration and sweeps.
+std::vector<formats::PlannedStep> MakeBtfPlan(const formats::RigDescription& rig,
+                                              const nlohmann::json& recording = nullptr);
+
+// The kinds of plan a capture station runs, as `simulate --plan`, the daemon's
+// jobs and its API name them.
+inline const std::vector<std::string> kPlanKinds = {"capture", "btf", "calibration"};
+
+// The plan of one of kPlanKinds. Throws Error naming the kind otherwise.
 std::vector<formats::PlannedStep> MakePlanOfKind(const formats::RigDescription& rig, const std::string& plan_kind,
                                                  const nlohmann::json& recording = nullptr);
 

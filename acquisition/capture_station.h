@@ -18,7 +18,7 @@ class CaptureStation {
   virtual ~CaptureStation() = default;
 
   virtual std::string rig_name() const = 0;
-  // Creates the session of `plan_kind` ("capture", "calibration") at `dir`
+  // Creates the session of `plan_kind` (one of kPlanKinds, capture_plan.h) at `dir`
   // (a folder that does not exist yet, or one whose creation was
   // interrupted); when `dir` already holds a session, checks that it
   // records the same capture on this rig. Throws Error naming what differs.

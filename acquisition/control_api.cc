@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "acquisition/bearer_token.h"
+#include "acquisition/capture_plan.h"
 #include "acquisition/status_page.h"
 #include "core/error.h"
 #include "core/image_io.h"
@@ -53,7 +54,7 @@ ControlResponse Submit(CaptureDaemon& daemon, const ControlRequest& request) {
     if (!body.is_object()) return Error(400, where + ": expected a JSON object such as {\"plan\": \"capture\"}");
     const core::JsonFieldReader r(body, where);
     r.RejectUnknownMembers({"plan"});
-    const std::string plan = r.Choice("plan", {"capture", "calibration"});
+    const std::string plan = r.Choice("plan", kPlanKinds);
     const CaptureJob job = daemon.Submit(plan);
     return Json(201, ToJson(job));
   } catch (const core::Error& e) {

@@ -239,6 +239,7 @@ void AssembleOnGrid(const std::vector<BtfCaptureImage>& images, const formats::C
     std::lock_guard lock(report_mutex);
     sink(v, std::move(out));
     r->filled_pairs += filled;
+    r->pixels_per_texel[v] = rectifier.min_pixels_per_texel();
     r->max_samples_per_side = std::max(r->max_samples_per_side, rectifier.samples_per_side_max());
     r->min_pixels_per_texel = std::min(r->min_pixels_per_texel, rectifier.min_pixels_per_texel());
   });
@@ -280,6 +281,7 @@ void AssembleResampled(const std::vector<BtfCaptureImage>& images, const formats
 
   // Stage 1: per captured view, all target lights.
   std::vector<core::Image> resampled(captured.size());
+  std::vector<double> captured_pixels_per_texel(captured.size());
   std::vector<std::vector<Eigen::Vector3d>> view_offsets(captured.size());
   std::mutex report_mutex;
   tbb::parallel_for(0, static_cast<int>(captured.size()), [&](int c) {
@@ -324,6 +326,7 @@ void AssembleResampled(const std::vector<BtfCaptureImage>& images, const formats
         }
       }
     }
+    captured_pixels_per_texel[c] = rectifier.min_pixels_per_texel();
     std::lock_guard lock(report_mutex);
     r->extrapolated_lights = std::max(r->extrapolated_lights, extrapolated);
     r->max_samples_per_side = std::max(r->max_samples_per_side, rectifier.samples_per_side_max());
@@ -332,6 +335,7 @@ void AssembleResampled(const std::vector<BtfCaptureImage>& images, const formats
 
   // Stage 2: every target view from the captured views.
   for (int v = 0; v < o.views.size(); ++v) {
+    r->pixels_per_texel[v] = captured_pixels_per_texel[captured_views.nominal.Nearest(o.views.direction(v))];
     const double theta = o.views.angles(v).theta;
     r->extrapolated_views += theta > captured_views.last_ring_theta + tolerance ||
                              theta < captured_views.first_ring_theta - tolerance;
@@ -376,6 +380,7 @@ void AssembleBtfViews(const std::vector<BtfCaptureImage>& images, const formats:
   r.images = static_cast<int>(images.size());
   r.resampled = o.resample;
   r.measured.assign(o.views.size(), std::vector<bool>(o.lights.size(), false));
+  r.pixels_per_texel.assign(o.views.size(), 0.0);
   r.min_pixels_per_texel = std::numeric_limits<double>::infinity();
 
   std::vector<CentreDirections> directions;

@@ -95,6 +95,8 @@ struct BtfAssemblyReport {
   // (ReferencePlaneRectifier::min_pixels_per_texel); below 1 the cameras do
   // not resolve the texture grid.
   double min_pixels_per_texel = 0.0;
+  // The same per view of the sets (resampled: the nearest captured view's).
+  std::vector<double> pixels_per_texel;
 };
 
 // The BTF images of a capture session's done steps (formats/captured_session.h;

@@ -11,6 +11,7 @@
 namespace mesocap::core {
 
 inline constexpr double kRadiansPerDegree = std::numbers::pi / 180.0;
+inline constexpr double kTwoPi = 2.0 * std::numbers::pi;  // one turn, radians
 
 constexpr double RadiansFromDegrees(double degrees) { return degrees * kRadiansPerDegree; }
 constexpr double DegreesFromRadians(double radians) { return radians / kRadiansPerDegree; }

@@ -17,7 +17,6 @@ namespace mesocap::core {
 namespace {
 
 constexpr double kPi = std::numbers::pi;
-constexpr double kTwoPi = 2.0 * std::numbers::pi;
 // Thetas closer than this form one ring; directions closer than this coincide.
 constexpr double kRingTolerance = 1e-9;
 // A direction this close (rad) to a ring, or to a member in phi, counts as on

@@ -18,13 +18,13 @@ using nlohmann::json;
 
 namespace {
 
-constexpr const char* kFormat = "mesocap.calibration";
-constexpr int kVersion = 2;
+constexpr const char* kCalibrationFormat = "mesocap.calibration";
+constexpr int kCalibrationVersion = 2;
 // Version 1 is version 2 without cameras' "radiometry".
-constexpr int kOldestVersion = 1;
+constexpr int kOldestCalibrationVersion = 1;
 // The deepest valid calibration nests 6 levels (root, cameras, camera, pose,
 // std, translation_mm); anything far deeper is hostile.
-constexpr int kMaxDepth = 32;
+constexpr int kCalibrationMaxDepth = 32;
 
 // Bounds that catch garbage such as 1e308 while leaving room for any real rig.
 constexpr double kMaxLengthMm = 1e6;        // 1 km
@@ -289,7 +289,7 @@ std::vector<Part> ReadParts(const core::JsonFieldReader& root, std::string_view 
 
 Calibration ParseCalibration(const json& document, const fs::path& file) {
   const core::JsonFieldReader root(document, file);
-  const int version = root.ExpectFormat(kFormat, kOldestVersion, kVersion);
+  const int version = root.ExpectFormat(kCalibrationFormat, kOldestCalibrationVersion, kCalibrationVersion);
   root.RejectUnknownMembers({"format", "version", "units", "cameras", "turntable", "light_arc",
                               "lamps", "laser_mounts"});
   const core::JsonFieldReader units = root.Object("units");
@@ -447,8 +447,8 @@ bool IsValidId(std::string_view id) {
 }
 
 json ToJson(const Calibration& c) {
-  return {{"format", kFormat},
-          {"version", kVersion},
+  return {{"format", kCalibrationFormat},
+          {"version", kCalibrationVersion},
           {"units", {{"length", "mm"}, {"angle", "deg"}}},
           {"cameras", ListJson(c.cameras, CameraJson)},
           {"turntable", TurntableJson(c.turntable)},
@@ -458,7 +458,7 @@ json ToJson(const Calibration& c) {
 }
 
 Calibration ReadCalibration(const fs::path& file) {
-  return ParseCalibration(core::ReadJsonFile(file, kMaxCalibrationBytes, kMaxDepth), file);
+  return ParseCalibration(core::ReadJsonFile(file, kMaxCalibrationBytes, kCalibrationMaxDepth), file);
 }
 
 std::string CalibrationText(const Calibration& calibration) {

@@ -22,7 +22,7 @@ using nlohmann::json;
 namespace {
 
 // A valid record nests 3 levels (record, files, file).
-constexpr int kMaxDepth = 8;
+constexpr int kJournalMaxDepth = 8;
 constexpr std::int64_t kMaxFileBytes = std::int64_t{1} << 62;
 constexpr std::int64_t kMaxSeq = std::int64_t{1} << 53;
 
@@ -51,7 +51,7 @@ Hashes HashesOf(const SessionManifest* manifest) {
 }
 
 JournalRecord ParseRecord(const json& document, const fs::path& file, const std::string& where, Hashes hashes) {
-  core::RejectDeepNesting(document, file, kMaxDepth, where);
+  core::RejectDeepNesting(document, file, kJournalMaxDepth, where);
   const core::JsonFieldReader fields(document, file, where);
   fields.RejectUnknownMembers({"seq", "step", "time_utc", "files", "replaces"});
   JournalRecord r;

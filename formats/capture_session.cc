@@ -17,12 +17,12 @@ using nlohmann::json;
 
 namespace {
 
-constexpr const char* kFormat = "mesocap.session";
-constexpr int kVersion = 2;  // version 1: no checksums
-constexpr int kOldestVersion = 1;
+constexpr const char* kSessionFormat = "mesocap.session";
+constexpr int kSessionVersion = 2;  // version 1: no checksums
+constexpr int kOldestSessionVersion = 1;
 // The rig snapshot and step params are free-form; 64 levels is far more than
 // any rig description needs and keeps recursive JSON walks safe.
-constexpr int kMaxDepth = 64;
+constexpr int kSessionMaxDepth = 64;
 constexpr std::size_t kMaxShortText = 256;
 
 const std::vector<std::string>& StepKindNames() {
@@ -83,10 +83,10 @@ PlannedStep ReadStep(const core::JsonFieldReader& fields) {
 }
 
 SessionManifest ParseSessionManifest(const json& document, const fs::path& file) {
-  core::RejectDeepNesting(document, file, kMaxDepth);  // again, for manifests about to be written
+  core::RejectDeepNesting(document, file, kSessionMaxDepth);  // again, for manifests about to be written
   const core::JsonFieldReader root(document, file);
   SessionManifest m;
-  m.version = root.ExpectFormat(kFormat, kOldestVersion, kVersion);
+  m.version = root.ExpectFormat(kSessionFormat, kOldestSessionVersion, kSessionVersion);
   root.RejectUnknownMembers({"format", "version", "software_version", "created_utc", "rig",
                               "calibration", "plan"});
   m.software_version = ShortText(root, "software_version");
@@ -200,8 +200,8 @@ json ToJson(const SessionManifest& m) {
     s["kind"] = StepKindName(step.kind);
     steps.push_back(std::move(s));
   }
-  json j = {{"format", kFormat},
-            {"version", kVersion},
+  json j = {{"format", kSessionFormat},
+            {"version", kSessionVersion},
             {"software_version", m.software_version},
             {"created_utc", m.created_utc},
             {"rig", m.rig},
@@ -254,7 +254,7 @@ void CreateCaptureSession(const fs::path& dir, SessionManifest manifest) {
 
 SessionManifest ReadSessionManifest(const fs::path& dir) {
   const fs::path file = dir / kSessionManifestName;
-  return ParseSessionManifest(core::ReadJsonFile(file, kMaxSessionManifestBytes, kMaxDepth),
+  return ParseSessionManifest(core::ReadJsonFile(file, kMaxSessionManifestBytes, kSessionMaxDepth),
                               file);
 }
 

@@ -21,9 +21,9 @@ namespace mesocap::formats {
 namespace fs = std::filesystem;
 namespace {
 
-constexpr char kFormat[] = "mesocap.material";
-constexpr int kVersion = 2;  // version 1: no "files" checksums
-constexpr int kOldestVersion = 1;
+constexpr char kMaterialFormat[] = "mesocap.material";
+constexpr int kMaterialVersion = 2;  // version 1: no "files" checksums
+constexpr int kOldestMaterialVersion = 1;
 constexpr char kBtfValues[] = "linear_rgb_reflectance";
 constexpr char kSingularValues[] = "folded_into_rows";
 
@@ -50,8 +50,8 @@ nlohmann::ordered_json MatrixJson(const Eigen::Matrix3d& m) {
 nlohmann::ordered_json ManifestJson(const MaterialManifest& m) {
   const MaterialDescription& d = m.description;
   nlohmann::ordered_json j;
-  j["format"] = kFormat;
-  j["version"] = kVersion;
+  j["format"] = kMaterialFormat;
+  j["version"] = kMaterialVersion;
   j["units"] = {{"length", "mm"}, {"angle", "deg"}};
   j["name"] = d.name;
   j["texture_size"] = {d.width, d.height};
@@ -62,6 +62,9 @@ nlohmann::ordered_json ManifestJson(const MaterialManifest& m) {
   j["provenance"] = {{"software_version", d.provenance.software_version},
                      {"created_utc", d.provenance.created_utc},
                      {"source", d.provenance.source}};
+  if (d.provenance.texel_samples_per_side > 0) {
+    j["provenance"]["texel_samples_per_side"] = d.provenance.texel_samples_per_side;
+  }
   if (m.mdf) {
     nlohmann::ordered_json mdf = nlohmann::ordered_json::object();
     if (m.mdf->forms.float32) mdf["float32"] = {{"file", kMdfFloatFile}};
@@ -305,7 +308,7 @@ MaterialManifest ReadMaterialManifest(const fs::path& dir) {
   const nlohmann::json doc = core::ReadJsonFile(file, kMaxJsonBytes);
   const core::JsonFieldReader root(doc, file);
   MaterialManifest m;
-  m.version = root.ExpectFormat(kFormat, kOldestVersion, kVersion);
+  m.version = root.ExpectFormat(kMaterialFormat, kOldestMaterialVersion, kMaterialVersion);
   root.RejectUnknownMembers({"format", "version", "units", "name", "texture_size", "physical_size_mm", "d_max_mm",
                              "view_directions", "light_directions", "provenance", "mdf", "btf", "ambient",
                              "error_report", "calibration", "files"});
@@ -326,10 +329,14 @@ MaterialManifest ReadMaterialManifest(const fs::path& dir) {
   d.view_directions = ReadDirections(root, "view_directions");
   d.light_directions = ReadDirections(root, "light_directions");
   const core::JsonFieldReader provenance = root.Object("provenance");
-  provenance.RejectUnknownMembers({"software_version", "created_utc", "source"});
+  provenance.RejectUnknownMembers({"software_version", "created_utc", "source", "texel_samples_per_side"});
   d.provenance.software_version = provenance.String("software_version");
   d.provenance.created_utc = provenance.String("created_utc");
   d.provenance.source = provenance.String("source");
+  if (provenance.Has("texel_samples_per_side")) {
+    d.provenance.texel_samples_per_side =
+        static_cast<int>(provenance.Integer("texel_samples_per_side", 1, kMaxTexelSamplesPerSide));
+  }
 
   if (root.Has("mdf")) {
     m.mdf = ReadMdfPart(root.Object("mdf"));
@@ -388,7 +395,7 @@ void ExpectPackageFileIntact(const fs::path& dir, const MaterialManifest& manife
 bool IsMaterialPackageFolder(const fs::path& dir) {
   try {
     const nlohmann::json doc = core::ReadJsonFile(ManifestPath(dir), kMaxJsonBytes);
-    return doc.is_object() && doc.value("format", "") == kFormat;
+    return doc.is_object() && doc.value("format", "") == kMaterialFormat;
   } catch (const core::Error&) {
     return false;
   }

@@ -23,11 +23,16 @@ namespace mesocap::formats {
 // beyond them it is refused as implausible before anything is allocated.
 inline constexpr int kMaxDirections = 10000;                  // per sampling set (view_<v:04d> names)
 inline constexpr double kMaxPartBytes = 64.0 * (1ull << 30);  // float data one part implies
+inline constexpr int kMaxTexelSamplesPerSide = 64;             // provenance.texel_samples_per_side
 
 struct MaterialProvenance {
   std::string software_version;  // mesocap version that made the data
   std::string created_utc;       // ISO 8601, e.g. "2025-01-31T18:04:05Z"
   std::string source;            // free text: "groundtruth scene=weave rig=small", a session path
+  // Ground truth: its BTF and ambient term are each texel's mean over n x n
+  // stratified samples of the texel's area (sim/ground_truth.h); 0 where
+  // the package does not say (measured materials, older packages).
+  int texel_samples_per_side = 0;
 };
 
 // What every package states, whichever parts it holds.

@@ -88,6 +88,12 @@ MdfProcessingResult ProcessMdfSession(const formats::CapturedSession& session, c
   const formats::SessionManifest& manifest = session.manifest();
   const fs::path manifest_file = session.manifest_file();
   const formats::RigDescription rig = formats::ParseRigDescription(manifest.rig, manifest_file);
+  if (std::none_of(manifest.plan.begin(), manifest.plan.end(),
+                   [](const formats::PlannedStep& step) { return step.kind == formats::StepKind::kLaserSweep; })) {
+    throw core::Error("process mdf: " + manifest_file.string() +
+                      ": the session plans no laser sweep (a BTF-only session, `simulate --plan btf`); an MDF needs a "
+                      "capture session");
+  }
   SessionSweepGeometry geometry(
       manifest_file, manifest, [&session](const std::string& path) { return session.IntactFile(path); }, rig, calibration,
       options.geometry);

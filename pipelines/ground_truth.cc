@@ -8,6 +8,7 @@
 #include "sim/ground_truth.h"
 #include "sim/shipped_rigs.h"
 #include "sim/true_calibration.h"
+#include "formats/material_manifest.h"
 #include "formats/material_package_writer.h"
 #include "core/atomic_file.h"
 
@@ -31,6 +32,10 @@ core::CheckResult GroundTruthOptions::Check() const {
   if (texture_size < 1 || texture_size > core::kMaxImageSide) {
     return "texture_size " + std::to_string(texture_size) + " must be 1.." + std::to_string(core::kMaxImageSide);
   }
+  if (texel_samples_per_side < 1 || texel_samples_per_side > formats::kMaxTexelSamplesPerSide) {
+    return "texel_samples_per_side " + std::to_string(texel_samples_per_side) + " must be 1.." +
+           std::to_string(formats::kMaxTexelSamplesPerSide);
+  }
   return {};
 }
 
@@ -44,10 +49,12 @@ GroundTruthReport RunGroundTruth(const GroundTruthOptions& o) {
   gt.texels.sample_size_mm = rig.sample_size_mm;
   gt.views = DirectionSet(o.views, calibration::ViewDirections(rig), "--views");
   gt.lights = DirectionSet(o.lights, calibration::LightDirections(rig), "--lights");
+  gt.samples_per_side = o.texel_samples_per_side;
   if (const auto problem = gt.Check(); !problem.empty()) throw core::Error("groundtruth: " + problem);
   const formats::Calibration calibration = sim::TrueCalibration(rig);
-  spdlog::info("ground truth of scene {} on rig {}: {}x{} texels, {} views x {} lights", scene->name(), rig.name,
-               gt.texels.width, gt.texels.height, gt.views.size(), gt.lights.size());
+  spdlog::info("ground truth of scene {} on rig {}: {}x{} texels ({}x{} samples each), {} views x {} lights",
+               scene->name(), rig.name, gt.texels.width, gt.texels.height, gt.samples_per_side, gt.samples_per_side,
+               gt.views.size(), gt.lights.size());
   sim::WriteGroundTruthPackage(*scene, gt, &calibration, "groundtruth scene=" + scene->name() + " rig=" + rig.name,
                                o.out, o.replace);
   return {scene->name(), rig.name};

@@ -8,6 +8,7 @@
 
 #include "btf/ambient_term.h"
 #include "btf/btf_assembly.h"
+#include "btf/btf_evaluation.h"
 #include "calibration/nominal_geometry.h"
 #include "core/image.h"
 #include "formats/calibration.h"
@@ -23,9 +24,10 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// The assembly's figures as the error report's "btf_assembly" entry.
+// The assembly's figures as the error report's "btf_assembly" entry, with
+// the pair record `eval btf` splits its figures by.
 nlohmann::json ToJson(const btf::BtfAssemblyReport& assembly) {
-  return {{"images", assembly.images},
+  nlohmann::json out = {{"images", assembly.images},
           {"measured_pairs", assembly.measured_pairs},
           {"interpolated_pairs", assembly.filled_pairs},
           {"resampled", assembly.resampled},
@@ -35,6 +37,8 @@ nlohmann::json ToJson(const btf::BtfAssemblyReport& assembly) {
           {"max_light_offset_deg", assembly.max_light_offset_deg},
           {"max_samples_per_side", assembly.max_samples_per_side},
           {"min_pixels_per_texel", assembly.min_pixels_per_texel}};
+  btf::AddPairRecord({assembly.measured, assembly.pixels_per_texel}, &out);
+  return out;
 }
 
 // Each camera's exposure and radiometric gain, in the calibration's camera

@@ -1,4 +1,5 @@
 #include "render/render_mesh.h"
+#include "core/angles.h"
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -14,7 +15,6 @@
 namespace mesocap::render {
 namespace {
 
-constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
 // A closed parametric surface P(u, v) on [0,1]^2, periodic in u (and in v
 // when `periodic_v`), sampled on a (nu+1) x (nv+1) grid: the seam vertices are
@@ -104,7 +104,7 @@ RenderMesh MakeCylinderSide(double radius, double height, int segments, int ring
   RenderMesh mesh;
   AppendParametric(
       [&](double u, double v) {
-        return Eigen::Vector3d(radius * std::cos(kTwoPi * u), radius * std::sin(kTwoPi * u), height * v);
+        return Eigen::Vector3d(radius * std::cos(core::kTwoPi * u), radius * std::sin(core::kTwoPi * u), height * v);
       },
       std::max(segments, 3), std::max(rings, 1), false, tiles, &mesh);
   return mesh;
@@ -117,7 +117,7 @@ RenderMesh MakeCylinderCaps(double radius, double height, int segments, Eigen::V
   const RenderMesh side = MakeCylinderSide(radius, height, segments, 1, tiles);
   RenderMesh mesh;
   // Caps: a fan each, texture coordinates planar at the side's density.
-  const double density = tiles.x() / (kTwoPi * radius);
+  const double density = tiles.x() / (core::kTwoPi * radius);
   for (const bool top : {false, true}) {
     const float z = top ? static_cast<float>(height) : 0.0f;
     const Eigen::Vector3f normal(0, 0, top ? 1.0f : -1.0f);
@@ -157,9 +157,9 @@ RenderMesh MakeTorus(double major_radius, double minor_radius, int major_segment
   RenderMesh mesh;
   AppendParametric(
       [&](double u, double v) {
-        const double ring = major_radius + minor_radius * std::cos(kTwoPi * v);
-        return Eigen::Vector3d(ring * std::cos(kTwoPi * u), ring * std::sin(kTwoPi * u),
-                               minor_radius * std::sin(kTwoPi * v));
+        const double ring = major_radius + minor_radius * std::cos(core::kTwoPi * v);
+        return Eigen::Vector3d(ring * std::cos(core::kTwoPi * u), ring * std::sin(core::kTwoPi * u),
+                               minor_radius * std::sin(core::kTwoPi * v));
       },
       std::max(major_segments, 3), std::max(minor_segments, 3), true, tiles, &mesh);
   return mesh;
@@ -170,7 +170,7 @@ RenderMesh MakeTorusKnot(double radius, double tube_radius, int p, int q, int se
   // The centre curve ((2 + cos q a) cos p a, (2 + cos q a) sin p a, -sin q a) R/3
   // has no point of zero curvature, so its Frenet frame is smooth and periodic.
   const auto curve = [=](double u) -> Eigen::Vector3d {
-    const double a = kTwoPi * u;
+    const double a = core::kTwoPi * u;
     const double ring = 2.0 + std::cos(q * a);
     return Eigen::Vector3d(ring * std::cos(p * a), ring * std::sin(p * a), -std::sin(q * a)) * (radius / 3.0);
   };
@@ -184,7 +184,7 @@ RenderMesh MakeTorusKnot(double radius, double tube_radius, int p, int q, int se
         const Eigen::Vector3d normal = (bend - tangent * tangent.dot(bend)).normalized();
         const Eigen::Vector3d binormal = tangent.cross(normal);
         // Angle -2 pi v so that dP/du x dP/dv points out of the tube.
-        const double angle = -kTwoPi * v;
+        const double angle = -core::kTwoPi * v;
         return Eigen::Vector3d(c + tube_radius * (std::cos(angle) * normal + std::sin(angle) * binormal));
       },
       std::max(segments, 3), std::max(tube_segments, 3), true, tiles, &mesh);

@@ -11,13 +11,13 @@
 namespace mesocap::sim {
 namespace {
 
-constexpr double kInfinity = std::numeric_limits<double>::infinity();
+constexpr double kNoFarLimit = std::numeric_limits<double>::infinity();
 
 // Intersect's interval is closed, so geometry touching z = 0 (a flat sample,
 // block tops) is hit at D = 0.
 std::optional<SurfaceHit> FirstHitBelow(const MesostructureScene& scene, const Eigen::Vector3d& p,
                                         const Eigen::Vector3d& view) {
-  return scene.Intersect(p, -view, 0.0, kInfinity);
+  return scene.Intersect(p, -view, 0.0, kNoFarLimit);
 }
 
 }  // namespace
@@ -28,6 +28,10 @@ core::CheckResult GroundTruthOptions::Check() const {
   }
   if (!(texels.sample_size_mm > 0.0) || !std::isfinite(texels.sample_size_mm)) return "sample size must be positive";
   if (views.size() == 0 || lights.size() == 0) return "view and light sets must not be empty";
+  if (samples_per_side < 1 || samples_per_side > formats::kMaxTexelSamplesPerSide) {
+    return "samples per side " + std::to_string(samples_per_side) + " must be 1.." +
+           std::to_string(formats::kMaxTexelSamplesPerSide);
+  }
   return {};
 }
 
@@ -58,21 +62,33 @@ core::Image RenderTrueBtfView(const MesostructureScene& scene, const GroundTruth
   core::Image out(w, h * o.lights.size(), 3);
   const Eigen::Vector3d& view = o.views.direction(v);
   const calibration::TexelGrid grid = o.texels;
+  const int n = o.samples_per_side;
+  const float mean = 1.0f / static_cast<float>(n * n);
   tbb::parallel_for(0, h, [&](int j) {
     for (int i = 0; i < w; ++i) {
-      const auto hit = FirstHitBelow(scene, grid.TexelCentre(i, j), view);
-      if (!hit) continue;  // black backing under holes
-      for (int l = 0; l < o.lights.size(); ++l) {
-        const Eigen::Vector3d& light = o.lights.direction(l);
-        const double n_dot_l = hit->normal.dot(light);
-        // Shadow rays skip the surface they leave (surface_epsilon_mm).
-        if (n_dot_l <= 0.0 || scene.Occluded(hit->point, light, scene.surface_epsilon_mm(), kInfinity)) continue;
-        // Divided by the irradiance on the reference plane, cos(theta_l):
-        // the BTF is radiance per unit reference-plane irradiance.
-        const Eigen::Vector3f t = hit->reflectance.Evaluate(hit->normal, light, view) *
-                                  static_cast<float>(n_dot_l / light.z());
-        float* px = out.pixel(i, l * h + j);
-        for (int c = 0; c < 3; ++c) px[c] = t[c];
+      for (int b = 0; b < n; ++b) {
+        for (int a = 0; a < n; ++a) {
+          // The centre of stratum (a, b) of the texel's square.
+          const Eigen::Vector3d p = grid.TexelCentre(i, j) +
+                                    Eigen::Vector3d(((a + 0.5) / n - 0.5) * grid.texel_width_mm(),
+                                                    ((b + 0.5) / n - 0.5) * grid.texel_height_mm(), 0.0);
+          const auto hit = FirstHitBelow(scene, p, view);
+          if (!hit) continue;  // black backing under holes
+          for (int l = 0; l < o.lights.size(); ++l) {
+            const Eigen::Vector3d& light = o.lights.direction(l);
+            const double n_dot_l = hit->normal.dot(light);
+            // Shadow rays skip the surface they leave (surface_epsilon_mm).
+            if (n_dot_l <= 0.0 || scene.Occluded(hit->point, light, scene.surface_epsilon_mm(), kNoFarLimit)) {
+              continue;
+            }
+            // Divided by the irradiance on the reference plane, cos(theta_l):
+            // the BTF is radiance per unit reference-plane irradiance.
+            const Eigen::Vector3f t = hit->reflectance.Evaluate(hit->normal, light, view) *
+                                      static_cast<float>(n_dot_l / light.z());
+            float* px = out.pixel(i, l * h + j);
+            for (int c = 0; c < 3; ++c) px[c] += mean * t[c];
+          }
+        }
       }
     }
   });
@@ -108,6 +124,7 @@ void WriteGroundTruthPackage(const MesostructureScene& scene, const GroundTruthO
   d.view_directions = o.views;
   d.light_directions = o.lights;
   d.provenance.source = source;
+  d.provenance.texel_samples_per_side = o.samples_per_side;
   // The largest things held at once: the MDF and one BTF view image (floats).
   const std::uint64_t texels = static_cast<std::uint64_t>(d.width) * d.height;
   core::CheckMemoryFor(4 * texels * (o.views.size() + 3ull * o.lights.size()),

@@ -27,6 +27,11 @@ struct GroundTruthOptions {
   calibration::TexelGrid texels;  // the texels the truth is computed at
   core::SamplingSet views = core::SamplingSet::Named("paper12x8");
   core::SamplingSet lights = core::SamplingSet::Named("paper12x8");
+  // The BTF (and so the ambient term) of a texel is the mean over n x n
+  // stratified points of its area, as a camera pixel and the rectifier's
+  // prefilter average over their footprints; 1 samples the texel centre.
+  // The MDF is a distance at the texel centre (Sec. 3.2) and stays one.
+  int samples_per_side = 1;
 
   core::CheckResult Check() const;
 };
@@ -39,7 +44,8 @@ core::Mdf ComputeTrueMdf(const MesostructureScene& scene, const GroundTruthOptio
 // W x H * Nlight). T = f_r(n, l, v) (n . l) / cos(theta_l) at the first hit
 // seen along -v, zero where that point is shadowed from l or faces away, so a
 // flat Lambertian sample has T = albedo / pi. Rays through holes see a black
-// backing (T = 0).
+// backing (T = 0). Each texel's T is the mean over samples_per_side^2 rays
+// from points of its area.
 core::Image RenderTrueBtfView(const MesostructureScene& scene, const GroundTruthOptions& options, int view);
 // Every view of it, in memory (for small grids: tests and benchmarks).
 core::FullBtf RenderTrueBtf(const MesostructureScene& scene, const GroundTruthOptions& options);

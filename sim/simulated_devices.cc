@@ -1,4 +1,5 @@
 #include "sim/simulated_devices.h"
+#include "core/angles.h"
 
 #include <algorithm>
 #include <cmath>
@@ -9,8 +10,6 @@
 
 namespace mesocap::sim {
 namespace {
-
-constexpr double kTwoPi = 2.0 * std::numbers::pi;
 // A camera that drops every frame would otherwise loop for the whole timeout
 // in exposures of a microsecond.
 constexpr int kMaxDropsPerGrab = 1000;
@@ -18,13 +17,13 @@ constexpr int kMaxDropsPerGrab = 1000;
 double Seconds(std::chrono::milliseconds d) { return static_cast<double>(d.count()) / 1000.0; }
 
 double Wrap(double angle) {
-  double a = std::fmod(angle, kTwoPi);
-  if (a < 0.0) a += kTwoPi;
-  return a >= kTwoPi ? 0.0 : a;  // fmod of -tiny + 2 pi rounds to 2 pi
+  double a = std::fmod(angle, core::kTwoPi);
+  if (a < 0.0) a += core::kTwoPi;
+  return a >= core::kTwoPi ? 0.0 : a;  // fmod of -tiny + 2 pi rounds to 2 pi
 }
 
 // The signed shorter way from `from` to `to`, in [-pi, pi].
-double ShorterWay(double from, double to) { return std::remainder(to - from, kTwoPi); }
+double ShorterWay(double from, double to) { return std::remainder(to - from, core::kTwoPi); }
 
 std::string Range(double min, double max, const char* unit) {
   auto text = [](double v) {

@@ -1,4 +1,5 @@
 #include "sim/tile_geometry.h"
+#include "core/angles.h"
 
 #include <cmath>
 #include <numbers>
@@ -35,10 +36,9 @@ Reflectance ReflectanceAt(const TileGeometry& geometry, int part, double x, doub
   Reflectance r = geometry.parts[part];
   if (geometry.albedo_variation == 0.0f) return r;
   // Two low-frequency waves, periodic in the tile so the pattern is seamless.
-  constexpr double kTwoPi = 2.0 * std::numbers::pi;
   const double u = x / geometry.tile_size_mm;
   const double v = y / geometry.tile_size_mm;
-  const double wave = 0.5 * (std::sin(kTwoPi * u + 0.3) + std::cos(kTwoPi * (u + 2.0 * v)));
+  const double wave = 0.5 * (std::sin(core::kTwoPi * u + 0.3) + std::cos(core::kTwoPi * (u + 2.0 * v)));
   const float scale = 1.0f + geometry.albedo_variation * static_cast<float>(wave);
   r.diffuse_albedo = (r.diffuse_albedo * scale).cwiseMax(0.0f).cwiseMin(1.0f);
   return r;

@@ -10,6 +10,7 @@
 #include <memory>
 #include <string>
 
+#include "acquisition/capture_plan.h"
 #include "apps/mesocap/command.h"
 #include "apps/mesocap/control_client.h"
 #include "core/error.h"
@@ -137,8 +138,9 @@ void RegisterCaptureCommand(CLI::App& app) {
 
   CLI::App* submit = group->add_subcommand("submit", "Queue a capture session; prints its job id");
   common(submit);
-  submit->add_option("--plan", o->plan, "capture (BTF images, laser calibration and sweeps) or calibration")
-      ->check(CLI::IsMember({"capture", "calibration"}))
+  submit->add_option("--plan", o->plan,
+                     "capture (BTF images, laser calibration and sweeps), btf (the BTF images alone) or calibration")
+      ->check(CLI::IsMember(acquisition::kPlanKinds))
       ->capture_default_str();
   submit->callback([o] {
     const json job = o->Client().Post("/v1/jobs", {{"plan", o->plan}});

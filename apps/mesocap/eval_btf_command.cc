@@ -1,7 +1,9 @@
 // `mesocap eval btf --truth T --estimate E [--json]`: the error of a material
 // package's BTF (factored if it holds one, else full) against a true full BTF
 // (`mesocap groundtruth`) on the same texture grid and direction sets,
-// overall and by view polar angle; and of its ambient term when both have one.
+// overall and by view polar angle; captured, interpolated and unresolved
+// pairs apart when the estimate's error report records which are which
+// (`process btf` does); and of its ambient term when both have one.
 #include <spdlog/spdlog.h>
 
 #include <cstdio>
@@ -14,6 +16,7 @@
 #include "core/error.h"
 #include "formats/material_manifest.h"
 #include "formats/material_package.h"
+#include "formats/material_package_layout.h"
 #include "formats/material_package_reader.h"
 
 namespace mesocap {
@@ -57,18 +60,28 @@ void RunEvalBtf(const EvalBtfCommandOptions& o) {
 
   std::optional<core::FactoredBtf> factored;
   if (estimate.factored_btf) factored = formats::ReadFactoredBtf(o.estimate, estimate);
-  btf::BtfErrorAccumulator errors(truth.description.view_directions);
+  btf::BtfErrorAccumulator errors(truth.description.view_directions, truth.description.light_directions);
+  std::optional<btf::BtfPairRecord> pairs;
+  if (estimate.error_report) {
+    const nlohmann::json report = formats::ReadErrorReport(o.estimate, estimate);
+    if (report.is_object() && report.contains("btf_assembly")) {
+      pairs = btf::ReadPairRecord(report["btf_assembly"], o.estimate / formats::kErrorReportFile,
+                                  estimate.description.view_directions.size(),
+                                  estimate.description.light_directions.size());
+    }
+  }
   for (int v = 0; v < truth.description.view_directions.size(); ++v) {
     const core::Image t = formats::ReadFullBtfView(o.truth, truth, v);
     errors.Add(v, t,
                factored ? btf::ReconstructBtfView(*factored, v) : formats::ReadFullBtfView(o.estimate, estimate, v));
   }
-  nlohmann::json result = ToJson(errors, factored ? std::optional<int>(factored->rank()) : std::nullopt);
+  nlohmann::json result = ToJson(errors, factored ? std::optional<int>(factored->rank()) : std::nullopt, pairs);
   result["form"] = factored ? "factored" : "full";
   if (truth.ambient && estimate.ambient) {
     const formats::AmbientTerm ta = formats::ReadAmbientTerm(o.truth, truth);
     const formats::AmbientTerm ea = formats::ReadAmbientTerm(o.estimate, estimate);
-    btf::BtfErrorAccumulator ambient(core::SamplingSet::Named("grid1x1"));  // one "view": the whole ambient image
+    // One "view" and one "light": the whole ambient image.
+    btf::BtfErrorAccumulator ambient(core::SamplingSet::Named("grid1x1"), core::SamplingSet::Named("grid1x1"));
     ambient.Add(0, ta.values, ea.values);
     result["ambient"] = {{"relative_rms", ambient.Overall().relative_rms}, {"psnr_db", ambient.Overall().psnr_db}};
   }
@@ -84,6 +97,22 @@ void RunEvalBtf(const EvalBtfCommandOptions& o) {
   for (const auto& b : errors.ByPolarAngle()) {
     std::printf("  view theta %4.1f-%4.1f deg: PSNR %.2f dB, relative RMS %.4g\n", b.theta_min_deg, b.theta_max_deg,
                 b.figures.psnr_db, b.figures.relative_rms);
+  }
+  if (pairs) {
+    for (const auto& [kind, k] : btf::PairKindFigures(errors, *pairs)) {
+      if (k.pairs == 0) {
+        std::printf("  %s pairs: none\n", kind.c_str());
+      } else {
+        std::printf("  %s pairs (%d): PSNR %.2f dB, relative RMS %.4g\n", kind.c_str(), k.pairs, k.errors.psnr_db,
+                    k.errors.relative_rms);
+      }
+    }
+    if (result["unresolved"]["views"].get<int>() > 0) {
+      std::printf("  (unresolved: the %d views whose texels are finer than a camera pixel)\n",
+                  result["unresolved"]["views"].get<int>());
+    }
+  } else {
+    std::printf("  (the estimate records no captured pairs: no split into captured and interpolated)\n");
   }
   if (result.contains("ambient")) {
     std::printf("  ambient term: relative RMS %.4g\n", result["ambient"]["relative_rms"].get<double>());

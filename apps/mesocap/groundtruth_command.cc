@@ -4,6 +4,7 @@
 #include <spdlog/spdlog.h>
 
 #include "apps/mesocap/command.h"
+#include "formats/material_manifest.h"
 #include "apps/mesocap/scene_option.h"
 #include "pipelines/ground_truth.h"
 
@@ -20,6 +21,10 @@ void RegisterGroundTruthCommand(CLI::App& app) {
   sub->add_option("--out", o->out, "material package folder to write")->required();
   sub->add_option("--texture-size", o->texture_size, "texels per side of the texture grid")
       ->check(InRange(1, 4096))
+      ->capture_default_str();
+  sub->add_option("--texel-samples-per-side", o->texel_samples_per_side,
+                  "the BTF and ambient term of a texel are the mean of n x n samples of its area (1: its centre)")
+      ->check(InRange(1, formats::kMaxTexelSamplesPerSide))
       ->capture_default_str();
   sub->add_option("--views", o->views, "view directions: \"rig\" (the rig's own) or a sampling set name "
                                        "(paper12x8, ubo2003, ubo2014, grid<A>x<P>, ...)")

@@ -1,4 +1,4 @@
-// `mesocap simulate --scene S --rig R --out SESSION [--plan capture|calibration]
+// `mesocap simulate --scene S --rig R --out SESSION [--plan capture|btf|calibration]
 // [--seed N] [--no-noise] [--faults FILE] [--resume]`: a whole capture
 // session as the simulated rig records it (MDF paper Sec. 3.1-3.2), or with
 // --plan calibration the rig's calibration session (acquisition/capture_plan.h). The capture plan
@@ -22,6 +22,7 @@
 #include <sstream>
 #include <string>
 
+#include "acquisition/capture_plan.h"
 #include "acquisition/capture_session_runner.h"
 #include "apps/mesocap/command.h"
 #include "apps/mesocap/scene_option.h"
@@ -38,7 +39,7 @@ struct SimulateCommandOptions {
   pipelines::SimulatedStationOptions station;
   fs::path out;
   bool resume = false;
-  std::string plan = "capture";  // or "calibration"
+  std::string plan = "capture";  // or "btf", "calibration"
 };
 
 // The command line that resumes the session these options record.
@@ -119,9 +120,10 @@ void RegisterSimulateCommand(CLI::App& app) {
                 "serve the simulated cameras as GigE Vision devices on loopback and record them through Aravis "
                 "(sim serve-cameras --help says where)");
   sub->add_option("--plan", o->plan,
-                  "capture: BTF images, laser calibration and sweeps of the scene; calibration: the rig's "
-                  "calibration board on each holder tilt at each turntable angle (for `mesocap calibrate`)")
-      ->check(CLI::IsMember({"capture", "calibration"}))
+                  "capture: BTF images, laser calibration and sweeps of the scene; btf: its BTF images alone; "
+                  "calibration: the rig's calibration board on each holder tilt at each turntable angle (for "
+                  "`mesocap calibrate`)")
+      ->check(CLI::IsMember(acquisition::kPlanKinds))
       ->capture_default_str();
   sub->add_option("--samples-per-pixel-side", o->station.samples_per_pixel_side,
                   "rays per pixel side (box-filtered pixel area)")

@@ -1,4 +1,5 @@
 #include "drivers/gpiod/gpio_laser_unit.h"
+#include "core/angles.h"
 
 #include <cmath>
 #include <numbers>
@@ -8,7 +9,6 @@
 namespace mesocap::drivers::gpiod {
 namespace {
 
-constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
 std::string Mounts(int count) { return "(the arc has mounts 0 to " + std::to_string(count - 1) + ")"; }
 
@@ -52,11 +52,11 @@ void GpioLaserUnit::SetTilt(double tilt_rad, std::chrono::milliseconds timeout) 
                       std::to_string(options_.max_tilt_rad) + ", " + std::to_string(options_.max_tilt_rad) + "] rad");
   }
   if (!tilt_->IsHomed()) tilt_->Home();
-  tilt_->MoveTo(tilt_rad < 0.0 ? tilt_rad + kTwoPi : tilt_rad);
+  tilt_->MoveTo(tilt_rad < 0.0 ? tilt_rad + core::kTwoPi : tilt_rad);
   tilt_->WaitUntilStopped(timeout);
 }
 
-double GpioLaserUnit::Tilt() const { return std::remainder(tilt_->Position(), kTwoPi); }
+double GpioLaserUnit::Tilt() const { return std::remainder(tilt_->Position(), core::kTwoPi); }
 
 void GpioLaserUnit::SetMount(int mount) {
   if (mount < 0 || mount >= options_.mount_count) {

@@ -1,4 +1,5 @@
 #include "drivers/gpiod/step_dir_stepper.h"
+#include "core/angles.h"
 
 #include <cmath>
 #include <numbers>
@@ -8,12 +9,11 @@
 namespace mesocap::drivers::gpiod {
 namespace {
 
-constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
 double Wrap(double angle) {
-  double wrapped = std::fmod(angle, kTwoPi);
-  if (wrapped < 0.0) wrapped += kTwoPi;
-  return wrapped < kTwoPi ? wrapped : 0.0;  // -1e-17 wraps to 2 pi in doubles
+  double wrapped = std::fmod(angle, core::kTwoPi);
+  if (wrapped < 0.0) wrapped += core::kTwoPi;
+  return wrapped < core::kTwoPi ? wrapped : 0.0;  // -1e-17 wraps to 2 pi in doubles
 }
 
 std::string Speed(double rad_per_s) { return std::to_string(rad_per_s) + " rad/s"; }
@@ -21,7 +21,7 @@ std::string Speed(double rad_per_s) { return std::to_string(rad_per_s) + " rad/s
 }  // namespace
 
 double StepDirStepperOptions::steps_per_rad() const {
-  return full_steps_per_revolution * static_cast<double>(microsteps) * gear_ratio / kTwoPi;
+  return full_steps_per_revolution * static_cast<double>(microsteps) * gear_ratio / core::kTwoPi;
 }
 
 std::string StepDirStepperOptions::Check() const {
@@ -133,7 +133,7 @@ void StepDirStepper::Home() {
 void StepDirStepper::MoveTo(double angle_rad) {
   if (!std::isfinite(angle_rad)) Fail("target angle is not a number");
   if (!homed_) Fail("not homed (position unknown); call Home() first");
-  const double delta = std::remainder(Wrap(angle_rad) - Position(), kTwoPi);
+  const double delta = std::remainder(Wrap(angle_rad) - Position(), core::kTwoPi);
   remaining_steps_ = std::llround(delta * steps_per_rad_);
 }
 

@@ -1,4 +1,5 @@
 #include "drivers/tic/tic_rotary_stage.h"
+#include "core/angles.h"
 
 #include <algorithm>
 #include <array>
@@ -12,7 +13,6 @@
 namespace mesocap::drivers::tic {
 namespace {
 
-constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
 // Errors an idle Tic collects when nobody resets its command timeout; the
 // next move clears them.
@@ -66,7 +66,7 @@ double TicStageOptions::MicrostepsPerRevolution() const {
 }
 
 double TicStageOptions::SpeedUnits() const {
-  return max_speed_rad_per_s / kTwoPi * MicrostepsPerRevolution() * kSpeedUnitsPerStepPerSecond;
+  return max_speed_rad_per_s / core::kTwoPi * MicrostepsPerRevolution() * kSpeedUnitsPerStepPerSecond;
 }
 
 TicRotaryStage::TicRotaryStage(TicStageOptions options, TicOpener opener, std::unique_ptr<StageClock> clock)
@@ -218,7 +218,7 @@ void TicRotaryStage::MoveTo(double angle_rad) {
   const TicVariables variables = Prepare(true);
   const std::int32_t from = variables.current_position;
   const double per_revolution = options_.MicrostepsPerRevolution();
-  const double turns = std::fmod(angle_rad, kTwoPi) / kTwoPi;
+  const double turns = std::fmod(angle_rad, core::kTwoPi) / core::kTwoPi;
   // Of the counts at this angle, the one nearest the current count: the
   // shorter way round, with no drift from rounding.
   const double revolutions = std::round(from / per_revolution - turns);
@@ -284,8 +284,8 @@ bool TicRotaryStage::IsMoving() const {
 }
 
 double TicRotaryStage::AngleOf(std::int32_t count) const {
-  const double angle = std::fmod(count / options_.MicrostepsPerRevolution() * kTwoPi, kTwoPi);
-  return angle < 0.0 ? angle + kTwoPi : angle;
+  const double angle = std::fmod(count / options_.MicrostepsPerRevolution() * core::kTwoPi, core::kTwoPi);
+  return angle < 0.0 ? angle + core::kTwoPi : angle;
 }
 
 double TicRotaryStage::Position() const { return AngleOf(ReadVariables().current_position); }

@@ -1,4 +1,5 @@
 #include "interop/bonn/bonn_btf_file.h"
+#include "core/angles.h"
 
 #include <Eigen/LU>
 #include <algorithm>
@@ -27,7 +28,7 @@ constexpr const char* kDfmfSignature = "!DFMF08FCR";
 constexpr int kMetaStringBytes = 80;
 constexpr std::uint32_t kMetaVersion = 4;
 constexpr std::uint32_t kMaxNameBytes = 4096;
-constexpr float kHalfMax = 65504.0f;
+constexpr float kBonnHalfMax = 65504.0f;
 
 // Signatures btflib accepts for the forms mesocap reads (ubo_btf_signatures.m),
 // with whether an FMF header-version byte follows the common header.
@@ -371,7 +372,7 @@ void PutScalars(ByteWriter& out, BonnScalar scalar, const float* values, std::si
   }
   std::vector<std::uint16_t> bits(count);
   for (std::size_t i = 0; i < count; ++i) {
-    if (!(std::abs(values[i]) <= kHalfMax)) {
+    if (!(std::abs(values[i]) <= kBonnHalfMax)) {
       throw core::Error("Bonn BTF " + what + " value " + Num(values[i]) + " at index " + std::to_string(i) +
                   " does not fit a half float (|v| <= 65504); write float scalars instead");
     }
@@ -413,12 +414,11 @@ void CheckForWriting(const BonnBtfFile& btf) {
 }  // namespace
 
 core::SphericalAngles AnglesFromBonn(const BonnDirection& d) {
-  constexpr double kTwoPi = 2.0 * std::numbers::pi;
   core::SphericalAngles a;
   a.theta = d.theta;
-  double phi = std::fmod(static_cast<double>(d.phi), kTwoPi);
-  if (phi < 0.0) phi += kTwoPi;
-  if (phi >= kTwoPi) phi = 0.0;
+  double phi = std::fmod(static_cast<double>(d.phi), core::kTwoPi);
+  if (phi < 0.0) phi += core::kTwoPi;
+  if (phi >= core::kTwoPi) phi = 0.0;
   a.phi = a.theta == 0.0 ? 0.0 : phi;
   return a;
 }

@@ -20,7 +20,7 @@ namespace mesocap::bonn {
 namespace fs = std::filesystem;
 namespace {
 
-constexpr float kHalfMax = 65504.0f;
+constexpr float kUbo2003HalfMax = 65504.0f;
 
 // Degrees as a name writes them: three integer digits, and up to six
 // decimals only when the angle is not whole.
@@ -303,7 +303,7 @@ long long WriteUbo2003View(const fs::path& dir, const core::SamplingSet& views, 
           // WriteImage maps [0, 1] to codes 0..255 (rounded, clamped).
           dst[i] = OIIO::linear_to_sRGB(std::clamp(v, 0.0f, 1.0f));
         } else {
-          if (!(std::abs(v) <= kHalfMax)) {
+          if (!(std::abs(v) <= kUbo2003HalfMax)) {
             throw core::Error("Bonn image export: value " + std::to_string(v) + " (view " + std::to_string(view) +
                         ", light " + std::to_string(l) + ") does not fit a half float (|v| <= 65504)");
           }

@@ -126,7 +126,7 @@ TEST_F(SimulatedDaemonTest, ErrorsNameTheFieldOrThePath) {
          "request body: field 'out': unknown member; expected only plan");
   expect(Call(*daemon, "POST", "/v1/jobs", R"({"plan": 3})"), 400, "request body: field 'plan': expected a string, got number 3");
   expect(Call(*daemon, "POST", "/v1/jobs", R"({"plan": "sweep"})"), 400,
-         "request body: field 'plan': expected one of \"capture\", \"calibration\", got \"sweep\"");
+         "request body: field 'plan': expected one of \"capture\", \"btf\", \"calibration\", got \"sweep\"");
   expect(Call(*daemon, "POST", "/v1/jobs", "[1]"), 400,
          "request body: expected a JSON object such as {\"plan\": \"capture\"}");
   expect(Call(*daemon, "GET", "/v1/jobs/../../etc/passwd"), 404,

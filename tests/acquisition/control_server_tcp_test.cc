@@ -21,7 +21,7 @@ namespace {
 
 using nlohmann::json;
 
-const std::string kToken = "0123456789abcdef0123456789abcdef0123456789abcdef0123456789abcdef";
+const std::string kTcpToken = "0123456789abcdef0123456789abcdef0123456789abcdef0123456789abcdef";
 
 std::string Get(std::uint16_t port, const std::string& path, const std::string& extra_headers = "") {
   return SendRaw(ConnectTcp(port),
@@ -55,7 +55,7 @@ class ControlServerTcpTest : public SimulatedDaemonTest {
     ControlServerOptions o;
     o.socket = state_ / "control.sock";
     o.tcp_port = 0;
-    o.bearer_token = kToken;
+    o.bearer_token = kTcpToken;
     return o;
   }
 };
@@ -77,7 +77,7 @@ TEST_F(ControlServerTcpTest, ATokenGetsTheAnswerAndNoneOrAWrongOneGets401) {
   EXPECT_EQ(StatusOf(answer), 401) << answer;
   EXPECT_EQ(json::parse(BodyOf(answer)).at("error"), "wrong bearer token: use the one in mesocapd's control.token");
 
-  answer = Get(port, "/v1/rig", "Authorization: Bearer " + kToken + "\r\n");
+  answer = Get(port, "/v1/rig", "Authorization: Bearer " + kTcpToken + "\r\n");
   ASSERT_EQ(StatusOf(answer), 200) << answer;
   EXPECT_EQ(json::parse(BodyOf(answer)).at("worker"), "idle");
   // A submit over TCP with the token makes a job; the same without does not.
@@ -86,7 +86,7 @@ TEST_F(ControlServerTcpTest, ATokenGetsTheAnswerAndNoneOrAWrongOneGets401) {
                              "\r\nConnection: close\r\n";
   EXPECT_EQ(StatusOf(SendRaw(ConnectTcp(port), submit + "\r\n" + body)), 401);
   EXPECT_TRUE(daemon->Jobs().empty());
-  EXPECT_EQ(StatusOf(SendRaw(ConnectTcp(port), submit + "Authorization: Bearer " + kToken + "\r\n\r\n" + body)), 201);
+  EXPECT_EQ(StatusOf(SendRaw(ConnectTcp(port), submit + "Authorization: Bearer " + kTcpToken + "\r\n\r\n" + body)), 201);
   EXPECT_EQ(daemon->Jobs().size(), 1u);
 
   // The status page: without a token, its document only.
@@ -145,7 +145,7 @@ TEST(ControlServerOptionsTest, ATcpPortNeedsABearerToken) {
   o.socket = "/tmp/x.sock";
   o.tcp_port = 0;
   EXPECT_EQ(o.Check(), "bearer_token must be a token (64 lowercase hex digits) when tcp_port is set");
-  o.bearer_token = kToken;
+  o.bearer_token = kTcpToken;
   EXPECT_EQ(o.Check(), "");
   o.tcp_port.reset();
   o.bearer_token.clear();

@@ -236,6 +236,34 @@ TEST(Cli, EvalBtfPrintsTheErrorOfACompressedPackage) {
 // figures, and its BTF is within the rig's error of the ground truth; each
 // camera's gain is the calibration's unless --gain overrides it; a missing
 // image is one error line naming it, and nothing is written.
+TEST(Cli, ABtfPlanRecordsTheBtfImagesAloneAndProcessesToTheSameBtf) {
+  // `simulate --plan btf`: the capture plan's BTF image steps and nothing
+  // else; `process btf` turns it into the BTF a whole capture session gives
+  // (same seed, same images).
+  testing::TemporaryDirectory dir;
+  const std::string btf = (dir / "btf").string(), whole = (dir / "whole").string();
+  ASSERT_EQ(Mesocap("-q simulate --scene weave --rig tiny --plan btf --out " + btf).exit_code, 0);
+  const auto manifest = nlohmann::json::parse(Slurp(std::filesystem::path(btf) / "manifest.json"));
+  const auto tiny = nlohmann::json::parse(Slurp(RigFile("tiny")));
+  const std::size_t images = tiny["turntable"]["angles_deg"].size() * tiny["light_arc"]["angles_deg"].size() *
+                             tiny["lamps"]["elevations_deg"].size();
+  ASSERT_EQ(manifest["plan"]["steps"].size(), images);
+  for (const auto& step : manifest["plan"]["steps"]) EXPECT_EQ(step["kind"], "btf_image") << step.dump();
+  EXPECT_FALSE(std::filesystem::exists(std::filesystem::path(btf) / "laser"));
+
+  ASSERT_EQ(Mesocap("-q simulate --scene weave --rig tiny --out " + whole).exit_code, 0);
+  for (const auto& [session, out] : {std::pair{btf, "m-btf"}, std::pair{whole, "m-whole"}}) {
+    const CommandResult r = Mesocap("-q process btf --session " + session + " --out " + (dir / out).string() +
+                                    " --texture-size 8 --full");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+  }
+  EXPECT_EQ(Slurp(dir / "m-btf" / "btf" / "view_0000.exr"), Slurp(dir / "m-whole" / "btf" / "view_0000.exr"));
+  const CommandResult mdf = Mesocap("-q process mdf --session " + btf + " --out " + (dir / "mdf").string());
+  EXPECT_NE(mdf.exit_code, 0) << "a BTF-only session has no sweeps";
+  EXPECT_NE(mdf.err.find("plans no laser sweep"), std::string::npos) << mdf.err;
+  EXPECT_FALSE(std::filesystem::exists(dir / "mdf"));
+}
+
 TEST(Cli, ProcessBtfTurnsASessionIntoAMaterial) {
   testing::TemporaryDirectory dir;
   const std::string session = (dir / "s").string(), out = (dir / "m").string(), gt = (dir / "gt").string();
@@ -251,6 +279,15 @@ TEST(Cli, ProcessBtfTurnsASessionIntoAMaterial) {
   ASSERT_EQ(Mesocap("-q groundtruth --scene flat --rig tiny --texture-size 8 --out " + gt).exit_code, 0);
   const auto e = nlohmann::json::parse(Mesocap("eval btf --json --truth " + gt + " --estimate " + out).out);
   EXPECT_GT(e["overall"]["psnr_db"].get<double>(), 30.0) << e.dump();
+  // The pairs the tiny rig captured and those it interpolated, apart (the
+  // tiny rig resolves 8 x 8 texels in every view).
+  EXPECT_EQ(e["captured"]["pairs"], 32) << e.dump();
+  EXPECT_EQ(e["interpolated"]["pairs"], 32) << e.dump();
+  EXPECT_EQ(e["unresolved"]["pairs"], 0) << e.dump();
+  EXPECT_GT(e["captured"]["psnr_db"].get<double>(), 30.0) << e.dump();
+  // Against a package without the record (the truth itself): no split.
+  const auto self = nlohmann::json::parse(Mesocap("eval btf --json --truth " + gt + " --estimate " + gt).out);
+  EXPECT_TRUE(self["captured"].is_null()) << self.dump();
 
   // Without --full the assembled views go through a scratch package that is
   // gone afterwards; the factors are the same as with them kept.

@@ -19,8 +19,6 @@ using core::SamplingSet;
 using testing::Blended;
 using testing::Contains;
 using testing::ErrorOf;
-using testing::kDeg;
-using testing::kPi;
 
 TEST(UboSamplingSets, SizesAndNames) {
   for (const auto& [name, size] : std::vector<std::pair<std::string, int>>{{"ubo2003", 81}, {"ubo2014", 151}}) {
@@ -68,9 +66,9 @@ TEST(UboSamplingSets, PassTheChecksOfEverySamplingSet) {
 
 TEST(UboSamplingSets, RingBandsAtMidpoints) {
   const SamplingSet set = NamedSamplingSet("ubo2003");
-  EXPECT_NEAR(set.weight(0), 2 * kPi * (1 - std::cos(7.5 * kDeg)), 1e-15);  // pole cap
-  EXPECT_NEAR(set.weight(1), 2 * kPi * (std::cos(7.5 * kDeg) - std::cos(22.5 * kDeg)) / 6, 1e-15);
-  EXPECT_NEAR(set.weight(80), 2 * kPi * std::cos(67.5 * kDeg) / 24, 1e-15);  // last band to 90
+  EXPECT_NEAR(set.weight(0), 2 * testing::kPi * (1 - std::cos(7.5 * testing::kDeg)), 1e-15);  // pole cap
+  EXPECT_NEAR(set.weight(1), 2 * testing::kPi * (std::cos(7.5 * testing::kDeg) - std::cos(22.5 * testing::kDeg)) / 6, 1e-15);
+  EXPECT_NEAR(set.weight(80), 2 * testing::kPi * std::cos(67.5 * testing::kDeg) / 24, 1e-15);  // last band to 90
 }
 
 TEST(UboSamplingSets, NearestAtThePole) { EXPECT_EQ(NamedSamplingSet("ubo2003").Nearest({1e-6, 0, 1}), 0); }
@@ -85,13 +83,13 @@ TEST(UboSamplingSets, ContinuousAcrossTheSeamAndAcrossRings) {
   const SamplingSet set = NamedSamplingSet("ubo2014");
   const auto value = [&](int i) { return testing::Smooth(set.direction(i)); };
   for (const double theta : {5.0, 11.0, 40.0, 75.0, 80.0}) {
-    const double below = Blended(set.Interpolate(DirectionFromAngles(theta * kDeg, -1e-9)), value);
-    const double above = Blended(set.Interpolate(DirectionFromAngles(theta * kDeg, 1e-9)), value);
+    const double below = Blended(set.Interpolate(DirectionFromAngles(theta * testing::kDeg, -1e-9)), value);
+    const double above = Blended(set.Interpolate(DirectionFromAngles(theta * testing::kDeg, 1e-9)), value);
     EXPECT_NEAR(below, above, 1e-6) << theta;
   }
   for (const double theta : {11.0, 23.5, 52.5, 75.0}) {
-    const double inside = Blended(set.Interpolate(DirectionFromAngles(theta * kDeg - 1e-9, 1.0)), value);
-    const double outside = Blended(set.Interpolate(DirectionFromAngles(theta * kDeg + 1e-9, 1.0)), value);
+    const double inside = Blended(set.Interpolate(DirectionFromAngles(theta * testing::kDeg - 1e-9, 1.0)), value);
+    const double outside = Blended(set.Interpolate(DirectionFromAngles(theta * testing::kDeg + 1e-9, 1.0)), value);
     EXPECT_NEAR(inside, outside, 1e-6) << theta;
   }
 }
@@ -106,7 +104,7 @@ TEST(UboSamplingSets, NearThePoleWithAPoleSample) {
     const auto b = set.Interpolate(DirectionFromAngles(1e-8, phi));
     testing::ExpectValidBlend(set, b);
     EXPECT_EQ(b.index[0], 0);
-    EXPECT_NEAR(b.weight[0], 1 - 1e-8 / (15 * kDeg), 1e-15);
+    EXPECT_NEAR(b.weight[0], 1 - 1e-8 / (15 * testing::kDeg), 1e-15);
   }
 }
 

@@ -50,6 +50,7 @@ MaterialDescription TestDescription() {
   d.view_directions = TestViews();
   d.light_directions = TestLights();
   d.provenance.source = "groundtruth scene=weave rig=small";
+  d.provenance.texel_samples_per_side = 4;
   return d;
 }
 
@@ -402,6 +403,7 @@ TEST(MaterialPackage, EveryPartRoundTrips) {
   EXPECT_EQ(d.provenance.software_version, core::Version());
   EXPECT_EQ(d.provenance.created_utc.size(), 20u) << d.provenance.created_utc;  // 2025-01-31T18:04:05Z
   EXPECT_EQ(d.provenance.source, "groundtruth scene=weave rig=small");
+  EXPECT_EQ(d.provenance.texel_samples_per_side, 4);
   ASSERT_TRUE(m.mdf);
   EXPECT_TRUE(m.mdf->forms.float32 && m.mdf->forms.uint8);
   EXPECT_TRUE(m.full_btf);
@@ -753,6 +755,11 @@ TEST_F(HostilePackage, WrongFormatOrVersionOrUnits) {
   m = manifest_;
   m.erase("units");
   ExpectManifestRejected(m, "units");
+  for (const nlohmann::json& samples : {nlohmann::json(0), nlohmann::json(65), nlohmann::json(2.5)}) {
+    m = manifest_;
+    m["provenance"]["texel_samples_per_side"] = samples;
+    ExpectManifestRejected(m, "provenance.texel_samples_per_side");
+  }
   ExpectManifestRejected(nlohmann::json::array(), "");
 }
 

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -37,6 +38,51 @@ TEST(GroundTruth, FlatSampleHasZeroMdfAndAlbedoOverPiBtf) {
     for (int l = 0; l < o.lights.size(); ++l)
       for (int c = 0; c < 3; ++c) ASSERT_NEAR(view.at(5, l * 12 + 7, c), 0.5 / kPi, 1e-6) << "v " << v << " l " << l;
   }
+}
+
+TEST(GroundTruth, AreaAveragedBtfIsTheMeanOfTheFinerGridsTexels) {
+  // n x n samples a texel sit at the texel centres of the grid n times finer,
+  // so each texel of the averaged BTF is the mean of an n x n block of the
+  // finer grid's point-sampled one (weave: edges, shadows and holes inside
+  // texels).
+  const auto scene = MakeBuiltinScene("weave");
+  GroundTruthOptions coarse;
+  coarse.texels.width = coarse.texels.height = 6;
+  coarse.texels.sample_size_mm = 10.0;
+  coarse.views = Directions({{0, 0}, {60, 30}, {80, 200}});
+  coarse.lights = Directions({{10, 90}, {75, 300}});
+  coarse.samples_per_side = 3;
+  GroundTruthOptions fine = coarse;
+  fine.texels.width = fine.texels.height = 18;
+  fine.samples_per_side = 1;
+  double largest_spread = 0.0;  // how far a texel's samples differ: the test must see edges
+  for (int v = 0; v < coarse.views.size(); ++v) {
+    const core::Image averaged = RenderTrueBtfView(*scene, coarse, v);
+    const core::Image points = RenderTrueBtfView(*scene, fine, v);
+    for (int l = 0; l < coarse.lights.size(); ++l) {
+      for (int j = 0; j < 6; ++j) {
+        for (int i = 0; i < 6; ++i) {
+          for (int c = 0; c < 3; ++c) {
+            double sum = 0.0, low = 1e9, high = -1e9;
+            for (int b = 0; b < 3; ++b) {
+              for (int a = 0; a < 3; ++a) {
+                const double t = points.at(3 * i + a, l * 18 + 3 * j + b, c);
+                sum += t;
+                low = std::min(low, t);
+                high = std::max(high, t);
+              }
+            }
+            largest_spread = std::max(largest_spread, high - low);
+            ASSERT_NEAR(averaged.at(i, l * 6 + j, c), sum / 9, 1e-6) << "v " << v << " l " << l << " texel " << i
+                                                                     << ", " << j;
+          }
+        }
+      }
+    }
+  }
+  EXPECT_GT(largest_spread, 0.05) << "no texel straddles an edge or a shadow";
+  coarse.samples_per_side = 0;
+  EXPECT_NE(coarse.Check(), "");
 }
 
 TEST(GroundTruth, AmbientTermIsTheLightQuadratureOfTheBtf) {
