@@ -195,17 +195,21 @@ struct ServedCameras::Server {
         if (scene_changes) last = LastFrame{changes, settings, frame};
       }
       // The device sends one frame a trigger: the previous one must be sent.
-      while (!stop_rendering) {
+      bool handed_over = false;
+      while (!stop_rendering && !handed_over) {
         {
           std::lock_guard lock(rendered_mutex);
           if (!has_rendered && Register(ARV_FAKE_CAMERA_REGISTER_TRIGGER_SOFTWARE) == 0) {
             rendered = std::move(frame);
             has_rendered = true;
-            break;
+            handed_over = true;
           }
         }
-        std::this_thread::sleep_for(kTriggerWatchPeriod);
+        if (!handed_over) std::this_thread::sleep_for(kTriggerWatchPeriod);
       }
+      // Stopped first: no trigger, or the device's thread would render a
+      // second exposure of the same scene (other noise) in its place.
+      if (!handed_over) break;
       arv_fake_camera_write_register(fake(), ARV_FAKE_CAMERA_REGISTER_TRIGGER_SOFTWARE, 1);
     }
   }

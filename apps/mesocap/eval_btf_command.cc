@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <optional>
+#include <string>
 
 #include "apps/mesocap/command.h"
 #include "btf/btf_compression.h"
@@ -100,10 +101,12 @@ void RunEvalBtf(const EvalBtfCommandOptions& o) {
   }
   if (pairs) {
     for (const auto& [kind, k] : btf::PairKindFigures(errors, *pairs)) {
+      const std::string label =
+          kind == "captured_within_60deg" ? "captured, view and light within 60 deg," : kind;
       if (k.pairs == 0) {
-        std::printf("  %s pairs: none\n", kind.c_str());
+        std::printf("  %s pairs: none\n", label.c_str());
       } else {
-        std::printf("  %s pairs (%d): PSNR %.2f dB, relative RMS %.4g\n", kind.c_str(), k.pairs, k.errors.psnr_db,
+        std::printf("  %s pairs (%d): PSNR %.2f dB, relative RMS %.4g\n", label.c_str(), k.pairs, k.errors.psnr_db,
                     k.errors.relative_rms);
       }
     }
