@@ -127,9 +127,10 @@ function(mesocap_test name)
   endif()
   if(ARG_ONE_PROCESS)
     add_test(NAME ${name} COMMAND ${ARG_LAUNCHER} $<TARGET_FILE:${name}>)
-    if(properties)
-      set_tests_properties(${name} PROPERTIES ${properties})
-    endif()
+    # A whole binary is longer than one of its tests: without timings of an
+    # earlier run (a fresh build) ctest starts these first, so that the
+    # longest do not run alone at the end.
+    set_tests_properties(${name} PROPERTIES COST 60 ${properties})
   elseif(properties)
     gtest_discover_tests(${name} DISCOVERY_TIMEOUT 60 PROPERTIES ${properties})
   else()

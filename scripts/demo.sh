@@ -40,7 +40,7 @@ echo "== their error against the exact material (ground truth: weave scene, tiny
 "$mesocap" -q groundtruth --scene weave --rig tiny --texture-size "$texels" --out "$out/weave-truth" --replace
 echo "MDF (the sample square only: the rig cannot see behind the pocket's wall):"
 "$mesocap" eval mdf --truth "$out/weave-truth" --estimate "$out/weave-measured" --inside-sample-only
-echo "BTF (the tiny rig captures 32 of its 64 view and light pairs; the rest are interpolated):"
+echo "BTF (the tiny rig captures 32 of its 64 view and light pairs; the rest are interpolated; both apart below):"
 "$mesocap" eval btf --truth "$out/weave-truth" --estimate "$out/weave-btf"
 
 echo "== the paper's cylinder with a blocks material: BTF, MDF silhouettes and shadows (headless GL) =="
