@@ -100,8 +100,10 @@ endfunction()
 # out, since the code they run is covered there by the smaller tests. For the
 # same reason it leaves out, by name, the camera calibration's hard cases
 # (CameraCalibrationHardCases.*: minutes of Ceres and corner detection under
-# the sanitizers, the same code as CameraCalibration.*) and the statistics
-# over noise seeds (*OverNoiseSeeds: one calibration repeated).
+# the sanitizers, the same code as CameraCalibration.*), the statistics
+# over noise seeds (*OverNoiseSeeds: one calibration repeated) and the chain
+# without truth against the one with it (CalibratedChainCli.*: 5 minutes
+# there; its commands run in the smaller CLI tests).
 function(mesocap_test name)
   cmake_parse_arguments(ARG "ONE_PROCESS;RUN_SERIAL" "" "SOURCES;DEPS;LABELS;ENVIRONMENT;LAUNCHER" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
