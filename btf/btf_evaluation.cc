@@ -16,6 +16,32 @@ nlohmann::json Number(double v) { return std::isfinite(v) ? nlohmann::json(v) : 
 
 double ThetaDeg(const core::SamplingSet& set, int i) { return core::DegreesFromRadians(set.angles(i).theta); }
 
+// The figures of each kind of pair (see ToJson), in the JSON's order.
+struct PairKindErrors {
+  int pairs = 0;
+  BtfErrorFigures errors;
+};
+std::vector<std::pair<std::string, PairKindErrors>> PairKindFigures(const BtfErrorAccumulator& errors,
+                                                                    const BtfPairRecord& pairs) {
+  const core::SamplingSet& views = errors.views();
+  const core::SamplingSet& lights = errors.lights();
+  const auto within_60 = [&](int v, int l) { return ThetaDeg(views, v) <= 60.0 + 1e-9 && ThetaDeg(lights, l) <= 60.0 + 1e-9; };
+  const std::vector<std::pair<std::string, std::function<bool(int, int)>>> kinds = {
+      {"captured", [&](int v, int l) { return pairs.resolved(v) && pairs.captured[v][l]; }},
+      {"interpolated", [&](int v, int l) { return pairs.resolved(v) && !pairs.captured[v][l]; }},
+      {"unresolved", [&](int v, int) { return !pairs.resolved(v); }},
+      {"captured_within_60deg", [&](int v, int l) { return pairs.resolved(v) && pairs.captured[v][l] && within_60(v, l); }}};
+  std::vector<std::pair<std::string, PairKindErrors>> out;
+  for (const auto& [kind, include] : kinds) {
+    PairKindErrors k;
+    k.errors = errors.Over(include);
+    for (int v = 0; v < views.size(); ++v)
+      for (int l = 0; l < lights.size(); ++l) k.pairs += include(v, l);
+    out.emplace_back(kind, k);
+  }
+  return out;
+}
+
 }  // namespace
 
 void AddPairRecord(const BtfPairRecord& record, nlohmann::json* object) {
@@ -162,25 +188,5 @@ nlohmann::json ToJson(const BtfErrorAccumulator& errors, std::optional<int> rank
   return out;
 }
 
-std::vector<std::pair<std::string, PairKindErrors>> PairKindFigures(const BtfErrorAccumulator& errors,
-                                                                    const BtfPairRecord& pairs) {
-  const core::SamplingSet& views = errors.views();
-  const core::SamplingSet& lights = errors.lights();
-  const auto within_60 = [&](int v, int l) { return ThetaDeg(views, v) <= 60.0 + 1e-9 && ThetaDeg(lights, l) <= 60.0 + 1e-9; };
-  const std::vector<std::pair<std::string, std::function<bool(int, int)>>> kinds = {
-      {"captured", [&](int v, int l) { return pairs.resolved(v) && pairs.captured[v][l]; }},
-      {"interpolated", [&](int v, int l) { return pairs.resolved(v) && !pairs.captured[v][l]; }},
-      {"unresolved", [&](int v, int) { return !pairs.resolved(v); }},
-      {"captured_within_60deg", [&](int v, int l) { return pairs.resolved(v) && pairs.captured[v][l] && within_60(v, l); }}};
-  std::vector<std::pair<std::string, PairKindErrors>> out;
-  for (const auto& [kind, include] : kinds) {
-    PairKindErrors k;
-    k.errors = errors.Over(include);
-    for (int v = 0; v < views.size(); ++v)
-      for (int l = 0; l < lights.size(); ++l) k.pairs += include(v, l);
-    out.emplace_back(kind, k);
-  }
-  return out;
-}
 
 }  // namespace mesocap::btf

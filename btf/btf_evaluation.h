@@ -92,15 +92,6 @@ class BtfErrorAccumulator {
   double peak_ = 0.0;
 };
 
-// The figures of each kind of pair, in the order captured, interpolated,
-// unresolved, captured_within_60deg (see ToJson).
-struct PairKindErrors {
-  int pairs = 0;
-  BtfErrorFigures errors;
-};
-std::vector<std::pair<std::string, PairKindErrors>> PairKindFigures(const BtfErrorAccumulator& errors,
-                                                                    const BtfPairRecord& pairs);
-
 // `mesocap eval btf --json`: {"overall": {"psnr_db", "relative_rms"},
 // "by_polar_angle": [{"theta_min_deg", "theta_max_deg", "psnr_db",
 // "relative_rms"}, ...], "rank": K or null (a full estimate), "peak"}, and

@@ -8,6 +8,7 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <optional>
 #include <string>
 
@@ -28,6 +29,11 @@ struct EvalBtfCommandOptions {
   std::filesystem::path estimate;
   bool json = false;
 };
+
+// A figure of ToJson's, where null stands for infinity.
+double Figure(const nlohmann::json& value) {
+  return value.is_null() ? std::numeric_limits<double>::infinity() : value.get<double>();
+}
 
 bool SameDirections(const core::SamplingSet& a, const core::SamplingSet& b) {
   if (a.size() != b.size()) return false;
@@ -100,14 +106,15 @@ void RunEvalBtf(const EvalBtfCommandOptions& o) {
                 b.figures.psnr_db, b.figures.relative_rms);
   }
   if (pairs) {
-    for (const auto& [kind, k] : btf::PairKindFigures(errors, *pairs)) {
-      const std::string label =
-          kind == "captured_within_60deg" ? "captured, view and light within 60 deg," : kind;
-      if (k.pairs == 0) {
-        std::printf("  %s pairs: none\n", label.c_str());
+    for (const auto& [kind, label] : {std::pair{"captured", "captured"}, std::pair{"interpolated", "interpolated"},
+                                      std::pair{"unresolved", "unresolved"},
+                                      std::pair{"captured_within_60deg", "captured, view and light within 60 deg,"}}) {
+      const nlohmann::json& k = result[kind];
+      if (k["pairs"].get<int>() == 0) {
+        std::printf("  %s pairs: none\n", label);
       } else {
-        std::printf("  %s pairs (%d): PSNR %.2f dB, relative RMS %.4g\n", label.c_str(), k.pairs, k.errors.psnr_db,
-                    k.errors.relative_rms);
+        std::printf("  %s pairs (%d): PSNR %.2f dB, relative RMS %.4g\n", label, k["pairs"].get<int>(),
+                    Figure(k["psnr_db"]), Figure(k["relative_rms"]));
       }
     }
     if (result["unresolved"]["views"].get<int>() > 0) {
