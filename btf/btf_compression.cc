@@ -59,7 +59,7 @@ class BtfMatrix {
     const long long texels = static_cast<long long>(btf.width()) * btf.height();
     rows_ = layout == core::BtfFactorLayout::kPaper ? texels * btf.light_count() : texels;
     columns_ = layout == core::BtfFactorLayout::kPaper ? btf.view_count()
-                                                 : static_cast<long long>(btf.view_count()) * btf.light_count();
+                                                       : static_cast<long long>(btf.view_count()) * btf.light_count();
   }
 
   long long rows() const { return rows_; }
@@ -256,9 +256,10 @@ std::string Percent(double relative) {
 
 // The rank of the factorization: as requested (at most the matrix's), or the
 // smallest whose spectrum error meets the budget; says why in report->reason.
-int ChooseRank(const BtfCompressionOptions& options, long long m, long long n, BtfCompressionReport* report) {
+int ChooseRank(const BtfCompressionOptions& options, core::BtfFactorColor color, long long m, long long n,
+               BtfCompressionReport* report) {
   BtfCompressionReport& r = *report;
-  const std::string space = options.color == core::BtfFactorColor::kRgb ? "" : " (in Y, Cb, Cr)";
+  const std::string space = color == core::BtfFactorColor::kRgb ? "" : " (in Y, Cb, Cr)";
   int rank = 0;
   if (options.rank > 0) {
     rank = std::min(options.rank, r.max_rank);
@@ -347,37 +348,24 @@ struct FactorsFromSvd {
   }
 };
 
-}  // namespace
-
-core::CheckResult BtfCompressionOptions::Check() const {
-  if (rank < 0 || rank > core::kMaxBtfRank) {
-    return "rank " + std::to_string(rank) + " is outside 0..100 (0 chooses the rank by the error budget)";
-  }
-  if (band_bytes < 1) return "band_bytes " + std::to_string(band_bytes) + " must be positive";
-  if (rank == 0 && !(std::isfinite(max_relative_error) && max_relative_error > 0.0 && max_relative_error <= 1.0)) {
-    return "max_relative_error " + std::to_string(max_relative_error) + " is outside (0, 1]";
-  }
-  return {};
-}
-
-core::FactoredBtf CompressBtf(core::FullBtfReader& btf, const BtfCompressionOptions& options,
-                              BtfCompressionReport* report) {
-  const auto start = std::chrono::steady_clock::now();
-  if (const auto problem = options.Check(); !problem.empty()) throw core::Error("compress: " + problem);
-
+// The factors of one representation, the rank as options.rank or chosen by
+// options.max_relative_error (max_bytes is turned into a rank by the caller).
+core::FactoredBtf CompressOneRepresentation(core::FullBtfReader& btf, const BtfCompressionOptions& options,
+                                            core::BtfFactorLayout layout, core::BtfFactorColor color,
+                                            BtfCompressionReport& r) {
   core::FactoredBtf out;
   out.width = btf.width();
   out.height = btf.height();
   out.views = btf.views();
   out.lights = btf.lights();
-  out.layout = options.layout;
-  out.color = options.color;
+  out.layout = layout;
+  out.color = color;
   out.rgb_to_factored =
-      options.color == core::BtfFactorColor::kYCbCr ? core::YCbCrFromLinearRgbBt601() : Eigen::Matrix3d::Identity();
+      color == core::BtfFactorColor::kYCbCr ? core::YCbCrFromLinearRgbBt601() : Eigen::Matrix3d::Identity();
   ChannelWeights weights;
   for (int ch = 0; ch < 3; ++ch) weights[ch] = out.rgb_to_factored.row(ch).transpose();
 
-  const BtfMatrix a(btf, options.layout);
+  const BtfMatrix a(btf, layout);
   const long long m = a.rows();
   const long long n = a.columns();
   const bool tall = m >= n;
@@ -387,8 +375,6 @@ core::FactoredBtf CompressBtf(core::FullBtfReader& btf, const BtfCompressionOpti
   const StreamedMatrix s(a, !tall, options.band_bytes);
   const std::array<ChannelSvd, 3> svd = TallSkinnySvd(s, weights);
 
-  BtfCompressionReport local;
-  BtfCompressionReport& r = report ? *report : local;
   r = BtfCompressionReport{};
   for (int ch = 0; ch < 3; ++ch) r.singular_values[ch] = svd[ch].sigma;
   r.max_rank = static_cast<int>(std::min<long long>(core::kMaxBtfRank, small));
@@ -396,26 +382,162 @@ core::FactoredBtf CompressBtf(core::FullBtfReader& btf, const BtfCompressionOpti
   r.matrix_columns = n;
   r.relative_rms_error = SpectrumErrors(r.singular_values, r.max_rank);
 
-  int rank = ChooseRank(options, m, n, &r);
+  int rank = ChooseRank(options, color, m, n, &r);
   const FactorsFromSvd factors{s, weights, svd, tall, m, n, small};
   factors.Build(rank, &out);
   r.measured_relative_rms_error = RelativeRmsError(btf, out, options.band_bytes);
   // The budget is on RGB values; for ycbcr the spectrum measures the error in
   // the factored space, so the rank grows until the measured RGB error fits.
-  if (options.rank == 0 && options.color == core::BtfFactorColor::kYCbCr) {
+  if (options.rank == 0 && color == core::BtfFactorColor::kYCbCr) {
     while (r.measured_relative_rms_error > options.max_relative_error && rank < r.max_rank) {
       factors.Build(++rank, &out);
       r.measured_relative_rms_error = RelativeRmsError(btf, out, options.band_bytes);
       r.reason = "rank " + std::to_string(rank) + ": smallest rank whose measured RGB error " +
-                 Percent(r.measured_relative_rms_error) + " meets the budget " +
-                 Percent(options.max_relative_error);
+                 Percent(r.measured_relative_rms_error) + " meets the budget " + Percent(options.max_relative_error);
     }
   }
   r.rank = rank;
+  r.factor_bytes = FactorBytes(layout, out.width, out.height, out.view_count(), out.light_count(), rank);
   out.CheckShape();
-  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  spdlog::debug("compress: {} x {} matrix per channel, rank {} ({}), {:.3g} s", m, n, rank, r.reason, r.seconds);
+  spdlog::debug("compress: {} {}, {} x {} matrix per channel, rank {} ({})", ToString(layout), ToString(color), m, n,
+                rank, r.reason);
   return out;
+}
+
+std::string RepresentationName(core::BtfFactorLayout layout, core::BtfFactorColor color) {
+  return std::string(ToString(layout)) + "/" + ToString(color);
+}
+
+std::string Bytes(long long bytes) {
+  std::ostringstream s;
+  s.precision(3);
+  s << bytes / 1024.0 << " KiB";
+  return s.str();
+}
+
+// Whether candidate c is a better pick than the best so far: with a byte
+// budget the more accurate; with an error budget the smaller of those that
+// meet it, else (none meets it) the more accurate.
+bool Better(const BtfRepresentationCandidate& c, const BtfRepresentationCandidate& best, bool byte_budget) {
+  if (byte_budget || (!c.meets_budget && !best.meets_budget)) {
+    return c.measured_relative_rms_error < best.measured_relative_rms_error ||
+           (c.measured_relative_rms_error == best.measured_relative_rms_error && c.factor_bytes < best.factor_bytes);
+  }
+  if (c.meets_budget != best.meets_budget) return c.meets_budget;
+  return c.factor_bytes < best.factor_bytes ||
+         (c.factor_bytes == best.factor_bytes && c.measured_relative_rms_error < best.measured_relative_rms_error);
+}
+
+}  // namespace
+
+long long FactorBytes(core::BtfFactorLayout layout, int width, int height, int views, int lights, int rank) {
+  const bool paper = layout == core::BtfFactorLayout::kPaper;
+  const long long row_pixels = static_cast<long long>(width) * height * (paper ? lights : 1);
+  const long long columns = paper ? views : static_cast<long long>(views) * lights;
+  return 3LL * static_cast<long long>(sizeof(float)) * rank * (row_pixels + columns);
+}
+
+core::CheckResult BtfCompressionOptions::Check() const {
+  if (rank < 0 || rank > core::kMaxBtfRank) {
+    return "rank " + std::to_string(rank) + " is outside 0..100 (0 chooses the rank by the error budget)";
+  }
+  if (rank > 0 && (!layout || !color)) {
+    return "rank " + std::to_string(rank) +
+           " fixes the size of one representation: give its layout and colour "
+           "too, or a budget (error or bytes) "
+           "to choose among them";
+  }
+  if (max_bytes < 0) return "max_bytes " + std::to_string(max_bytes) + " must be positive (0: no byte budget)";
+  if (max_bytes > 0 && rank > 0) return "give either a rank or max_bytes, not both";
+  if (band_bytes < 1) return "band_bytes " + std::to_string(band_bytes) + " must be positive";
+  if (rank == 0 && max_bytes == 0 &&
+      !(std::isfinite(max_relative_error) && max_relative_error > 0.0 && max_relative_error <= 1.0)) {
+    return "max_relative_error " + std::to_string(max_relative_error) + " is outside (0, 1]";
+  }
+  return {};
+}
+
+core::FactoredBtf CompressBtf(core::FullBtfReader& btf, const BtfCompressionOptions& options,
+                              BtfCompressionReport* report) {
+  const auto start = std::chrono::steady_clock::now();
+  if (const auto problem = options.Check(); !problem.empty()) throw core::Error("compress: " + problem);
+  BtfCompressionReport local;
+  BtfCompressionReport& r = report ? *report : local;
+
+  std::vector<core::BtfFactorLayout> layouts{core::BtfFactorLayout::kPaper, core::BtfFactorLayout::kPerTexel};
+  std::vector<core::BtfFactorColor> colors{core::BtfFactorColor::kRgb, core::BtfFactorColor::kYCbCr};
+  if (options.layout) layouts = {*options.layout};
+  if (options.color) colors = {*options.color};
+  const bool choosing = layouts.size() * colors.size() > 1;
+  const bool byte_budget = options.max_bytes > 0;
+
+  core::FactoredBtf best;
+  BtfCompressionReport best_report;
+  std::vector<BtfRepresentationCandidate> candidates;
+  int best_index = -1;
+  for (const core::BtfFactorLayout layout : layouts) {
+    for (const core::BtfFactorColor color : colors) {
+      BtfRepresentationCandidate c{layout, color};
+      BtfCompressionOptions one = options;
+      if (byte_budget) {
+        const long long per_rank =
+            FactorBytes(layout, btf.width(), btf.height(), btf.view_count(), btf.light_count(), 1);
+        one.rank = static_cast<int>(std::min<long long>(core::kMaxBtfRank, options.max_bytes / per_rank));
+        if (one.rank == 0) {
+          if (!choosing) {
+            throw core::Error("compress: max_bytes " + std::to_string(options.max_bytes) + " is less than rank 1 of " +
+                              RepresentationName(layout, color) + " (" + std::to_string(per_rank) + " bytes)");
+          }
+          c.factor_bytes = per_rank;
+          candidates.push_back(c);
+          continue;
+        }
+      }
+      BtfCompressionReport one_report;
+      core::FactoredBtf factored = CompressOneRepresentation(btf, one, layout, color, one_report);
+      c.rank = one_report.rank;
+      c.factor_bytes = one_report.factor_bytes;
+      c.measured_relative_rms_error = one_report.measured_relative_rms_error;
+      c.meets_budget = byte_budget ? c.factor_bytes <= options.max_bytes
+                                   : options.rank > 0 || c.measured_relative_rms_error <= options.max_relative_error;
+      candidates.push_back(c);
+      if (best_index < 0 || Better(c, candidates[best_index], byte_budget)) {
+        best_index = static_cast<int>(candidates.size()) - 1;
+        best = std::move(factored);
+        best_report = std::move(one_report);
+      }
+    }
+  }
+  if (best_index < 0) {
+    throw core::Error(
+        "compress: max_bytes " + std::to_string(options.max_bytes) +
+        " is less than rank 1 of every representation (the smallest: " +
+        std::to_string(std::min_element(candidates.begin(), candidates.end(),
+                                        [](const auto& a, const auto& b) { return a.factor_bytes < b.factor_bytes; })
+                           ->factor_bytes) +
+        " bytes)");
+  }
+  r = std::move(best_report);
+  if (choosing) {
+    const BtfRepresentationCandidate& c = candidates[best_index];
+    const std::string name = RepresentationName(c.layout, c.color);
+    const std::string figures =
+        "rank " + std::to_string(c.rank) + ", " + Bytes(c.factor_bytes) + ", " + Percent(c.measured_relative_rms_error);
+    if (byte_budget) {
+      r.representation_reason = name + ": the most accurate of " + std::to_string(candidates.size()) +
+                                " representations within " + Bytes(options.max_bytes) + " (" + figures + ")";
+    } else if (c.meets_budget) {
+      r.representation_reason = name + ": the smallest of the representations that meet the budget " +
+                                Percent(options.max_relative_error) + " (" + figures + ")";
+    } else {
+      r.representation_reason = name + ": no representation meets the budget " + Percent(options.max_relative_error) +
+                                " up to rank " + std::to_string(core::kMaxBtfRank) + "; the most accurate (" + figures +
+                                ")";
+    }
+    r.candidates = std::move(candidates);
+  }
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return best;
 }
 
 core::FactoredBtf CompressBtf(const core::FullBtf& btf, const BtfCompressionOptions& options,
@@ -432,16 +554,31 @@ nlohmann::json ToJson(const BtfCompressionReport& report, const core::FactoredBt
     spectrum[names[factored.color == core::BtfFactorColor::kYCbCr][ch]] =
         std::vector<double>(s.data(), s.data() + s.size());
   }
-  return {{"layout", ToString(factored.layout)},
-          {"color", ToString(factored.color)},
-          {"rank", report.rank},
-          {"reason", report.reason},
-          {"measured_relative_rms", report.measured_relative_rms_error},
-          {"relative_rms_by_rank", report.relative_rms_error},
-          {"max_rank", report.max_rank},
-          {"matrix_size", {report.matrix_rows, report.matrix_columns}},
-          {"singular_values", spectrum},
-          {"seconds", report.seconds}};
+  nlohmann::json candidates = nlohmann::json::array();
+  for (const BtfRepresentationCandidate& c : report.candidates) {
+    candidates.push_back({{"layout", ToString(c.layout)},
+                          {"color", ToString(c.color)},
+                          {"rank", c.rank},
+                          {"factor_bytes", c.factor_bytes},
+                          {"measured_relative_rms", c.measured_relative_rms_error},
+                          {"meets_budget", c.meets_budget}});
+  }
+  nlohmann::json out = {{"layout", ToString(factored.layout)},
+                        {"color", ToString(factored.color)},
+                        {"rank", report.rank},
+                        {"reason", report.reason},
+                        {"measured_relative_rms", report.measured_relative_rms_error},
+                        {"factor_bytes", report.factor_bytes},
+                        {"relative_rms_by_rank", report.relative_rms_error},
+                        {"max_rank", report.max_rank},
+                        {"matrix_size", {report.matrix_rows, report.matrix_columns}},
+                        {"singular_values", spectrum},
+                        {"seconds", report.seconds}};
+  if (!report.candidates.empty()) {
+    out["representation_reason"] = report.representation_reason;
+    out["candidates"] = std::move(candidates);
+  }
+  return out;
 }
 
 core::Image ReconstructBtfView(const core::FactoredBtf& f, int view) {

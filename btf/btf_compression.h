@@ -20,10 +20,10 @@
 // constant-zero channel) get zero factors instead of a division by ~0.
 //
 // Memory: the BTF is read through a FullBtfReader (core/btf.h) in bands of
-// about band_bytes (64 MiB; whole texture lines x all columns, or whole columns when A is
-// wide), one band at a time, so a BTF on disk (a material package) is never
-// whole in memory: besides the band, one row block (~thousands of rows x n
-// doubles) per worker, the n x n factors and the output factors (K images).
+// about band_bytes (64 MiB; whole texture lines x all columns, or whole columns
+// when A is wide), one band at a time, so a BTF on disk (a material package) is
+// never whole in memory: besides the band, one row block (~thousands of rows x
+// n doubles) per worker, the n x n factors and the output factors (K images).
 // Passes over the BTF: one for R, one for the remaining factor, one for the
 // measured error (and two more per rank the ycbcr budget search adds).
 #pragma once
@@ -31,6 +31,7 @@
 #include <Eigen/Core>
 #include <array>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -40,18 +41,41 @@
 namespace mesocap::btf {
 
 struct BtfCompressionOptions {
-  core::BtfFactorLayout layout = core::BtfFactorLayout::kPaper;
-  core::BtfFactorColor color = core::BtfFactorColor::kRgb;
+  // The representation: a matrix layout and the channels factored. Either
+  // left empty (std::nullopt) chooses it: every representation it allows is
+  // factored, and the one that meets the budget in the fewest bytes (with
+  // max_bytes: the most accurate within them) is kept.
+  std::optional<core::BtfFactorLayout> layout = core::BtfFactorLayout::kPaper;
+  std::optional<core::BtfFactorColor> color = core::BtfFactorColor::kRgb;
   // A fixed rank 1..kMaxBtfRank, or 0 to choose the smallest rank whose
   // relative RMS error (over all RGB values) is at most max_relative_error.
+  // A fixed rank needs a fixed representation.
   int rank = 0;
   double max_relative_error = 0.01;
+  // > 0: a budget in bytes instead of an error: the largest rank whose
+  // factors (float32, as a material package stores them) fit.
+  long long max_bytes = 0;
   // How much of the BTF a pass holds at a time: bands of about this many
   // bytes of float RGB (at least one texture line x all columns, or one
   // column). The result does not depend on it beyond rounding.
   long long band_bytes = 64LL << 20;
 
   core::CheckResult Check() const;
+};
+
+// Bytes of the factors of rank `rank` (float32, 3 channels): the row factor
+// images and the column factors (FactoredBtf).
+long long FactorBytes(core::BtfFactorLayout layout, int width, int height, int views, int lights, int rank);
+
+// One representation factored while choosing (BtfCompressionOptions with
+// the layout or colour left empty).
+struct BtfRepresentationCandidate {
+  core::BtfFactorLayout layout = core::BtfFactorLayout::kPaper;
+  core::BtfFactorColor color = core::BtfFactorColor::kRgb;
+  int rank = 0;  // 0: not factored (not even rank 1 fits max_bytes)
+  long long factor_bytes = 0;
+  double measured_relative_rms_error = 0.0;
+  bool meets_budget = false;
 };
 
 struct BtfCompressionReport {
@@ -69,20 +93,29 @@ struct BtfCompressionReport {
   // Of the factors as returned (float), reconstructed and compared with the
   // input in RGB: ||T - T_K||_F / ||T||_F (0 when the BTF is all zero).
   double measured_relative_rms_error = 0.0;
+  long long factor_bytes = 0;  // of the factors returned (FactorBytes)
+  // When the representation was chosen: every one factored, in the order
+  // tried, and why the one returned was kept.
+  std::vector<BtfRepresentationCandidate> candidates;
+  std::string representation_reason;
   long long matrix_rows = 0;
   long long matrix_columns = 0;
   double seconds = 0.0;  // wall time of CompressBtf
 };
 
-// Factors `btf`. Throws Error on invalid options, an empty or inconsistent
-// BTF, or a non-finite value (naming the view, texel and light).
+// Factors `btf`, choosing the representation when the options leave it open
+// (one pass per representation and rank tried). Throws Error on invalid
+// options, an empty or inconsistent BTF, a non-finite value (naming the
+// view, texel and light), or a max_bytes below rank 1 of every
+// representation allowed.
 core::FactoredBtf CompressBtf(core::FullBtfReader& btf, const BtfCompressionOptions& options,
-                        BtfCompressionReport* report = nullptr);
+                              BtfCompressionReport* report = nullptr);
 core::FactoredBtf CompressBtf(const core::FullBtf& btf, const BtfCompressionOptions& options,
-                        BtfCompressionReport* report = nullptr);
+                              BtfCompressionReport* report = nullptr);
 
 // The report as JSON (error_report.json's "btf_compression" member):
-// layout, color, rank, reason, measured_relative_rms, relative_rms_by_rank
+// layout, color, rank, reason, measured_relative_rms, factor_bytes,
+// representation_reason and candidates (when chosen), relative_rms_by_rank
 // (index K-1), singular_values per factored channel, matrix size, seconds.
 nlohmann::json ToJson(const BtfCompressionReport& report, const core::FactoredBtf& factored);
 

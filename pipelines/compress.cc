@@ -24,13 +24,14 @@ btf::BtfCompressionReport RunCompress(const CompressOptions& o) {
     throw core::Error("compress: " + o.in.string() + " holds no full BTF to factor (manifest.json has no btf.full)");
   }
   formats::PackageFullBtfReader btf(o.in, manifest);
-  spdlog::info("compressing the {}x{} BTF of {} ({} views x {} lights), {} layout, {}", btf.width(), btf.height(),
-               o.in.string(), btf.view_count(), btf.light_count(), ToString(o.compression.layout),
-               ToString(o.compression.color));
+  spdlog::info("compressing the {}x{} BTF of {} ({} views x {} lights)", btf.width(), btf.height(), o.in.string(),
+               btf.view_count(), btf.light_count());
   btf::BtfCompressionReport report;
   const core::FactoredBtf factored = btf::CompressBtf(btf, o.compression, &report);
-  spdlog::info("rank {}: {}; measured relative RMS error {:.3g} ({:.2f} s)", report.rank, report.reason,
-               report.measured_relative_rms_error, report.seconds);
+  if (!report.representation_reason.empty()) spdlog::info("{}", report.representation_reason);
+  spdlog::info("{} {}, rank {}: {}; measured relative RMS error {:.3g}, {} bytes ({:.2f} s)",
+               ToString(factored.layout), ToString(factored.color), report.rank, report.reason,
+               report.measured_relative_rms_error, report.factor_bytes, report.seconds);
 
   formats::MaterialDescription description = manifest.description;
   description.provenance.software_version.clear();

@@ -139,7 +139,9 @@ ProcessBtfReport RunProcessBtf(const ProcessBtfOptions& o) {
   ProcessBtfReport report;
   report.images = assembly.images;
   const core::FactoredBtf factored = btf::CompressBtf(*views.ReadBackFullBtf(), o.compression, &report.compression);
-  spdlog::info("rank {}: {}", report.compression.rank, report.compression.reason);
+  if (!report.compression.representation_reason.empty()) spdlog::info("{}", report.compression.representation_reason);
+  spdlog::info("{} {}, rank {}: {}", ToString(factored.layout), ToString(factored.color), report.compression.rank,
+               report.compression.reason);
   scratch.reset();
 
   writer.WriteFactoredBtf(factored);

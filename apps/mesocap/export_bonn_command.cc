@@ -50,8 +50,9 @@ void RegisterExportBonnCommand(CLI::App& app) {
       ->excludes(rank);
   const std::map<std::string, core::BtfFactorColor> colors{{"rgb", core::BtfFactorColor::kRgb},
                                                            {"ycbcr", core::BtfFactorColor::kYCbCr}};
-  sub->add_option("--color", o->compression.color,
-                  "dfmf when factoring here: rgb (colour model 0) or ycbcr (written as the PCA model 3)")
+  sub->add_option_function<core::BtfFactorColor>(
+         "--color", [o](const core::BtfFactorColor& color) { o->compression.color = color; },
+         "dfmf when factoring here: rgb (colour model 0) or ycbcr (written as the PCA model 3)")
       ->transform(CLI::CheckedTransformer(colors, CLI::ignore_case))
       ->default_str("rgb");
   sub->add_flag("--replace", o->replace, "replace an existing file or folder at --out");

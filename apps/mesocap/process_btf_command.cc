@@ -1,5 +1,5 @@
 // `mesocap process btf --session S --calibration C --out MATERIAL
-// [--rank K | --max-error E]`: the BTF of a capture session (Wang et al. 2005
+// [--rank K | --max-error E | --max-bytes B] [--layout L] [--color C]`: the BTF of a capture session (Wang et al. 2005
 // Sec. 3.1 and 5), its SVD factors and ambient term (Sec. 4.2) in a new
 // material package (pipelines/process_btf.h). Each camera's gain (signal per
 // radiance second) is its calibration's radiometry unless --gain gives one
@@ -7,6 +7,7 @@
 #include <spdlog/spdlog.h>
 
 #include "apps/mesocap/command.h"
+#include "apps/mesocap/compression_options.h"
 #include "formats/calibration.h"
 #include "pipelines/process_btf.h"
 
@@ -23,13 +24,7 @@ void RegisterProcessBtfCommand(CLI::App& app) {
   sub->add_option("--texture-size", o->texture_size, "texels per side")
       ->check(InRange(1, 4096))
       ->capture_default_str();
-  auto* rank = sub->add_option("--rank", o->compression.rank, "number of SVD terms, 1..100")
-                   ->check(InRange(1, core::kMaxBtfRank));
-  sub->add_option("--max-error", o->compression.max_relative_error,
-                  "error budget: the smallest rank whose relative RMS error is at most this")
-      ->check(InRange(1e-12, 1.0))
-      ->capture_default_str()
-      ->excludes(rank);
+  AddCompressionOptions(sub, &o->compression);
   sub->add_option("--gain", o->gain,
                   "camera signal (fraction of full scale) per radiance second, for every camera, overriding "
                   "the calibration's radiometry (default: each camera's from the calibration)")

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <functional>
 #include <initializer_list>
+#include <limits>
 #include <random>
 
 #include "core/image_io.h"
@@ -89,6 +90,113 @@ TEST(BtfCompression, OptionsAreChecked) {
   EXPECT_NE(o.Check().find("max_relative_error"), std::string::npos);
   o.max_relative_error = std::nan("");
   EXPECT_FALSE(o.Check().empty());
+  o = BtfCompressionOptions{};
+  o.rank = 4;
+  o.layout.reset();
+  EXPECT_NE(o.Check().find("layout and colour"), std::string::npos) << "a fixed rank needs one representation";
+  o = BtfCompressionOptions{};
+  o.rank = 4;
+  o.max_bytes = 1000;
+  EXPECT_NE(o.Check().find("not both"), std::string::npos);
+  o.rank = 0;
+  o.max_bytes = -1;
+  EXPECT_NE(o.Check().find("max_bytes -1"), std::string::npos);
+}
+
+// The four representations with the layout and colour left open, under an
+// error budget: a BTF that is a texel's albedo times a reflectance of (view,
+// light) that is not separable has rank 1 per texel and a full rank in the
+// paper's layout, so per_texel is the one that meets the budget in the fewest
+// bytes.
+TEST(BtfCompression, ChoosesTheSmallestRepresentationThatMeetsTheErrorBudget) {
+  const core::SamplingSet views = core::SamplingSet::Named("grid6x3");
+  const core::SamplingSet lights = core::SamplingSet::Named("grid6x4");
+  const core::FullBtf btf = MakeBtf(8, views, lights, [](int x, int y, int v, int l) {
+    const float albedo = 0.2f + 0.05f * static_cast<float>((x * 7 + y * 3) % 11);
+    const float reflectance = 1.0f + 0.5f * std::sin(0.7f * static_cast<float>(v * v + 3 * l * l + v * l));
+    const float s = albedo * reflectance;
+    return Eigen::Vector3f(0.9f * s, 0.6f * s, 0.3f * s);
+  });
+  BtfCompressionOptions o;
+  o.layout.reset();
+  o.color.reset();
+  o.max_relative_error = 1e-4;
+  BtfCompressionReport report;
+  const core::FactoredBtf f = CompressBtf(btf, o, &report);
+  ASSERT_EQ(report.candidates.size(), 4u);
+  long long smallest_meeting = std::numeric_limits<long long>::max();
+  for (const BtfRepresentationCandidate& c : report.candidates) {
+    EXPECT_EQ(c.meets_budget, c.measured_relative_rms_error <= 1e-4) << ToString(c.layout) << " " << ToString(c.color);
+    EXPECT_EQ(c.factor_bytes, FactorBytes(c.layout, 8, 8, btf.view_count(), btf.light_count(), c.rank));
+    if (c.meets_budget) smallest_meeting = std::min(smallest_meeting, c.factor_bytes);
+  }
+  EXPECT_EQ(f.layout, core::BtfFactorLayout::kPerTexel);
+  EXPECT_EQ(f.rank(), 1);
+  EXPECT_EQ(report.factor_bytes, smallest_meeting);
+  EXPECT_EQ(report.factor_bytes, 12LL * (64 + btf.view_count() * btf.light_count()));
+  EXPECT_NE(report.representation_reason.find("per_texel"), std::string::npos) << report.representation_reason;
+  EXPECT_NEAR(RelativeRmsError(btf, f), report.measured_relative_rms_error, 1e-9);
+  EXPECT_LE(report.measured_relative_rms_error, 1e-4);
+  // The paper layout needs many more bytes for the same budget, or misses it.
+  for (const BtfRepresentationCandidate& c : report.candidates) {
+    if (c.layout == core::BtfFactorLayout::kPaper) {
+      EXPECT_TRUE(!c.meets_budget || c.factor_bytes > 10 * smallest_meeting);
+    }
+  }
+}
+
+// With a byte budget: every representation at the largest rank whose factors
+// fit, and the most accurate of them kept; a budget below rank 1 of every
+// representation is an error that names the smallest.
+TEST(BtfCompression, ByteBudgetKeepsTheMostAccurateFactorsThatFit) {
+  const core::SamplingSet views = core::SamplingSet::Named("grid6x2");
+  const core::SamplingSet lights = core::SamplingSet::Named("grid5x2");
+  std::mt19937 rng(7);
+  std::normal_distribution<float> noise(0.0f, 0.05f);
+  core::FullBtf btf = MakeBtf(16, views, lights, IntegerRank3);
+  for (core::Image& view : btf.view_images)
+    for (long long i = 0; i < static_cast<long long>(view.width()) * view.height() * 3; ++i)
+      view.data()[i] += noise(rng);
+  const int nv = btf.view_count(), nl = btf.light_count();
+  const long long budget = FactorBytes(core::BtfFactorLayout::kPerTexel, 16, 16, nv, nl, 3) + 100;
+
+  BtfCompressionOptions o;
+  o.layout.reset();
+  o.color.reset();
+  o.max_bytes = budget;
+  BtfCompressionReport report;
+  const core::FactoredBtf f = CompressBtf(btf, o, &report);
+  ASSERT_EQ(report.candidates.size(), 4u);
+  EXPECT_LE(report.factor_bytes, budget);
+  for (const BtfRepresentationCandidate& c : report.candidates) {
+    if (c.rank == 0) continue;  // not even rank 1 fits
+    EXPECT_LE(c.factor_bytes, budget);
+    EXPECT_GT(FactorBytes(c.layout, 16, 16, nv, nl, c.rank + 1), budget) << "the largest rank that fits";
+    EXPECT_LE(report.measured_relative_rms_error, c.measured_relative_rms_error);
+  }
+  EXPECT_NEAR(RelativeRmsError(btf, f), report.measured_relative_rms_error, 1e-9);
+  EXPECT_NE(report.representation_reason.find("most accurate"), std::string::npos);
+
+  // One representation given: the budget picks its rank.
+  o.layout = core::BtfFactorLayout::kPaper;
+  o.color = core::BtfFactorColor::kRgb;
+  o.max_bytes = FactorBytes(core::BtfFactorLayout::kPaper, 16, 16, nv, nl, 2) + 5;
+  const core::FactoredBtf paper = CompressBtf(btf, o, &report);
+  EXPECT_EQ(paper.rank(), 2);
+  EXPECT_TRUE(report.candidates.empty());
+
+  o.layout.reset();
+  o.color.reset();
+  o.max_bytes = 10;
+  try {
+    CompressBtf(btf, o);
+    ADD_FAILURE() << "10 bytes hold no factors";
+  } catch (const core::Error& e) {
+    const long long smallest = std::min(FactorBytes(core::BtfFactorLayout::kPaper, 16, 16, nv, nl, 1),
+                                        FactorBytes(core::BtfFactorLayout::kPerTexel, 16, 16, nv, nl, 1));
+    EXPECT_NE(std::string(e.what()).find("max_bytes 10"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(std::to_string(smallest)), std::string::npos) << e.what();
+  }
 }
 
 TEST(BtfCompression, FlatLambertianGroundTruthIsRankOne) {
@@ -218,9 +326,8 @@ TEST(BtfCompression, LayoutsAgreeAtFullRank) {
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
   const core::SamplingSet views = core::SamplingSet::Named("grid3x2");
   const core::SamplingSet lights = core::SamplingSet::Named("grid5x1");
-  core::FullBtf btf = MakeBtf(4, views, lights, [&](int, int, int, int) {
-    return Eigen::Vector3f(u(rng), u(rng), u(rng));
-  });
+  core::FullBtf btf =
+      MakeBtf(4, views, lights, [&](int, int, int, int) { return Eigen::Vector3f(u(rng), u(rng), u(rng)); });
   // paper: 80 x 6, full rank 6; per_texel: 16 x 30 (wide), full rank 16.
   const core::FactoredBtf paper =
       CompressBtf(btf, Options(core::BtfFactorLayout::kPaper, core::BtfFactorColor::kRgb, 6));
@@ -264,7 +371,7 @@ TEST(BtfCompression, StreamedQrMatchesADirectSvdAcrossManyBlocks) {
 
 TEST(BtfCompression, RejectsNonFiniteValuesNamingTheView) {
   core::FullBtf btf = MakeBtf(4, core::SamplingSet::Named("grid3x1"), core::SamplingSet::Named("grid2x1"),
-                        [](int, int, int, int) { return Eigen::Vector3f(1, 1, 1); });
+                              [](int, int, int, int) { return Eigen::Vector3f(1, 1, 1); });
   btf.view_images[2].pixel(1, 4 + 3)[1] = std::nanf("");
   try {
     CompressBtf(btf, BtfCompressionOptions{});
@@ -274,7 +381,6 @@ TEST(BtfCompression, RejectsNonFiniteValuesNamingTheView) {
     EXPECT_NE(std::string(e.what()).find("texel (1, 3), light 1"), std::string::npos) << e.what();
   }
 }
-
 
 // Largest |a - b| of the two factorizations' reconstructions over every value.
 double MaxAbsDifference(const core::FactoredBtf& a, const core::FactoredBtf& b) {
