@@ -12,6 +12,8 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <opencv2/core.hpp>
+#include <random>
 #include <sstream>
 
 namespace mesocap::btf {
@@ -232,7 +234,8 @@ void ForEachProduct(const StreamedMatrix& s, const ChannelWeights& weights, cons
 // Relative error at every rank 1..max_rank from the spectra: the tail sums of
 // sigma^2 are summed from the small end, so tiny errors are not lost to
 // cancellation against ||A||^2.
-std::vector<double> SpectrumErrors(const std::array<VectorXd, 3>& sigma, int max_rank) {
+template <typename Spectra>
+std::vector<double> SpectrumErrors(const Spectra& sigma, int max_rank) {
   double total = 0.0;
   for (const VectorXd& s : sigma) total += s.squaredNorm();
   std::vector<double> errors(max_rank, 0.0);
@@ -348,6 +351,32 @@ struct FactorsFromSvd {
   }
 };
 
+// Builds the factors at the rank the options give or the spectrum in `r`
+// chooses, measures their RGB error, and fills in the rank and bytes. The
+// budget is on RGB values; for ycbcr the spectrum measures the error in the
+// factored space, so the rank grows until the measured RGB error fits.
+void BuildAtChosenRank(core::FullBtfReader& btf, const BtfCompressionOptions& options, core::BtfFactorColor color,
+                       long long m, long long n, const std::function<void(int, core::FactoredBtf*)>& build,
+                       core::FactoredBtf* out, BtfCompressionReport& r) {
+  int rank = ChooseRank(options, color, m, n, &r);
+  build(rank, out);
+  r.measured_relative_rms_error = RelativeRmsError(btf, *out, options.band_bytes);
+  if (options.rank == 0 && color == core::BtfFactorColor::kYCbCr) {
+    while (r.measured_relative_rms_error > options.max_relative_error && rank < r.max_rank) {
+      build(++rank, out);
+      r.measured_relative_rms_error = RelativeRmsError(btf, *out, options.band_bytes);
+      r.reason = "rank " + std::to_string(rank) + ": smallest rank whose measured RGB error " +
+                 Percent(r.measured_relative_rms_error) + " meets the budget " + Percent(options.max_relative_error);
+    }
+  }
+  r.rank = rank;
+  r.factor_bytes = FactorBytes(out->layout, out->width, out->height, out->view_count(), out->light_count(), rank,
+                               out->cluster_count);
+  out->CheckShape();
+  spdlog::debug("compress: {} {}, {} x {} matrix per channel, rank {} ({})", ToString(out->layout), ToString(color), m,
+                n, rank, r.reason);
+}
+
 // The factors of one representation, the rank as options.rank or chosen by
 // options.max_relative_error (max_bytes is turned into a rank by the caller).
 core::FactoredBtf CompressOneRepresentation(core::FullBtfReader& btf, const BtfCompressionOptions& options,
@@ -382,30 +411,158 @@ core::FactoredBtf CompressOneRepresentation(core::FullBtfReader& btf, const BtfC
   r.matrix_columns = n;
   r.relative_rms_error = SpectrumErrors(r.singular_values, r.max_rank);
 
-  int rank = ChooseRank(options, color, m, n, &r);
   const FactorsFromSvd factors{s, weights, svd, tall, m, n, small};
-  factors.Build(rank, &out);
-  r.measured_relative_rms_error = RelativeRmsError(btf, out, options.band_bytes);
-  // The budget is on RGB values; for ycbcr the spectrum measures the error in
-  // the factored space, so the rank grows until the measured RGB error fits.
-  if (options.rank == 0 && color == core::BtfFactorColor::kYCbCr) {
-    while (r.measured_relative_rms_error > options.max_relative_error && rank < r.max_rank) {
-      factors.Build(++rank, &out);
-      r.measured_relative_rms_error = RelativeRmsError(btf, out, options.band_bytes);
-      r.reason = "rank " + std::to_string(rank) + ": smallest rank whose measured RGB error " +
-                 Percent(r.measured_relative_rms_error) + " meets the budget " + Percent(options.max_relative_error);
-    }
-  }
-  r.rank = rank;
-  r.factor_bytes = FactorBytes(layout, out.width, out.height, out.view_count(), out.light_count(), rank);
-  out.CheckShape();
-  spdlog::debug("compress: {} {}, {} x {} matrix per channel, rank {} ({})", ToString(layout), ToString(color), m, n,
-                rank, r.reason);
+  BuildAtChosenRank(
+      btf, options, color, m, n, [&](int k, core::FactoredBtf* f) { factors.Build(k, f); }, &out, r);
   return out;
 }
 
-std::string RepresentationName(core::BtfFactorLayout layout, core::BtfFactorColor color) {
-  return std::string(ToString(layout)) + "/" + ToString(color);
+// Clustered local PCA (Mueller et al. 2003): the texels are grouped by
+// k-means (OpenCV) on their apparent BRDFs, and each cluster's texels x
+// (view, light) matrix gets its own SVD, one rank for all clusters. The
+// features are the texels' values projected to kClusterFeatures dimensions
+// by a fixed random Gaussian matrix, which keeps distances to a few percent
+// (Johnson-Lindenstrauss) at a fraction of k-means' cost. Each cluster's SVD
+// is taken of its matrix directly (Eigen BDCSVD), not of A^T A, so its
+// spectrum is accurate to rounding. The whole BTF is held in memory (float).
+constexpr int kClusterFeatures = 128;
+constexpr long long kMaxClusteredBtfBytes = 2LL << 30;
+
+struct ClusteredSvd {
+  int clusters = 0;
+  std::vector<int> texel_clusters;
+  std::vector<std::vector<long long>> members;  // texel indices of each cluster
+  // Per cluster and channel: U * Sigma (members x s) and V (n x s).
+  std::vector<std::array<MatrixXd, 3>> left, right;
+  std::vector<VectorXd> spectra;  // every cluster's and channel's singular values
+};
+
+ClusteredSvd ClusterAndFactor(core::FullBtfReader& btf, const ChannelWeights& weights, int clusters) {
+  const int w = btf.width(), h = btf.height(), nl = btf.light_count();
+  const long long texels = static_cast<long long>(w) * h;
+  const long long n = static_cast<long long>(btf.view_count()) * nl;
+  // The BTF as texels x (view, light), one float matrix per channel.
+  std::array<Eigen::MatrixXf, 3> x;
+  for (Eigen::MatrixXf& c : x) c.resize(texels, n);
+  tbb::parallel_for(0, btf.view_count(), [&](int v) {
+    std::vector<float> rgb(static_cast<std::size_t>(3 * texels * nl));
+    btf.ReadRows(v, 0, h * nl, rgb.data());
+    for (int l = 0; l < nl; ++l)
+      for (long long p = 0; p < texels; ++p) {
+        const float* value = rgb.data() + 3 * (l * texels + p);
+        for (int ch = 0; ch < 3; ++ch) {
+          x[ch](p, static_cast<long long>(v) * nl + l) =
+              static_cast<float>(weights[ch][0] * value[0] + weights[ch][1] * value[1] + weights[ch][2] * value[2]);
+        }
+      }
+  });
+  using RowMajor = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  RowMajor features;
+  if (3 * n <= kClusterFeatures) {
+    features.resize(texels, 3 * n);
+    for (int ch = 0; ch < 3; ++ch) features.middleCols(ch * n, n) = x[ch];
+  } else {
+    std::mt19937 rng(20031);
+    std::normal_distribution<float> gauss(0.0f, 1.0f / std::sqrt(static_cast<float>(kClusterFeatures)));
+    features = RowMajor::Zero(texels, kClusterFeatures);
+    for (int ch = 0; ch < 3; ++ch) {
+      Eigen::MatrixXf projection(n, kClusterFeatures);
+      for (long long i = 0; i < projection.size(); ++i) projection.data()[i] = gauss(rng);
+      features.noalias() += x[ch] * projection;
+    }
+  }
+  ClusteredSvd out;
+  const int k = static_cast<int>(std::min<long long>(clusters, texels));
+  cv::Mat labels;
+  if (k > 1) {
+    const cv::Mat data(static_cast<int>(texels), static_cast<int>(features.cols()), CV_32F, features.data());
+    cv::setRNGSeed(20031);  // OpenCV's k-means++ seeding draws from the thread's RNG
+    cv::kmeans(data, k, labels, cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 30, 1e-6), 1,
+               cv::KMEANS_PP_CENTERS);
+  } else {
+    labels = cv::Mat::zeros(static_cast<int>(texels), 1, CV_32S);
+  }
+  // Clusters numbered by first texel, empty ones dropped.
+  std::vector<int> renumber(k, -1);
+  out.texel_clusters.resize(texels);
+  for (long long p = 0; p < texels; ++p) {
+    int& c = renumber[labels.at<int>(static_cast<int>(p))];
+    if (c < 0) {
+      c = out.clusters++;
+      out.members.emplace_back();
+    }
+    out.texel_clusters[p] = c;
+    out.members[c].push_back(p);
+  }
+  out.left.resize(out.clusters);
+  out.right.resize(out.clusters);
+  out.spectra.resize(3 * static_cast<std::size_t>(out.clusters));
+  tbb::parallel_for(0, 3 * out.clusters, [&](int t) {
+    const int c = t / 3, ch = t % 3;
+    const std::vector<long long>& m = out.members[c];
+    MatrixXd a(static_cast<long long>(m.size()), n);
+    for (std::size_t i = 0; i < m.size(); ++i) a.row(static_cast<long long>(i)) = x[ch].row(m[i]).cast<double>();
+    Eigen::BDCSVD<MatrixXd> svd(a, Eigen::ComputeThinU | Eigen::ComputeThinV);
+    out.spectra[t] = svd.singularValues();
+    out.left[c][ch] = svd.matrixU() * svd.singularValues().asDiagonal();
+    out.right[c][ch] = svd.matrixV();
+  });
+  return out;
+}
+
+core::FactoredBtf CompressClustered(core::FullBtfReader& btf, const BtfCompressionOptions& options, int clusters,
+                                    core::BtfFactorColor color, BtfCompressionReport& r) {
+  core::FactoredBtf out;
+  out.width = btf.width();
+  out.height = btf.height();
+  out.views = btf.views();
+  out.lights = btf.lights();
+  out.layout = core::BtfFactorLayout::kClustered;
+  out.color = color;
+  out.rgb_to_factored =
+      color == core::BtfFactorColor::kYCbCr ? core::YCbCrFromLinearRgbBt601() : Eigen::Matrix3d::Identity();
+  ChannelWeights weights;
+  for (int ch = 0; ch < 3; ++ch) weights[ch] = out.rgb_to_factored.row(ch).transpose();
+  const long long m = static_cast<long long>(out.width) * out.height;
+  const long long n = static_cast<long long>(out.view_count()) * out.light_count();
+  const ClusteredSvd svd = ClusterAndFactor(btf, weights, clusters);
+  out.cluster_count = svd.clusters;
+  out.texel_clusters = svd.texel_clusters;
+
+  r = BtfCompressionReport{};
+  long long largest = 0;
+  for (const auto& members : svd.members) largest = std::max<long long>(largest, members.size());
+  r.max_rank = static_cast<int>(
+      std::min<long long>({core::kMaxBtfRank, std::min(largest, n), core::kMaxBtfColumnRows / svd.clusters}));
+  r.matrix_rows = m;
+  r.matrix_columns = n;
+  r.relative_rms_error = SpectrumErrors(svd.spectra, r.max_rank);
+  const auto build = [&](int k, core::FactoredBtf* f) {
+    f->rows.assign(k, core::Image(f->width, f->height, 3));
+    f->columns = core::Image(static_cast<int>(n), k * svd.clusters, 3);
+    for (int c = 0; c < svd.clusters; ++c) {
+      for (int ch = 0; ch < 3; ++ch) {
+        const MatrixXd& left = svd.left[c][ch];
+        const MatrixXd& right = svd.right[c][ch];
+        for (int j = 0; j < std::min<long long>(k, left.cols()); ++j) {
+          for (std::size_t i = 0; i < svd.members[c].size(); ++i) {
+            f->rows[j].data()[3 * svd.members[c][i] + ch] = static_cast<float>(left(static_cast<long long>(i), j));
+          }
+          for (long long col = 0; col < n; ++col) {
+            f->columns.pixel(static_cast<int>(col), c * k + j)[ch] = static_cast<float>(right(col, j));
+          }
+        }
+      }
+    }
+  };
+  BuildAtChosenRank(btf, options, color, m, n, build, &out, r);
+  return out;
+}
+
+std::string RepresentationName(core::BtfFactorLayout layout, core::BtfFactorColor color, int clusters) {
+  return std::string(ToString(layout)) +
+         (layout == core::BtfFactorLayout::kClustered ? "(" + std::to_string(clusters) + ")" : std::string()) + "/" +
+         ToString(color);
 }
 
 std::string Bytes(long long bytes) {
@@ -430,11 +587,15 @@ bool Better(const BtfRepresentationCandidate& c, const BtfRepresentationCandidat
 
 }  // namespace
 
-long long FactorBytes(core::BtfFactorLayout layout, int width, int height, int views, int lights, int rank) {
+long long FactorBytes(core::BtfFactorLayout layout, int width, int height, int views, int lights, int rank,
+                      int clusters) {
   const bool paper = layout == core::BtfFactorLayout::kPaper;
-  const long long row_pixels = static_cast<long long>(width) * height * (paper ? lights : 1);
-  const long long columns = paper ? views : static_cast<long long>(views) * lights;
-  return 3LL * static_cast<long long>(sizeof(float)) * rank * (row_pixels + columns);
+  const bool clustered = layout == core::BtfFactorLayout::kClustered;
+  const long long texels = static_cast<long long>(width) * height;
+  const long long row_pixels = texels * (paper ? lights : 1);
+  const long long columns = (paper ? views : static_cast<long long>(views) * lights) * (clustered ? clusters : 1);
+  const long long bytes = 3LL * static_cast<long long>(sizeof(float)) * rank * (row_pixels + columns);
+  return clustered ? bytes + texels * static_cast<long long>(sizeof(float)) : bytes;  // + the cluster ids
 }
 
 core::CheckResult BtfCompressionOptions::Check() const {
@@ -450,6 +611,10 @@ core::CheckResult BtfCompressionOptions::Check() const {
   if (max_bytes < 0) return "max_bytes " + std::to_string(max_bytes) + " must be positive (0: no byte budget)";
   if (max_bytes > 0 && rank > 0) return "give either a rank or max_bytes, not both";
   if (band_bytes < 1) return "band_bytes " + std::to_string(band_bytes) + " must be positive";
+  if (clusters < 0 || clusters > core::kMaxBtfClusters) {
+    return "clusters " + std::to_string(clusters) + " is outside 0.." + std::to_string(core::kMaxBtfClusters) +
+           " (0 tries several)";
+  }
   if (rank == 0 && max_bytes == 0 &&
       !(std::isfinite(max_relative_error) && max_relative_error > 0.0 && max_relative_error <= 1.0)) {
     return "max_relative_error " + std::to_string(max_relative_error) + " is outside (0, 1]";
@@ -464,48 +629,92 @@ core::FactoredBtf CompressBtf(core::FullBtfReader& btf, const BtfCompressionOpti
   BtfCompressionReport local;
   BtfCompressionReport& r = report ? *report : local;
 
-  std::vector<core::BtfFactorLayout> layouts{core::BtfFactorLayout::kPaper, core::BtfFactorLayout::kPerTexel};
+  // The representations allowed: every layout and colour the options leave
+  // open, the clustered layout at each cluster count.
+  std::vector<core::BtfFactorLayout> layouts{core::BtfFactorLayout::kPaper, core::BtfFactorLayout::kPerTexel,
+                                             core::BtfFactorLayout::kClustered};
   std::vector<core::BtfFactorColor> colors{core::BtfFactorColor::kRgb, core::BtfFactorColor::kYCbCr};
   if (options.layout) layouts = {*options.layout};
   if (options.color) colors = {*options.color};
-  const bool choosing = layouts.size() * colors.size() > 1;
+  std::vector<BtfRepresentationCandidate> candidates;
+  for (const core::BtfFactorLayout layout : layouts) {
+    for (const core::BtfFactorColor color : colors) {
+      if (layout != core::BtfFactorLayout::kClustered) {
+        BtfRepresentationCandidate c;
+        c.layout = layout;
+        c.color = color;
+        candidates.push_back(c);
+        continue;
+      }
+      std::vector<int> counts{8, 32, 128};
+      if (options.clusters > 0) counts = {options.clusters};
+      for (const int clusters : counts) {
+        BtfRepresentationCandidate c;
+        c.layout = layout;
+        c.color = color;
+        c.clusters = clusters;
+        candidates.push_back(c);
+      }
+    }
+  }
+  const bool choosing = candidates.size() > 1;
   const bool byte_budget = options.max_bytes > 0;
+  const long long texels = static_cast<long long>(btf.width()) * btf.height();
+  const long long full_bytes =
+      texels * btf.view_count() * btf.light_count() * 3 * static_cast<long long>(sizeof(float));
 
   core::FactoredBtf best;
   BtfCompressionReport best_report;
-  std::vector<BtfRepresentationCandidate> candidates;
   int best_index = -1;
-  for (const core::BtfFactorLayout layout : layouts) {
-    for (const core::BtfFactorColor color : colors) {
-      BtfRepresentationCandidate c{layout, color};
-      BtfCompressionOptions one = options;
-      if (byte_budget) {
-        const long long per_rank =
-            FactorBytes(layout, btf.width(), btf.height(), btf.view_count(), btf.light_count(), 1);
-        one.rank = static_cast<int>(std::min<long long>(core::kMaxBtfRank, options.max_bytes / per_rank));
-        if (one.rank == 0) {
-          if (!choosing) {
-            throw core::Error("compress: max_bytes " + std::to_string(options.max_bytes) + " is less than rank 1 of " +
-                              RepresentationName(layout, color) + " (" + std::to_string(per_rank) + " bytes)");
-          }
-          c.factor_bytes = per_rank;
-          candidates.push_back(c);
-          continue;
+  for (std::size_t i = 0; i < candidates.size(); ++i) {
+    BtfRepresentationCandidate& c = candidates[i];
+    const std::string name = RepresentationName(c.layout, c.color, c.clusters);
+    if (c.layout == core::BtfFactorLayout::kClustered && full_bytes > kMaxClusteredBtfBytes) {
+      c.note = "not tried: the clustered layout holds the whole BTF in memory, and this one is over " +
+               Bytes(kMaxClusteredBtfBytes);
+      if (!choosing) throw core::Error("compress: " + name + " " + c.note);
+      continue;
+    }
+    BtfCompressionOptions one = options;
+    if (byte_budget) {
+      const long long ids = c.layout == core::BtfFactorLayout::kClustered ? texels * 4 : 0;
+      const long long per_rank =
+          FactorBytes(c.layout, btf.width(), btf.height(), btf.view_count(), btf.light_count(), 1, c.clusters) - ids;
+      one.rank = static_cast<int>(std::clamp<long long>((options.max_bytes - ids) / per_rank, 0, core::kMaxBtfRank));
+      if (c.layout == core::BtfFactorLayout::kClustered) {
+        one.rank = std::min(one.rank, core::kMaxBtfColumnRows / std::max(1, c.clusters));
+      }
+      if (one.rank == 0) {
+        c.factor_bytes = per_rank + ids;
+        c.note = "not tried: rank 1 takes " + std::to_string(c.factor_bytes) + " bytes";
+        if (!choosing) {
+          throw core::Error("compress: max_bytes " + std::to_string(options.max_bytes) + " is less than rank 1 of " +
+                            name + " (" + std::to_string(c.factor_bytes) + " bytes)");
         }
+        continue;
       }
-      BtfCompressionReport one_report;
-      core::FactoredBtf factored = CompressOneRepresentation(btf, one, layout, color, one_report);
-      c.rank = one_report.rank;
-      c.factor_bytes = one_report.factor_bytes;
-      c.measured_relative_rms_error = one_report.measured_relative_rms_error;
-      c.meets_budget = byte_budget ? c.factor_bytes <= options.max_bytes
-                                   : options.rank > 0 || c.measured_relative_rms_error <= options.max_relative_error;
-      candidates.push_back(c);
-      if (best_index < 0 || Better(c, candidates[best_index], byte_budget)) {
-        best_index = static_cast<int>(candidates.size()) - 1;
-        best = std::move(factored);
-        best_report = std::move(one_report);
-      }
+    }
+    BtfCompressionReport one_report;
+    core::FactoredBtf factored = c.layout == core::BtfFactorLayout::kClustered
+                                     ? CompressClustered(btf, one, c.clusters, c.color, one_report)
+                                     : CompressOneRepresentation(btf, one, c.layout, c.color, one_report);
+    c.clusters = factored.cluster_count;
+    c.rank = one_report.rank;
+    c.factor_bytes = one_report.factor_bytes;
+    c.measured_relative_rms_error = one_report.measured_relative_rms_error;
+    // Under an error budget, factors as large as the BTF itself compress
+    // nothing: they do not count as meeting it.
+    c.meets_budget = byte_budget ? c.factor_bytes <= options.max_bytes
+                                 : options.rank > 0 || (c.measured_relative_rms_error <= options.max_relative_error &&
+                                                        c.factor_bytes < full_bytes);
+    if (!byte_budget && options.rank == 0 && c.measured_relative_rms_error <= options.max_relative_error &&
+        !c.meets_budget) {
+      c.note = "meets the error budget only in as many bytes as the full BTF (" + Bytes(full_bytes) + ")";
+    }
+    if (best_index < 0 || Better(c, candidates[best_index], byte_budget)) {
+      best_index = static_cast<int>(i);
+      best = std::move(factored);
+      best_report = std::move(one_report);
     }
   }
   if (best_index < 0) {
@@ -517,10 +726,13 @@ core::FactoredBtf CompressBtf(core::FullBtfReader& btf, const BtfCompressionOpti
                            ->factor_bytes) +
         " bytes)");
   }
+  if (!byte_budget && options.rank == 0 && !candidates[best_index].meets_budget && !choosing) {
+    best_report.reason += candidates[best_index].note.empty() ? "" : "; " + candidates[best_index].note;
+  }
   r = std::move(best_report);
   if (choosing) {
     const BtfRepresentationCandidate& c = candidates[best_index];
-    const std::string name = RepresentationName(c.layout, c.color);
+    const std::string name = RepresentationName(c.layout, c.color, c.clusters);
     const std::string figures =
         "rank " + std::to_string(c.rank) + ", " + Bytes(c.factor_bytes) + ", " + Percent(c.measured_relative_rms_error);
     if (byte_budget) {
@@ -531,8 +743,8 @@ core::FactoredBtf CompressBtf(core::FullBtfReader& btf, const BtfCompressionOpti
                                 Percent(options.max_relative_error) + " (" + figures + ")";
     } else {
       r.representation_reason = name + ": no representation meets the budget " + Percent(options.max_relative_error) +
-                                " up to rank " + std::to_string(core::kMaxBtfRank) + "; the most accurate (" + figures +
-                                ")";
+                                " in fewer bytes than the full BTF (" + Bytes(full_bytes) + ") up to rank " +
+                                std::to_string(core::kMaxBtfRank) + "; the most accurate (" + figures + ")";
     }
     r.candidates = std::move(candidates);
   }
@@ -556,12 +768,15 @@ nlohmann::json ToJson(const BtfCompressionReport& report, const core::FactoredBt
   }
   nlohmann::json candidates = nlohmann::json::array();
   for (const BtfRepresentationCandidate& c : report.candidates) {
-    candidates.push_back({{"layout", ToString(c.layout)},
+    nlohmann::json one = {{"layout", ToString(c.layout)},
                           {"color", ToString(c.color)},
                           {"rank", c.rank},
                           {"factor_bytes", c.factor_bytes},
                           {"measured_relative_rms", c.measured_relative_rms_error},
-                          {"meets_budget", c.meets_budget}});
+                          {"meets_budget", c.meets_budget}};
+    if (c.layout == core::BtfFactorLayout::kClustered) one["clusters"] = c.clusters;
+    if (!c.note.empty()) one["note"] = c.note;
+    candidates.push_back(std::move(one));
   }
   nlohmann::json out = {{"layout", ToString(factored.layout)},
                         {"color", ToString(factored.color)},
@@ -574,6 +789,7 @@ nlohmann::json ToJson(const BtfCompressionReport& report, const core::FactoredBt
                         {"matrix_size", {report.matrix_rows, report.matrix_columns}},
                         {"singular_values", spectrum},
                         {"seconds", report.seconds}};
+  if (factored.layout == core::BtfFactorLayout::kClustered) out["clusters"] = factored.cluster_count;
   if (!report.candidates.empty()) {
     out["representation_reason"] = report.representation_reason;
     out["candidates"] = std::move(candidates);
@@ -598,11 +814,13 @@ core::Image ReconstructBtfView(const core::FactoredBtf& f, int view) {
     const bool paper = f.layout == core::BtfFactorLayout::kPaper;
     const int column = paper ? view : view * nl + l;
     const long long offset = paper ? 3 * l * texels : 0;
+    const bool clustered = f.layout == core::BtfFactorLayout::kClustered;
     for (int k = 0; k < f.rank(); ++k) {
-      const float* c = f.columns.pixel(column, k);
       const float* r = f.rows[k].data() + offset;
-      for (long long i = 0; i < texels; ++i)
+      for (long long i = 0; i < texels; ++i) {
+        const float* c = f.columns.pixel(column, clustered ? f.texel_clusters[i] * f.rank() + k : k);
         for (int ch = 0; ch < 3; ++ch) acc[3 * i + ch] += static_cast<double>(r[3 * i + ch]) * c[ch];
+      }
     }
     float* dst = out.pixel(0, l * f.height);
     for (long long i = 0; i < texels; ++i) {
@@ -624,12 +842,19 @@ double RelativeRmsError(core::FullBtfReader& truth, const core::FactoredBtf& fac
   const BtfMatrix a(truth, factored.layout);
   const long long n = a.columns();
   const int k = factored.rank();
-  // Column factors per channel, n x K.
-  std::array<MatrixXd, 3> columns;
-  for (int ch = 0; ch < 3; ++ch) {
-    columns[ch].resize(n, k);
-    for (int j = 0; j < k; ++j) {
-      for (long long c = 0; c < n; ++c) columns[ch](c, j) = factored.columns.pixel(static_cast<int>(c), j)[ch];
+  // Column factors per cluster (one but for the clustered layout) and
+  // channel, n x K.
+  const bool clustered = factored.layout == core::BtfFactorLayout::kClustered;
+  std::vector<std::array<MatrixXd, 3>> columns(clustered ? factored.cluster_count : 1);
+  for (std::size_t cluster = 0; cluster < columns.size(); ++cluster) {
+    for (int ch = 0; ch < 3; ++ch) {
+      MatrixXd& out = columns[cluster][ch];
+      out.resize(n, k);
+      for (int j = 0; j < k; ++j) {
+        for (long long c = 0; c < n; ++c) {
+          out(c, j) = factored.columns.pixel(static_cast<int>(c), static_cast<int>(cluster) * k + j)[ch];
+        }
+      }
     }
   }
   // Per row block, summed in block order so the result does not depend on
@@ -652,7 +877,15 @@ double RelativeRmsError(core::FullBtfReader& truth, const core::FactoredBtf& fac
             const float* src = factored.rows[j].data() + 3 * (band_first + first) + ch;
             for (long long i = 0; i < rows_here; ++i) rows(i, j) = src[3 * i];
           }
-          recon[ch] = rows * columns[ch].transpose();
+          if (clustered) {
+            recon[ch].resize(rows_here, n);
+            for (long long i = 0; i < rows_here; ++i) {
+              const int cluster = factored.texel_clusters[band_first + first + i];
+              recon[ch].row(i).noalias() = rows.row(i) * columns[cluster][ch].transpose();
+            }
+          } else {
+            recon[ch] = rows * columns[0][ch].transpose();
+          }
           band.FillRows(first, rows_here, Eigen::Vector3d::Unit(ch), &value[ch]);
         }
         double e = 0.0, t = 0.0;

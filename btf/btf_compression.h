@@ -55,6 +55,9 @@ struct BtfCompressionOptions {
   // > 0: a budget in bytes instead of an error: the largest rank whose
   // factors (float32, as a material package stores them) fit.
   long long max_bytes = 0;
+  // clustered: the number of clusters (1..kMaxBtfClusters); 0 tries 8, 32
+  // and 128 as separate representations.
+  int clusters = 0;
   // How much of the BTF a pass holds at a time: bands of about this many
   // bytes of float RGB (at least one texture line x all columns, or one
   // column). The result does not depend on it beyond rounding.
@@ -65,17 +68,22 @@ struct BtfCompressionOptions {
 
 // Bytes of the factors of rank `rank` (float32, 3 channels): the row factor
 // images and the column factors (FactoredBtf).
-long long FactorBytes(core::BtfFactorLayout layout, int width, int height, int views, int lights, int rank);
+// clustered: plus one float32 cluster id per texel, `clusters` times the
+// column factors.
+long long FactorBytes(core::BtfFactorLayout layout, int width, int height, int views, int lights, int rank,
+                      int clusters = 1);
 
 // One representation factored while choosing (BtfCompressionOptions with
 // the layout or colour left empty).
 struct BtfRepresentationCandidate {
   core::BtfFactorLayout layout = core::BtfFactorLayout::kPaper;
   core::BtfFactorColor color = core::BtfFactorColor::kRgb;
-  int rank = 0;  // 0: not factored (not even rank 1 fits max_bytes)
+  int clusters = 1;  // clustered: the number of clusters
+  int rank = 0;      // 0: not factored (see note)
   long long factor_bytes = 0;
   double measured_relative_rms_error = 0.0;
   bool meets_budget = false;
+  std::string note;  // why it was not factored, or why it does not meet the budget
 };
 
 struct BtfCompressionReport {

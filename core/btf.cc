@@ -25,14 +25,13 @@ int PackedHeight(int height, int count, const char* what) {
 }
 
 std::string SizeText(const Image& image) {
-  return std::to_string(image.width()) + "x" + std::to_string(image.height()) + "x" +
-         std::to_string(image.channels());
+  return std::to_string(image.width()) + "x" + std::to_string(image.height()) + "x" + std::to_string(image.channels());
 }
 
 void ExpectSize(const Image& image, int width, int height, const std::string& what) {
   if (image.width() != width || image.height() != height || image.channels() != 3) {
-    throw Error("factored BTF: " + what + " is " + SizeText(image) + ", expected " + std::to_string(width) +
-                "x" + std::to_string(height) + "x3");
+    throw Error("factored BTF: " + what + " is " + SizeText(image) + ", expected " + std::to_string(width) + "x" +
+                std::to_string(height) + "x3");
   }
 }
 
@@ -102,7 +101,15 @@ FullBtf MakeFullBtf(int width, int height, SamplingSet views, SamplingSet lights
 }
 
 const char* ToString(BtfFactorLayout layout) {
-  return layout == BtfFactorLayout::kPaper ? "paper" : "per_texel";
+  switch (layout) {
+    case BtfFactorLayout::kPaper:
+      return "paper";
+    case BtfFactorLayout::kPerTexel:
+      return "per_texel";
+    case BtfFactorLayout::kClustered:
+      return "clustered";
+  }
+  return "?";
 }
 
 const char* ToString(BtfFactorColor color) { return color == BtfFactorColor::kRgb ? "rgb" : "ycbcr"; }
@@ -121,7 +128,7 @@ Eigen::Vector3f FactoredBtf::Reconstruct(int x, int y, int view, int light) cons
   Eigen::Vector3d c = Eigen::Vector3d::Zero();
   for (int k = 0; k < rank(); ++k) {
     const float* r = rows[k].pixel(x, row);
-    const float* w = columns.pixel(column, k);
+    const float* w = columns.pixel(column, column_row(x, y, k));
     for (int ch = 0; ch < 3; ++ch) c[ch] += static_cast<double>(r[ch]) * w[ch];
   }
   if (color == BtfFactorColor::kYCbCr) c = rgb_to_factored.inverse() * c;
@@ -145,7 +152,28 @@ void FactoredBtf::CheckShape() const {
     ExpectSize(rows[k], width, layout == BtfFactorLayout::kPaper ? row_height : height,
                "row factor " + std::to_string(k));
   }
-  ExpectSize(columns, column_count(), rank(), "column factors");
+  const bool clustered = layout == BtfFactorLayout::kClustered;
+  if (clustered) {
+    if (cluster_count < 1 || cluster_count > kMaxBtfClusters) {
+      throw Error("factored BTF: " + std::to_string(cluster_count) + " clusters, outside 1.." +
+                  std::to_string(kMaxBtfClusters));
+    }
+    if (static_cast<long long>(rank()) * cluster_count > kMaxBtfColumnRows) {
+      throw Error("factored BTF: rank " + std::to_string(rank()) + " x " + std::to_string(cluster_count) +
+                  " clusters is over " + std::to_string(kMaxBtfColumnRows) + " rows of column factors");
+    }
+    if (texel_clusters.size() != static_cast<std::size_t>(width) * height) {
+      throw Error("factored BTF: " + std::to_string(texel_clusters.size()) + " texel clusters for " +
+                  std::to_string(width) + "x" + std::to_string(height) + " texels");
+    }
+    for (const int c : texel_clusters) {
+      if (c < 0 || c >= cluster_count) {
+        throw Error("factored BTF: texel cluster " + std::to_string(c) + " outside 0.." +
+                    std::to_string(cluster_count - 1));
+      }
+    }
+  }
+  ExpectSize(columns, column_count(), rank() * (clustered ? cluster_count : 1), "column factors");
   if (color == BtfFactorColor::kYCbCr) {
     const double scale = rgb_to_factored.norm();
     if (!rgb_to_factored.allFinite() || !(scale > 0) ||

@@ -101,10 +101,10 @@ class InMemoryFullBtfReader : public FullBtfReader {
 // or a view image too tall for one image.
 FullBtf MakeFullBtf(int width, int height, SamplingSet views, SamplingSet lights);
 
-enum class BtfFactorLayout { kPaper, kPerTexel };
+enum class BtfFactorLayout { kPaper, kPerTexel, kClustered };
 enum class BtfFactorColor { kRgb, kYCbCr };
 
-const char* ToString(BtfFactorLayout layout);  // "paper", "per_texel"
+const char* ToString(BtfFactorLayout layout);  // "paper", "per_texel", "clustered"
 const char* ToString(BtfFactorColor color);    // "rgb", "ycbcr"
 
 // Linear RGB to (Y, Cb, Cr) with the ITU-R BT.601 luma weights and no
@@ -123,19 +123,28 @@ struct FactoredBtf {
   Eigen::Matrix3d rgb_to_factored = Eigen::Matrix3d::Identity();
   // Row factors r_k (singular values folded in), one image per k, 3 channels:
   // paper: width x height * Nlight (light l in rows [l*H, (l+1)*H));
-  // per_texel: width x height.
+  // per_texel and clustered: width x height.
   std::vector<Image> rows;
   // Column factors: column_count() wide, rank() tall (row k holds c_k),
-  // 3 channels.
+  // 3 channels; clustered: rank() * cluster_count tall, cluster c's c_k in
+  // row c * rank() + k.
   Image columns;
+  // clustered (local PCA, Mueller et al. 2003): each texel's cluster,
+  // width * height ids (row-major) in 0..cluster_count-1; the texels of a
+  // cluster share its column factors. Empty and 1 for the other layouts.
+  std::vector<int> texel_clusters;
+  int cluster_count = 1;
 
   int rank() const { return static_cast<int>(rows.size()); }
   int view_count() const { return views.size(); }
   int light_count() const { return lights.size(); }
   // Height of each row-factor image.
   int row_image_height() const { return layout == BtfFactorLayout::kPaper ? height * light_count() : height; }
-  int column_count() const {
-    return layout == BtfFactorLayout::kPaper ? view_count() : view_count() * light_count();
+  int column_count() const { return layout == BtfFactorLayout::kPaper ? view_count() : view_count() * light_count(); }
+  // The row of `columns` that holds c_k for texel (x, y).
+  int column_row(int x, int y, int k) const {
+    return layout == BtfFactorLayout::kClustered ? texel_clusters[static_cast<std::size_t>(y) * width + x] * rank() + k
+                                                 : k;
   }
 
   // T(x, y, view, light) as linear RGB: sum_k r_k c_k per factored channel,
@@ -143,12 +152,19 @@ struct FactoredBtf {
   // inverts rgb_to_factored on every call for kYCbCr.
   Eigen::Vector3f Reconstruct(int x, int y, int view, int light) const;
   // Throws Error when the factor images do not have the sizes above, the
-  // rank is outside 1..min(100, column_count()) or the colour matrix is
-  // not invertible.
+  // rank is outside 1..min(100, column_count()), the colour matrix is not
+  // invertible, or (clustered) the cluster count is outside
+  // 1..kMaxBtfClusters, rank * clusters over kMaxBtfColumnRows or a texel's
+  // cluster out of range.
   void CheckShape() const;
 };
 
 // The largest rank a package can name (files rows_00 .. rows_99).
 inline constexpr int kMaxBtfRank = 100;
+// Clusters of a clustered factored BTF, and rows of its column factors (a
+// texture the renderer holds whole: 16384 is OpenGL 4.5's least maximum
+// texture size).
+inline constexpr int kMaxBtfClusters = 1024;
+inline constexpr int kMaxBtfColumnRows = 16384;
 
 }  // namespace mesocap::core

@@ -83,13 +83,14 @@ nlohmann::ordered_json ManifestJson(const MaterialManifest& m) {
     if (m.full_btf) btf["full"] = {{"files", kFullBtfFiles}};
     if (m.factored_btf) {
       const auto& f = *m.factored_btf;
-      nlohmann::ordered_json factored = {{"layout", ToString(f.layout)},
-                                         {"color", ToString(f.color)},
-                                         {"rank", f.rank},
-                                         {"singular_values", kSingularValues},
-                                         {"row_files", kRowFactorFiles},
-                                         {"column_file", kColumnFactorFile}};
+      nlohmann::ordered_json factored = {
+          {"layout", ToString(f.layout)},       {"color", ToString(f.color)},   {"rank", f.rank},
+          {"singular_values", kSingularValues}, {"row_files", kRowFactorFiles}, {"column_file", kColumnFactorFile}};
       if (f.color == core::BtfFactorColor::kYCbCr) factored["rgb_to_factored"] = MatrixJson(f.rgb_to_factored);
+      if (f.layout == core::BtfFactorLayout::kClustered) {
+        factored["clusters"] = f.clusters;
+        factored["cluster_file"] = kClusterFile;
+      }
       btf["factored"] = factored;
     }
     j["btf"] = btf;
@@ -132,8 +133,7 @@ double ReadPositive(const core::JsonFieldReader& r, const std::string& key, doub
 core::SamplingSet ReadDirections(const core::JsonFieldReader& r, const char* key) {
   core::SamplingSet set = core::ReadSamplingSet(r.Object(key));
   if (set.size() < 1 || set.size() > kMaxDirections) {
-    r.Fail(key, "expected 1 to " + std::to_string(kMaxDirections) + " directions, got " +
-                    std::to_string(set.size()));
+    r.Fail(key, "expected 1 to " + std::to_string(kMaxDirections) + " directions, got " + std::to_string(set.size()));
   }
   return set;
 }
@@ -161,8 +161,7 @@ MaterialManifest::MdfPart ReadMdfPart(const core::JsonFieldReader& mdf) {
   mdf.RejectUnknownMembers({"float32", "uint8", "confidence"});
   part.forms.float32 = mdf.Has("float32");
   part.forms.uint8 = mdf.Has("uint8");
-  if (!part.forms.float32 && !part.forms.uint8)
-    mdf.Fail("", "expected a \"float32\" and/or a \"uint8\" form");
+  if (!part.forms.float32 && !part.forms.uint8) mdf.Fail("", "expected a \"float32\" and/or a \"uint8\" form");
   if (part.forms.float32) {
     mdf.Object("float32").RejectUnknownMembers({"file"});
     mdf.Object("float32").Choice("file", {kMdfFloatFile});
@@ -186,15 +185,27 @@ MaterialManifest::MdfPart ReadMdfPart(const core::JsonFieldReader& mdf) {
 
 MaterialManifest::FactoredBtfPart ReadFactoredPart(const core::JsonFieldReader& f, const MaterialDescription& d) {
   MaterialManifest::FactoredBtfPart part;
-  f.RejectUnknownMembers({"layout", "color", "rank", "singular_values", "row_files", "column_file", "rgb_to_factored"});
-  part.layout = f.Choice("layout", {"paper", "per_texel"}) == "paper" ? core::BtfFactorLayout::kPaper
-                                                                      : core::BtfFactorLayout::kPerTexel;
+  f.RejectUnknownMembers({"layout", "color", "rank", "singular_values", "row_files", "column_file", "rgb_to_factored",
+                          "clusters", "cluster_file"});
+  const std::string layout = f.Choice("layout", {"paper", "per_texel", "clustered"});
+  part.layout = layout == "paper"       ? core::BtfFactorLayout::kPaper
+                : layout == "per_texel" ? core::BtfFactorLayout::kPerTexel
+                                        : core::BtfFactorLayout::kClustered;
   part.color = f.Choice("color", {"rgb", "ycbcr"}) == "rgb" ? core::BtfFactorColor::kRgb : core::BtfFactorColor::kYCbCr;
-  const long long columns =
-      part.layout == core::BtfFactorLayout::kPaper
-          ? d.view_directions.size()
-          : static_cast<long long>(d.view_directions.size()) * d.light_directions.size();
-  part.rank = static_cast<int>(f.Integer("rank", 1, std::min<long long>(core::kMaxBtfRank, columns)));
+  const long long columns = part.layout == core::BtfFactorLayout::kPaper
+                                ? d.view_directions.size()
+                                : static_cast<long long>(d.view_directions.size()) * d.light_directions.size();
+  long long max_rank = std::min<long long>(core::kMaxBtfRank, columns);
+  if (part.layout == core::BtfFactorLayout::kClustered) {
+    part.clusters = static_cast<int>(f.Integer("clusters", 1, core::kMaxBtfClusters));
+    f.Choice("cluster_file", {kClusterFile});
+    max_rank = std::min<long long>(max_rank, core::kMaxBtfColumnRows / part.clusters);
+  } else {
+    for (const char* key : {"clusters", "cluster_file"}) {
+      if (f.Has(key)) f.Fail(key, "expected no " + std::string(key) + " but for the clustered layout");
+    }
+  }
+  part.rank = static_cast<int>(f.Integer("rank", 1, max_rank));
   f.Choice("singular_values", {kSingularValues});
   f.Choice("row_files", {kRowFactorFiles});
   f.Choice("column_file", {kColumnFactorFile});
@@ -226,6 +237,9 @@ std::vector<std::pair<std::string, std::string>> FieldsAndFiles(const MaterialMa
       files.emplace_back("btf.factored.row_files", BtfRowFactorFile(k).generic_string());
     }
     files.emplace_back("btf.factored.column_file", kColumnFactorFile);
+    if (m.factored_btf->layout == core::BtfFactorLayout::kClustered) {
+      files.emplace_back("btf.factored.cluster_file", kClusterFile);
+    }
   }
   if (m.ambient) files.emplace_back("ambient.file", kAmbientFile);
   if (m.error_report) files.emplace_back("error_report.file", kErrorReportFile);
@@ -243,8 +257,7 @@ void ExpectFiles(const core::JsonFieldReader& root, const MaterialManifest& m, c
 }
 
 // "files": every data file the manifest lists, with its size and hash.
-std::map<std::string, core::FileChecksum> ReadChecksums(const core::JsonFieldReader& root,
-                                                        const MaterialManifest& m) {
+std::map<std::string, core::FileChecksum> ReadChecksums(const core::JsonFieldReader& root, const MaterialManifest& m) {
   const nlohmann::json& files = root.Raw("files");
   if (!files.is_object()) root.Fail("files", "expected an object: file name -> {\"bytes\", \"xxh3_64\"}");
   std::map<std::string, core::FileChecksum> sums;
@@ -276,11 +289,11 @@ std::string OversizeProblem(const MaterialDescription& d, const char* part, bool
   double values = static_cast<double>(d.width) * d.height * d.view_directions.size() * channels;
   if (with_lights) values *= d.light_directions.size();
   if (values * 4 <= kMaxPartBytes) return {};
-  return std::string(part) + " of " + std::to_string(d.width) + "x" + std::to_string(d.height) +
-         " texels x " + std::to_string(d.view_directions.size()) + " views" +
-         (with_lights ? " x " + std::to_string(d.light_directions.size()) + " lights" : std::string()) +
-         " x " + std::to_string(channels) + " channels implies " + BytesText(values * 4) +
-         " of float data; at most " + BytesText(kMaxPartBytes) + " accepted";
+  return std::string(part) + " of " + std::to_string(d.width) + "x" + std::to_string(d.height) + " texels x " +
+         std::to_string(d.view_directions.size()) + " views" +
+         (with_lights ? " x " + std::to_string(d.light_directions.size()) + " lights" : std::string()) + " x " +
+         std::to_string(channels) + " channels implies " + BytesText(values * 4) + " of float data; at most " +
+         BytesText(kMaxPartBytes) + " accepted";
 }
 
 [[noreturn]] void ThrowMissingPart(const fs::path& dir, const char* field, const char* what) {
@@ -359,8 +372,7 @@ MaterialManifest ReadMaterialManifest(const fs::path& dir) {
     root.Object("ambient").RejectUnknownMembers({"file"});
     root.Object("ambient").Choice("file", {kAmbientFile});
     m.ambient = true;
-    if (auto problem = OversizeProblem(d, "ambient term", false, 3); !problem.empty())
-      root.Fail("ambient", problem);
+    if (auto problem = OversizeProblem(d, "ambient term", false, 3); !problem.empty()) root.Fail("ambient", problem);
   }
   if (root.Has("error_report")) {
     root.Object("error_report").RejectUnknownMembers({"file"});

@@ -65,6 +65,7 @@ struct MaterialManifest {
     core::BtfFactorColor color = core::BtfFactorColor::kRgb;
     Eigen::Matrix3d rgb_to_factored = Eigen::Matrix3d::Identity();
     int rank = 0;
+    int clusters = 1;  // clustered layout only
   };
 
   MaterialDescription description;

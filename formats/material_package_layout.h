@@ -25,6 +25,7 @@ inline constexpr char kMdfConfidenceFile[] = "mdf_confidence.exr";
 inline constexpr char kFullBtfFiles[] = "btf/view_{view:04d}.exr";
 inline constexpr char kRowFactorFiles[] = "btf/rows_{k:02d}.exr";
 inline constexpr char kColumnFactorFile[] = "btf/columns.exr";
+inline constexpr char kClusterFile[] = "btf/clusters.exr";  // clustered layout: each texel's cluster
 inline constexpr char kAmbientFile[] = "ambient.exr";
 inline constexpr char kErrorReportFile[] = "error_report.json";
 inline constexpr char kCalibrationFile[] = "calibration.json";

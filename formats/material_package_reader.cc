@@ -22,7 +22,7 @@ core::Image ReadPartImage(const fs::path& dir, const MaterialManifest& manifest,
   const core::ImageHeader header = core::ReadImageHeader(file);
   if (header.encoding != encoding) {
     throw core::FormatError(file, "pixel type",
-                      std::string("expected ") + ToString(encoding) + ", got " + ToString(header.encoding));
+                            std::string("expected ") + ToString(encoding) + ", got " + ToString(header.encoding));
   }
   core::ImageReadOptions options;
   options.expected_width = width;
@@ -38,8 +38,8 @@ void ExpectFiniteInFile(const fs::path& file, const core::Image& image) {
     if (!std::isfinite(v[i])) {
       const std::size_t pixel = i / image.channels();
       throw core::FormatError(file, "pixels",
-                        "value " + NumberText(v[i]) + " at x=" + std::to_string(pixel % image.width()) +
-                            ", y=" + std::to_string(pixel / image.width()) + "; expected a finite number");
+                              "value " + NumberText(v[i]) + " at x=" + std::to_string(pixel % image.width()) +
+                                  ", y=" + std::to_string(pixel / image.width()) + "; expected a finite number");
     }
   }
 }
@@ -55,17 +55,16 @@ core::Mdf ReadMdf(const fs::path& dir, const MaterialManifest& manifest) {
   mdf.width = d.width;
   mdf.height = d.height;
   mdf.views = d.view_directions;
-  mdf.distance_mm =
-      ReadPartImage(dir, manifest, kMdfFloatFile, core::PixelEncoding::kFloat32, d.width, PackedHeight(d, d.view_directions), 1);
+  mdf.distance_mm = ReadPartImage(dir, manifest, kMdfFloatFile, core::PixelEncoding::kFloat32, d.width,
+                                  PackedHeight(d, d.view_directions), 1);
   const float* values = mdf.distance_mm.data();
   for (std::size_t i = 0; i < mdf.distance_mm.size(); ++i) {
     if (!core::IsValidMdfValue(values[i])) {
       const std::size_t row = i / d.width;
       throw core::FormatError(file, "pixels",
-                        "value " + NumberText(values[i]) + " at view " + std::to_string(row / d.height) +
-                            ", texel (" + std::to_string(i % d.width) + ", " +
-                            std::to_string(row % d.height) +
-                            "); expected a distance >= 0, +inf (no hit) or NaN (unknown)");
+                              "value " + NumberText(values[i]) + " at view " + std::to_string(row / d.height) +
+                                  ", texel (" + std::to_string(i % d.width) + ", " + std::to_string(row % d.height) +
+                                  "); expected a distance >= 0, +inf (no hit) or NaN (unknown)");
     }
   }
   return mdf;
@@ -75,15 +74,14 @@ core::Image ReadMdfConfidence(const fs::path& dir, const MaterialManifest& manif
   if (!manifest.mdf || !manifest.mdf->confidence) ThrowMissingPart(dir, "mdf.confidence", "MDF confidence");
   const MaterialDescription& d = manifest.description;
   const fs::path file = dir / kMdfConfidenceFile;
-  core::Image confidence =
-      ReadPartImage(dir, manifest, kMdfConfidenceFile, core::PixelEncoding::kFloat32, d.width,
-                    PackedHeight(d, d.view_directions), 1);
+  core::Image confidence = ReadPartImage(dir, manifest, kMdfConfidenceFile, core::PixelEncoding::kFloat32, d.width,
+                                         PackedHeight(d, d.view_directions), 1);
   if (const std::size_t i = FirstOutsideUnitInterval(confidence); i < confidence.size()) {
     const std::size_t row = i / d.width;
     throw core::FormatError(file, "pixels",
-                      "value " + NumberText(confidence.data()[i]) + " at view " + std::to_string(row / d.height) +
-                          ", texel (" + std::to_string(i % d.width) + ", " + std::to_string(row % d.height) +
-                          "); expected a confidence in [0, 1]");
+                            "value " + NumberText(confidence.data()[i]) + " at view " + std::to_string(row / d.height) +
+                                ", texel (" + std::to_string(i % d.width) + ", " + std::to_string(row % d.height) +
+                                "); expected a confidence in [0, 1]");
   }
   return confidence;
 }
@@ -92,7 +90,7 @@ core::QuantizedMdf ReadQuantizedMdf(const fs::path& dir, const MaterialManifest&
   if (!manifest.mdf || !manifest.mdf->forms.uint8) ThrowMissingPart(dir, "mdf.uint8", "8-bit MDF");
   const MaterialDescription& d = manifest.description;
   const core::Image image = ReadPartImage(dir, manifest, kMdfUint8File, core::PixelEncoding::kUInt8, d.width,
-                                    PackedHeight(d, d.view_directions), 1);
+                                          PackedHeight(d, d.view_directions), 1);
   core::QuantizedMdf q;
   q.width = d.width;
   q.height = d.height;
@@ -111,7 +109,7 @@ core::Image ReadFullBtfView(const fs::path& dir, const MaterialManifest& manifes
   const MaterialDescription& d = manifest.description;
   if (view < 0 || view >= d.view_directions.size()) {
     throw core::Error(dir.string() + ": full BTF view " + std::to_string(view) + " outside 0.." +
-                std::to_string(d.view_directions.size() - 1));
+                      std::to_string(d.view_directions.size() - 1));
   }
   const fs::path file = dir / FullBtfViewFile(view);
   core::Image image = ReadPartImage(dir, manifest, FullBtfViewFile(view).generic_string(),
@@ -129,8 +127,7 @@ core::FullBtf ReadFullBtf(const fs::path& dir, const MaterialManifest& manifest)
   btf.views = d.view_directions;
   btf.lights = d.light_directions;
   btf.view_images.reserve(d.view_directions.size());
-  for (int v = 0; v < d.view_directions.size(); ++v)
-    btf.view_images.push_back(ReadFullBtfView(dir, manifest, v));
+  for (int v = 0; v < d.view_directions.size(); ++v) btf.view_images.push_back(ReadFullBtfView(dir, manifest, v));
   return btf;
 }
 
@@ -148,14 +145,29 @@ core::FactoredBtf ReadFactoredBtf(const fs::path& dir, const MaterialManifest& m
   btf.rgb_to_factored = part.rgb_to_factored;
   for (int k = 0; k < part.rank; ++k) {
     const fs::path file = dir / BtfRowFactorFile(k);
-    btf.rows.push_back(ReadPartImage(dir, manifest, BtfRowFactorFile(k).generic_string(),
-                                     core::PixelEncoding::kFloat32, d.width, btf.row_image_height(), 3));
+    btf.rows.push_back(ReadPartImage(dir, manifest, BtfRowFactorFile(k).generic_string(), core::PixelEncoding::kFloat32,
+                                     d.width, btf.row_image_height(), 3));
     ExpectFiniteInFile(file, btf.rows.back());
   }
   const fs::path columns = dir / kColumnFactorFile;
   btf.columns = ReadPartImage(dir, manifest, kColumnFactorFile, core::PixelEncoding::kFloat32, btf.column_count(),
-                              part.rank, 3);
+                              part.rank * part.clusters, 3);
   ExpectFiniteInFile(columns, btf.columns);
+  if (part.layout == core::BtfFactorLayout::kClustered) {
+    btf.cluster_count = part.clusters;
+    const core::Image ids =
+        ReadPartImage(dir, manifest, kClusterFile, core::PixelEncoding::kFloat32, d.width, d.height, 1);
+    btf.texel_clusters.resize(ids.size());
+    for (std::size_t i = 0; i < ids.size(); ++i) {
+      const float id = ids.data()[i];
+      if (!(id >= 0.0f && id < static_cast<float>(part.clusters) && id == std::floor(id))) {
+        throw core::FormatError(
+            dir / kClusterFile, "texel " + std::to_string(i % d.width) + "," + std::to_string(i / d.width),
+            "expected a cluster id in 0.." + std::to_string(part.clusters - 1) + ", got " + std::to_string(id));
+      }
+      btf.texel_clusters[i] = static_cast<int>(id);
+    }
+  }
   return btf;
 }
 

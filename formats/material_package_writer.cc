@@ -43,16 +43,15 @@ void CheckDescription(const fs::path& dir, const MaterialDescription& d) {
   }
   if (!(d.physical_size_mm.allFinite() && d.physical_size_mm.minCoeff() > 0)) {
     throw core::Error(dir.string() + ": physical size must be positive, got " + NumberText(d.physical_size_mm.x()) +
-                " x " + NumberText(d.physical_size_mm.y()) + " mm");
+                      " x " + NumberText(d.physical_size_mm.y()) + " mm");
   }
   if (!(std::isfinite(d.d_max_mm) && d.d_max_mm > 0)) {
     throw core::Error(dir.string() + ": d_max must be a positive distance, got " + NumberText(d.d_max_mm) + " mm");
   }
   for (const core::SamplingSet* set : {&d.view_directions, &d.light_directions}) {
     if (set->size() < 1 || set->size() > kMaxDirections) {
-      throw core::Error(dir.string() + ": " + (set == &d.view_directions ? "view" : "light") +
-                  " direction set has " + std::to_string(set->size()) + " directions; expected 1.." +
-                  std::to_string(kMaxDirections));
+      throw core::Error(dir.string() + ": " + (set == &d.view_directions ? "view" : "light") + " direction set has " +
+                        std::to_string(set->size()) + " directions; expected 1.." + std::to_string(kMaxDirections));
     }
   }
 }
@@ -61,7 +60,7 @@ void ExpectGrid(const fs::path& dir, const MaterialDescription& d, const char* p
                 const core::SamplingSet& views) {
   if (width != d.width || height != d.height) {
     throw core::Error(dir.string() + ": " + part + " is " + std::to_string(width) + "x" + std::to_string(height) +
-                " texels, the package " + std::to_string(d.width) + "x" + std::to_string(d.height));
+                      " texels, the package " + std::to_string(d.width) + "x" + std::to_string(d.height));
   }
   if (!SameDirections(views, d.view_directions)) {
     throw core::Error(dir.string() + ": " + part + " is sampled on other view directions than the package");
@@ -78,9 +77,8 @@ void ExpectLights(const fs::path& dir, const MaterialDescription& d, const char*
 void ExpectImageSize(const fs::path& dir, const std::string& what, const core::Image& image, int width, int height,
                      int channels) {
   if (image.width() != width || image.height() != height || image.channels() != channels) {
-    throw core::Error(dir.string() + ": " + what + " is " +
-                SizeText(image.width(), image.height(), image.channels()) + ", expected " +
-                SizeText(width, height, channels));
+    throw core::Error(dir.string() + ": " + what + " is " + SizeText(image.width(), image.height(), image.channels()) +
+                      ", expected " + SizeText(width, height, channels));
   }
 }
 
@@ -92,7 +90,7 @@ void ExpectFiniteToWrite(const fs::path& dir, const std::string& what, const cor
     if (!std::isfinite(v[i])) {
       const std::size_t pixel = i / image.channels();
       throw core::Error(dir.string() + ": " + what + " has the non-finite value " + NumberText(v[i]) + " at x=" +
-                  std::to_string(pixel % image.width()) + ", y=" + std::to_string(pixel / image.width()));
+                        std::to_string(pixel % image.width()) + ", y=" + std::to_string(pixel / image.width()));
     }
   }
 }
@@ -131,7 +129,7 @@ void MaterialPackageWriter::WriteMdf(const core::Mdf& mdf, MdfForms forms) {
   for (std::size_t i = 0; i < mdf.distance_mm.size(); ++i) {
     if (!core::IsValidMdfValue(values[i])) {
       throw core::Error(dir_.string() + ": MDF value " + NumberText(values[i]) + " at index " + std::to_string(i) +
-                  " is neither a distance >= 0, no hit (+inf) nor unknown (NaN)");
+                        " is neither a distance >= 0, no hit (+inf) nor unknown (NaN)");
     }
   }
   MaterialManifest::MdfPart part;
@@ -169,7 +167,7 @@ void MaterialPackageWriter::WriteFullBtfView(int view, const core::Image& values
   const int views = d.view_directions.size();
   if (view < 0 || view >= views) {
     throw core::Error(dir_.string() + ": full BTF view " + std::to_string(view) + " outside 0.." +
-                std::to_string(views - 1));
+                      std::to_string(views - 1));
   }
   ThrowIfOversize(dir_, OversizeProblem(d, "full BTF", true, 3));
   const std::string what = "full BTF view " + std::to_string(view);
@@ -189,7 +187,7 @@ std::unique_ptr<core::FullBtfReader> MaterialPackageWriter::ReadBackFullBtf() co
   if (full_btf_views_written_.empty() || missing != full_btf_views_written_.end()) {
     const int first = full_btf_views_written_.empty() ? 0 : static_cast<int>(missing - full_btf_views_written_.begin());
     throw core::Error(dir_.string() + ": full BTF view " + std::to_string(first) + " of " + std::to_string(views) +
-                " is not written yet; the BTF cannot be read back");
+                      " is not written yet; the BTF cannot be read back");
   }
   return std::make_unique<PackageFullBtfReader>(folder_.temp_path(), manifest_.description);
 }
@@ -213,12 +211,18 @@ void MaterialPackageWriter::WriteFactoredBtf(const core::FactoredBtf& btf) {
   }
   ExpectFiniteToWrite(dir_, "column factors", btf.columns);
   core::WriteImage(folder_.temp_path() / kColumnFactorFile, btf.columns, core::PixelEncoding::kFloat32);
+  if (btf.layout == core::BtfFactorLayout::kClustered) {
+    core::Image ids(btf.width, btf.height, 1);
+    for (std::size_t i = 0; i < btf.texel_clusters.size(); ++i)
+      ids.data()[i] = static_cast<float>(btf.texel_clusters[i]);
+    core::WriteImage(folder_.temp_path() / kClusterFile, ids, core::PixelEncoding::kFloat32);
+  }
   MaterialManifest::FactoredBtfPart part;
   part.layout = btf.layout;
   part.color = btf.color;
-  part.rgb_to_factored =
-      btf.color == core::BtfFactorColor::kYCbCr ? btf.rgb_to_factored : Eigen::Matrix3d::Identity();
+  part.rgb_to_factored = btf.color == core::BtfFactorColor::kYCbCr ? btf.rgb_to_factored : Eigen::Matrix3d::Identity();
   part.rank = btf.rank();
+  part.clusters = btf.layout == core::BtfFactorLayout::kClustered ? btf.cluster_count : 1;
   manifest_.factored_btf = part;
 }
 
@@ -254,7 +258,7 @@ MaterialManifest MaterialPackageWriter::Commit() {
   for (std::size_t v = 0; v < full_btf_views_written_.size(); ++v) {
     if (!full_btf_views_written_[v]) {
       throw core::Error(dir_.string() + ": full BTF view " + std::to_string(v) + " of " +
-                  std::to_string(full_btf_views_written_.size()) + " was never written");
+                        std::to_string(full_btf_views_written_.size()) + " was never written");
     }
   }
   manifest_.full_btf = !full_btf_views_written_.empty();
@@ -285,7 +289,7 @@ void WriteMaterialPackage(const fs::path& dir, const MaterialPackage& package, b
     ExpectLights(dir, d, "full BTF", btf.lights);
     if (static_cast<int>(btf.view_images.size()) != d.view_directions.size()) {
       throw core::Error(dir.string() + ": full BTF has " + std::to_string(btf.view_images.size()) +
-                  " view images for " + std::to_string(d.view_directions.size()) + " view directions");
+                        " view images for " + std::to_string(d.view_directions.size()) + " view directions");
     }
     for (int v = 0; v < d.view_directions.size(); ++v) writer.WriteFullBtfView(v, btf.view_images[v]);
   }

@@ -73,8 +73,9 @@ void ExportBonnFile(const ExportBonnOptions& o, const formats::MaterialManifest&
       report->source = "per_texel factored BTF";
       file = bonn::BonnDfmfFromFactored(formats::ReadFactoredBtf(o.in, manifest));
     } else {
-      report->source =
-          manifest.full_btf ? "full BTF, factored per_texel" : "paper-layout factors, refactored per_texel";
+      report->source = manifest.full_btf ? "full BTF, factored per_texel"
+                                         : std::string(ToString(manifest.factored_btf->layout)) +
+                                               "-layout factors, refactored per_texel";
       btf::BtfCompressionOptions per_texel = o.compression;
       per_texel.layout = core::BtfFactorLayout::kPerTexel;
       btf::BtfCompressionReport compression;

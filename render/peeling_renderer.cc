@@ -84,7 +84,7 @@ GLuint MakeTextureArray(GLenum internal_format, GLenum format, int width, int he
   glGetIntegerv(GL_MAX_ARRAY_TEXTURE_LAYERS, &max_layers);
   if (layers > max_layers) {
     throw core::Error("peeling renderer: the material needs " + std::to_string(layers) +
-                " texture array layers; the OpenGL driver allows " + std::to_string(max_layers));
+                      " texture array layers; the OpenGL driver allows " + std::to_string(max_layers));
   }
   GLuint texture = 0;
   glCreateTextures(GL_TEXTURE_2D_ARRAY, 1, &texture);
@@ -111,17 +111,17 @@ BlendTextures MakeBlendTextures(const core::SamplingSet& set) {
   glTextureParameteri(t.index, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
   glTextureParameteri(t.index, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
   t.weight = MakeTexture2d(GL_RGBA32F, table.phi_cells, table.theta_cells);
-  glTextureSubImage2D(t.weight, 0, 0, 0, table.phi_cells, table.theta_cells, GL_RGBA, GL_FLOAT,
-                      table.weight.data());
+  glTextureSubImage2D(t.weight, 0, 0, 0, table.phi_cells, table.theta_cells, GL_RGBA, GL_FLOAT, table.weight.data());
   return t;
 }
 
 struct GpuMaterial {
   GLuint mdf = 0, rows = 0, columns = 0, ambient = 0;
+  GLuint clusters = 0;  // clustered layout: each texel's cluster (else 1x1, unused)
   BlendTextures views, lights;
   int rank = 0;
   int light_count = 0;
-  bool per_texel = false;
+  int layout = 0;  // as the shader's u_layout: 0 paper, 1 per_texel, 2 clustered
   Eigen::Matrix3f factored_to_rgb = Eigen::Matrix3f::Identity();
   float d_max = 0.0f;
 };
@@ -135,10 +135,16 @@ GpuMaterial Upload(const RenderMaterial& m) {
   for (float& d : mdf) d = core::IsNoHit(d) ? -1.0f : (core::IsUnknown(d) ? 0.0f : d);
   g.mdf = MakeTextureArray(GL_R32F, GL_RED, m.mdf.width, m.mdf.height, m.mdf.view_count(), mdf.data());
   const core::FactoredBtf& btf = m.btf;
-  g.per_texel = btf.layout == core::BtfFactorLayout::kPerTexel;
+  g.layout = btf.layout == core::BtfFactorLayout::kPaper ? 0 : (btf.layout == core::BtfFactorLayout::kPerTexel ? 1 : 2);
   g.rank = btf.rank();
   g.light_count = btf.light_count();
-  const int layers_per_k = g.per_texel ? 1 : btf.light_count();
+  const int layers_per_k = g.layout == 0 ? btf.light_count() : 1;
+  std::vector<float> clusters(btf.texel_clusters.begin(), btf.texel_clusters.end());
+  if (clusters.empty()) clusters.assign(1, 0.0f);
+  const bool clustered = g.layout == 2;
+  g.clusters = MakeTexture2d(GL_R32F, clustered ? btf.width : 1, clustered ? btf.height : 1);
+  glTextureSubImage2D(g.clusters, 0, 0, 0, clustered ? btf.width : 1, clustered ? btf.height : 1, GL_RED, GL_FLOAT,
+                      clusters.data());
   std::vector<float> rows;
   rows.reserve(static_cast<std::size_t>(btf.rank()) * btf.rows[0].size());
   for (const core::Image& r : btf.rows) rows.insert(rows.end(), r.data(), r.data() + r.size());
@@ -180,8 +186,8 @@ GpuMesh Upload(const SceneObject& object) {
   glCreateBuffers(1, &g.vbo);
   glNamedBufferStorage(g.vbo, static_cast<GLsizeiptr>(vertices.size() * sizeof(float)), vertices.data(), 0);
   glCreateBuffers(1, &g.ebo);
-  glNamedBufferStorage(g.ebo, static_cast<GLsizeiptr>(m.triangles.size() * sizeof(Eigen::Vector3i)),
-                       m.triangles.data(), 0);
+  glNamedBufferStorage(g.ebo, static_cast<GLsizeiptr>(m.triangles.size() * sizeof(Eigen::Vector3i)), m.triangles.data(),
+                       0);
   glCreateVertexArrays(1, &g.vao);
   glVertexArrayVertexBuffer(g.vao, 0, g.vbo, 0, 13 * sizeof(float));
   glVertexArrayElementBuffer(g.vao, g.ebo);
@@ -247,9 +253,12 @@ struct PeelTargets {
 
 const char* ToString(RenderMode mode) {
   switch (mode) {
-    case RenderMode::kBtf: return "btf";
-    case RenderMode::kSilhouette: return "silhouette";
-    case RenderMode::kFull: return "full";
+    case RenderMode::kBtf:
+      return "btf";
+    case RenderMode::kSilhouette:
+      return "silhouette";
+    case RenderMode::kFull:
+      return "full";
   }
   return "?";
 }
@@ -263,8 +272,7 @@ RenderMode ParseRenderMode(const std::string& name) {
 
 core::CheckResult PeelingOptions::Check() const {
   if (width < 1 || height < 1 || width > 8192 || height > 8192) {
-    return "image size must be in [1, 8192] per side, got " + std::to_string(width) + "x" +
-           std::to_string(height);
+    return "image size must be in [1, 8192] per side, got " + std::to_string(width) + "x" + std::to_string(height);
   }
   if (passes < 0 || passes > kMaxStencilPasses) {
     return "passes must be 0 (adaptive) or in [1, 254], got " + std::to_string(passes);
@@ -318,7 +326,8 @@ struct PeelingRenderer::Impl {
         glBindTextureUnit(9, m.lights.weight);
         Set("u_rank", m.rank);
         Set("u_light_count", m.light_count);
-        Set("u_per_texel", m.per_texel ? 1 : 0);
+        Set("u_layout", m.layout);
+        glBindTextureUnit(11, m.clusters);
         glProgramUniformMatrix3fv(program, Uniform("u_factored_to_rgb"), 1, GL_FALSE, m.factored_to_rgb.data());
         Set("u_d_max", m.d_max);
       } else {
@@ -435,12 +444,12 @@ struct PeelingRenderer::Impl {
     const Eigen::Vector3d to_centre = centre - scene_light.position;
     const double light_distance = std::max(to_centre.norm(), 1.01 * radius);
     const double half_angle = std::asin(std::min(radius / light_distance, 0.99));
-    const Eigen::Vector3d light_up = std::abs(to_centre.normalized().z()) > 0.9 ? Eigen::Vector3d::UnitY()
-                                                                                 : Eigen::Vector3d::UnitZ();
+    const Eigen::Vector3d light_up =
+        std::abs(to_centre.normalized().z()) > 0.9 ? Eigen::Vector3d::UnitY() : Eigen::Vector3d::UnitZ();
     const double light_far = light_distance + 2.0 * radius;
-    lamp.view_proj = Perspective(2 * half_angle, 1.0, std::max(1e-4 * light_far, light_distance - 1.5 * radius),
-                                 light_far) *
-                     LookAt(scene_light.position, centre, light_up);
+    lamp.view_proj =
+        Perspective(2 * half_angle, 1.0, std::max(1e-4 * light_far, light_distance - 1.5 * radius), light_far) *
+        LookAt(scene_light.position, centre, light_up);
     lamp.position = scene_light.position.cast<float>();
     lamp.far = static_cast<float>(light_far);
 
@@ -495,10 +504,10 @@ PeelingRenderer::PeelingRenderer(const RenderScene& scene) : impl_(std::make_uni
     glGetProgramInfoLog(s.program, sizeof log, nullptr, log);
     throw core::Error(std::string("peeling renderer: the OpenGL driver cannot link the program: ") + log);
   }
-  const char* samplers[] = {"u_peel_now",    "u_zbo",          "u_mdf",          "u_rows",
-                            "u_columns",     "u_ambient",      "u_view_index",   "u_view_weight",
-                            "u_light_index", "u_light_weight", "u_shadow_map"};
-  for (int unit = 0; unit < 11; ++unit) s.Set(samplers[unit], unit);
+  const char* samplers[] = {"u_peel_now",    "u_zbo",          "u_mdf",        "u_rows",
+                            "u_columns",     "u_ambient",      "u_view_index", "u_view_weight",
+                            "u_light_index", "u_light_weight", "u_shadow_map", "u_clusters"};
+  for (int unit = 0; unit < 12; ++unit) s.Set(samplers[unit], unit);
   s.Set("u_exposure", static_cast<float>(scene.exposure));
   glCreateQueries(GL_ANY_SAMPLES_PASSED, 1, &s.query);
   for (const RenderMaterial& m : scene.materials) s.materials.push_back(Upload(m));
@@ -519,9 +528,9 @@ PeelingRenderer::~PeelingRenderer() {
     glDeleteBuffers(1, &m.ebo);
   }
   for (const GpuMaterial& m : s.materials) {
-    const GLuint textures[8] = {m.mdf, m.rows, m.columns, m.ambient, m.views.index, m.views.weight, m.lights.index,
-                                m.lights.weight};
-    glDeleteTextures(8, textures);
+    const GLuint textures[9] = {m.mdf,          m.rows,         m.columns,       m.ambient, m.views.index,
+                                m.views.weight, m.lights.index, m.lights.weight, m.clusters};
+    glDeleteTextures(9, textures);
   }
   glDeleteQueries(1, &s.query);
   glDeleteProgram(s.program);

@@ -55,8 +55,9 @@ uniform sampler2D u_zbo;       // z_pb - d_b of this layer
 uniform bool u_has_material;
 uniform vec3 u_albedo;
 uniform sampler2DArray u_mdf;      // layer = view; -1 = no hit
-uniform sampler2DArray u_rows;     // paper: layer k * Nlight + light; per_texel: layer k
-uniform sampler2D u_columns;       // x = view (paper) or view * Nlight + light (per_texel), y = k
+uniform sampler2DArray u_rows;     // paper: layer k * Nlight + light; per_texel, clustered: layer k
+uniform sampler2D u_columns;       // x = view (paper) or view * Nlight + light; y = k (clustered: cluster * rank + k)
+uniform sampler2D u_clusters;      // clustered: each texel's cluster
 uniform sampler2DArray u_ambient;  // layer = view
 uniform isampler2D u_view_index;
 uniform sampler2D u_view_weight;
@@ -64,7 +65,7 @@ uniform isampler2D u_light_index;
 uniform sampler2D u_light_weight;
 uniform int u_rank;
 uniform int u_light_count;
-uniform bool u_per_texel;
+uniform int u_layout;              // 0 paper, 1 per_texel, 2 clustered
 uniform mat3 u_factored_to_rgb;
 uniform float u_d_max;
 
@@ -198,6 +199,7 @@ vec3 Btf(vec2 t, vec3 v, vec3 l) {
   Blend(u_view_index, u_view_weight, v, vi, vw);
   Blend(u_light_index, u_light_weight, l, li, lw);
   ivec2 texel = Texel(t, textureSize(u_rows, 0).xy);
+  int first_column_row = u_layout == 2 ? int(texelFetch(u_clusters, texel, 0).r) * u_rank : 0;
   vec3 sum = vec3(0.0);
   for (int a = 0; a < 4; ++a) {
     if (vw[a] <= 0.0) continue;
@@ -205,9 +207,9 @@ vec3 Btf(vec2 t, vec3 v, vec3 l) {
       if (lw[b] <= 0.0) continue;
       vec3 value = vec3(0.0);
       for (int k = 0; k < u_rank; ++k) {
-        if (u_per_texel) {
+        if (u_layout != 0) {
           value += texelFetch(u_rows, ivec3(texel, k), 0).rgb *
-                   texelFetch(u_columns, ivec2(vi[a] * u_light_count + li[b], k), 0).rgb;
+                   texelFetch(u_columns, ivec2(vi[a] * u_light_count + li[b], first_column_row + k), 0).rgb;
         } else {
           value += texelFetch(u_rows, ivec3(texel, k * u_light_count + li[b]), 0).rgb *
                    texelFetch(u_columns, ivec2(vi[a], k), 0).rgb;

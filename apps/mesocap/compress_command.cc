@@ -1,5 +1,5 @@
 // `mesocap compress --in MATERIAL --out MATERIAL2 [--rank K | --max-error E |
-// --max-bytes B] [--layout auto|paper|per_texel] [--color auto|rgb|ycbcr]`:
+// --max-bytes B] [--layout auto|paper|per_texel|clustered] [--clusters N] [--color auto|rgb|ycbcr]`:
 // factors the full BTF of any material package (a ground-truth one too) by
 // SVD (Wang et al. 2005 Sec. 5) into a new package (pipelines/compress.h),
 // in the representation that meets the budget in the fewest bytes.

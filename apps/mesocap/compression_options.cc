@@ -36,13 +36,19 @@ void AddCompressionOptions(CLI::App* sub, btf::BtfCompressionOptions* o) {
            if (name == "auto") {
              o->layout.reset();
            } else {
-             o->layout = name == "paper" ? core::BtfFactorLayout::kPaper : core::BtfFactorLayout::kPerTexel;
+             o->layout = name == "paper"       ? core::BtfFactorLayout::kPaper
+                         : name == "per_texel" ? core::BtfFactorLayout::kPerTexel
+                                               : core::BtfFactorLayout::kClustered;
            }
          },
-         "matrix layout: paper (rows x, y, light; columns view), per_texel (rows x, y; columns view, light) or "
-         "auto (the smaller or more accurate for the budget)")
-      ->check(CLI::IsMember({"auto", "paper", "per_texel"}))
+         "matrix layout: paper (rows x, y, light; columns view), per_texel (rows x, y; columns view, light), "
+         "clustered (per_texel within each cluster of texels: local PCA) or auto (the smallest or most accurate "
+         "for the budget)")
+      ->check(CLI::IsMember({"auto", "paper", "per_texel", "clustered"}))
       ->default_str("auto");
+  sub->add_option("--clusters", o->clusters,
+                  "clustered layout: the number of clusters, 1..1024 (default: 8, 32 and 128 tried)")
+      ->check(InRange(1, core::kMaxBtfClusters));
   sub->add_option_function<std::string>(
          "--color",
          [o](const std::string& name) {

@@ -123,11 +123,17 @@ TEST(BtfCompression, ChoosesTheSmallestRepresentationThatMeetsTheErrorBudget) {
   o.max_relative_error = 1e-4;
   BtfCompressionReport report;
   const core::FactoredBtf f = CompressBtf(btf, o, &report);
-  ASSERT_EQ(report.candidates.size(), 4u);
+  ASSERT_EQ(report.candidates.size(), 10u) << "paper, per_texel and clustered at 8, 32, 128 clusters, rgb and ycbcr";
   long long smallest_meeting = std::numeric_limits<long long>::max();
   for (const BtfRepresentationCandidate& c : report.candidates) {
-    EXPECT_EQ(c.meets_budget, c.measured_relative_rms_error <= 1e-4) << ToString(c.layout) << " " << ToString(c.color);
-    EXPECT_EQ(c.factor_bytes, FactorBytes(c.layout, 8, 8, btf.view_count(), btf.light_count(), c.rank));
+    // Factors as large as the BTF itself compress nothing and do not count.
+    const long long full_bytes = 64LL * btf.view_count() * btf.light_count() * 12;
+    EXPECT_EQ(c.meets_budget, c.measured_relative_rms_error <= 1e-4 && c.factor_bytes < full_bytes)
+        << ToString(c.layout) << " " << ToString(c.color);
+    if (c.measured_relative_rms_error <= 1e-4 && !c.meets_budget) {
+      EXPECT_NE(c.note.find("full BTF"), std::string::npos) << c.note;
+    }
+    EXPECT_EQ(c.factor_bytes, FactorBytes(c.layout, 8, 8, btf.view_count(), btf.light_count(), c.rank, c.clusters));
     if (c.meets_budget) smallest_meeting = std::min(smallest_meeting, c.factor_bytes);
   }
   EXPECT_EQ(f.layout, core::BtfFactorLayout::kPerTexel);
@@ -143,6 +149,73 @@ TEST(BtfCompression, ChoosesTheSmallestRepresentationThatMeetsTheErrorBudget) {
       EXPECT_TRUE(!c.meets_budget || c.factor_bytes > 10 * smallest_meeting);
     }
   }
+}
+
+// Clustered local PCA (Mueller et al. 2003): two materials side by side, each
+// a texel's albedo times its own reflectance of (view, light), are rank 2
+// for one SVD of all texels but rank 1 in each of two clusters; the clusters
+// are the materials.
+TEST(BtfCompression, ClusteredLayoutFactorsTwoMaterialsAtRankOne) {
+  const core::SamplingSet views = core::SamplingSet::Named("grid6x3");
+  const core::SamplingSet lights = core::SamplingSet::Named("grid6x4");
+  const auto material = [](int x) { return x % 3 == 0 ? 0 : 1; };
+  const core::FullBtf btf = MakeBtf(8, views, lights, [&](int x, int y, int v, int l) {
+    const float albedo = 0.3f + 0.04f * static_cast<float>((x + 5 * y) % 7);
+    const float a = 1.0f + 0.5f * std::sin(0.7f * static_cast<float>(v * v + 3 * l));
+    const float b =
+        0.2f + std::cos(0.3f * static_cast<float>(l * l + 2 * v)) * std::cos(0.3f * static_cast<float>(l * l + 2 * v));
+    const float s = albedo * (material(x) == 0 ? a : b);
+    return Eigen::Vector3f(0.8f * s, 0.5f * s, 0.4f * s);
+  });
+  BtfCompressionOptions o;
+  o.layout = core::BtfFactorLayout::kClustered;
+  o.color = core::BtfFactorColor::kRgb;
+  o.clusters = 2;
+  o.max_relative_error = 1e-5;
+  BtfCompressionReport report;
+  const core::FactoredBtf f = CompressBtf(btf, o, &report);
+  EXPECT_EQ(f.rank(), 1);
+  EXPECT_EQ(f.cluster_count, 2);
+  EXPECT_LE(report.measured_relative_rms_error, 1e-5);
+  EXPECT_NEAR(RelativeRmsError(btf, f), report.measured_relative_rms_error, 1e-9);
+  EXPECT_LT(MaxAbsError(btf, f), 1e-5);
+  for (int y = 0; y < 8; ++y)
+    for (int x = 0; x < 8; ++x) {
+      EXPECT_EQ(f.texel_clusters[y * 8 + x] == f.texel_clusters[0], material(x) == material(0)) << x << "," << y;
+    }
+  EXPECT_EQ(report.factor_bytes, 12LL * (64 + 2 * btf.view_count() * btf.light_count()) + 4 * 64);
+  // One SVD of all texels needs a second term.
+  o.layout = core::BtfFactorLayout::kPerTexel;
+  EXPECT_EQ(CompressBtf(btf, o).rank(), 2);
+}
+
+// Clusters of one texel each, and clusters of identical texels: exact, no
+// NaN, whatever k-means makes of duplicates.
+TEST(BtfCompression, ClustersOfOneTexelOrOfIdenticalTexelsAreExact) {
+  const core::SamplingSet views = core::SamplingSet::Named("grid6x2");
+  const core::SamplingSet lights = core::SamplingSet::Named("grid5x2");
+  const core::FullBtf varied = MakeBtf(4, views, lights, IntegerRank3);
+  BtfCompressionOptions o;
+  o.layout = core::BtfFactorLayout::kClustered;
+  o.color = core::BtfFactorColor::kRgb;
+  o.clusters = 16;  // one texel each
+  o.max_relative_error = 1e-6;
+  BtfCompressionReport report;
+  const core::FactoredBtf one_each = CompressBtf(varied, o, &report);
+  EXPECT_EQ(one_each.cluster_count, 16);
+  EXPECT_EQ(one_each.rank(), 1) << "a cluster of one texel is one row: rank 1";
+  EXPECT_LT(MaxAbsError(varied, one_each), 1e-4);
+
+  const core::FullBtf same = MakeBtf(4, views, lights, [](int, int, int v, int l) {
+    return Eigen::Vector3f(0.1f * static_cast<float>(v + 1), 0.2f, 0.05f * static_cast<float>(l + 1));
+  });
+  o.clusters = 8;
+  const core::FactoredBtf identical = CompressBtf(same, o, &report);
+  EXPECT_GE(identical.cluster_count, 1);
+  EXPECT_LE(identical.cluster_count, 8);
+  EXPECT_EQ(identical.rank(), 1);
+  EXPECT_LT(MaxAbsError(same, identical), 1e-6);
+  EXPECT_TRUE(std::isfinite(report.measured_relative_rms_error));
 }
 
 // With a byte budget: every representation at the largest rank whose factors
@@ -166,12 +239,14 @@ TEST(BtfCompression, ByteBudgetKeepsTheMostAccurateFactorsThatFit) {
   o.max_bytes = budget;
   BtfCompressionReport report;
   const core::FactoredBtf f = CompressBtf(btf, o, &report);
-  ASSERT_EQ(report.candidates.size(), 4u);
+  ASSERT_EQ(report.candidates.size(), 10u);
   EXPECT_LE(report.factor_bytes, budget);
   for (const BtfRepresentationCandidate& c : report.candidates) {
     if (c.rank == 0) continue;  // not even rank 1 fits
     EXPECT_LE(c.factor_bytes, budget);
-    EXPECT_GT(FactorBytes(c.layout, 16, 16, nv, nl, c.rank + 1), budget) << "the largest rank that fits";
+    if (c.layout != core::BtfFactorLayout::kClustered) {  // clusters may run out of texels first
+      EXPECT_GT(FactorBytes(c.layout, 16, 16, nv, nl, c.rank + 1), budget) << "the largest rank that fits";
+    }
     EXPECT_LE(report.measured_relative_rms_error, c.measured_relative_rms_error);
   }
   EXPECT_NEAR(RelativeRmsError(btf, f), report.measured_relative_rms_error, 1e-9);

@@ -11,6 +11,7 @@
 #include <random>
 
 #include "core/error.h"
+#include "core/file_checksum.h"
 #include "core/image.h"
 #include "core/image_io.h"
 #include "core/json_field_reader.h"
@@ -67,9 +68,7 @@ core::Mdf TestMdf() {
 }
 
 // Dyadic values: exact in float, in EXR and in sums of a few products.
-float Dyadic(int a, int b, int c, int d) {
-  return static_cast<float>((a + 3 * b + 5 * c + 7 * d) % 64) / 64.0f;
-}
+float Dyadic(int a, int b, int c, int d) { return static_cast<float>((a + 3 * b + 5 * c + 7 * d) % 64) / 64.0f; }
 
 core::FullBtf TestFullBtf() {
   core::FullBtf btf = core::MakeFullBtf(kW, kH, TestViews(), TestLights());
@@ -294,6 +293,61 @@ TEST(FactoredBtf, ReconstructsAKnownRankTwoBtfExactly) {
   }
 }
 
+// The clustered layout: three clusters, each texel reading its own cluster's
+// row of column factors; the ids round-trip, and an id out of range in the
+// file is an error naming the file and the texel.
+TEST(FactoredBtf, ClusteredFactorsRoundTripAndAnOutOfRangeIdIsNamed) {
+  core::FactoredBtf btf = TestFactoredBtf(core::BtfFactorLayout::kPerTexel, core::BtfFactorColor::kRgb, 2);
+  btf.layout = core::BtfFactorLayout::kClustered;
+  btf.cluster_count = 3;
+  btf.texel_clusters.resize(kW * kH);
+  for (int i = 0; i < kW * kH; ++i) btf.texel_clusters[i] = (i * 7) % 3;
+  btf.columns = core::Image(btf.column_count(), 2 * 3, 3);
+  for (int r = 0; r < 6; ++r)
+    for (int i = 0; i < btf.column_count(); ++i)
+      for (int c = 0; c < 3; ++c) btf.columns.at(i, r, c) = Dyadic(i, r, c, 2) + 0.5f;
+  testing::TemporaryDirectory dir;
+  MaterialPackage p;
+  p.description = TestDescription();
+  p.factored_btf = btf;
+  WriteMaterialPackage(dir / "pkg", p, false);
+  const MaterialManifest m = ReadMaterialManifest(dir / "pkg");
+  ASSERT_TRUE(m.factored_btf);
+  EXPECT_EQ(m.factored_btf->layout, core::BtfFactorLayout::kClustered);
+  EXPECT_EQ(m.factored_btf->clusters, 3);
+  const core::FactoredBtf back = ReadFactoredBtf(dir / "pkg", m);
+  EXPECT_EQ(back.texel_clusters, btf.texel_clusters);
+  for (int v = 0; v < 3; ++v)
+    for (int l = 0; l < 4; ++l)
+      for (int y = 0; y < kH; ++y)
+        for (int x = 0; x < kW; ++x) {
+          const int cluster = btf.texel_clusters[y * kW + x];
+          const Eigen::Vector3f got = back.Reconstruct(x, y, v, l);
+          for (int c = 0; c < 3; ++c) {
+            const float expected = btf.rows[0].at(x, y, c) * btf.columns.at(v * 4 + l, cluster * 2, c) +
+                                   btf.rows[1].at(x, y, c) * btf.columns.at(v * 4 + l, cluster * 2 + 1, c);
+            ASSERT_EQ(got[c], expected) << "x=" << x << " y=" << y << " v=" << v << " l=" << l;
+          }
+        }
+
+  // A cluster id of 3 among 3 clusters, written over the file with its
+  // checksum refreshed so that only the id is wrong.
+  btf.texel_clusters[5] = 3;
+  EXPECT_THROW(btf.CheckShape(), core::Error);
+  core::Image ids(kW, kH, 1);
+  for (int i = 0; i < kW * kH; ++i) ids.data()[i] = static_cast<float>(btf.texel_clusters[i]);
+  core::WriteImage(dir / "pkg" / "btf/clusters.exr", ids, core::PixelEncoding::kFloat32);
+  MaterialManifest refreshed = m;
+  refreshed.checksums["btf/clusters.exr"] = core::ComputeFileChecksum(dir / "pkg" / "btf/clusters.exr");
+  try {
+    ReadFactoredBtf(dir / "pkg", refreshed);
+    ADD_FAILURE() << "cluster id 3 of 3 clusters was read";
+  } catch (const core::FormatError& e) {
+    EXPECT_NE(std::string(e.what()).find("clusters.exr"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("texel 0,1"), std::string::npos) << e.what();
+  }
+}
+
 // The layouts as the format documents them: factor the BTF matrix with an
 // SVD, store the full-rank factors, and get the BTF back.
 core::FactoredBtf FactorBySvd(const core::FullBtf& full, core::BtfFactorLayout layout, core::BtfFactorColor color) {
@@ -357,8 +411,7 @@ TEST(FactoredBtf, SvdFactorsInEachLayoutAndColourReconstructTheBtf) {
         for (int l = 0; l < 4; ++l)
           for (int y = 0; y < kH; ++y)
             for (int x = 0; x < kW; ++x) {
-              worst =
-                  std::max(worst, (back.Reconstruct(x, y, v, l) - full.at(x, y, v, l)).cwiseAbs().maxCoeff());
+              worst = std::max(worst, (back.Reconstruct(x, y, v, l) - full.at(x, y, v, l)).cwiseAbs().maxCoeff());
             }
       EXPECT_LT(worst, 1e-5f);
     }
@@ -781,8 +834,7 @@ TEST_F(HostilePackage, BadSizes) {
     m["physical_size_mm"] = value;
     ExpectManifestRejected(m, "physical_size_mm[0]");
   }
-  for (const auto& value :
-       {nlohmann::json(0), nlohmann::json(-1.5), nlohmann::json("nan"), nlohmann::json(nullptr)}) {
+  for (const auto& value : {nlohmann::json(0), nlohmann::json(-1.5), nlohmann::json("nan"), nlohmann::json(nullptr)}) {
     auto m = manifest_;
     m["d_max_mm"] = value;
     ExpectManifestRejected(m, "d_max_mm");
@@ -891,14 +943,13 @@ TEST_F(HostilePackage, BadPartEntries) {
 }
 
 TEST_F(HostilePackage, MissingFiles) {
-  const std::vector<std::pair<std::string, std::string>> cases = {
-      {"mdf.exr", "mdf.float32.file"},
-      {"mdf8.tif", "mdf.uint8.file"},
-      {"btf/view_0002.exr", "btf.full.files"},
-      {"btf/rows_01.exr", "btf.factored.row_files"},
-      {"btf/columns.exr", "btf.factored.column_file"},
-      {"ambient.exr", "ambient.file"},
-      {"error_report.json", "error_report.file"}};
+  const std::vector<std::pair<std::string, std::string>> cases = {{"mdf.exr", "mdf.float32.file"},
+                                                                  {"mdf8.tif", "mdf.uint8.file"},
+                                                                  {"btf/view_0002.exr", "btf.full.files"},
+                                                                  {"btf/rows_01.exr", "btf.factored.row_files"},
+                                                                  {"btf/columns.exr", "btf.factored.column_file"},
+                                                                  {"ambient.exr", "ambient.file"},
+                                                                  {"error_report.json", "error_report.file"}};
   for (const auto& [file, field] : cases) {
     SCOPED_TRACE(file);
     const std::string bytes = Slurp(pkg_ / file);

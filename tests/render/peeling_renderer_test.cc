@@ -122,5 +122,59 @@ TEST_F(PeelingRendererTest, AdaptivePassesStopWhenNothingIsLeftToPeel) {
   }
 }
 
+// The shader decodes every factor layout: one BTF stored as the paper's
+// eigenmaps, per texel, and in two clusters whose factors differ (cluster 1's
+// rows halved and its columns doubled, so a texel that read the other
+// cluster's columns would be off by 2x) renders the same image.
+TEST_F(PeelingRendererTest, EveryFactorLayoutRendersTheSameImage) {
+  RenderScene scene = ShippedScene("cylinder");
+  const core::FactoredBtf paper = scene.materials[0].btf;
+  const int w = paper.width, h = paper.height, nv = paper.view_count(), nl = paper.light_count();
+  const float value = paper.rows[0].at(0, 0, 0) * paper.columns.at(0, 0, 0);
+  core::FactoredBtf per_texel = paper;
+  per_texel.layout = core::BtfFactorLayout::kPerTexel;
+  per_texel.rows = {core::Image(w, h, 3, value)};
+  per_texel.columns = core::Image(nv * nl, 1, 3, 1.0f);
+  core::FactoredBtf clustered = per_texel;
+  clustered.layout = core::BtfFactorLayout::kClustered;
+  clustered.cluster_count = 2;
+  clustered.texel_clusters.resize(static_cast<std::size_t>(w) * h);
+  clustered.columns = core::Image(nv * nl, 2, 3, 1.0f);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const int cluster = (x / 3 + y / 5) % 2;
+      clustered.texel_clusters[static_cast<std::size_t>(y) * w + x] = cluster;
+      if (cluster == 1)
+        for (int ch = 0; ch < 3; ++ch) clustered.rows[0].at(x, y, ch) = value / 2;
+    }
+  for (int i = 0; i < nv * nl; ++i)
+    for (int ch = 0; ch < 3; ++ch) clustered.columns.at(i, 1, ch) = 2.0f;
+  clustered.CheckShape();
+
+  PeelingOptions o;
+  o.width = 160;
+  o.height = 120;
+  o.shadow_map_size = 512;
+  o.mode = RenderMode::kFull;
+  const auto render = [&](const core::FactoredBtf& btf) {
+    for (RenderMaterial& m : scene.materials) m.btf = btf;
+    PeelingRenderer renderer(scene);
+    return renderer.Render(scene.camera, scene.light, o);
+  };
+  const RenderResult a = render(paper);
+  for (const core::FactoredBtf* other : {&per_texel, &clustered}) {
+    SCOPED_TRACE(ToString(other->layout));
+    const RenderResult b = render(*other);
+    ASSERT_EQ(a.color.size(), b.color.size());
+    double worst = 0.0, sum = 0.0;
+    for (std::size_t i = 0; i < a.color.size(); ++i) {
+      worst = std::max(worst, static_cast<double>(std::abs(a.color.data()[i] - b.color.data()[i])));
+      sum += a.color.data()[i];
+    }
+    EXPECT_GT(sum, 0.0) << "the scene is lit";
+    EXPECT_LT(worst, 1e-5);
+  }
+}
+
 }  // namespace
 }  // namespace mesocap::render
