@@ -103,7 +103,9 @@ endfunction()
 # the sanitizers, the same code as CameraCalibration.*), the statistics
 # over noise seeds (*OverNoiseSeeds: one calibration repeated) and the chain
 # without truth against the one with it (CalibratedChainCli.*: 5 minutes
-# there; its commands run in the smaller CLI tests).
+# there; its commands run in the smaller CLI tests) and the CLI's kill -9
+# trials (apps_kill_recovery_cli_test: 6 minutes there; the resume code runs
+# under the sanitizers in the daemon's stop and restart tests).
 function(mesocap_test name)
   cmake_parse_arguments(ARG "ONE_PROCESS;RUN_SERIAL" "" "SOURCES;DEPS;LABELS;ENVIRONMENT;LAUNCHER" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
