@@ -1,7 +1,12 @@
 // SVD compression of a full BTF into eigenmaps and weight maps (Wang et al.
 // 2005 Sec. 5): each colour channel's BTF matrix A (layouts in core/btf.h) is
 // factored and truncated to rank K, A ~= sum_k r_k c_k^T, with the rank given
-// or chosen as the smallest that meets a relative error budget.
+// or chosen as the smallest that meets a relative error budget (or the
+// largest that fits a byte budget). The clustered layout (local PCA, Mueller
+// et al. 2003) splits the texels by k-means and factors each cluster's A on
+// its own; a cluster of one texel is exact at rank 1, and one of identical
+// texels at rank 1 as well. With the layout or colour left open, every
+// representation allowed is factored and the budget picks one.
 //
 // Algorithm and conditioning: A is tall and skinny in the paper layout
 // (W*H*Nlight rows, Nview columns). Its SVD is taken as a Householder QR of A,
