@@ -709,7 +709,7 @@ core::FactoredBtf CompressBtf(core::FullBtfReader& btf, const BtfCompressionOpti
                                                         c.factor_bytes < full_bytes);
     if (!byte_budget && options.rank == 0 && c.measured_relative_rms_error <= options.max_relative_error &&
         !c.meets_budget) {
-      c.note = "meets the error budget only in as many bytes as the full BTF (" + Bytes(full_bytes) + ")";
+      c.note = "meets the error budget only in at least as many bytes as the full BTF (" + Bytes(full_bytes) + ")";
     }
     if (best_index < 0 || Better(c, candidates[best_index], byte_budget)) {
       best_index = static_cast<int>(i);
