@@ -67,11 +67,14 @@ std::vector<std::string> SimulateResume(const fs::path& in, const fs::path& out)
 std::vector<std::string> ProcessMdf(const fs::path& in, const fs::path& out) {
   return {"-q", "process", "mdf", "--session", (in / "S").string(), "--out", out.string()};
 }
+// One representation (not the budget's choice among ten): what a kill leaves
+// behind does not depend on it, and each run stays one SVD long.
 std::vector<std::string> ProcessBtf(const fs::path& in, const fs::path& out) {
-  return {"-q", "process", "btf", "--session", (in / "S").string(), "--out", out.string()};
+  return {"-q",     "process", "btf",     "--session", (in / "S").string(), "--out", out.string(),
+          "--layout", "paper",  "--color", "rgb"};
 }
 std::vector<std::string> Compress(const fs::path& in, const fs::path& out) {
-  return {"-q", "compress", "--in", (in / "T").string(), "--out", out.string()};
+  return {"-q", "compress", "--in", (in / "T").string(), "--out", out.string(), "--layout", "paper", "--color", "rgb"};
 }
 template <std::vector<std::string> (*F)(const fs::path&, const fs::path&)>
 std::vector<std::string> Replacing(const fs::path& in, const fs::path& out) {

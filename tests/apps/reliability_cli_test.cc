@@ -19,6 +19,10 @@
 namespace mesocap {
 namespace {
 
+// These tests are about what is written and kept, not which representation
+// the budget picks: one representation keeps each factoring to one SVD.
+constexpr char kOneRepresentation[] = " --layout paper --color rgb";
+
 namespace fs = std::filesystem;
 using testing::CommandResult;
 using testing::Mesocap;
@@ -98,7 +102,7 @@ TEST_F(ReliabilityCliTest, ReplaceRefusesWhatTheCommandDoesNotWriteAndItsInput) 
   EXPECT_EQ(Contents(t), truth_before);
   EXPECT_EQ(testing::CountTemporaries(work_.path()), 0);
   // What the command writes is replaced.
-  ASSERT_EQ(Mesocap("-q compress --in " + T + " --out " + (work_ / "C").string()).exit_code, 0);
+  ASSERT_EQ(Mesocap("-q compress --in " + T + kOneRepresentation + " --out " + (work_ / "C").string()).exit_code, 0);
   EXPECT_EQ(Mesocap("-q compress --in " + T + " --rank 1 --out " + (work_ / "C").string() + " --replace").exit_code,
             0);
   EXPECT_EQ(testing::CountTemporaries(work_.path()), 0);
@@ -137,7 +141,8 @@ TEST_F(ReliabilityCliTest, ProcessingRefusesAnIncompleteSession) {
   const fs::path s = Copy(Session(), "S");
   const std::string journal = Slurp(s / "journal.jsonl");
   WriteBytes(s / "journal.jsonl", "");
-  const CommandResult btf = Mesocap("-q process btf --session " + s.string() + " --out " + (work_ / "B").string());
+  const CommandResult btf =
+      Mesocap("-q process btf --session " + s.string() + kOneRepresentation + " --out " + (work_ / "B").string());
   EXPECT_EQ(btf.exit_code, 1);
   EXPECT_NE(btf.err.find("0 of 34 steps done"), std::string::npos) << btf.err;
   EXPECT_NE(btf.err.find("simulate --resume"), std::string::npos) << btf.err;
@@ -156,7 +161,7 @@ TEST_F(ReliabilityCliTest, ProcessingRefusesAnIncompleteSession) {
   at = journal.rfind('\n', journal.size() - 2) + 1;
   WriteBytes(s / "journal.jsonl", journal.substr(0, at));
   const CommandResult allowed = Mesocap("process btf --session " + s.string() + " --out " + (work_ / "B").string() +
-                                        " --allow-incomplete 'laser-sweep-*'");
+                                        kOneRepresentation + " --allow-incomplete 'laser-sweep-*'");
   EXPECT_EQ(allowed.exit_code, 0) << allowed.err;
   EXPECT_NE(allowed.err.find("leaving out 1 of 34 planned steps"), std::string::npos) << allowed.err;
   EXPECT_FALSE(fs::exists(work_ / "M"));
@@ -207,7 +212,8 @@ TEST_F(ReliabilityCliTest, StaleTemporariesOfTheSameOutputAreRemoved) {
   const std::string other = ".A.tmp-" + dead + "-0";
   fs::create_directories(work_ / live);
   fs::create_directories(work_ / other);
-  const CommandResult r = Mesocap("process btf --session " + Session().string() + " --out " + out.string());
+  const CommandResult r =
+      Mesocap("process btf --session " + Session().string() + kOneRepresentation + " --out " + out.string());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.err.find("left by a killed run"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(work_ / (".B.tmp-" + dead + "-0")));
