@@ -351,6 +351,27 @@ struct FactorsFromSvd {
   }
 };
 
+// A factored BTF of `btf`'s size and sets in a representation, no factors yet.
+core::FactoredBtf NoFactors(const core::FullBtfReader& btf, core::BtfFactorLayout layout, core::BtfFactorColor color) {
+  core::FactoredBtf out;
+  out.width = btf.width();
+  out.height = btf.height();
+  out.views = btf.views();
+  out.lights = btf.lights();
+  out.layout = layout;
+  out.color = color;
+  out.rgb_to_factored =
+      color == core::BtfFactorColor::kYCbCr ? core::YCbCrFromLinearRgbBt601() : Eigen::Matrix3d::Identity();
+  return out;
+}
+
+// Each factored channel as weights of R, G and B: the rows of rgb_to_factored.
+ChannelWeights FactoredChannelWeights(const core::FactoredBtf& f) {
+  ChannelWeights weights;
+  for (int ch = 0; ch < 3; ++ch) weights[ch] = f.rgb_to_factored.row(ch).transpose();
+  return weights;
+}
+
 // Builds the factors at the rank the options give or the spectrum in `r`
 // chooses, measures their RGB error, and fills in the rank and bytes. The
 // budget is on RGB values; for ycbcr the spectrum measures the error in the
@@ -382,17 +403,8 @@ void BuildAtChosenRank(core::FullBtfReader& btf, const BtfCompressionOptions& op
 core::FactoredBtf CompressOneRepresentation(core::FullBtfReader& btf, const BtfCompressionOptions& options,
                                             core::BtfFactorLayout layout, core::BtfFactorColor color,
                                             BtfCompressionReport& r) {
-  core::FactoredBtf out;
-  out.width = btf.width();
-  out.height = btf.height();
-  out.views = btf.views();
-  out.lights = btf.lights();
-  out.layout = layout;
-  out.color = color;
-  out.rgb_to_factored =
-      color == core::BtfFactorColor::kYCbCr ? core::YCbCrFromLinearRgbBt601() : Eigen::Matrix3d::Identity();
-  ChannelWeights weights;
-  for (int ch = 0; ch < 3; ++ch) weights[ch] = out.rgb_to_factored.row(ch).transpose();
+  core::FactoredBtf out = NoFactors(btf, layout, color);
+  const ChannelWeights weights = FactoredChannelWeights(out);
 
   const BtfMatrix a(btf, layout);
   const long long m = a.rows();
@@ -512,17 +524,8 @@ ClusteredSvd ClusterAndFactor(core::FullBtfReader& btf, const ChannelWeights& we
 
 core::FactoredBtf CompressClustered(core::FullBtfReader& btf, const BtfCompressionOptions& options, int clusters,
                                     core::BtfFactorColor color, BtfCompressionReport& r) {
-  core::FactoredBtf out;
-  out.width = btf.width();
-  out.height = btf.height();
-  out.views = btf.views();
-  out.lights = btf.lights();
-  out.layout = core::BtfFactorLayout::kClustered;
-  out.color = color;
-  out.rgb_to_factored =
-      color == core::BtfFactorColor::kYCbCr ? core::YCbCrFromLinearRgbBt601() : Eigen::Matrix3d::Identity();
-  ChannelWeights weights;
-  for (int ch = 0; ch < 3; ++ch) weights[ch] = out.rgb_to_factored.row(ch).transpose();
+  core::FactoredBtf out = NoFactors(btf, core::BtfFactorLayout::kClustered, color);
+  const ChannelWeights weights = FactoredChannelWeights(out);
   const long long m = static_cast<long long>(out.width) * out.height;
   const long long n = static_cast<long long>(out.view_count()) * out.light_count();
   const ClusteredSvd svd = ClusterAndFactor(btf, weights, clusters);
