@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <initializer_list>
 #include <numbers>
 #include <vector>
 
@@ -20,6 +21,8 @@ namespace {
 // The stencil holds the pass that finished a pixel (1..254); 255 = not yet.
 constexpr int kStencilOpen = 255;
 constexpr int kMaxStencilPasses = 254;
+// The depth buffer's far end (reversed depth, see Perspective).
+constexpr float kFarthestDepth = 0.0f;
 
 Eigen::Matrix4f LookAt(const Eigen::Vector3d& eye, const Eigen::Vector3d& target, const Eigen::Vector3d& up) {
   const Eigen::Vector3d f = (target - eye).normalized();
@@ -35,13 +38,17 @@ Eigen::Matrix4f LookAt(const Eigen::Vector3d& eye, const Eigen::Vector3d& target
   return m.cast<float>();
 }
 
+// Reversed depth (near -> 1, far -> 0, with glClipControl's zero-to-one
+// range): a float depth buffer then resolves the far end as finely as the
+// near one, where the surfaces at the far plane (a floor) would otherwise
+// round to the cleared depth and vanish.
 Eigen::Matrix4f Perspective(double fov_y, double aspect, double near, double far) {
   const double f = 1.0 / std::tan(fov_y / 2);
   Eigen::Matrix4d m = Eigen::Matrix4d::Zero();
   m(0, 0) = f / aspect;
   m(1, 1) = f;
-  m(2, 2) = (far + near) / (near - far);
-  m(2, 3) = 2 * far * near / (near - far);
+  m(2, 2) = near / (far - near);
+  m(2, 3) = far * near / (far - near);
   m(3, 2) = -1;
   return m.cast<float>();
 }
@@ -53,9 +60,10 @@ struct Eye {
   float far = 1.0f;
 };
 
-GLuint Compile(GLenum type, const char* source) {
+GLuint Compile(GLenum type, std::initializer_list<const char*> sources) {
   const GLuint shader = glCreateShader(type);
-  glShaderSource(shader, 1, &source, nullptr);
+  const std::vector<const char*> parts(sources);
+  glShaderSource(shader, static_cast<GLsizei>(parts.size()), parts.data(), nullptr);
   glCompileShader(shader);
   GLint ok = 0;
   glGetShaderiv(shader, GL_COMPILE_STATUS, &ok);
@@ -94,6 +102,35 @@ GLuint MakeTextureArray(GLenum internal_format, GLenum format, int width, int he
   glTextureParameteri(texture, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
   return texture;
 }
+
+// A linked program and its uniforms.
+struct GlProgram {
+  GLuint id = 0;
+
+  void Link(GLuint vertex, GLuint fragment) {
+    id = glCreateProgram();
+    glAttachShader(id, vertex);
+    glAttachShader(id, fragment);
+    glLinkProgram(id);
+    GLint ok = 0;
+    glGetProgramiv(id, GL_LINK_STATUS, &ok);
+    if (!ok) {
+      char log[4096];
+      glGetProgramInfoLog(id, sizeof log, nullptr, log);
+      throw core::Error(std::string("peeling renderer: the OpenGL driver cannot link a program: ") + log);
+    }
+  }
+  GLint Uniform(const char* name) const { return glGetUniformLocation(id, name); }
+  void Set(const char* name, int v) const { glProgramUniform1i(id, Uniform(name), v); }
+  void Set(const char* name, float v) const { glProgramUniform1f(id, Uniform(name), v); }
+  void Set(const char* name, const Eigen::Vector3f& v) const { glProgramUniform3fv(id, Uniform(name), 1, v.data()); }
+  void Set(const char* name, const Eigen::Matrix3f& m) const {
+    glProgramUniformMatrix3fv(id, Uniform(name), 1, GL_FALSE, m.data());
+  }
+  void Set(const char* name, const Eigen::Matrix4f& m) const {
+    glProgramUniformMatrix4fv(id, Uniform(name), 1, GL_FALSE, m.data());
+  }
+};
 
 struct BlendTextures {
   GLuint index = 0;
@@ -203,18 +240,23 @@ GpuMesh Upload(const SceneObject& object) {
 }
 
 // The render targets of one peeling sweep (view or light): Fig. 7's two peel
-// depth buffers (ping-pong), z_pb - d_b, the output colour and masks, and a
-// shared depth-stencil buffer.
+// depth buffers (ping-pong), z_pb - d_b, the output colour and masks, a
+// shared depth-stencil buffer, and for the view the surface the resolve pass
+// shades.
 struct PeelTargets {
   int width = 0, height = 0;
   GLuint zpeel[2] = {0, 0};
   GLuint zbo = 0;
-  GLuint color = 0;  // RGBA32F: colour (view) or shadow depth (light)
-  GLuint masks = 0;  // RGBA32F: coverage, shadow
+  GLuint color = 0;       // RGBA32F: colour (view) or shadow depth (light)
+  GLuint masks = 0;       // RGBA32F: coverage (light: a layer found), shadow
+  GLuint surface = 0;     // view, RGBA32F: texture coordinates, irradiance (-1: shadow), material + 1
+  GLuint directions = 0;  // view, RGBA32F: local view and light (theta, phi)
   GLuint depth_stencil = 0;
   GLuint back_fbo = 0, front_fbo = 0;
+  GLuint finish_fbo = 0;   // the stencil alone, for the finishing pass
+  GLuint resolve_fbo = 0;  // view: the colour alone, for the resolve pass
 
-  void Create(int w, int h) {
+  void Create(int w, int h, bool view) {
     width = w;
     height = h;
     for (GLuint& z : zpeel) z = MakeTexture2d(GL_R32F, w, h);
@@ -226,25 +268,39 @@ struct PeelTargets {
     glCreateFramebuffers(1, &back_fbo);
     glNamedFramebufferTexture(back_fbo, GL_COLOR_ATTACHMENT1, zbo, 0);
     glNamedFramebufferRenderbuffer(back_fbo, GL_DEPTH_STENCIL_ATTACHMENT, GL_RENDERBUFFER, depth_stencil);
-    const GLenum two[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
-    glNamedFramebufferDrawBuffers(back_fbo, 2, two);
+    const GLenum attachments[4] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1, GL_COLOR_ATTACHMENT2,
+                                   GL_COLOR_ATTACHMENT3};
+    glNamedFramebufferDrawBuffers(back_fbo, 2, attachments);
     glCreateFramebuffers(1, &front_fbo);
     glNamedFramebufferTexture(front_fbo, GL_COLOR_ATTACHMENT0, color, 0);
     glNamedFramebufferTexture(front_fbo, GL_COLOR_ATTACHMENT1, masks, 0);
+    if (view) {
+      surface = MakeTexture2d(GL_RGBA32F, w, h);
+      directions = MakeTexture2d(GL_RGBA32F, w, h);
+      glNamedFramebufferTexture(front_fbo, GL_COLOR_ATTACHMENT2, surface, 0);
+      glNamedFramebufferTexture(front_fbo, GL_COLOR_ATTACHMENT3, directions, 0);
+      glCreateFramebuffers(1, &resolve_fbo);
+      glNamedFramebufferTexture(resolve_fbo, GL_COLOR_ATTACHMENT0, color, 0);
+      glNamedFramebufferDrawBuffers(resolve_fbo, 1, attachments);
+    }
     glNamedFramebufferRenderbuffer(front_fbo, GL_DEPTH_STENCIL_ATTACHMENT, GL_RENDERBUFFER, depth_stencil);
-    glNamedFramebufferDrawBuffers(front_fbo, 2, two);
-    if (glCheckNamedFramebufferStatus(front_fbo, GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
+    glNamedFramebufferDrawBuffers(front_fbo, view ? 4 : 2, attachments);
+    glCreateFramebuffers(1, &finish_fbo);
+    glNamedFramebufferRenderbuffer(finish_fbo, GL_DEPTH_STENCIL_ATTACHMENT, GL_RENDERBUFFER, depth_stencil);
+    glNamedFramebufferDrawBuffer(finish_fbo, GL_NONE);
+    if (glCheckNamedFramebufferStatus(front_fbo, GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE ||
+        glCheckNamedFramebufferStatus(finish_fbo, GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
       throw core::Error(
           "peeling renderer: the OpenGL driver cannot render to float colour with a float depth + stencil "
           "buffer (GL_DEPTH32F_STENCIL8)");
     }
   }
   void Destroy() {
-    glDeleteFramebuffers(1, &back_fbo);
-    glDeleteFramebuffers(1, &front_fbo);
+    const GLuint fbos[4] = {back_fbo, front_fbo, finish_fbo, resolve_fbo};
+    glDeleteFramebuffers(4, fbos);
     glDeleteRenderbuffers(1, &depth_stencil);
-    const GLuint textures[5] = {zpeel[0], zpeel[1], zbo, color, masks};
-    glDeleteTextures(5, textures);
+    const GLuint textures[7] = {zpeel[0], zpeel[1], zbo, color, masks, surface, directions};
+    glDeleteTextures(7, textures);
     *this = PeelTargets{};
   }
 };
@@ -287,7 +343,8 @@ core::CheckResult PeelingOptions::Check() const {
 }
 
 struct PeelingRenderer::Impl {
-  GLuint program = 0;
+  GlProgram peeling, finishing, resolve;
+  GLuint empty_vao = 0;  // full-screen passes draw without vertex attributes
   GLuint query = 0;
   std::vector<GpuMesh> meshes;
   std::vector<GpuMaterial> materials;
@@ -295,43 +352,24 @@ struct PeelingRenderer::Impl {
   Eigen::Vector3d centre;
   double radius = 1.0;
 
-  GLint Uniform(const char* name) const { return glGetUniformLocation(program, name); }
-  void Set(const char* name, int v) const { glProgramUniform1i(program, Uniform(name), v); }
-  void Set(const char* name, float v) const { glProgramUniform1f(program, Uniform(name), v); }
-  void Set(const char* name, const Eigen::Vector3f& v) const {
-    glProgramUniform3fv(program, Uniform(name), 1, v.data());
-  }
-  void Set(const char* name, const Eigen::Matrix4f& m) const {
-    glProgramUniformMatrix4fv(program, Uniform(name), 1, GL_FALSE, m.data());
-  }
-
   // Draws every object with `kind`, culling `cull` faces.
   void DrawObjects(int kind, GLenum cull) const {
-    Set("u_kind", kind);
+    peeling.Set("u_kind", kind);
     glEnable(GL_CULL_FACE);
     glCullFace(cull);
     for (const GpuMesh& mesh : meshes) {
       const bool textured = mesh.material >= 0;
-      Set("u_has_material", textured ? 1 : 0);
-      Set("u_albedo", mesh.albedo);
+      peeling.Set("u_has_material", textured ? 1 : 0);
+      peeling.Set("u_albedo", mesh.albedo);
       if (textured) {
         const GpuMaterial& m = materials[mesh.material];
         glBindTextureUnit(2, m.mdf);
-        glBindTextureUnit(3, m.rows);
-        glBindTextureUnit(4, m.columns);
-        glBindTextureUnit(5, m.ambient);
         glBindTextureUnit(6, m.views.index);
         glBindTextureUnit(7, m.views.weight);
-        glBindTextureUnit(8, m.lights.index);
-        glBindTextureUnit(9, m.lights.weight);
-        Set("u_rank", m.rank);
-        Set("u_light_count", m.light_count);
-        Set("u_layout", m.layout);
-        glBindTextureUnit(11, m.clusters);
-        glProgramUniformMatrix3fv(program, Uniform("u_factored_to_rgb"), 1, GL_FALSE, m.factored_to_rgb.data());
-        Set("u_d_max", m.d_max);
+        peeling.Set("u_material", mesh.material);
+        peeling.Set("u_d_max", m.d_max);
       } else {
-        Set("u_d_max", 0.0f);
+        peeling.Set("u_d_max", 0.0f);
       }
       glBindVertexArray(mesh.vao);
       glDrawElements(GL_TRIANGLES, mesh.index_count, GL_UNSIGNED_INT, nullptr);
@@ -339,9 +377,60 @@ struct PeelingRenderer::Impl {
   }
 
   void UseEye(const Eye& eye) const {
-    Set("u_view_proj", eye.view_proj);
-    Set("u_eye", eye.position);
-    Set("u_far", eye.far);
+    peeling.Set("u_view_proj", eye.view_proj);
+    peeling.Set("u_eye", eye.position);
+    peeling.Set("u_far", eye.far);
+  }
+
+  // Records `pass` in the stencil of the open pixels whose front faces found
+  // a layer in it. The peel passes only test the stencil, never write it, so
+  // that the driver may run the depth and stencil tests before their
+  // fragment shader, which is most of the cost of a pass.
+  void Finish(const PeelTargets& t, int pass) const {
+    glBindFramebuffer(GL_FRAMEBUFFER, t.finish_fbo);
+    glUseProgram(finishing.id);
+    glDisable(GL_DEPTH_TEST);
+    glDisable(GL_CULL_FACE);
+    glStencilMask(0xFF);
+    glStencilFunc(GL_LEQUAL, pass, 0xFF);
+    glStencilOp(GL_KEEP, GL_KEEP, GL_REPLACE);
+    glBindTextureUnit(0, t.masks);
+    glBindVertexArray(empty_vao);
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+    glStencilMask(0);
+    glEnable(GL_DEPTH_TEST);
+    glUseProgram(peeling.id);
+  }
+
+  // Shades every shown pixel of the view once, material by material, from
+  // the surface the view pass left (plain surfaces are already shaded).
+  void Resolve() const {
+    glBindFramebuffer(GL_FRAMEBUFFER, view.resolve_fbo);
+    glViewport(0, 0, view.width, view.height);
+    glUseProgram(resolve.id);
+    glDisable(GL_DEPTH_TEST);
+    glDisable(GL_STENCIL_TEST);
+    glDisable(GL_CULL_FACE);
+    glBindTextureUnit(12, view.surface);
+    glBindTextureUnit(13, view.directions);
+    glBindVertexArray(empty_vao);
+    for (std::size_t i = 0; i < materials.size(); ++i) {
+      const GpuMaterial& m = materials[i];
+      glBindTextureUnit(3, m.rows);
+      glBindTextureUnit(4, m.columns);
+      glBindTextureUnit(5, m.ambient);
+      glBindTextureUnit(6, m.views.index);
+      glBindTextureUnit(7, m.views.weight);
+      glBindTextureUnit(8, m.lights.index);
+      glBindTextureUnit(9, m.lights.weight);
+      glBindTextureUnit(11, m.clusters);
+      resolve.Set("u_material", static_cast<int>(i));
+      resolve.Set("u_rank", m.rank);
+      resolve.Set("u_light_count", m.light_count);
+      resolve.Set("u_layout", m.layout);
+      resolve.Set("u_factored_to_rgb", m.factored_to_rgb);
+      glDrawArrays(GL_TRIANGLES, 0, 3);
+    }
   }
 
   // Fig. 7, front to back. Returns the passes run: `fixed` of them, or with
@@ -350,19 +439,23 @@ struct PeelingRenderer::Impl {
   int Peel(PeelTargets& t, const Eye& eye, int front_kind, int fixed, int cap) const {
     glViewport(0, 0, t.width, t.height);
     UseEye(eye);
-    const float minus_one = -1.0f, one = 1.0f;
+    const float minus_one = -1.0f;
     glClearTexImage(t.zpeel[0], 0, GL_RED, GL_FLOAT, &minus_one);  // Zpeel_now: nothing peeled yet
     const GLfloat zero[4] = {0, 0, 0, 0};
     const GLfloat far_value[4] = {1, 1, 1, 1};
     glClearNamedFramebufferfv(t.front_fbo, GL_COLOR, 0, front_kind == kPassShadowFrontPeel ? far_value : zero);
-    glClearNamedFramebufferfv(t.front_fbo, GL_COLOR, 1, zero);
+    for (int attachment = 1; attachment < (t.surface != 0 ? 4 : 2); ++attachment) {
+      glClearNamedFramebufferfv(t.front_fbo, GL_COLOR, attachment, zero);
+    }
     glStencilMask(0xFF);  // clears obey the write masks
     glDepthMask(GL_TRUE);
     const GLint open = kStencilOpen;
     glClearNamedFramebufferiv(t.front_fbo, GL_STENCIL, 0, &open);
     glEnable(GL_DEPTH_TEST);
-    glDepthFunc(GL_LESS);
+    glDepthFunc(GL_GREATER);
     glEnable(GL_STENCIL_TEST);
+    glStencilMask(0);
+    glStencilOp(GL_KEEP, GL_KEEP, GL_KEEP);
     int now = 0;
     int passes = 0;
     const int limit = fixed > 0 ? fixed : cap;
@@ -374,9 +467,8 @@ struct PeelingRenderer::Impl {
       glBindFramebuffer(GL_FRAMEBUFFER, t.back_fbo);
       glClearNamedFramebufferfv(t.back_fbo, GL_COLOR, 0, far_value);  // no back face: Zpeel_next = far
       glClearNamedFramebufferfv(t.back_fbo, GL_COLOR, 1, &minus_one);
-      glClearNamedFramebufferfv(t.back_fbo, GL_DEPTH, 0, &one);
+      glClearNamedFramebufferfv(t.back_fbo, GL_DEPTH, 0, &kFarthestDepth);
       glStencilFunc(GL_LEQUAL, pass, 0xFF);
-      glStencilOp(GL_KEEP, GL_KEEP, GL_KEEP);
       glBindTextureUnit(0, t.zpeel[now]);
       if (fixed == 0) glBeginQuery(GL_ANY_SAMPLES_PASSED, query);
       DrawObjects(kPassBackPeel, GL_FRONT);
@@ -387,15 +479,16 @@ struct PeelingRenderer::Impl {
         if (any == 0) break;
       }
       // Front faces: in front of z_pb (depth test), behind Zpeel_now, and
-      // hitting the mesostructure (z_pf + d_f <= z_pb - d_b) -> output, and
+      // hitting the mesostructure (z_pf + d_f <= z_pb - d_b) -> output; then
       // the stencil records the pass so later layers leave the pixel alone.
       glBindFramebuffer(GL_FRAMEBUFFER, t.front_fbo);
-      glStencilOp(GL_KEEP, GL_KEEP, GL_REPLACE);
       glBindTextureUnit(1, t.zbo);
       DrawObjects(front_kind, GL_BACK);
+      Finish(t, pass);
       now = next;
       ++passes;
     }
+    glStencilMask(0xFF);
     glDisable(GL_STENCIL_TEST);
     return passes;
   }
@@ -406,15 +499,16 @@ struct PeelingRenderer::Impl {
     UseEye(eye);
     const GLfloat zero[4] = {0, 0, 0, 0};
     const GLfloat far_value[4] = {1, 1, 1, 1};
-    const float one = 1.0f;
     glDepthMask(GL_TRUE);  // clears obey the write mask
     glBindFramebuffer(GL_FRAMEBUFFER, t.front_fbo);
     glClearNamedFramebufferfv(t.front_fbo, GL_COLOR, 0, kind == kPassShadowPlain ? far_value : zero);
-    glClearNamedFramebufferfv(t.front_fbo, GL_COLOR, 1, zero);
-    glClearNamedFramebufferfv(t.front_fbo, GL_DEPTH, 0, &one);
+    for (int attachment = 1; attachment < (t.surface != 0 ? 4 : 2); ++attachment) {
+      glClearNamedFramebufferfv(t.front_fbo, GL_COLOR, attachment, zero);
+    }
+    glClearNamedFramebufferfv(t.front_fbo, GL_DEPTH, 0, &kFarthestDepth);
     glDisable(GL_STENCIL_TEST);
     glEnable(GL_DEPTH_TEST);
-    glDepthFunc(GL_LESS);
+    glDepthFunc(GL_GREATER);
     glDepthMask(GL_TRUE);
     DrawObjects(kind, GL_BACK);
   }
@@ -423,11 +517,11 @@ struct PeelingRenderer::Impl {
     if (const core::CheckResult problem = options.Check(); !problem.empty()) throw core::Error("render: " + problem);
     if (view.width != options.width || view.height != options.height) {
       if (view.width > 0) view.Destroy();
-      view.Create(options.width, options.height);
+      view.Create(options.width, options.height, true);
     }
     if (light.width != options.shadow_map_size) {
       if (light.width > 0) light.Destroy();
-      light.Create(options.shadow_map_size, options.shadow_map_size);
+      light.Create(options.shadow_map_size, options.shadow_map_size, false);
     }
     // Camera: far plane beyond the scene's bounding sphere, so t < 1.
     Eye cam;
@@ -455,7 +549,8 @@ struct PeelingRenderer::Impl {
 
     glFinish();
     const auto start = std::chrono::steady_clock::now();
-    glUseProgram(program);
+    glClipControl(GL_LOWER_LEFT, GL_ZERO_TO_ONE);
+    glUseProgram(peeling.id);
     RenderResult result;
     if (options.mode == RenderMode::kFull) {
       result.shadow_passes = Peel(light, lamp, kPassShadowFrontPeel, options.passes, options.max_passes);
@@ -463,21 +558,25 @@ struct PeelingRenderer::Impl {
       Plain(light, lamp, kPassShadowPlain);
       result.shadow_passes = 1;
     }
-    Set("u_light_position", lamp.position);
-    Set("u_light_intensity", static_cast<float>(scene_light.intensity));
-    Set("u_ambient_scale", static_cast<float>(scene_light.ambient));
-    Set("u_light_view_proj", lamp.view_proj);
-    Set("u_light_far", lamp.far);
-    Set("u_shadow_texel", static_cast<float>(2.0 * std::tan(half_angle) / options.shadow_map_size));
-    Set("u_shadow_at_mesostructure", options.mode == RenderMode::kFull ? 1 : 0);
+    peeling.Set("u_light_position", lamp.position);
+    peeling.Set("u_light_intensity", static_cast<float>(scene_light.intensity));
+    peeling.Set("u_light_view_proj", lamp.view_proj);
+    peeling.Set("u_light_far", lamp.far);
+    peeling.Set("u_shadow_texel", static_cast<float>(2.0 * std::tan(half_angle) / options.shadow_map_size));
+    peeling.Set("u_shadow_at_mesostructure", options.mode == RenderMode::kFull ? 1 : 0);
+    for (const GlProgram* program : {&peeling, &resolve}) {
+      program->Set("u_ambient_scale", static_cast<float>(scene_light.ambient));
+    }
     glBindTextureUnit(10, light.color);
     if (options.mode == RenderMode::kBtf) {
-      Plain(view, cam, kPassShade);
+      Plain(view, cam, kPassSurface);
       result.passes = 1;
     } else {
       result.passes = Peel(view, cam, kPassFrontPeel, options.passes, options.max_passes);
     }
     glBindTextureUnit(10, 0);
+    Resolve();
+    glClipControl(GL_LOWER_LEFT, GL_NEGATIVE_ONE_TO_ONE);  // the context's default, for its other users
     glFinish();
     result.frame_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     if (const GLenum error = glGetError(); error != GL_NO_ERROR) {
@@ -489,26 +588,29 @@ struct PeelingRenderer::Impl {
 
 PeelingRenderer::PeelingRenderer(const RenderScene& scene) : impl_(std::make_unique<Impl>()) {
   Impl& s = *impl_;
-  const GLuint vs = Compile(GL_VERTEX_SHADER, kPeelingVertexShader);
-  const GLuint fs = Compile(GL_FRAGMENT_SHADER, kPeelingFragmentShader);
-  s.program = glCreateProgram();
-  glAttachShader(s.program, vs);
-  glAttachShader(s.program, fs);
-  glLinkProgram(s.program);
-  glDeleteShader(vs);
-  glDeleteShader(fs);
-  GLint ok = 0;
-  glGetProgramiv(s.program, GL_LINK_STATUS, &ok);
-  if (!ok) {
-    char log[4096];
-    glGetProgramInfoLog(s.program, sizeof log, nullptr, log);
-    throw core::Error(std::string("peeling renderer: the OpenGL driver cannot link the program: ") + log);
+  const GLuint mesh_vertices = Compile(GL_VERTEX_SHADER, {kGlslVersion, kPeelingVertexShader});
+  const GLuint full_screen = Compile(GL_VERTEX_SHADER, {kGlslVersion, kFullScreenVertexShader});
+  const GLuint peeling = Compile(GL_FRAGMENT_SHADER, {kGlslVersion, kDirectionGlsl, kPeelingFragmentShader});
+  const GLuint finishing = Compile(GL_FRAGMENT_SHADER, {kGlslVersion, kFinishingFragmentShader});
+  const GLuint resolve = Compile(GL_FRAGMENT_SHADER, {kGlslVersion, kDirectionGlsl, kResolveFragmentShader});
+  s.peeling.Link(mesh_vertices, peeling);
+  s.finishing.Link(full_screen, finishing);
+  s.resolve.Link(full_screen, resolve);
+  for (const GLuint shader : {mesh_vertices, full_screen, peeling, finishing, resolve}) glDeleteShader(shader);
+  // One texture unit per sampler across the programs.
+  const char* samplers[] = {"u_peel_now",   "u_zbo",        "u_mdf",         "u_rows",        "u_columns",
+                            "u_ambient",    "u_view_index", "u_view_weight", "u_light_index", "u_light_weight",
+                            "u_shadow_map", "u_clusters",   "u_surface",     "u_directions"};
+  for (int unit = 0; unit < 14; ++unit) {
+    for (const GlProgram* program : {&s.peeling, &s.resolve}) {
+      if (program->Uniform(samplers[unit]) >= 0) program->Set(samplers[unit], unit);
+    }
   }
-  const char* samplers[] = {"u_peel_now",    "u_zbo",          "u_mdf",        "u_rows",
-                            "u_columns",     "u_ambient",      "u_view_index", "u_view_weight",
-                            "u_light_index", "u_light_weight", "u_shadow_map", "u_clusters"};
-  for (int unit = 0; unit < 12; ++unit) s.Set(samplers[unit], unit);
-  s.Set("u_exposure", static_cast<float>(scene.exposure));
+  s.finishing.Set("u_found", 0);
+  for (const GlProgram* program : {&s.peeling, &s.resolve}) {
+    program->Set("u_exposure", static_cast<float>(scene.exposure));
+  }
+  glCreateVertexArrays(1, &s.empty_vao);
   glCreateQueries(GL_ANY_SAMPLES_PASSED, 1, &s.query);
   for (const RenderMaterial& m : scene.materials) s.materials.push_back(Upload(m));
   for (const SceneObject& o : scene.objects) s.meshes.push_back(Upload(o));
@@ -533,7 +635,8 @@ PeelingRenderer::~PeelingRenderer() {
     glDeleteTextures(9, textures);
   }
   glDeleteQueries(1, &s.query);
-  glDeleteProgram(s.program);
+  glDeleteVertexArrays(1, &s.empty_vao);
+  for (const GlProgram* program : {&s.peeling, &s.finishing, &s.resolve}) glDeleteProgram(program->id);
 }
 
 RenderResult PeelingRenderer::Draw(const SceneCamera& camera, const SceneLight& light, const PeelingOptions& options) {

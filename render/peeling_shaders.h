@@ -1,20 +1,57 @@
-// GLSL of the peeling renderer (peeling_renderer.cc). One program; the
-// uniform u_kind selects what a draw does (kPass* below). Depths are the
-// distance from the eye (camera or light) divided by u_far, written to
-// gl_FragDepth, so that the MDF offsets of Sec. 4.1 (d_f, d_b, in mm along
-// the ray) add to depths linearly.
+// GLSL of the peeling renderer (peeling_renderer.cc), three programs:
+// - peeling: draws the meshes; the uniform u_kind selects what a draw does
+//   (kPass* below). The peel textures hold t, the distance from the eye
+//   (camera or light) divided by u_far, so that the MDF offsets of Sec. 4.1
+//   (d_f, d_b, in mm along the ray) add to them linearly. The depth buffer
+//   keeps the projection's own depth: along one pixel's ray it orders
+//   surfaces as t does, and leaving gl_FragDepth alone lets the depth and
+//   stencil tests run before the fragment shader.
+// - finishing: a full-screen pass that marks the pixels a front-face pass
+//   found in the stencil, so that the peel passes themselves never write it.
+// - resolve: shades each shown pixel once from the surface the view pass
+//   left (deferred), per material: the BTF (Sec. 5) or the ambient term.
+// Each program's source is kGlslVersion, then the shared code where it needs
+// it, then its own.
 #pragma once
 
 namespace mesocap::render {
 
-inline constexpr int kPassShade = 0;            // BTF only: shade the nearest front face
+inline constexpr int kPassSurface = 0;          // BTF only: the nearest front face -> surface
 inline constexpr int kPassBackPeel = 1;         // Fig. 7: nearest back face beyond Zpeel_now -> z_pb, z_pb - d_b
-inline constexpr int kPassFrontPeel = 2;        // Fig. 7: front face with z_pf + d_f <= z_pb - d_b -> shade
+inline constexpr int kPassFrontPeel = 2;        // Fig. 7: front face with z_pf + d_f <= z_pb - d_b -> surface
 inline constexpr int kPassShadowPlain = 3;      // shadow map of the reference surface
 inline constexpr int kPassShadowFrontPeel = 4;  // Sec. 4.2: z(p_f) + s d_max / cos(theta_l), curved
 
+inline constexpr const char* kGlslVersion = "#version 450 core\n";
+
+// Direction lookups shared by the peeling pass (MDF) and the resolve pass
+// (BTF, ambient term): directions as (theta, phi) and the blend tables.
+inline constexpr const char* kDirectionGlsl = R"glsl(
+const float PI = 3.14159265358979;
+
+// (theta, phi) of a local direction, phi in [0, 2 pi).
+vec2 Spherical(vec3 d) {
+  float theta = acos(clamp(d.z / max(length(d), 1e-20), -1.0, 1.0));
+  float phi = atan(d.y, d.x);
+  if (phi < 0.0) phi += 2.0 * PI;
+  return vec2(theta, phi);
+}
+
+// Neighbouring directions of the set and their weights (DirectionBlendTable).
+// Directions below the local horizon (interpolated normals at grazing) read
+// the last ring, as SamplingSet::Interpolate does.
+void Blend(isampler2D index_table, sampler2D weight_table, vec2 angles, out ivec4 index, out vec4 weight) {
+  ivec2 size = textureSize(index_table, 0);
+  int ip = clamp(int(angles.y / (2.0 * PI) * float(size.x)), 0, size.x - 1);
+  int it = clamp(int(angles.x / (0.5 * PI) * float(size.y)), 0, size.y - 1);
+  index = texelFetch(index_table, ivec2(ip, it), 0);
+  weight = texelFetch(weight_table, ivec2(ip, it), 0);
+}
+
+ivec2 Texel(vec2 t, ivec2 size) { return clamp(ivec2(fract(t) * vec2(size)), ivec2(0), size - 1); }
+)glsl";
+
 inline constexpr const char* kPeelingVertexShader = R"glsl(
-#version 450 core
 layout(location = 0) in vec3 a_position;
 layout(location = 1) in vec3 a_normal;
 layout(location = 2) in vec2 a_texcoord;
@@ -37,14 +74,20 @@ void main() {
 )glsl";
 
 inline constexpr const char* kPeelingFragmentShader = R"glsl(
-#version 450 core
 in vec3 v_position;
 in vec3 v_normal;
 in vec2 v_texcoord;
 in vec4 v_tangent;
 in float v_scale;
+// Front faces of the view: out0 colour (plain surfaces; 0 under a material,
+// which the resolve pass shades), out1 (coverage, shadow), out2 the surface
+// (texture coordinates, irradiance or -1 in shadow, material + 1), out3 the
+// local view and light directions as (theta, phi). Light passes and back
+// faces: out0 and out1 as documented at their writes.
 layout(location = 0) out vec4 out0;
 layout(location = 1) out vec4 out1;
+layout(location = 2) out vec4 out2;
+layout(location = 3) out vec4 out3;
 
 uniform int u_kind;
 uniform vec3 u_eye;
@@ -53,20 +96,11 @@ uniform sampler2D u_peel_now;  // Zpeel_now
 uniform sampler2D u_zbo;       // z_pb - d_b of this layer
 
 uniform bool u_has_material;
+uniform int u_material;            // index into the scene's materials
 uniform vec3 u_albedo;
 uniform sampler2DArray u_mdf;      // layer = view; -1 = no hit
-uniform sampler2DArray u_rows;     // paper: layer k * Nlight + light; per_texel, clustered: layer k
-uniform sampler2D u_columns;       // x = view (paper) or view * Nlight + light; y = k (clustered: cluster * rank + k)
-uniform sampler2D u_clusters;      // clustered: each texel's cluster
-uniform sampler2DArray u_ambient;  // layer = view
 uniform isampler2D u_view_index;
 uniform sampler2D u_view_weight;
-uniform isampler2D u_light_index;
-uniform sampler2D u_light_weight;
-uniform int u_rank;
-uniform int u_light_count;
-uniform int u_layout;              // 0 paper, 1 per_texel, 2 clustered
-uniform mat3 u_factored_to_rgb;
 uniform float u_d_max;
 
 uniform vec3 u_light_position;
@@ -78,8 +112,6 @@ uniform float u_light_far;
 uniform float u_shadow_texel;  // shadow-map texel size per mm of distance from the light
 uniform sampler2D u_shadow_map;
 uniform bool u_shadow_at_mesostructure;  // Sec. 4.2: test p' = p + s D(v) v instead of p
-
-const float PI = 3.14159265358979;
 
 vec3 g_normal;
 vec3 g_tangent;
@@ -152,22 +184,6 @@ float SlabPathLength(vec3 ray, float h) {
 
 vec3 ToLocal(vec3 d) { return vec3(dot(d, g_tangent), dot(d, g_bitangent), dot(d, g_normal)); }
 
-// Neighbouring directions of the set and their weights (DirectionBlendTable).
-// Directions below the local horizon (interpolated normals at grazing) read
-// the last ring, as SamplingSet::Interpolate does.
-void Blend(isampler2D index_table, sampler2D weight_table, vec3 d, out ivec4 index, out vec4 weight) {
-  ivec2 size = textureSize(index_table, 0);
-  float theta = acos(clamp(d.z / max(length(d), 1e-20), -1.0, 1.0));
-  float phi = atan(d.y, d.x);
-  if (phi < 0.0) phi += 2.0 * PI;
-  int ip = clamp(int(phi / (2.0 * PI) * float(size.x)), 0, size.x - 1);
-  int it = clamp(int(theta / (0.5 * PI) * float(size.y)), 0, size.y - 1);
-  index = texelFetch(index_table, ivec2(ip, it), 0);
-  weight = texelFetch(weight_table, ivec2(ip, it), 0);
-}
-
-ivec2 Texel(vec2 t, ivec2 size) { return clamp(ivec2(fract(t) * vec2(size)), ivec2(0), size - 1); }
-
 // D(x, y, d) in mm for the local direction d (pointing away from the
 // surface); -1 for no hit. Neighbouring views are blended; when half or more
 // of the weight says no hit, the blend is no hit (a distance and "no hit" do
@@ -175,7 +191,7 @@ ivec2 Texel(vec2 t, ivec2 size) { return clamp(ivec2(fract(t) * vec2(size)), ive
 float MdfDistance(vec2 t, vec3 d) {
   ivec4 index;
   vec4 weight;
-  Blend(u_view_index, u_view_weight, d, index, weight);
+  Blend(u_view_index, u_view_weight, Spherical(d), index, weight);
   ivec2 texel = Texel(t, textureSize(u_mdf, 0).xy);
   float sum = 0.0, total = 0.0, no_hit = 0.0;
   for (int k = 0; k < 4; ++k) {
@@ -190,47 +206,6 @@ float MdfDistance(vec2 t, vec3 d) {
   }
   if (no_hit >= 0.5 || total <= 0.0) return -1.0;
   return sum / total;
-}
-
-// T(x, y, v, l) from the factors, blended over 4 x 4 neighbouring directions.
-vec3 Btf(vec2 t, vec3 v, vec3 l) {
-  ivec4 vi, li;
-  vec4 vw, lw;
-  Blend(u_view_index, u_view_weight, v, vi, vw);
-  Blend(u_light_index, u_light_weight, l, li, lw);
-  ivec2 texel = Texel(t, textureSize(u_rows, 0).xy);
-  int first_column_row = u_layout == 2 ? int(texelFetch(u_clusters, texel, 0).r) * u_rank : 0;
-  vec3 sum = vec3(0.0);
-  for (int a = 0; a < 4; ++a) {
-    if (vw[a] <= 0.0) continue;
-    for (int b = 0; b < 4; ++b) {
-      if (lw[b] <= 0.0) continue;
-      vec3 value = vec3(0.0);
-      for (int k = 0; k < u_rank; ++k) {
-        if (u_layout != 0) {
-          value += texelFetch(u_rows, ivec3(texel, k), 0).rgb *
-                   texelFetch(u_columns, ivec2(vi[a] * u_light_count + li[b], first_column_row + k), 0).rgb;
-        } else {
-          value += texelFetch(u_rows, ivec3(texel, k * u_light_count + li[b]), 0).rgb *
-                   texelFetch(u_columns, ivec2(vi[a], k), 0).rgb;
-        }
-      }
-      sum += vw[a] * lw[b] * value;
-    }
-  }
-  return u_factored_to_rgb * sum;
-}
-
-vec3 AmbientTerm(vec2 t, vec3 v) {
-  ivec4 index;
-  vec4 weight;
-  Blend(u_view_index, u_view_weight, v, index, weight);
-  ivec2 texel = Texel(t, textureSize(u_ambient, 0).xy);
-  vec3 sum = vec3(0.0);
-  for (int k = 0; k < 4; ++k) {
-    if (weight[k] > 0.0) sum += weight[k] * texelFetch(u_ambient, ivec3(texel, index[k]), 0).rgb;
-  }
-  return sum;
 }
 
 // Macroscale shadow of point q from the shadow map. The bias covers the
@@ -250,10 +225,12 @@ bool InShadow(vec3 q) {
   return distance_to_light > (stored * u_light_far) + bias;
 }
 
-// Shades the front-face point p (the reference surface) seen along `ray`
-// (from the eye); d = D(x, y, v) in mm (< 0: no hit) places the
-// mesostructure point p' = p + s D ray for the shadow test (Sec. 4.2).
-void Shade(vec3 ray, float d) {
+// The front-face point p (the reference surface) seen along `ray` (from the
+// eye) as the resolve pass needs it, shadow and irradiance decided here;
+// d = D(x, y, v) in mm (< 0: no hit) places the mesostructure point
+// p' = p + s D ray for the shadow test (Sec. 4.2). Plain surfaces are shaded
+// here: they cost no more than writing their surface.
+void WriteSurface(vec3 ray, float d) {
   vec3 v = ToLocal(-ray);
   vec3 q = v_position;
   if (u_shadow_at_mesostructure && d > 0.0) {
@@ -270,15 +247,18 @@ void Shade(vec3 ray, float d) {
   // Facing away from the light is a macroscale (attached) shadow.
   float facing = u_shadow_at_mesostructure ? dot(NormalUnder(q), l_world) : l.z;
   bool shadowed = facing <= 0.0 || InShadow(q);
-  vec3 radiance;
+  float irradiance = max(l.z, 0.0) * (u_light_intensity / r2);
   if (u_has_material) {
-    radiance = shadowed ? u_ambient_scale * AmbientTerm(v_texcoord, v)
-                        : Btf(v_texcoord, v, l) * max(l.z, 0.0) * (u_light_intensity / r2);
+    out0 = vec4(0.0);
+    out2 = vec4(v_texcoord, shadowed ? -1.0 : irradiance, float(u_material + 1));
+    out3 = vec4(Spherical(v), Spherical(l));
   } else {
     // A plain Lambertian surface: T = albedo / pi, La = albedo.
-    radiance = shadowed ? u_ambient_scale * u_albedo : u_albedo / PI * max(l.z, 0.0) * (u_light_intensity / r2);
+    vec3 radiance = shadowed ? u_ambient_scale * u_albedo : u_albedo / PI * irradiance;
+    out0 = vec4(u_exposure * radiance, 1.0);
+    out2 = vec4(0.0);
+    out3 = vec4(0.0);
   }
-  out0 = vec4(u_exposure * radiance, 1.0);
   out1 = vec4(1.0, shadowed ? 1.0 : 0.0, 0.0, 1.0);
 }
 
@@ -294,9 +274,8 @@ void main() {
   float distance_from_eye = length(from_eye);
   vec3 ray = from_eye / distance_from_eye;
   float t = distance_from_eye / u_far;
-  gl_FragDepth = t;
-  if (u_kind == 0) {  // kPassShade
-    Shade(ray, u_has_material && u_shadow_at_mesostructure ? MdfDistance(v_texcoord, ToLocal(-ray)) : 0.0);
+  if (u_kind == 0) {  // kPassSurface
+    WriteSurface(ray, u_has_material && u_shadow_at_mesostructure ? MdfDistance(v_texcoord, ToLocal(-ray)) : 0.0);
     return;
   }
   if (u_kind == 3) {  // kPassShadowPlain
@@ -326,9 +305,101 @@ void main() {
     // 5% more, because grooves at the full depth sit exactly at the base and
     // the curvature is estimated (without it, large shadow maps show acne).
     out0 = vec4(t + 1.05 * SlabPathLength(ray, v_scale * u_d_max) / u_far);
+    out1 = vec4(1.0, 0.0, 0.0, 1.0);  // found: the finishing pass closes the pixel
     return;
   }
-  Shade(ray, d);
+  WriteSurface(ray, d);
+}
+)glsl";
+
+// A triangle that covers the viewport, for the finishing and resolve passes.
+inline constexpr const char* kFullScreenVertexShader = R"glsl(
+void main() {
+  vec2 corner = vec2((gl_VertexID & 1) * 4 - 1, (gl_VertexID & 2) * 2 - 1);
+  gl_Position = vec4(corner, 0.0, 1.0);
+}
+)glsl";
+
+// Finishing: passes (and lets the stencil record the pass) where the front
+// faces of this pass found the mesostructure (coverage set).
+inline constexpr const char* kFinishingFragmentShader = R"glsl(
+uniform sampler2D u_found;  // the sweep's masks: x = 1 where a layer was found
+void main() {
+  if (texelFetch(u_found, ivec2(gl_FragCoord.xy), 0).x == 0.0) discard;
+}
+)glsl";
+
+// Resolve: the radiance of one material's pixels from the view's surface.
+inline constexpr const char* kResolveFragmentShader = R"glsl(
+layout(location = 0) out vec4 out0;
+
+uniform int u_material;                 // shades the pixels of this material
+uniform sampler2D u_surface;            // texture coordinates, irradiance (-1: shadow), material + 1
+uniform sampler2D u_directions;         // view (theta, phi), light (theta, phi)
+uniform sampler2DArray u_rows;          // paper: layer k * Nlight + light; per_texel, clustered: layer k
+uniform sampler2D u_columns;            // x = view (paper) or view * Nlight + light; y = k (clustered: cluster * rank + k)
+uniform sampler2D u_clusters;           // clustered: each texel's cluster
+uniform sampler2DArray u_ambient;       // layer = view
+uniform isampler2D u_view_index;
+uniform sampler2D u_view_weight;
+uniform isampler2D u_light_index;
+uniform sampler2D u_light_weight;
+uniform int u_rank;
+uniform int u_light_count;
+uniform int u_layout;                   // 0 paper, 1 per_texel, 2 clustered
+uniform mat3 u_factored_to_rgb;
+uniform float u_ambient_scale;
+uniform float u_exposure;
+
+// T(x, y, v, l) from the factors (v, l as (theta, phi)), blended over 4 x 4 neighbouring directions.
+vec3 Btf(vec2 t, vec2 v, vec2 l) {
+  ivec4 vi, li;
+  vec4 vw, lw;
+  Blend(u_view_index, u_view_weight, v, vi, vw);
+  Blend(u_light_index, u_light_weight, l, li, lw);
+  ivec2 texel = Texel(t, textureSize(u_rows, 0).xy);
+  int first_column_row = u_layout == 2 ? int(texelFetch(u_clusters, texel, 0).r) * u_rank : 0;
+  vec3 sum = vec3(0.0);
+  for (int a = 0; a < 4; ++a) {
+    if (vw[a] <= 0.0) continue;
+    for (int b = 0; b < 4; ++b) {
+      if (lw[b] <= 0.0) continue;
+      vec3 value = vec3(0.0);
+      for (int k = 0; k < u_rank; ++k) {
+        if (u_layout != 0) {
+          value += texelFetch(u_rows, ivec3(texel, k), 0).rgb *
+                   texelFetch(u_columns, ivec2(vi[a] * u_light_count + li[b], first_column_row + k), 0).rgb;
+        } else {
+          value += texelFetch(u_rows, ivec3(texel, k * u_light_count + li[b]), 0).rgb *
+                   texelFetch(u_columns, ivec2(vi[a], k), 0).rgb;
+        }
+      }
+      sum += vw[a] * lw[b] * value;
+    }
+  }
+  return u_factored_to_rgb * sum;
+}
+
+vec3 AmbientTerm(vec2 t, vec2 v) {
+  ivec4 index;
+  vec4 weight;
+  Blend(u_view_index, u_view_weight, v, index, weight);
+  ivec2 texel = Texel(t, textureSize(u_ambient, 0).xy);
+  vec3 sum = vec3(0.0);
+  for (int k = 0; k < 4; ++k) {
+    if (weight[k] > 0.0) sum += weight[k] * texelFetch(u_ambient, ivec3(texel, index[k]), 0).rgb;
+  }
+  return sum;
+}
+
+void main() {
+  ivec2 pixel = ivec2(gl_FragCoord.xy);
+  vec4 surface = texelFetch(u_surface, pixel, 0);
+  if (int(surface.w) != u_material + 1) discard;
+  vec4 directions = texelFetch(u_directions, pixel, 0);
+  vec3 radiance = surface.z < 0.0 ? u_ambient_scale * AmbientTerm(surface.xy, directions.xy)
+                                  : Btf(surface.xy, directions.xy, directions.zw) * surface.z;
+  out0 = vec4(u_exposure * radiance, 1.0);
 }
 )glsl";
 

@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <numbers>
 
@@ -174,6 +175,69 @@ TEST_F(PeelingRendererTest, EveryFactorLayoutRendersTheSameImage) {
     EXPECT_GT(sum, 0.0) << "the scene is lit";
     EXPECT_LT(worst, 1e-5);
   }
+}
+
+// Shading is deferred to one pass per material after peeling: each pixel is
+// shaded with the material of the surface it shows. The cylinder is split in
+// two objects at x = 0 (the same vertices, the triangles shared out); with
+// material B = 2 x material A (BTF and ambient term), every textured pixel of
+// the mixed scene must equal the all-A image or the all-B one, and both
+// halves must show.
+TEST_F(PeelingRendererTest, EachPixelIsShadedWithItsOwnSurfacesMaterial) {
+  RenderScene scene = ShippedScene("cylinder");
+  ASSERT_EQ(scene.materials.size(), 1u);
+  RenderMaterial doubled = scene.materials[0];
+  for (core::Image& rows : doubled.btf.rows)
+    for (std::size_t i = 0; i < rows.size(); ++i) rows.data()[i] *= 2.0f;
+  for (std::size_t i = 0; i < doubled.ambient.values.size(); ++i) doubled.ambient.values.data()[i] *= 2.0f;
+  scene.materials.push_back(doubled);
+  const auto textured =
+      std::find_if(scene.objects.begin(), scene.objects.end(), [](const SceneObject& o) { return o.material == 0; });
+  ASSERT_NE(textured, scene.objects.end());
+  SceneObject left = *textured, right = *textured;
+  left.mesh.triangles.clear();
+  right.mesh.triangles.clear();
+  for (const Eigen::Vector3i& t : textured->mesh.triangles) {
+    const float x =
+        (textured->mesh.positions[t[0]] + textured->mesh.positions[t[1]] + textured->mesh.positions[t[2]]).x();
+    (x <= 0.0f ? left : right).mesh.triangles.push_back(t);
+  }
+  ASSERT_FALSE(left.mesh.triangles.empty());
+  ASSERT_FALSE(right.mesh.triangles.empty());
+  *textured = left;
+  scene.objects.push_back(right);
+  const int right_index = static_cast<int>(scene.objects.size()) - 1;
+
+  PeelingOptions o;
+  o.width = 160;
+  o.height = 120;
+  o.shadow_map_size = 512;
+  o.mode = RenderMode::kFull;
+  const auto render = [&](int left_material, int right_material) {
+    RenderScene s = scene;
+    s.objects[textured - scene.objects.begin()].material = left_material;
+    s.objects[right_index].material = right_material;
+    PeelingRenderer renderer(s);
+    return renderer.Render(s.camera, s.light, o);
+  };
+  const RenderResult all_a = render(0, 0), all_b = render(1, 1), mixed = render(0, 1);
+  int as_a = 0, as_b = 0, neither = 0;
+  for (int y = 0; y < o.height; ++y)
+    for (int x = 0; x < o.width; ++x) {
+      const float a = all_a.color.at(x, y, 1), b = all_b.color.at(x, y, 1), m = mixed.color.at(x, y, 1);
+      if (std::abs(b - a) <= 1e-3f * std::abs(a)) continue;  // the floor, or dark
+      if (std::abs(m - a) <= 1e-4f * a) {
+        ++as_a;
+      } else if (std::abs(m - b) <= 1e-4f * b) {
+        ++as_b;
+      } else {
+        ++neither;
+      }
+    }
+  std::printf("pixels shaded as A %d, as B %d, neither %d\n", as_a, as_b, neither);
+  EXPECT_GT(as_a, 500);
+  EXPECT_GT(as_b, 500);
+  EXPECT_LE(neither, (as_a + as_b) / 100) << "pixels where the halves meet may mix in the MDF blends, no more";
 }
 
 }  // namespace
