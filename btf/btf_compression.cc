@@ -22,6 +22,12 @@ namespace {
 using Eigen::MatrixXd;
 using Eigen::VectorXd;
 
+// The exact SVD (TSQR, O(m n^2) and n^2 doubles per channel) up to this many
+// columns of the streamed matrix; the randomized one beyond (auto).
+constexpr long long kMaxExactSvdColumns = 2048;
+// Sketch columns beyond the largest rank kept (Halko et al. 2011 Sec. 4.2).
+constexpr long long kRandomizedOversampling = 10;
+
 // A block of the BTF matrix A of a layout, all three RGB channels, as
 // BtfMatrix::Read gives it for rows [r0, r0 + rows) x columns [c0, c0 +
 // columns): column-major, the RGB of A(r0 + i, c0 + j) at
@@ -148,6 +154,11 @@ class StreamedMatrix {
 // the result does not depend on the thread count.
 long long BlockRows(long long n) { return std::max<long long>(n, (1 << 18) / std::max<long long>(n, 1)); }
 constexpr long long kBlocksPerChunk = 8;
+// Row blocks of the passes that only multiply (no QR): about 2 MiB of
+// doubles, and at least 256 rows, so that each block's product reuses the
+// other factor (n x l, megabytes on a wide matrix) instead of streaming it
+// from memory for a few rows.
+long long ProductBlockRows(long long n) { return std::max<long long>(256, (1 << 18) / std::max<long long>(n, 1)); }
 
 // R of the Householder QR of [top; block] (top may be empty): at most n rows,
 // upper trapezoidal.
@@ -211,12 +222,11 @@ std::array<ChannelSvd, 3> TallSkinnySvd(const StreamedMatrix& s, const ChannelWe
   return out;
 }
 
-// One pass computing S(rows, :) * right[ch] for every row block of the
-// streamed matrix S and channel; sink(ch, first_row, product) runs in
-// parallel, each call for its own rows.
-void ForEachProduct(const StreamedMatrix& s, const ChannelWeights& weights, const std::array<MatrixXd, 3>& right,
-                    const std::function<void(int, long long, const MatrixXd&)>& sink) {
-  const long long block = BlockRows(s.columns());
+// One pass over the row blocks of the streamed matrix S, every channel:
+// body(ch, first_row, block) runs in parallel, each call for its own rows.
+void ForEachRowBlock(const StreamedMatrix& s, const ChannelWeights& weights,
+                     const std::function<void(int, long long, const MatrixXd&)>& body) {
+  const long long block = ProductBlockRows(s.columns());
   s.ForEachBand([&](const MatrixBlock& band, long long band_first, long long count) {
     const long long blocks = (count + block - 1) / block;
     tbb::parallel_for(tbb::blocked_range<long long>(0, 3 * blocks, 1), [&](const tbb::blocked_range<long long>& range) {
@@ -225,15 +235,134 @@ void ForEachProduct(const StreamedMatrix& s, const ChannelWeights& weights, cons
         const int ch = static_cast<int>(t / blocks);
         const long long first = (t % blocks) * block;
         s.Fill(band, first, std::min(block, count - first), weights[ch], &a);
-        sink(ch, band_first + first, a * right[ch]);
+        body(ch, band_first + first, a);
       }
     });
   });
 }
 
+// One pass computing S(rows, :) * right[ch] for every row block of the
+// streamed matrix S and channel; sink(ch, first_row, product) runs in
+// parallel, each call for its own rows.
+void ForEachProduct(const StreamedMatrix& s, const ChannelWeights& weights, const std::array<MatrixXd, 3>& right,
+                    const std::function<void(int, long long, const MatrixXd&)>& sink) {
+  ForEachRowBlock(s, weights, [&](int ch, long long first, const MatrixXd& a) { sink(ch, first, a * right[ch]); });
+}
+
+// S^T * left[ch] (left: S's rows x l) per channel in one pass. Each band's
+// rows are split into a fixed number of chunks per channel, each chunk adding
+// into its own partial sum across the bands; the partials are summed in
+// chunk order at the end, so the result does not depend on the thread count.
+std::array<MatrixXd, 3> TransposedProducts(const StreamedMatrix& s, const ChannelWeights& weights,
+                                           const std::array<MatrixXd, 3>& left) {
+  constexpr long long kChunks = 8;
+  const long long n = s.columns();
+  std::vector<MatrixXd> partial(3 * kChunks);
+  for (long long t = 0; t < 3 * kChunks; ++t) partial[t] = MatrixXd::Zero(n, left[t / kChunks].cols());
+  const long long block = ProductBlockRows(n);
+  s.ForEachBand([&](const MatrixBlock& band, long long band_first, long long count) {
+    const long long chunk = (count + kChunks - 1) / kChunks;
+    tbb::parallel_for(tbb::blocked_range<long long>(0, 3 * kChunks, 1), [&](const tbb::blocked_range<long long>& range) {
+      MatrixXd a;
+      for (long long t = range.begin(); t < range.end(); ++t) {
+        const int ch = static_cast<int>(t / kChunks);
+        const long long begin = (t % kChunks) * chunk, end = std::min(count, begin + chunk);
+        for (long long first = begin; first < end; first += block) {
+          const long long rows = std::min(block, end - first);
+          s.Fill(band, first, rows, weights[ch], &a);
+          partial[t].noalias() += a.transpose() * left[ch].middleRows(band_first + first, rows);
+        }
+      }
+    });
+  });
+  std::array<MatrixXd, 3> out;
+  for (int ch = 0; ch < 3; ++ch) {
+    out[ch] = std::move(partial[ch * kChunks]);
+    for (long long c = 1; c < kChunks; ++c) out[ch] += partial[ch * kChunks + c];
+  }
+  return out;
+}
+
+// An orthonormal basis of the columns of y (thin Householder Q; columns past
+// y's rank are completed to an orthonormal set, so rank-deficient sketches
+// are fine).
+MatrixXd OrthonormalBasis(const MatrixXd& y) {
+  Eigen::HouseholderQR<MatrixXd> qr(y);
+  return qr.householderQ() * MatrixXd::Identity(y.rows(), y.cols());
+}
+
+// Randomized SVD (Halko, Martinsson & Tropp 2011, Algs. 4.4 and 5.1): a
+// Gaussian sketch Y = S Omega of `components` columns (fixed seed), refined
+// by `power_iterations` rounds of Y = S (S^T Q), each re-orthonormalized
+// (Householder QR of the in-memory m x l sketch), then B^T = S^T Q and the
+// exact SVD of that n x l matrix. 2 + 2 q passes over the BTF, O(m n l)
+// work and O((m + n) l) memory, against TSQR's O(m n^2) and n^2.
+// Conditioning: the leading singular values are underestimates whose error
+// shrinks like (sigma_{l+1} / sigma_k)^(2q+1); a flat spectrum (noise) gains
+// little from q. The factors built from it are measured against the data
+// afterwards, so the error reported is exact whatever the sketch missed.
+// energy[ch] = ||S_ch||_F^2, summed in the sketch pass for the error per rank.
+std::array<ChannelSvd, 3> RandomizedSvd(const StreamedMatrix& s, const ChannelWeights& weights, long long components,
+                                        int power_iterations, std::array<double, 3>* energy) {
+  const long long m = s.rows(), n = s.columns();
+  std::mt19937_64 random(20051);
+  std::normal_distribution<double> normal;
+  MatrixXd omega(n, components);
+  for (long long j = 0; j < components; ++j)
+    for (long long i = 0; i < n; ++i) omega(i, j) = normal(random);
+  std::array<MatrixXd, 3> y;
+  for (MatrixXd& c : y) c.resize(m, components);
+  // Each block's energy at its first row, summed in row order afterwards
+  // (independent of the thread count).
+  std::vector<double> energy_at_row(static_cast<std::size_t>(3 * m), 0.0);
+  ForEachRowBlock(s, weights, [&](int ch, long long first, const MatrixXd& a) {
+    y[ch].middleRows(first, a.rows()).noalias() = a * omega;
+    energy_at_row[static_cast<std::size_t>(ch * m + first)] = a.squaredNorm();
+  });
+  for (int ch = 0; ch < 3; ++ch) {
+    (*energy)[ch] = 0.0;
+    for (long long i = 0; i < m; ++i) (*energy)[ch] += energy_at_row[static_cast<std::size_t>(ch * m + i)];
+  }
+  std::array<MatrixXd, 3> q;
+  for (int ch = 0; ch < 3; ++ch) q[ch] = OrthonormalBasis(y[ch]);
+  for (int round = 0; round < power_iterations; ++round) {
+    std::array<MatrixXd, 3> z = TransposedProducts(s, weights, q);
+    for (int ch = 0; ch < 3; ++ch) z[ch] = OrthonormalBasis(z[ch]);
+    ForEachProduct(s, weights, z, [&](int ch, long long first, const MatrixXd& product) {
+      y[ch].middleRows(first, product.rows()) = product;
+    });
+    for (int ch = 0; ch < 3; ++ch) q[ch] = OrthonormalBasis(y[ch]);
+  }
+  const std::array<MatrixXd, 3> bt = TransposedProducts(s, weights, q);
+  std::array<ChannelSvd, 3> out;
+  for (int ch = 0; ch < 3; ++ch) {
+    Eigen::BDCSVD<MatrixXd> svd(bt[ch], Eigen::ComputeThinU);
+    out[ch].sigma = svd.singularValues();
+    out[ch].right = svd.matrixU();
+  }
+  return out;
+}
+
 // Relative error at every rank 1..max_rank from the spectra: the tail sums of
 // sigma^2 are summed from the small end, so tiny errors are not lost to
 // cancellation against ||A||^2.
+// With a truncated spectrum (randomized SVD) the tail is the channels' energy
+// ||S||_F^2 minus the leading sigma^2 instead: exact up to cancellation, so
+// errors below ~1e-8 read as 0 there.
+std::vector<double> TruncatedSpectrumErrors(const std::array<VectorXd, 3>& sigma, const std::array<double, 3>& energy,
+                                            int max_rank) {
+  double total = 0.0;
+  for (const double e : energy) total += e;
+  std::vector<double> errors(max_rank, 0.0);
+  if (!(total > 0.0)) return errors;
+  for (int k = 1; k <= max_rank; ++k) {
+    double leading = 0.0;
+    for (const VectorXd& s : sigma) leading += s.head(std::min<long long>(k, s.size())).squaredNorm();
+    errors[k - 1] = std::sqrt(std::max(0.0, total - leading) / total);
+  }
+  return errors;
+}
+
 template <typename Spectra>
 std::vector<double> SpectrumErrors(const Spectra& sigma, int max_rank) {
   double total = 0.0;
@@ -414,14 +543,25 @@ core::FactoredBtf CompressOneRepresentation(core::FullBtfReader& btf, const BtfC
   // The SVD of A (tall) or of A^T (wide); `right` then holds the right
   // singular vectors of A (tall) or its left ones (wide).
   const StreamedMatrix s(a, !tall, options.band_bytes);
-  const std::array<ChannelSvd, 3> svd = TallSkinnySvd(s, weights);
+  const int max_rank = static_cast<int>(std::min<long long>(core::kMaxBtfRank, small));
+  const bool randomized =
+      options.svd == BtfSvdMethod::kRandomized || (options.svd == BtfSvdMethod::kAuto && small > kMaxExactSvdColumns);
+  std::array<double, 3> energy{};
+  const std::array<ChannelSvd, 3> svd =
+      randomized ? RandomizedSvd(s, weights, std::min<long long>(small, max_rank + kRandomizedOversampling),
+                                 options.power_iterations, &energy)
+                 : TallSkinnySvd(s, weights);
 
   r = BtfCompressionReport{};
   for (int ch = 0; ch < 3; ++ch) r.singular_values[ch] = svd[ch].sigma;
-  r.max_rank = static_cast<int>(std::min<long long>(core::kMaxBtfRank, small));
+  r.max_rank = max_rank;
   r.matrix_rows = m;
   r.matrix_columns = n;
-  r.relative_rms_error = SpectrumErrors(r.singular_values, r.max_rank);
+  r.relative_rms_error = randomized ? TruncatedSpectrumErrors(r.singular_values, energy, r.max_rank)
+                                    : SpectrumErrors(r.singular_values, r.max_rank);
+  r.svd = randomized ? "randomized (" + std::to_string(svd[0].sigma.size()) + " components, " +
+                           std::to_string(options.power_iterations) + " power iterations)"
+                     : "exact";
 
   const FactorsFromSvd factors{s, weights, svd, tall, m, n, small};
   BuildAtChosenRank(
@@ -601,6 +741,25 @@ long long FactorBytes(core::BtfFactorLayout layout, int width, int height, int v
   return clustered ? bytes + texels * static_cast<long long>(sizeof(float)) : bytes;  // + the cluster ids
 }
 
+const char* ToString(BtfSvdMethod method) {
+  switch (method) {
+    case BtfSvdMethod::kAuto:
+      return "auto";
+    case BtfSvdMethod::kExact:
+      return "exact";
+    case BtfSvdMethod::kRandomized:
+      return "randomized";
+  }
+  return "?";
+}
+
+BtfSvdMethod ParseBtfSvdMethod(const std::string& name) {
+  for (const BtfSvdMethod method : {BtfSvdMethod::kAuto, BtfSvdMethod::kExact, BtfSvdMethod::kRandomized}) {
+    if (name == ToString(method)) return method;
+  }
+  throw core::Error("unknown SVD method " + core::Quoted(name) + " (expected auto, exact or randomized)");
+}
+
 core::CheckResult BtfCompressionOptions::Check() const {
   if (rank < 0 || rank > core::kMaxBtfRank) {
     return "rank " + std::to_string(rank) + " is outside 0..100 (0 chooses the rank by the error budget)";
@@ -614,6 +773,9 @@ core::CheckResult BtfCompressionOptions::Check() const {
   if (max_bytes < 0) return "max_bytes " + std::to_string(max_bytes) + " must be positive (0: no byte budget)";
   if (max_bytes > 0 && rank > 0) return "give either a rank or max_bytes, not both";
   if (band_bytes < 1) return "band_bytes " + std::to_string(band_bytes) + " must be positive";
+  if (power_iterations < 0 || power_iterations > 10) {
+    return "power_iterations " + std::to_string(power_iterations) + " is outside 0..10";
+  }
   if (clusters < 0 || clusters > core::kMaxBtfClusters) {
     return "clusters " + std::to_string(clusters) + " is outside 0.." + std::to_string(core::kMaxBtfClusters) +
            " (0 tries several)";
@@ -790,6 +952,7 @@ nlohmann::json ToJson(const BtfCompressionReport& report, const core::FactoredBt
                         {"relative_rms_by_rank", report.relative_rms_error},
                         {"max_rank", report.max_rank},
                         {"matrix_size", {report.matrix_rows, report.matrix_columns}},
+                        {"svd", report.svd},
                         {"singular_values", spectrum},
                         {"seconds", report.seconds}};
   if (factored.layout == core::BtfFactorLayout::kClustered) out["clusters"] = factored.cluster_count;
@@ -862,7 +1025,7 @@ double RelativeRmsError(core::FullBtfReader& truth, const core::FactoredBtf& fac
   }
   // Per row block, summed in block order so the result does not depend on
   // the thread count.
-  const long long block = BlockRows(n);
+  const long long block = ProductBlockRows(n);
   std::vector<double> error, norm;
   StreamedMatrix(a, false, band_bytes).ForEachBand([&](const MatrixBlock& band, long long band_first, long long count) {
     const long long blocks = (count + block - 1) / block;

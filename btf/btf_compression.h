@@ -24,6 +24,11 @@
 // n * eps * sigma_max (numerically zero: exactly rank-deficient data, a
 // constant-zero channel) get zero factors instead of a division by ~0.
 //
+// Where the streamed matrix is wide (over 2048 columns: per_texel on the
+// paper rig's 96 x 96 directions), a randomized SVD replaces the exact one
+// (BtfSvdMethod; Halko et al. 2011): a Gaussian sketch of rank + 10 columns
+// refined by power iterations, 2 + 2q passes, O(m n (K + 10)) work.
+//
 // Memory: the BTF is read through a FullBtfReader (core/btf.h) in bands of
 // about band_bytes (64 MiB; whole texture lines x all columns, or whole columns
 // when A is wide), one band at a time, so a BTF on disk (a material package) is
@@ -44,6 +49,16 @@
 #include "core/error.h"
 
 namespace mesocap::btf {
+
+// How each channel's matrix is factored: exactly (TSQR + SVD of R, see
+// above), by a randomized SVD (sketch, power iterations, SVD of the small
+// projection), or exactly up to 2048 columns of the streamed matrix and
+// randomized beyond (auto), where the exact one's n x n factors take
+// gigabytes and O(m n^2) time.
+enum class BtfSvdMethod { kAuto, kExact, kRandomized };
+const char* ToString(BtfSvdMethod method);  // "auto", "exact", "randomized"
+// Throws Error listing the names for anything else.
+BtfSvdMethod ParseBtfSvdMethod(const std::string& name);
 
 struct BtfCompressionOptions {
   // The representation: a matrix layout and the channels factored. Either
@@ -67,6 +82,9 @@ struct BtfCompressionOptions {
   // bytes of float RGB (at least one texture line x all columns, or one
   // column). The result does not depend on it beyond rounding.
   long long band_bytes = 64LL << 20;
+  BtfSvdMethod svd = BtfSvdMethod::kAuto;
+  // Randomized SVD: power iterations (0..10), two passes over the BTF each.
+  int power_iterations = 2;
 
   core::CheckResult Check() const;
 };
@@ -93,7 +111,7 @@ struct BtfRepresentationCandidate {
 
 struct BtfCompressionReport {
   // Per factored channel (R, G, B or Y, Cb, Cr), all min(rows, columns)
-  // singular values, descending.
+  // singular values, descending (the randomized SVD: its leading ones).
   std::array<Eigen::VectorXd, 3> singular_values;
   // relative_rms_error[K - 1]: ||A - A_K||_F / ||A||_F over the three
   // factored channels at rank K, from the spectrum (Eckart-Young), for
@@ -113,6 +131,9 @@ struct BtfCompressionReport {
   std::string representation_reason;
   long long matrix_rows = 0;
   long long matrix_columns = 0;
+  // "exact", or "randomized (L components, Q power iterations)"; with the
+  // randomized SVD singular_values holds the L leading ones only.
+  std::string svd;
   double seconds = 0.0;  // wall time of CompressBtf
 };
 

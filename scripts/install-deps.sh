@@ -30,6 +30,8 @@ packages=(
   # tests and benchmarks; chromium (/usr/bin/chromium) runs the daemon's
   # status page headless in a test
   libgtest-dev libgmock-dev libbenchmark-dev chromium
+  # the benchmarks' PNG plots (bench/*_plot.sh)
+  gnuplot-nox
   # fuzzing (scripts/fuzz.sh): clang and its runtimes, libFuzzer's among them
   clang libclang-rt-14-dev
 )

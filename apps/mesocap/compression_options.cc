@@ -61,6 +61,12 @@ void AddCompressionOptions(CLI::App* sub, btf::BtfCompressionOptions* o) {
          "channels factored: rgb, ycbcr (luminance/chroma) or auto (the smaller or more accurate for the budget)")
       ->check(CLI::IsMember({"auto", "rgb", "ycbcr"}))
       ->default_str("auto");
+  sub->add_option_function<std::string>(
+         "--svd", [o](const std::string& name) { o->svd = btf::ParseBtfSvdMethod(name); },
+         "exact (streamed QR), randomized (sketch and power iterations: for matrices over 2048 columns a side) "
+         "or auto (randomized where both sides exceed 2048)")
+      ->check(CLI::IsMember({"auto", "exact", "randomized"}))
+      ->default_str("auto");
 }
 
 }  // namespace mesocap
