@@ -1,7 +1,5 @@
 #include "sim/camera_renderer.h"
 
-#include "sim/board_photo_renderer.h"
-
 #include <tbb/parallel_for.h>
 
 #include <Eigen/Geometry>
@@ -14,6 +12,7 @@
 #include <sstream>
 
 #include "core/error.h"
+#include "sim/board_photo_renderer.h"
 #include "sim/true_calibration.h"
 
 namespace mesocap::sim {
@@ -24,8 +23,8 @@ namespace {
 ViewSample FlatGreySample(ViewSample::Surface surface, const Eigen::Vector3d& point_world, float albedo) {
   ViewSample s;
   s.surface = surface;
-  s.point = point_world;
-  s.normal = Eigen::Vector3d::UnitZ();
+  s.point = point_world.cast<float>();
+  s.normal = Eigen::Vector3f::UnitZ();
   s.reflectance.diffuse_albedo = Eigen::Vector3f::Constant(albedo);
   s.reflectance.specular_albedo = 0.0f;
   return s;
@@ -45,9 +44,7 @@ double Grey(const Eigen::Vector3f& rgb) { return (rgb[0] + rgb[1] + rgb[2]) / 3.
 
 // Sub-pixel offset of sample k of n per side, on a regular grid inside the
 // pixel [-0.5, 0.5]^2 around its centre.
-Eigen::Vector2d SubPixelOffset(int k, int n) {
-  return {((k % n) + 0.5) / n - 0.5, ((k / n) + 0.5) / n - 0.5};
-}
+Eigen::Vector2d SubPixelOffset(int k, int n) { return {((k % n) + 0.5) / n - 0.5, ((k / n) + 0.5) / n - 0.5}; }
 
 }  // namespace
 
@@ -192,8 +189,8 @@ ViewSample CameraRenderer::SampleHit(const Eigen::Vector3d& origin_world, const 
                           static_cast<float>(rig_.backing.albedo));
   }
   out.surface = ViewSample::Surface::kSample;
-  out.point = to_world * hit->point;
-  out.normal = to_world * hit->normal;
+  out.point = (to_world * hit->point).cast<float>();
+  out.normal = (to_world * hit->normal).cast<float>();
   out.reflectance = hit->reflectance;
   return out;
 }
@@ -253,8 +250,8 @@ bool CameraRenderer::Lit(const CameraView& view, const ViewSample& s, const Eige
     return s.surface != ViewSample::Surface::kNothing;
   }
   const Eigen::Matrix3d to_sample = RotationZ(-view.turntable_rad);
-  const Eigen::Vector3d p = to_sample * s.point;
-  const Eigen::Vector3d l = (to_sample * (light - s.point)).normalized();
+  const Eigen::Vector3d p = to_sample * s.Point();
+  const Eigen::Vector3d l = (to_sample * (light - s.Point())).normalized();
   if (l.z() <= 0.0) return false;  // a light at or below the reference plane cannot reach into the pocket
   const double t_top = -p.z() / l.z();
   const double eps = scene_.surface_epsilon_mm();
@@ -269,7 +266,7 @@ std::optional<ViewSample> CameraRenderer::BounceHit(const CameraView& view, cons
                                                     const Eigen::Vector3d& dir) const {
   if (s.surface != ViewSample::Surface::kSample) return std::nullopt;
   const Eigen::Matrix3d to_sample = RotationZ(-view.turntable_rad);
-  const Eigen::Vector3d p = to_sample * s.point;
+  const Eigen::Vector3d p = to_sample * s.Point();
   const Eigen::Vector3d d = to_sample * dir;
   const double t_exit = SlabExit(p, d);
   const double eps = scene_.surface_epsilon_mm();
@@ -279,8 +276,8 @@ std::optional<ViewSample> CameraRenderer::BounceHit(const CameraView& view, cons
   const Eigen::Matrix3d to_world = RotationZ(view.turntable_rad);
   ViewSample out;
   out.surface = ViewSample::Surface::kSample;
-  out.point = to_world * hit->point;
-  out.normal = to_world * hit->normal;
+  out.point = (to_world * hit->point).cast<float>();
+  out.normal = (to_world * hit->normal).cast<float>();
   out.reflectance = hit->reflectance;
   return out;
 }
@@ -306,14 +303,15 @@ core::Image CameraRenderer::RenderLamps(const CameraView& view, double arc_rad,
       for (int k = 0; k < view.samples_per_pixel; ++k) {
         const ViewSample& s = view.samples[first + k];
         if (s.surface == ViewSample::Surface::kNothing) continue;
-        const Eigen::Vector3d to_camera = (centre - s.point).normalized();
+        const Eigen::Vector3d point = s.Point(), normal = s.Normal();
+        const Eigen::Vector3d to_camera = (centre - point).normalized();
         for (const Lamp& lamp : lamps) {
-          const Eigen::Vector3d to_lamp = lamp.position - s.point;
+          const Eigen::Vector3d to_lamp = lamp.position - point;
           const double r2 = to_lamp.squaredNorm();
           const Eigen::Vector3d l = to_lamp / std::sqrt(r2);
-          const double n_dot_l = s.normal.dot(l);
+          const double n_dot_l = normal.dot(l);
           if (n_dot_l <= 0.0 || !Lit(view, s, lamp.position)) continue;
-          const Eigen::Vector3d f = s.reflectance.Evaluate(s.normal, l, to_camera).cast<double>();
+          const Eigen::Vector3d f = s.reflectance.Evaluate(normal, l, to_camera).cast<double>();
           sum += f.cwiseProduct(lamp.intensity) * (n_dot_l / r2);
         }
       }
@@ -370,8 +368,8 @@ CameraRenderer::RenderCache& CameraRenderer::CachedRender(const SimulatedRigStat
     entry->turntable_rad = state.turntable_rad;
     entry->plate_height_mm = plate_height_mm;
     entry->plate_albedo = plate_albedo;
-    entry->view = plate_height_mm ? TracePlate(camera, *plate_height_mm, plate_albedo)
-                                  : TraceSample(camera, state.turntable_rad);
+    entry->view =
+        plate_height_mm ? TracePlate(camera, *plate_height_mm, plate_albedo) : TraceSample(camera, state.turntable_rad);
   }
   if (state.laser_on &&
       (!entry->sweep || entry->laser_mount != state.laser_mount || entry->laser_arc_rad != state.light_arc_rad)) {
@@ -413,7 +411,7 @@ core::Image CameraRenderer::Render(const SimulatedRigState& state, int camera, i
   const bool any_lamp = std::find(state.lamps_on.begin(), state.lamps_on.end(), true) != state.lamps_on.end();
   if (!any_lamp && state.laser_on && channels == 1) return cached.sweep->Frame(state.laser_tilt_rad);
   core::Image image = any_lamp ? RenderLamps(cached.view, state.light_arc_rad, state.lamps_on)
-                         : core::Image(cached.view.width, cached.view.height, channels);
+                               : core::Image(cached.view.width, cached.view.height, channels);
   if (channels == 1) image = core::ChannelMean(std::move(image));
   if (state.laser_on) {
     const core::Image stripe = cached.sweep->Frame(state.laser_tilt_rad);
@@ -473,17 +471,17 @@ LaserSweepRenderer::LaserSweepRenderer(const CameraRenderer& renderer, const Cam
       for (int k = 0; k < view.samples_per_pixel; ++k) {
         const ViewSample& s = view.samples[pixel * view.samples_per_pixel + k];
         if (s.surface == ViewSample::Surface::kNothing) continue;
-        const Eigen::Vector3d l = (source_ - s.point).normalized();
-        const double n_dot_l = s.normal.dot(l);
+        const Eigen::Vector3d l = (source_ - s.Point()).normalized();
+        const double n_dot_l = s.Normal().dot(l);
         if (n_dot_l <= 0.0 || !renderer.Lit(view, s, source_)) continue;
-        const Eigen::Vector3d to_camera = (centre - s.point).normalized();
+        const Eigen::Vector3d to_camera = (centre - s.Point()).normalized();
         // The pixel averages its samples (a box filter).
         const double weight =
-            Grey(s.reflectance.Evaluate(s.normal, l, to_camera)) * n_dot_l * gain / view.samples_per_pixel;
+            Grey(s.reflectance.Evaluate(s.Normal(), l, to_camera)) * n_dot_l * gain / view.samples_per_pixel;
         // Sweeps tilt the plane by a few degrees (the stripe must stay on the
         // turntable), which changes the footprint along it by < 1 - cos(tilt).
         const double footprint = StripeFootprintVariance(camera, s, n0_, side);
-        AddLit(Stripe(s.point, weight, footprint), static_cast<std::uint32_t>(pixel), &rows[y]);
+        AddLit(Stripe(s.Point(), weight, footprint), static_cast<std::uint32_t>(pixel), &rows[y]);
       }
     }
   });
@@ -512,11 +510,11 @@ double StripeFootprintVariance(const formats::CameraCalibration& camera, const V
   // P(u, v) = C + z q(u, v) on the tangent plane, q the camera-frame ray
   // (x, y, 1) in the world: dP/du = z / fx (X - (n.X) / (n.Q) Q), Q = (P - C) / z.
   const Eigen::Matrix3d& rotation = camera.pose.transform.rotation;  // world <- camera
-  const Eigen::Vector3d offset = sample.point - camera.pose.transform.translation;
+  const Eigen::Vector3d offset = sample.Point() - camera.pose.transform.translation;
   const double z = rotation.col(2).dot(offset);
   if (!(z > 0.0)) return 0.0;
   const Eigen::Vector3d q = offset / z;
-  const Eigen::Vector3d& n = sample.normal;
+  const Eigen::Vector3d n = sample.Normal();
   double n_dot_q = n.dot(q);
   const double min_n_dot_q = kMinFootprintCosine * q.norm();
   if (std::abs(n_dot_q) < min_n_dot_q) n_dot_q = n_dot_q < 0.0 ? -min_n_dot_q : min_n_dot_q;
@@ -586,10 +584,9 @@ void LaserSweepRenderer::AddBounces(const CameraRenderer& renderer, const Camera
         const ViewSample& s = view.samples[pixel * view.samples_per_pixel + k % view.samples_per_pixel];
         if (s.surface != ViewSample::Surface::kSample) continue;
         // Cosine-distributed about the normal (pdf cos / pi).
-        const Eigen::Vector3d& n = s.normal;
-        const Eigen::Vector3d t = (std::abs(n.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY())
-                                      .cross(n)
-                                      .normalized();
+        const Eigen::Vector3d n = s.Normal();
+        const Eigen::Vector3d t =
+            (std::abs(n.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY()).cross(n).normalized();
         const Eigen::Vector3d b = n.cross(t);
         const double phi = 2.0 * std::numbers::pi * u1;
         const double sin_theta = std::sqrt(u2);
@@ -597,16 +594,16 @@ void LaserSweepRenderer::AddBounces(const CameraRenderer& renderer, const Camera
             (std::cos(phi) * sin_theta * t + std::sin(phi) * sin_theta * b + std::sqrt(1.0 - u2) * n).normalized();
         const std::optional<ViewSample> q = renderer.BounceHit(view, s, w);
         if (!q) continue;
-        const Eigen::Vector3d l_q = (source_ - q->point).normalized();
-        const double n_dot_l = q->normal.dot(l_q);
+        const Eigen::Vector3d l_q = (source_ - q->Point()).normalized();
+        const double n_dot_l = q->Normal().dot(l_q);
         if (n_dot_l <= 0.0 || !renderer.Lit(view, *q, source_)) continue;
-        const Eigen::Vector3d to_camera = (centre - s.point).normalized();
-        const Eigen::Vector3f f_s = s.reflectance.Evaluate(s.normal, w, to_camera);
-        const Eigen::Vector3f f_q = q->reflectance.Evaluate(q->normal, l_q, -w);
+        const Eigen::Vector3d to_camera = (centre - s.Point()).normalized();
+        const Eigen::Vector3f f_s = s.reflectance.Evaluate(s.Normal(), w, to_camera);
+        const Eigen::Vector3f f_q = q->reflectance.Evaluate(q->Normal(), l_q, -w);
         const double weight = gain * std::numbers::pi / rays_per_pixel * Grey(f_s.cwiseProduct(f_q)) * n_dot_l;
         if (!(weight > 0.0)) continue;
         // q is lit by the stripe itself, not seen through a pixel: no footprint.
-        AddLit(Stripe(q->point, weight, 0.0), static_cast<std::uint32_t>(pixel), &rows[y]);
+        AddLit(Stripe(q->Point(), weight, 0.0), static_cast<std::uint32_t>(pixel), &rows[y]);
       }
     }
   });

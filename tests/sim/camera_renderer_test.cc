@@ -58,8 +58,7 @@ TEST(CameraModelTest, UndistortInvertsTheForwardModelToAThousandthOfAPixel) {
 // Where the row (or column) `line` of the image crosses the projected
 // segment a-b (sample frame points on z = 0), by bisection on the segment.
 std::optional<double> PredictedCrossing(const formats::CameraCalibration& cam, const Eigen::Vector3d& a,
-                                        const Eigen::Vector3d& b, double turntable_rad, bool along_rows,
-                                        double line) {
+                                        const Eigen::Vector3d& b, double turntable_rad, bool along_rows, double line) {
   const int axis = along_rows ? 1 : 0;
   auto project = [&](double s) { return ProjectToPixel(cam, SampleToWorld(a + s * (b - a), turntable_rad)); };
   double lo = 0.25, hi = 0.75;  // away from the corners, where the other edge is near
@@ -188,7 +187,7 @@ TEST(CameraRendererTest, StripePeaksLieOnTheTrueLaserPlane) {
       auto on_sample = [&](double u, double v) -> std::optional<Eigen::Vector3d> {
         const ViewSample s = renderer.FirstHit(c, tt, u, v);
         if (s.surface == ViewSample::Surface::kNothing) return std::nullopt;
-        return s.point;
+        return s.Point();
       };
       for (const auto& loc : rig.laser.locations) {
         const LaserSweepRenderer sweep(renderer, view, loc.mount, loc.arc_angle_rad);
@@ -199,12 +198,12 @@ TEST(CameraRendererTest, StripePeaksLieOnTheTrueLaserPlane) {
           const ViewSample& s0 = view.samples[first];
           for (int k = 0; k < view.samples_per_pixel; ++k) {
             const ViewSample& s = view.samples[first + k];
-            if (s.surface == ViewSample::Surface::kNothing || s.point.z() != s0.point.z() ||
+            if (s.surface == ViewSample::Surface::kNothing || s.Point().z() != s0.Point().z() ||
                 !renderer.Lit(view, s, source)) {
               return std::nullopt;
             }
           }
-          return s0.point.z();
+          return s0.Point().z();
         };
         for (const double offset : {-4.0, 0.0, 2.5}) {
           const double tilt = calibration::LaserTiltForOffset(rig.laser, loc.mount, offset);
@@ -247,13 +246,13 @@ double FootprintVarianceByDifferences(const formats::CameraCalibration& c, const
                                       const Eigen::Vector3d& normal, int side) {
   const Eigen::Vector3d centre = c.pose.transform.translation;
   const Eigen::Matrix3d& rotation = c.pose.transform.rotation;
-  const Eigen::Vector3d local = rotation.transpose() * (s.point - centre);
+  const Eigen::Vector3d local = rotation.transpose() * (s.Point() - centre);
   const formats::Intrinsics& k = c.intrinsics;
   const double u = k.fx * local.x() / local.z() + k.cx, v = k.fy * local.y() / local.z() + k.cy;
-  if (std::abs(s.normal.dot((s.point - centre).normalized())) < kMinFootprintCosine) return std::nan("");
+  if (std::abs(s.Normal().dot((s.Point() - centre).normalized())) < kMinFootprintCosine) return std::nan("");
   auto hit = [&](double du, double dv) {
     const Eigen::Vector3d dir = rotation * Eigen::Vector3d((u + du - k.cx) / k.fx, (v + dv - k.cy) / k.fy, 1.0);
-    return Eigen::Vector3d(centre + s.normal.dot(s.point - centre) / s.normal.dot(dir) * dir);
+    return Eigen::Vector3d(centre + s.Normal().dot(s.Point() - centre) / s.Normal().dot(dir) * dir);
   };
   const double h = 1e-3;
   const double g_u = normal.dot(hit(h, 0) - hit(-h, 0)) / (2 * h) / side;
@@ -292,16 +291,16 @@ TEST(CameraRendererTest, SweepFramesEqualTheSumOverEveryLitSample) {
           const ViewSample& s =
               view.samples[(static_cast<std::size_t>(y) * view.width + x) * view.samples_per_pixel + k];
           if (s.surface == ViewSample::Surface::kNothing) continue;
-          const Eigen::Vector3d l = (source - s.point).normalized();
-          const double n_dot_l = s.normal.dot(l);
+          const Eigen::Vector3d l = (source - s.Point()).normalized();
+          const double n_dot_l = s.Normal().dot(l);
           if (n_dot_l <= 0.0 || !renderer.Lit(view, s, source)) continue;
           const double footprint = FootprintVarianceByDifferences(calibration, s, plane_at_zero, 2);
           edge_on |= std::isnan(footprint);
           const double wide = std::sqrt(sigma * sigma + footprint);
           widened |= wide > 1.1 * sigma;
-          const double d = plane.normal.dot(s.point - plane.source);
+          const double d = plane.normal.dot(s.Point() - plane.source);
           if (std::abs(d) >= 8.0 * wide) continue;
-          const Eigen::Vector3f f = s.reflectance.Evaluate(s.normal, l, (centre - s.point).normalized());
+          const Eigen::Vector3f f = s.reflectance.Evaluate(s.Normal(), l, (centre - s.Point()).normalized());
           expected += (f.sum() / 3.0) * n_dot_l * gain * (sigma / wide) * std::exp(-d * d / (2 * wide * wide)) /
                       view.samples_per_pixel;
         }
@@ -387,8 +386,8 @@ TEST(CameraRendererTest, InterreflectionAddsGhostLightOnlyWhereSurfacesSeeEachOt
   const auto flat = MakeBuiltinScene("flat");
   const auto flat_direct = sweep(*flat, 0), flat_bounced = sweep(*flat, 32);
   for (std::size_t f = 0; f < tilts.size(); ++f) {
-    EXPECT_TRUE(std::equal(flat_direct[f].data(), flat_direct[f].data() + flat_direct[f].size(),
-                           flat_bounced[f].data()))
+    EXPECT_TRUE(
+        std::equal(flat_direct[f].data(), flat_direct[f].data() + flat_direct[f].size(), flat_bounced[f].data()))
         << "frame " << f;
   }
 
@@ -457,8 +456,8 @@ TEST(CameraRendererTest, RaysThroughHolesMeetTheBackingBoard) {
         continue;
       }
       ++through;
-      EXPECT_NEAR(s.point.z(), -rig.backing.depth_mm, 1e-9);
-      EXPECT_LE(std::max(std::abs(s.point.x()), std::abs(s.point.y())), 0.5 * rig.sample_size_mm);
+      EXPECT_NEAR(s.Point().z(), -rig.backing.depth_mm, 1e-9);
+      EXPECT_LE(std::max(std::abs(s.Point().x()), std::abs(s.Point().y())), 0.5 * rig.sample_size_mm);
       EXPECT_FLOAT_EQ(s.reflectance.diffuse_albedo.x(), static_cast<float>(rig.backing.albedo));
       // The same ray finds no mesostructure above the board, and without a
       // board it sees black.
@@ -656,8 +655,8 @@ TEST(CameraRendererTest, SignalsLandInTheSensorsRange) {
     // Analytic: the flat sample (albedo 0.5) at the origin.
     const Eigen::Vector3d lamp = calibration::LampPosition(rig.lamps, 0, 0.0);
     const double gain = rig.cameras[0].exposure_us * 1e-6 * kSignalPerRadianceSecond;
-    const double lamp_signal = 0.5 / std::numbers::pi * rig.lamps.intensity.mean() / lamp.squaredNorm() *
-                               lamp.normalized().z() * gain;
+    const double lamp_signal =
+        0.5 / std::numbers::pi * rig.lamps.intensity.mean() / lamp.squaredNorm() * lamp.normalized().z() * gain;
     const Eigen::Vector3d source = calibration::LaserSource(rig.laser, rig.laser.locations[0]);
     const double laser_signal =
         0.5 / std::numbers::pi * renderer.LaserPeakIrradiance() * source.normalized().z() * gain;
@@ -686,8 +685,8 @@ TEST(SimulateCommandTest, TinySessionIsCompleteAndReadable) {
   ASSERT_TRUE(manifest.calibration);
   EXPECT_TRUE(fs::exists(session / *manifest.calibration));
   const std::size_t expected_steps =
-      rig.turntable.angles_rad.size() * (rig.light_arc.angles_rad.size() * rig.lamps.elevations_rad.size() +
-                                         rig.laser.locations.size()) +
+      rig.turntable.angles_rad.size() *
+          (rig.light_arc.angles_rad.size() * rig.lamps.elevations_rad.size() + rig.laser.locations.size()) +
       2 * rig.laser.locations.size();
   ASSERT_EQ(manifest.plan.size(), expected_steps);
   ASSERT_EQ(journal.records.size(), expected_steps);
@@ -701,8 +700,7 @@ TEST(SimulateCommandTest, TinySessionIsCompleteAndReadable) {
   for (std::size_t s = 0; s < manifest.plan.size(); ++s) {
     const formats::PlannedStep& step = manifest.plan[s];
     EXPECT_TRUE(done.count(step.id)) << step.id;
-    const formats::CaptureStep typed =
-        formats::ReadCaptureStep(step, s, rig, session / formats::kSessionManifestName);
+    const formats::CaptureStep typed = formats::ReadCaptureStep(step, s, rig, session / formats::kSessionManifestName);
     for (const formats::CameraFile& f : formats::Files(typed)) {
       const fs::path file = session / f.path;
       ASSERT_TRUE(fs::exists(file)) << file;
