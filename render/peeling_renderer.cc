@@ -247,8 +247,8 @@ struct PeelTargets {
   int width = 0, height = 0;
   GLuint zpeel[2] = {0, 0};
   GLuint zbo = 0;
-  GLuint color = 0;       // RGBA32F: colour (view) or shadow depth (light)
-  GLuint masks = 0;       // RGBA32F: coverage (light: a layer found), shadow
+  GLuint color = 0;       // view RGBA32F: colour; light R32F: shadow depth
+  GLuint masks = 0;       // view RGBA32F: coverage, shadow; light R8: a layer found
   GLuint surface = 0;     // view, RGBA32F: texture coordinates, irradiance (-1: shadow), material + 1
   GLuint directions = 0;  // view, RGBA32F: local view and light (theta, phi)
   GLuint depth_stencil = 0;
@@ -261,8 +261,10 @@ struct PeelTargets {
     height = h;
     for (GLuint& z : zpeel) z = MakeTexture2d(GL_R32F, w, h);
     zbo = MakeTexture2d(GL_R32F, w, h);
-    color = MakeTexture2d(GL_RGBA32F, w, h);
-    masks = MakeTexture2d(GL_RGBA32F, w, h);
+    // The light's targets hold one value a texel: a quarter of the memory
+    // traffic of its clears, peel passes and finishing passes.
+    color = MakeTexture2d(view ? GL_RGBA32F : GL_R32F, w, h);
+    masks = MakeTexture2d(view ? GL_RGBA32F : GL_R8, w, h);
     glCreateRenderbuffers(1, &depth_stencil);
     glNamedRenderbufferStorage(depth_stencil, GL_DEPTH32F_STENCIL8, w, h);
     glCreateFramebuffers(1, &back_fbo);
