@@ -262,18 +262,19 @@ std::array<MatrixXd, 3> TransposedProducts(const StreamedMatrix& s, const Channe
   const long long block = ProductBlockRows(n);
   s.ForEachBand([&](const MatrixBlock& band, long long band_first, long long count) {
     const long long chunk = (count + kChunks - 1) / kChunks;
-    tbb::parallel_for(tbb::blocked_range<long long>(0, 3 * kChunks, 1), [&](const tbb::blocked_range<long long>& range) {
-      MatrixXd a;
-      for (long long t = range.begin(); t < range.end(); ++t) {
-        const int ch = static_cast<int>(t / kChunks);
-        const long long begin = (t % kChunks) * chunk, end = std::min(count, begin + chunk);
-        for (long long first = begin; first < end; first += block) {
-          const long long rows = std::min(block, end - first);
-          s.Fill(band, first, rows, weights[ch], &a);
-          partial[t].noalias() += a.transpose() * left[ch].middleRows(band_first + first, rows);
-        }
-      }
-    });
+    tbb::parallel_for(tbb::blocked_range<long long>(0, 3 * kChunks, 1),
+                      [&](const tbb::blocked_range<long long>& range) {
+                        MatrixXd a;
+                        for (long long t = range.begin(); t < range.end(); ++t) {
+                          const int ch = static_cast<int>(t / kChunks);
+                          const long long begin = (t % kChunks) * chunk, end = std::min(count, begin + chunk);
+                          for (long long first = begin; first < end; first += block) {
+                            const long long rows = std::min(block, end - first);
+                            s.Fill(band, first, rows, weights[ch], &a);
+                            partial[t].noalias() += a.transpose() * left[ch].middleRows(band_first + first, rows);
+                          }
+                        }
+                      });
   });
   std::array<MatrixXd, 3> out;
   for (int ch = 0; ch < 3; ++ch) {
@@ -543,9 +544,13 @@ core::FactoredBtf CompressOneRepresentation(core::FullBtfReader& btf, const BtfC
   // The SVD of A (tall) or of A^T (wide); `right` then holds the right
   // singular vectors of A (tall) or its left ones (wide).
   const StreamedMatrix s(a, !tall, options.band_bytes);
-  const int max_rank = static_cast<int>(std::min<long long>(core::kMaxBtfRank, small));
   const bool randomized =
       options.svd == BtfSvdMethod::kRandomized || (options.svd == BtfSvdMethod::kAuto && small > kMaxExactSvdColumns);
+  // The randomized SVD sketches only the ranks it may need: a fixed rank's
+  // (the error per rank is then known up to it), or every rank a budget
+  // may choose.
+  const int max_rank =
+      static_cast<int>(std::min<long long>(randomized && options.rank > 0 ? options.rank : core::kMaxBtfRank, small));
   std::array<double, 3> energy{};
   const std::array<ChannelSvd, 3> svd =
       randomized ? RandomizedSvd(s, weights, std::min<long long>(small, max_rank + kRandomizedOversampling),
