@@ -344,12 +344,9 @@ std::array<ChannelSvd, 3> RandomizedSvd(const StreamedMatrix& s, const ChannelWe
   return out;
 }
 
-// Relative error at every rank 1..max_rank from the spectra: the tail sums of
-// sigma^2 are summed from the small end, so tiny errors are not lost to
-// cancellation against ||A||^2.
-// With a truncated spectrum (randomized SVD) the tail is the channels' energy
-// ||S||_F^2 minus the leading sigma^2 instead: exact up to cancellation, so
-// errors below ~1e-8 read as 0 there.
+// Relative error at every rank from a truncated spectrum (randomized SVD):
+// the tail is the channels' energy ||S||_F^2 minus the leading sigma^2,
+// exact up to cancellation, so errors below ~1e-8 read as 0 here.
 std::vector<double> TruncatedSpectrumErrors(const std::array<VectorXd, 3>& sigma, const std::array<double, 3>& energy,
                                             int max_rank) {
   double total = 0.0;
@@ -364,6 +361,9 @@ std::vector<double> TruncatedSpectrumErrors(const std::array<VectorXd, 3>& sigma
   return errors;
 }
 
+// Relative error at every rank 1..max_rank from the spectra: the tail sums of
+// sigma^2 are summed from the small end, so tiny errors are not lost to
+// cancellation against ||A||^2.
 template <typename Spectra>
 std::vector<double> SpectrumErrors(const Spectra& sigma, int max_rank) {
   double total = 0.0;

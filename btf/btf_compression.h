@@ -118,8 +118,9 @@ struct BtfCompressionReport {
   // K = 1..max_rank. For rgb this is the RGB error; for ycbcr it is the
   // error in the factored (Y, Cb, Cr) space.
   std::vector<double> relative_rms_error;
-  int max_rank =
-      0;         // largest rank considered: min(kMaxBtfRank, rows, columns) (randomized SVD at a fixed rank: that rank)
+  // Largest rank considered: min(kMaxBtfRank, rows, columns); with the
+  // randomized SVD at a fixed rank, that rank.
+  int max_rank = 0;
   int rank = 0;  // the chosen rank
   std::string reason;
   // Of the factors as returned (float), reconstructed and compared with the

@@ -297,6 +297,17 @@ struct PeelTargets {
           "buffer (GL_DEPTH32F_STENCIL8)");
     }
   }
+  bool is_view() const { return surface != 0; }
+  // Clears what the front faces write: the view's colour, masks and surface
+  // to zero; the light's shadow depth to far (1) and its mask to zero.
+  void ClearOutputs() const {
+    const GLfloat zero[4] = {0, 0, 0, 0};
+    const GLfloat far_value[4] = {1, 1, 1, 1};
+    glClearNamedFramebufferfv(front_fbo, GL_COLOR, 0, is_view() ? zero : far_value);
+    for (int attachment = 1; attachment < (is_view() ? 4 : 2); ++attachment) {
+      glClearNamedFramebufferfv(front_fbo, GL_COLOR, attachment, zero);
+    }
+  }
   void Destroy() {
     const GLuint fbos[4] = {back_fbo, front_fbo, finish_fbo, resolve_fbo};
     glDeleteFramebuffers(4, fbos);
@@ -443,12 +454,8 @@ struct PeelingRenderer::Impl {
     UseEye(eye);
     const float minus_one = -1.0f;
     glClearTexImage(t.zpeel[0], 0, GL_RED, GL_FLOAT, &minus_one);  // Zpeel_now: nothing peeled yet
-    const GLfloat zero[4] = {0, 0, 0, 0};
     const GLfloat far_value[4] = {1, 1, 1, 1};
-    glClearNamedFramebufferfv(t.front_fbo, GL_COLOR, 0, front_kind == kPassShadowFrontPeel ? far_value : zero);
-    for (int attachment = 1; attachment < (t.surface != 0 ? 4 : 2); ++attachment) {
-      glClearNamedFramebufferfv(t.front_fbo, GL_COLOR, attachment, zero);
-    }
+    t.ClearOutputs();
     glStencilMask(0xFF);  // clears obey the write masks
     glDepthMask(GL_TRUE);
     const GLint open = kStencilOpen;
@@ -499,14 +506,9 @@ struct PeelingRenderer::Impl {
   void Plain(PeelTargets& t, const Eye& eye, int kind) const {
     glViewport(0, 0, t.width, t.height);
     UseEye(eye);
-    const GLfloat zero[4] = {0, 0, 0, 0};
-    const GLfloat far_value[4] = {1, 1, 1, 1};
     glDepthMask(GL_TRUE);  // clears obey the write mask
     glBindFramebuffer(GL_FRAMEBUFFER, t.front_fbo);
-    glClearNamedFramebufferfv(t.front_fbo, GL_COLOR, 0, kind == kPassShadowPlain ? far_value : zero);
-    for (int attachment = 1; attachment < (t.surface != 0 ? 4 : 2); ++attachment) {
-      glClearNamedFramebufferfv(t.front_fbo, GL_COLOR, attachment, zero);
-    }
+    t.ClearOutputs();
     glClearNamedFramebufferfv(t.front_fbo, GL_DEPTH, 0, &kFarthestDepth);
     glDisable(GL_STENCIL_TEST);
     glEnable(GL_DEPTH_TEST);
