@@ -12,6 +12,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <memory>
 #include <opencv2/core.hpp>
 #include <random>
 #include <sstream>
@@ -502,48 +503,84 @@ ChannelWeights FactoredChannelWeights(const core::FactoredBtf& f) {
   return weights;
 }
 
-// Builds the factors at the rank the options give or the spectrum in `r`
-// chooses, measures their RGB error, and fills in the rank and bytes. The
-// budget is on RGB values; for ycbcr the spectrum measures the error in the
-// factored space, so the rank grows until the measured RGB error fits.
-void BuildAtChosenRank(core::FullBtfReader& btf, const BtfCompressionOptions& options, core::BtfFactorColor color,
-                       long long m, long long n, const std::function<void(int, core::FactoredBtf*)>& build,
-                       core::FactoredBtf* out, BtfCompressionReport& r) {
-  int rank = ChooseRank(options, color, m, n, &r);
-  build(rank, out);
-  r.measured_relative_rms_error = RelativeRmsError(btf, *out, options.band_bytes);
-  if (options.rank == 0 && color == core::BtfFactorColor::kYCbCr) {
+// One representation after its SVD, before its factors are built. The
+// spectrum gives the error of every rank: for rgb the RGB error itself
+// (Eckart-Young: exact for the exact SVD, an upper bound for the randomized
+// one, whose factors capture at least the sketch's energy), for ycbcr the
+// error in the factored space only. So a choice among representations
+// builds and measures only those the spectrum cannot settle.
+struct Factorization {
+  core::FactoredBtf shape;  // the size and representation, no factors
+  // The spectrum, its error per rank, max_rank, the matrix size, svd.
+  BtfCompressionReport report;
+  long long m = 0, n = 0;  // the matrix A of one channel
+  // The factors of rank k into a copy of `shape`; holds the SVD.
+  std::function<void(int, core::FactoredBtf*)> build;
+
+  long long Bytes(int rank) const {
+    return FactorBytes(shape.layout, shape.width, shape.height, shape.view_count(), shape.light_count(), rank,
+                       shape.cluster_count);
+  }
+};
+
+// Builds the factors at the rank the options give or the spectrum chooses,
+// measures their RGB error, and fills in the rank and bytes. The budget is on
+// RGB values; for ycbcr the spectrum measures the error in the factored
+// space, so the rank grows until the measured RGB error fits (for rgb only
+// float rounding could make it grow).
+core::FactoredBtf BuildAtChosenRank(core::FullBtfReader& btf, const BtfCompressionOptions& options,
+                                    const Factorization& f, BtfCompressionReport& r) {
+  r = f.report;
+  int rank = ChooseRank(options, f.shape.color, f.m, f.n, &r);
+  core::FactoredBtf out = f.shape;
+  f.build(rank, &out);
+  r.measured_relative_rms_error = RelativeRmsError(btf, out, options.band_bytes);
+  if (options.rank == 0 && options.max_bytes == 0) {
     while (r.measured_relative_rms_error > options.max_relative_error && rank < r.max_rank) {
-      build(++rank, out);
-      r.measured_relative_rms_error = RelativeRmsError(btf, *out, options.band_bytes);
+      f.build(++rank, &out);
+      r.measured_relative_rms_error = RelativeRmsError(btf, out, options.band_bytes);
       r.reason = "rank " + std::to_string(rank) + ": smallest rank whose measured RGB error " +
                  Percent(r.measured_relative_rms_error) + " meets the budget " + Percent(options.max_relative_error);
     }
   }
   r.rank = rank;
-  r.factor_bytes = FactorBytes(out->layout, out->width, out->height, out->view_count(), out->light_count(), rank,
-                               out->cluster_count);
-  out->CheckShape();
-  spdlog::debug("compress: {} {}, {} x {} matrix per channel, rank {} ({})", ToString(out->layout), ToString(color), m,
-                n, rank, r.reason);
+  r.factor_bytes = f.Bytes(rank);
+  out.CheckShape();
+  spdlog::debug("compress: {} {}, {} x {} matrix per channel, rank {} ({})", ToString(out.layout), ToString(out.color),
+                f.m, f.n, rank, r.reason);
+  return out;
 }
 
-// The factors of one representation, the rank as options.rank or chosen by
-// options.max_relative_error (max_bytes is turned into a rank by the caller).
-core::FactoredBtf CompressOneRepresentation(core::FullBtfReader& btf, const BtfCompressionOptions& options,
-                                            core::BtfFactorLayout layout, core::BtfFactorColor color,
-                                            BtfCompressionReport& r) {
-  core::FactoredBtf out = NoFactors(btf, layout, color);
-  const ChannelWeights weights = FactoredChannelWeights(out);
+// The SVD of one representation's matrix (paper or per_texel layout) and
+// what it needs to build factors: the matrix view of the BTF, kept in place
+// because the streamed matrix refers to it.
+struct GlobalSvd {
+  GlobalSvd(core::FullBtfReader& btf, core::BtfFactorLayout layout, long long band_bytes)
+      : a(btf, layout), s(a, a.rows() < a.columns(), band_bytes) {}
+  GlobalSvd(const GlobalSvd&) = delete;
+  GlobalSvd& operator=(const GlobalSvd&) = delete;
 
-  const BtfMatrix a(btf, layout);
-  const long long m = a.rows();
-  const long long n = a.columns();
-  const bool tall = m >= n;
-  const long long small = std::min(m, n);
+  BtfMatrix a;
+  StreamedMatrix s;
+  ChannelWeights weights;
+  std::array<ChannelSvd, 3> svd;
+};
+
+// The SVD of one representation in the paper or per_texel layout, the rank
+// as options.rank or left to options.max_relative_error (max_bytes is turned
+// into a rank by the caller).
+Factorization FactorOneRepresentation(core::FullBtfReader& btf, const BtfCompressionOptions& options,
+                                      core::BtfFactorLayout layout, core::BtfFactorColor color) {
+  Factorization f;
+  f.shape = NoFactors(btf, layout, color);
+  auto state = std::make_shared<GlobalSvd>(btf, layout, options.band_bytes);
+  state->weights = FactoredChannelWeights(f.shape);
+  f.m = state->a.rows();
+  f.n = state->a.columns();
+  const bool tall = f.m >= f.n;
+  const long long small = std::min(f.m, f.n);
   // The SVD of A (tall) or of A^T (wide); `right` then holds the right
   // singular vectors of A (tall) or its left ones (wide).
-  const StreamedMatrix s(a, !tall, options.band_bytes);
   const bool randomized =
       options.svd == BtfSvdMethod::kRandomized || (options.svd == BtfSvdMethod::kAuto && small > kMaxExactSvdColumns);
   // The randomized SVD sketches only the ranks it may need: a fixed rank's
@@ -552,26 +589,25 @@ core::FactoredBtf CompressOneRepresentation(core::FullBtfReader& btf, const BtfC
   const int max_rank =
       static_cast<int>(std::min<long long>(randomized && options.rank > 0 ? options.rank : core::kMaxBtfRank, small));
   std::array<double, 3> energy{};
-  const std::array<ChannelSvd, 3> svd =
-      randomized ? RandomizedSvd(s, weights, std::min<long long>(small, max_rank + kRandomizedOversampling),
-                                 options.power_iterations, &energy)
-                 : TallSkinnySvd(s, weights);
+  state->svd = randomized ? RandomizedSvd(state->s, state->weights,
+                                          std::min<long long>(small, max_rank + kRandomizedOversampling),
+                                          options.power_iterations, &energy)
+                          : TallSkinnySvd(state->s, state->weights);
 
-  r = BtfCompressionReport{};
-  for (int ch = 0; ch < 3; ++ch) r.singular_values[ch] = svd[ch].sigma;
+  BtfCompressionReport& r = f.report;
+  for (int ch = 0; ch < 3; ++ch) r.singular_values[ch] = state->svd[ch].sigma;
   r.max_rank = max_rank;
-  r.matrix_rows = m;
-  r.matrix_columns = n;
+  r.matrix_rows = f.m;
+  r.matrix_columns = f.n;
   r.relative_rms_error = randomized ? TruncatedSpectrumErrors(r.singular_values, energy, r.max_rank)
                                     : SpectrumErrors(r.singular_values, r.max_rank);
-  r.svd = randomized ? "randomized (" + std::to_string(svd[0].sigma.size()) + " components, " +
+  r.svd = randomized ? "randomized (" + std::to_string(state->svd[0].sigma.size()) + " components, " +
                            std::to_string(options.power_iterations) + " power iterations)"
                      : "exact";
-
-  const FactorsFromSvd factors{s, weights, svd, tall, m, n, small};
-  BuildAtChosenRank(
-      btf, options, color, m, n, [&](int k, core::FactoredBtf* f) { factors.Build(k, f); }, &out, r);
-  return out;
+  f.build = [state, tall, m = f.m, n = f.n, small](int k, core::FactoredBtf* out) {
+    FactorsFromSvd{state->s, state->weights, state->svd, tall, m, n, small}.Build(k, out);
+  };
+  return f;
 }
 
 // Clustered local PCA (Mueller et al. 2003): the texels are grouped by
@@ -667,44 +703,55 @@ ClusteredSvd ClusterAndFactor(core::FullBtfReader& btf, const ChannelWeights& we
   return out;
 }
 
-core::FactoredBtf CompressClustered(core::FullBtfReader& btf, const BtfCompressionOptions& options, int clusters,
-                                    core::BtfFactorColor color, BtfCompressionReport& r) {
-  core::FactoredBtf out = NoFactors(btf, core::BtfFactorLayout::kClustered, color);
-  const ChannelWeights weights = FactoredChannelWeights(out);
-  const long long m = static_cast<long long>(out.width) * out.height;
-  const long long n = static_cast<long long>(out.view_count()) * out.light_count();
-  const ClusteredSvd svd = ClusterAndFactor(btf, weights, clusters);
-  out.cluster_count = svd.clusters;
-  out.texel_clusters = svd.texel_clusters;
+// The clustered layout's k-means and per-cluster SVDs at `clusters`
+// clusters; each cluster's factors are kept up to the largest rank a budget
+// may choose.
+Factorization FactorClustered(core::FullBtfReader& btf, int clusters, core::BtfFactorColor color) {
+  Factorization f;
+  f.shape = NoFactors(btf, core::BtfFactorLayout::kClustered, color);
+  f.m = static_cast<long long>(f.shape.width) * f.shape.height;
+  f.n = static_cast<long long>(f.shape.view_count()) * f.shape.light_count();
+  auto svd = std::make_shared<ClusteredSvd>(ClusterAndFactor(btf, FactoredChannelWeights(f.shape), clusters));
+  f.shape.cluster_count = svd->clusters;
+  f.shape.texel_clusters = svd->texel_clusters;
 
-  r = BtfCompressionReport{};
+  BtfCompressionReport& r = f.report;
   long long largest = 0;
-  for (const auto& members : svd.members) largest = std::max<long long>(largest, members.size());
+  for (const auto& members : svd->members) largest = std::max<long long>(largest, members.size());
   r.max_rank = static_cast<int>(
-      std::min<long long>({core::kMaxBtfRank, std::min(largest, n), core::kMaxBtfColumnRows / svd.clusters}));
-  r.matrix_rows = m;
-  r.matrix_columns = n;
-  r.relative_rms_error = SpectrumErrors(svd.spectra, r.max_rank);
-  const auto build = [&](int k, core::FactoredBtf* f) {
-    f->rows.assign(k, core::Image(f->width, f->height, 3));
-    f->columns = core::Image(static_cast<int>(n), k * svd.clusters, 3);
-    for (int c = 0; c < svd.clusters; ++c) {
+      std::min<long long>({core::kMaxBtfRank, std::min(largest, f.n), core::kMaxBtfColumnRows / svd->clusters}));
+  r.matrix_rows = f.m;
+  r.matrix_columns = f.n;
+  r.relative_rms_error = SpectrumErrors(svd->spectra, r.max_rank);
+  r.svd = "exact";
+  for (int c = 0; c < svd->clusters; ++c) {
+    for (int ch = 0; ch < 3; ++ch) {
+      MatrixXd& left = svd->left[c][ch];
+      MatrixXd& right = svd->right[c][ch];
+      const long long kept = std::min<long long>(left.cols(), r.max_rank);
+      left = left.leftCols(kept).eval();
+      right = right.leftCols(kept).eval();
+    }
+  }
+  f.build = [svd, n = f.n](int k, core::FactoredBtf* out) {
+    out->rows.assign(k, core::Image(out->width, out->height, 3));
+    out->columns = core::Image(static_cast<int>(n), k * svd->clusters, 3);
+    for (int c = 0; c < svd->clusters; ++c) {
       for (int ch = 0; ch < 3; ++ch) {
-        const MatrixXd& left = svd.left[c][ch];
-        const MatrixXd& right = svd.right[c][ch];
+        const MatrixXd& left = svd->left[c][ch];
+        const MatrixXd& right = svd->right[c][ch];
         for (int j = 0; j < std::min<long long>(k, left.cols()); ++j) {
-          for (std::size_t i = 0; i < svd.members[c].size(); ++i) {
-            f->rows[j].data()[3 * svd.members[c][i] + ch] = static_cast<float>(left(static_cast<long long>(i), j));
+          for (std::size_t i = 0; i < svd->members[c].size(); ++i) {
+            out->rows[j].data()[3 * svd->members[c][i] + ch] = static_cast<float>(left(static_cast<long long>(i), j));
           }
           for (long long col = 0; col < n; ++col) {
-            f->columns.pixel(static_cast<int>(col), c * k + j)[ch] = static_cast<float>(right(col, j));
+            out->columns.pixel(static_cast<int>(col), c * k + j)[ch] = static_cast<float>(right(col, j));
           }
         }
       }
     }
   };
-  BuildAtChosenRank(btf, options, color, m, n, build, &out, r);
-  return out;
+  return f;
 }
 
 std::string RepresentationName(core::BtfFactorLayout layout, core::BtfFactorColor color, int clusters) {
@@ -725,12 +772,12 @@ std::string Bytes(long long bytes) {
 // meet it, else (none meets it) the more accurate.
 bool Better(const BtfRepresentationCandidate& c, const BtfRepresentationCandidate& best, bool byte_budget) {
   if (byte_budget || (!c.meets_budget && !best.meets_budget)) {
-    return c.measured_relative_rms_error < best.measured_relative_rms_error ||
-           (c.measured_relative_rms_error == best.measured_relative_rms_error && c.factor_bytes < best.factor_bytes);
+    return c.relative_rms_error < best.relative_rms_error ||
+           (c.relative_rms_error == best.relative_rms_error && c.factor_bytes < best.factor_bytes);
   }
   if (c.meets_budget != best.meets_budget) return c.meets_budget;
   return c.factor_bytes < best.factor_bytes ||
-         (c.factor_bytes == best.factor_bytes && c.measured_relative_rms_error < best.measured_relative_rms_error);
+         (c.factor_bytes == best.factor_bytes && c.relative_rms_error < best.relative_rms_error);
 }
 
 }  // namespace
@@ -800,24 +847,20 @@ core::FactoredBtf CompressBtf(core::FullBtfReader& btf, const BtfCompressionOpti
   BtfCompressionReport& r = report ? *report : local;
 
   // The representations allowed: every layout and colour the options leave
-  // open, the clustered layout at each cluster count.
+  // open, the clustered layout at each cluster count; rgb first, whose
+  // spectra settle their errors, so that a ycbcr representation that cannot
+  // beat the best of them need not be built.
   std::vector<core::BtfFactorLayout> layouts{core::BtfFactorLayout::kPaper, core::BtfFactorLayout::kPerTexel,
                                              core::BtfFactorLayout::kClustered};
   std::vector<core::BtfFactorColor> colors{core::BtfFactorColor::kRgb, core::BtfFactorColor::kYCbCr};
   if (options.layout) layouts = {*options.layout};
   if (options.color) colors = {*options.color};
   std::vector<BtfRepresentationCandidate> candidates;
-  for (const core::BtfFactorLayout layout : layouts) {
-    for (const core::BtfFactorColor color : colors) {
-      if (layout != core::BtfFactorLayout::kClustered) {
-        BtfRepresentationCandidate c;
-        c.layout = layout;
-        c.color = color;
-        candidates.push_back(c);
-        continue;
-      }
-      std::vector<int> counts{8, 32, 128};
-      if (options.clusters > 0) counts = {options.clusters};
+  for (const core::BtfFactorColor color : colors) {
+    for (const core::BtfFactorLayout layout : layouts) {
+      std::vector<int> counts{1};
+      if (layout == core::BtfFactorLayout::kClustered)
+        counts = options.clusters > 0 ? std::vector<int>{options.clusters} : std::vector<int>{8, 32, 128};
       for (const int clusters : counts) {
         BtfRepresentationCandidate c;
         c.layout = layout;
@@ -833,8 +876,22 @@ core::FactoredBtf CompressBtf(core::FullBtfReader& btf, const BtfCompressionOpti
   const long long full_bytes =
       texels * btf.view_count() * btf.light_count() * 3 * static_cast<long long>(sizeof(float));
 
+  // Under an error budget, factors as large as the BTF itself compress
+  // nothing: they do not count as meeting it.
+  const auto judge = [&](BtfRepresentationCandidate& c) {
+    c.meets_budget = byte_budget ? c.factor_bytes <= options.max_bytes
+                                 : options.rank > 0 || (c.relative_rms_error <= options.max_relative_error &&
+                                                        c.factor_bytes < full_bytes);
+    if (!byte_budget && options.rank == 0 && c.relative_rms_error <= options.max_relative_error && !c.meets_budget) {
+      c.note = "meets the error budget only in at least as many bytes as the full BTF (" + Bytes(full_bytes) + ")";
+    }
+  };
+  // The best so far: its factors when they were built to settle its error,
+  // else its SVD, built once the choice is made.
   core::FactoredBtf best;
   BtfCompressionReport best_report;
+  std::optional<Factorization> best_unbuilt;
+  BtfCompressionOptions best_options;
   int best_index = -1;
   for (std::size_t i = 0; i < candidates.size(); ++i) {
     BtfRepresentationCandidate& c = candidates[i];
@@ -864,28 +921,54 @@ core::FactoredBtf CompressBtf(core::FullBtfReader& btf, const BtfCompressionOpti
         continue;
       }
     }
-    BtfCompressionReport one_report;
-    core::FactoredBtf factored = c.layout == core::BtfFactorLayout::kClustered
-                                     ? CompressClustered(btf, one, c.clusters, c.color, one_report)
-                                     : CompressOneRepresentation(btf, one, c.layout, c.color, one_report);
-    c.clusters = factored.cluster_count;
-    c.rank = one_report.rank;
-    c.factor_bytes = one_report.factor_bytes;
-    c.measured_relative_rms_error = one_report.measured_relative_rms_error;
-    // Under an error budget, factors as large as the BTF itself compress
-    // nothing: they do not count as meeting it.
-    c.meets_budget = byte_budget ? c.factor_bytes <= options.max_bytes
-                                 : options.rank > 0 || (c.measured_relative_rms_error <= options.max_relative_error &&
-                                                        c.factor_bytes < full_bytes);
-    if (!byte_budget && options.rank == 0 && c.measured_relative_rms_error <= options.max_relative_error &&
-        !c.meets_budget) {
-      c.note = "meets the error budget only in at least as many bytes as the full BTF (" + Bytes(full_bytes) + ")";
+    Factorization f = c.layout == core::BtfFactorLayout::kClustered
+                          ? FactorClustered(btf, c.clusters, c.color)
+                          : FactorOneRepresentation(btf, one, c.layout, c.color);
+    c.clusters = f.shape.cluster_count;
+    BtfCompressionReport spectral = f.report;
+    c.rank = ChooseRank(one, c.color, f.m, f.n, &spectral);
+    c.factor_bytes = f.Bytes(c.rank);
+    c.relative_rms_error = spectral.relative_rms_error[c.rank - 1];
+    core::FactoredBtf built;
+    BtfCompressionReport built_report;
+    if (c.color != core::BtfFactorColor::kRgb) {
+      // Under an error budget the rank only grows from the spectrum's while
+      // the measured RGB error is over the budget: at least these bytes.
+      const BtfRepresentationCandidate* leader = best_index >= 0 ? &candidates[best_index] : nullptr;
+      if (choosing && !byte_budget && leader && leader->meets_budget && c.factor_bytes >= leader->factor_bytes) {
+        c.note = "not built: its spectrum's rank " + std::to_string(c.rank) + " (" + Percent(c.relative_rms_error) +
+                 " in Y, Cb, Cr) already takes " + Bytes(c.factor_bytes) + ", no less than " +
+                 RepresentationName(leader->layout, leader->color, leader->clusters);
+        continue;
+      }
+      built = BuildAtChosenRank(btf, one, f, built_report);
+      c.rank = built_report.rank;
+      c.factor_bytes = built_report.factor_bytes;
+      c.relative_rms_error = built_report.measured_relative_rms_error;
+      c.measured = true;
     }
+    judge(c);
     if (best_index < 0 || Better(c, candidates[best_index], byte_budget)) {
       best_index = static_cast<int>(i);
-      best = std::move(factored);
-      best_report = std::move(one_report);
+      best_options = one;
+      if (c.measured) {
+        best = std::move(built);
+        best_report = std::move(built_report);
+        best_unbuilt.reset();
+      } else {
+        best_unbuilt = std::move(f);
+      }
     }
+  }
+  if (best_index >= 0 && best_unbuilt) {
+    BtfRepresentationCandidate& c = candidates[best_index];
+    best = BuildAtChosenRank(btf, best_options, *best_unbuilt, best_report);
+    best_unbuilt.reset();
+    c.rank = best_report.rank;
+    c.factor_bytes = best_report.factor_bytes;
+    c.relative_rms_error = best_report.measured_relative_rms_error;
+    c.measured = true;
+    judge(c);
   }
   if (best_index < 0) {
     throw core::Error(
@@ -904,7 +987,7 @@ core::FactoredBtf CompressBtf(core::FullBtfReader& btf, const BtfCompressionOpti
     const BtfRepresentationCandidate& c = candidates[best_index];
     const std::string name = RepresentationName(c.layout, c.color, c.clusters);
     const std::string figures =
-        "rank " + std::to_string(c.rank) + ", " + Bytes(c.factor_bytes) + ", " + Percent(c.measured_relative_rms_error);
+        "rank " + std::to_string(c.rank) + ", " + Bytes(c.factor_bytes) + ", " + Percent(c.relative_rms_error);
     if (byte_budget) {
       r.representation_reason = name + ": the most accurate of " + std::to_string(candidates.size()) +
                                 " representations within " + Bytes(options.max_bytes) + " (" + figures + ")";
@@ -942,7 +1025,10 @@ nlohmann::json ToJson(const BtfCompressionReport& report, const core::FactoredBt
                           {"color", ToString(c.color)},
                           {"rank", c.rank},
                           {"factor_bytes", c.factor_bytes},
-                          {"measured_relative_rms", c.measured_relative_rms_error},
+                          {"relative_rms", c.relative_rms_error},
+                          {"error_from", c.measured                              ? "measured"
+                                         : c.color == core::BtfFactorColor::kRgb ? "spectrum"
+                                                                                 : "spectrum in Y, Cb, Cr"},
                           {"meets_budget", c.meets_budget}};
     if (c.layout == core::BtfFactorLayout::kClustered) one["clusters"] = c.clusters;
     if (!c.note.empty()) one["note"] = c.note;

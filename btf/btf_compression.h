@@ -6,7 +6,9 @@
 // et al. 2003) splits the texels by k-means and factors each cluster's A on
 // its own; a cluster of one texel is exact at rank 1, and one of identical
 // texels at rank 1 as well. With the layout or colour left open, every
-// representation allowed is factored and the budget picks one.
+// representation allowed is factored and the budget picks one; the spectra
+// settle the choice where they can, so mostly only the one kept has its
+// factors built and measured.
 //
 // Algorithm and conditioning: A is tall and skinny in the paper layout
 // (W*H*Nlight rows, Nview columns). Its SVD is taken as a Householder QR of A,
@@ -96,17 +98,25 @@ struct BtfCompressionOptions {
 long long FactorBytes(core::BtfFactorLayout layout, int width, int height, int views, int lights, int rank,
                       int clusters = 1);
 
-// One representation factored while choosing (BtfCompressionOptions with
-// the layout or colour left empty).
+// One representation considered while choosing (BtfCompressionOptions with
+// the layout or colour left empty). Each is factored (its SVD); its factors
+// are built and measured only where the spectrum cannot settle the choice:
+// an rgb representation's RGB error is its spectrum's (exact SVD; an upper
+// bound for the randomized one), a ycbcr one's spectrum measures the error
+// in Y, Cb, Cr.
 struct BtfRepresentationCandidate {
   core::BtfFactorLayout layout = core::BtfFactorLayout::kPaper;
   core::BtfFactorColor color = core::BtfFactorColor::kRgb;
   int clusters = 1;  // clustered: the number of clusters
   int rank = 0;      // 0: not factored (see note)
   long long factor_bytes = 0;
-  double measured_relative_rms_error = 0.0;
+  // RGB relative RMS error at `rank`: measured on built factors, or (not
+  // measured) the spectrum's.
+  double relative_rms_error = 0.0;
+  bool measured = false;
   bool meets_budget = false;
-  std::string note;  // why it was not factored, or why it does not meet the budget
+  // Why it was not factored or not built, or why it does not meet the budget.
+  std::string note;
 };
 
 struct BtfCompressionReport {
@@ -127,7 +137,7 @@ struct BtfCompressionReport {
   // input in RGB: ||T - T_K||_F / ||T||_F (0 when the BTF is all zero).
   double measured_relative_rms_error = 0.0;
   long long factor_bytes = 0;  // of the factors returned (FactorBytes)
-  // When the representation was chosen: every one factored, in the order
+  // When the representation was chosen: every one considered, in the order
   // tried, and why the one returned was kept.
   std::vector<BtfRepresentationCandidate> candidates;
   std::string representation_reason;
@@ -140,7 +150,8 @@ struct BtfCompressionReport {
 };
 
 // Factors `btf`, choosing the representation when the options leave it open
-// (one pass per representation and rank tried). Throws Error on invalid
+// (an SVD per representation; factors built for the one kept and for the
+// ycbcr ones that could beat it). Throws Error on invalid
 // options, an empty or inconsistent BTF, a non-finite value (naming the
 // view, texel and light), or a max_bytes below rank 1 of every
 // representation allowed.
