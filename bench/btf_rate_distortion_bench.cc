@@ -1,8 +1,8 @@
 // Rate against distortion of every BTF representation `compress` chooses
 // from: for each ground-truth package given, each layout (paper, per_texel,
-// clustered at 8, 32 and 128 clusters) and colour (rgb, ycbcr) is factored
+// clustered at 8, 32 and 128 clusters, per_view) and colour (rgb, ycbcr) is factored
 // once at its largest rank, and its leading K components (the rank-K
-// factors: truncating an SVD, or each cluster's, gives the rank-K one) are
+// factors: truncating an SVD, or each cluster's or view's, gives the rank-K one) are
 // measured against the exact BTF at a ladder of ranks, up to the size of the
 // BTF itself (float32; beyond it a representation saves nothing). Prints CSV:
 //   scene,representation,rank,bytes,bytes_per_texel,relative_rms,snr_db
@@ -30,8 +30,8 @@ namespace {
 core::FactoredBtf LeadingComponents(const core::FactoredBtf& f, int rank) {
   core::FactoredBtf t = f;
   t.rows.assign(f.rows.begin(), f.rows.begin() + rank);
-  t.columns = core::Image(f.columns.width(), rank * f.cluster_count, 3);
-  for (int c = 0; c < f.cluster_count; ++c)
+  t.columns = core::Image(f.columns.width(), rank * f.column_sets(), 3);
+  for (int c = 0; c < f.column_sets(); ++c)
     for (int k = 0; k < rank; ++k)
       for (int x = 0; x < f.columns.width(); ++x)
         for (int ch = 0; ch < 3; ++ch) t.columns.at(x, c * rank + k, ch) = f.columns.at(x, c * f.rank() + k, ch);
@@ -62,10 +62,13 @@ void Measure(const std::filesystem::path& package) {
     representations.push_back({core::BtfFactorLayout::kPerTexel, 1, color});
     for (const int clusters : {8, 32, 128})
       representations.push_back({core::BtfFactorLayout::kClustered, clusters, color});
+    representations.push_back({core::BtfFactorLayout::kPerView, 1, color});
   }
   for (const Representation& r : representations) {
     const long long rows = r.layout == core::BtfFactorLayout::kPaper ? 1LL * w * h * nl : 1LL * w * h;
-    const long long columns = r.layout == core::BtfFactorLayout::kPaper ? nv : 1LL * nv * nl;
+    const long long columns = r.layout == core::BtfFactorLayout::kPaper     ? nv
+                              : r.layout == core::BtfFactorLayout::kPerView ? std::min(nl, core::kMaxBtfColumnRows / nv)
+                                                                            : 1LL * nv * nl;
     btf::BtfCompressionOptions o;
     o.layout = r.layout;
     o.color = r.color;

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Rate against distortion of every BTF representation `compress` chooses
-# from (paper, per_texel, clustered at 8/32/128 clusters; rgb and ycbcr) on
+# from (paper, per_texel, clustered at 8/32/128 clusters, per_view; rgb and ycbcr) on
 # the exact BTFs of weave, blocks, grass, brick and pipes (`groundtruth` on
 # the small rig, its default 64 x 64 texels): -20 log10(relative RMS error),
 # i.e. PSNR with the BTF's own RMS as the peak, against bytes per texel of
@@ -59,14 +59,14 @@ set key top left font ",8"
 # The paper layout at rank 4 (the reference size).
 set arrow 1 from 2304, graph 0 to 2304, graph 1 nohead dashtype 2 lc rgb "gray40"
 reps = "${representations}"
-dash(i) = i > 5 ? 2 : 1
+dash(i) = i > 6 ? 2 : 1
 file(s, r) = sprintf("%s/series/%s__%s.dat", "${work}", s, system(sprintf("echo '%s' | tr '/()' '___'", r)))
 do for [s in "${scenes[*]}"] {
   set title s
   # Colour by layout, solid for rgb and dashed for ycbcr (the CSV lists the
-  # five layouts in rgb, then in ycbcr).
+  # six layouts in rgb, then in ycbcr).
   plot for [i = 1:words(reps)] file(s, word(reps, i)) using 1:2 with linespoints pointsize 0.6 \
-    lc ((i - 1) % 5 + 1) dashtype dash(i) title (word(reps, i))
+    lc ((i - 1) % 6 + 1) dashtype dash(i) title (word(reps, i))
 }
 unset multiplot
 GNUPLOT

@@ -754,6 +754,73 @@ Factorization FactorClustered(core::FullBtfReader& btf, int clusters, core::BtfF
   return f;
 }
 
+// The per-view factorisation (Sattler et al. 2003): each view's texels x
+// lights matrix A_v gets its own SVD, one rank for all views. A_v is tall
+// (texels) and narrow (lights), so its SVD is taken directly (Eigen BDCSVD,
+// accurate to rounding, not through A_v^T A_v). Only each view's right
+// singular vectors (Nlight x K) are kept; the row factors A_v v_k are
+// computed from the data when the factors are built, a second read of the
+// views, so memory stays at one view per worker.
+Factorization FactorPerView(core::FullBtfReader& btf, core::BtfFactorColor color) {
+  Factorization f;
+  f.shape = NoFactors(btf, core::BtfFactorLayout::kPerView, color);
+  const int nv = btf.view_count(), nl = btf.light_count(), h = btf.height();
+  const long long texels = static_cast<long long>(btf.width()) * h;
+  f.m = texels;
+  f.n = static_cast<long long>(nv) * nl;
+  const ChannelWeights weights = FactoredChannelWeights(f.shape);
+  // View v's matrix for channel ch: texels x lights.
+  const auto view_matrix = [&btf, weights, texels, nl, h](int v, std::array<MatrixXd, 3>* a) {
+    std::vector<float> rgb(static_cast<std::size_t>(3 * texels * nl));
+    btf.ReadRows(v, 0, h * nl, rgb.data());
+    for (int ch = 0; ch < 3; ++ch) {
+      (*a)[ch].resize(texels, nl);
+      for (int l = 0; l < nl; ++l)
+        for (long long p = 0; p < texels; ++p) {
+          (*a)[ch](p, l) = MatrixBlock::Weighted(weights[ch], rgb.data() + 3 * (l * texels + p));
+        }
+    }
+  };
+  BtfCompressionReport& r = f.report;
+  r.max_rank = static_cast<int>(std::min<long long>(
+      {core::kMaxBtfRank, std::min<long long>(texels, nl), core::kMaxBtfColumnRows / std::max(1, nv)}));
+  r.matrix_rows = f.m;
+  r.matrix_columns = f.n;
+  r.svd = "exact";
+  // Per view and channel: V truncated to max_rank columns; the spectra.
+  auto right = std::make_shared<std::vector<std::array<MatrixXd, 3>>>(nv);
+  std::vector<VectorXd> spectra(3 * static_cast<std::size_t>(nv));
+  tbb::parallel_for(0, nv, [&](int v) {
+    std::array<MatrixXd, 3> a;
+    view_matrix(v, &a);
+    for (int ch = 0; ch < 3; ++ch) {
+      Eigen::BDCSVD<MatrixXd> svd(a[ch], Eigen::ComputeThinV);
+      spectra[3 * v + ch] = svd.singularValues();
+      (*right)[v][ch] = svd.matrixV().leftCols(std::min<long long>(svd.matrixV().cols(), r.max_rank));
+    }
+  });
+  r.relative_rms_error = SpectrumErrors(spectra, r.max_rank);
+  f.build = [right, view_matrix, texels, nv, nl](int k, core::FactoredBtf* out) {
+    out->rows.assign(k, core::Image(out->width, out->row_image_height(), 3));
+    out->columns = core::Image(nl, k * nv, 3);
+    tbb::parallel_for(0, nv, [&](int v) {
+      std::array<MatrixXd, 3> a;
+      view_matrix(v, &a);
+      for (int ch = 0; ch < 3; ++ch) {
+        const MatrixXd& vectors = (*right)[v][ch];
+        const long long usable = std::min<long long>(k, vectors.cols());
+        const MatrixXd av = a[ch] * vectors.leftCols(usable);  // r_k = A_v v_k
+        for (int j = 0; j < usable; ++j) {
+          float* dst = out->rows[j].data() + 3 * v * texels + ch;
+          for (long long p = 0; p < texels; ++p) dst[3 * p] = static_cast<float>(av(p, j));
+          for (int l = 0; l < nl; ++l) out->columns.pixel(l, v * k + j)[ch] = static_cast<float>(vectors(l, j));
+        }
+      }
+    });
+  };
+  return f;
+}
+
 std::string RepresentationName(core::BtfFactorLayout layout, core::BtfFactorColor color, int clusters) {
   return std::string(ToString(layout)) +
          (layout == core::BtfFactorLayout::kClustered ? "(" + std::to_string(clusters) + ")" : std::string()) + "/" +
@@ -786,8 +853,9 @@ long long FactorBytes(core::BtfFactorLayout layout, int width, int height, int v
                       int clusters) {
   const bool paper = layout == core::BtfFactorLayout::kPaper;
   const bool clustered = layout == core::BtfFactorLayout::kClustered;
+  const bool per_view = layout == core::BtfFactorLayout::kPerView;
   const long long texels = static_cast<long long>(width) * height;
-  const long long row_pixels = texels * (paper ? lights : 1);
+  const long long row_pixels = texels * (paper ? lights : per_view ? views : 1);
   const long long columns = (paper ? views : static_cast<long long>(views) * lights) * (clustered ? clusters : 1);
   const long long bytes = 3LL * static_cast<long long>(sizeof(float)) * rank * (row_pixels + columns);
   return clustered ? bytes + texels * static_cast<long long>(sizeof(float)) : bytes;  // + the cluster ids
@@ -851,7 +919,7 @@ core::FactoredBtf CompressBtf(core::FullBtfReader& btf, const BtfCompressionOpti
   // spectra settle their errors, so that a ycbcr representation that cannot
   // beat the best of them need not be built.
   std::vector<core::BtfFactorLayout> layouts{core::BtfFactorLayout::kPaper, core::BtfFactorLayout::kPerTexel,
-                                             core::BtfFactorLayout::kClustered};
+                                             core::BtfFactorLayout::kClustered, core::BtfFactorLayout::kPerView};
   std::vector<core::BtfFactorColor> colors{core::BtfFactorColor::kRgb, core::BtfFactorColor::kYCbCr};
   if (options.layout) layouts = {*options.layout};
   if (options.color) colors = {*options.color};
@@ -911,6 +979,9 @@ core::FactoredBtf CompressBtf(core::FullBtfReader& btf, const BtfCompressionOpti
       if (c.layout == core::BtfFactorLayout::kClustered) {
         one.rank = std::min(one.rank, core::kMaxBtfColumnRows / std::max(1, c.clusters));
       }
+      if (c.layout == core::BtfFactorLayout::kPerView) {
+        one.rank = std::min({one.rank, btf.light_count(), core::kMaxBtfColumnRows / btf.view_count()});
+      }
       if (one.rank == 0) {
         c.factor_bytes = per_rank + ids;
         c.note = "not tried: rank 1 takes " + std::to_string(c.factor_bytes) + " bytes";
@@ -921,8 +992,9 @@ core::FactoredBtf CompressBtf(core::FullBtfReader& btf, const BtfCompressionOpti
         continue;
       }
     }
-    Factorization f = c.layout == core::BtfFactorLayout::kClustered
-                          ? FactorClustered(btf, c.clusters, c.color)
+    Factorization f = c.layout == core::BtfFactorLayout::kClustered ? FactorClustered(btf, c.clusters, c.color)
+                      : c.layout == core::BtfFactorLayout::kPerView
+                          ? FactorPerView(btf, c.color)
                           : FactorOneRepresentation(btf, one, c.layout, c.color);
     c.clusters = f.shape.cluster_count;
     BtfCompressionReport spectral = f.report;
@@ -1066,16 +1138,19 @@ core::Image ReconstructBtfView(const core::FactoredBtf& f, int view) {
   std::vector<double> acc(3 * texels);
   for (int l = 0; l < nl; ++l) {
     std::fill(acc.begin(), acc.end(), 0.0);
-    // paper: rows (x, y, light), column view; per_texel: rows (x, y), column
+    // paper: rows (x, y, light), column view; per_view: rows (x, y) of the
+    // view's images, column light; per_texel: rows (x, y), column
     // view * Nlight + light.
     const bool paper = f.layout == core::BtfFactorLayout::kPaper;
-    const int column = paper ? view : view * nl + l;
-    const long long offset = paper ? 3 * l * texels : 0;
+    const bool per_view = f.layout == core::BtfFactorLayout::kPerView;
+    const int column = paper ? view : per_view ? l : view * nl + l;
+    const long long offset = paper ? 3 * l * texels : per_view ? 3 * view * texels : 0;
     const bool clustered = f.layout == core::BtfFactorLayout::kClustered;
     for (int k = 0; k < f.rank(); ++k) {
       const float* r = f.rows[k].data() + offset;
+      const int set_row = per_view ? view * f.rank() + k : k;
       for (long long i = 0; i < texels; ++i) {
-        const float* c = f.columns.pixel(column, clustered ? f.texel_clusters[i] * f.rank() + k : k);
+        const float* c = f.columns.pixel(column, clustered ? f.texel_clusters[i] * f.rank() + k : set_row);
         for (int ch = 0; ch < 3; ++ch) acc[3 * i + ch] += static_cast<double>(r[3 * i + ch]) * c[ch];
       }
     }
@@ -1099,17 +1174,21 @@ double RelativeRmsError(core::FullBtfReader& truth, const core::FactoredBtf& fac
   const BtfMatrix a(truth, factored.layout);
   const long long n = a.columns();
   const int k = factored.rank();
-  // Column factors per cluster (one but for the clustered layout) and
-  // channel, n x K.
+  // Column factors per set (a cluster's, a view's, or the one set) and
+  // channel, column_count() x K. per_view's matrix A is per_texel's, each
+  // view's block of Nlight columns from its own factors.
   const bool clustered = factored.layout == core::BtfFactorLayout::kClustered;
-  std::vector<std::array<MatrixXd, 3>> columns(clustered ? factored.cluster_count : 1);
-  for (std::size_t cluster = 0; cluster < columns.size(); ++cluster) {
+  const bool per_view = factored.layout == core::BtfFactorLayout::kPerView;
+  const long long texels = static_cast<long long>(factored.width) * factored.height;
+  const int set_columns = factored.column_count();
+  std::vector<std::array<MatrixXd, 3>> columns(factored.column_sets());
+  for (std::size_t set = 0; set < columns.size(); ++set) {
     for (int ch = 0; ch < 3; ++ch) {
-      MatrixXd& out = columns[cluster][ch];
-      out.resize(n, k);
+      MatrixXd& out = columns[set][ch];
+      out.resize(set_columns, k);
       for (int j = 0; j < k; ++j) {
-        for (long long c = 0; c < n; ++c) {
-          out(c, j) = factored.columns.pixel(static_cast<int>(c), static_cast<int>(cluster) * k + j)[ch];
+        for (int c = 0; c < set_columns; ++c) {
+          out(c, j) = factored.columns.pixel(c, static_cast<int>(set) * k + j)[ch];
         }
       }
     }
@@ -1139,6 +1218,16 @@ double RelativeRmsError(core::FullBtfReader& truth, const core::FactoredBtf& fac
             for (long long i = 0; i < rows_here; ++i) {
               const int cluster = factored.texel_clusters[band_first + first + i];
               recon[ch].row(i).noalias() = rows.row(i) * columns[cluster][ch].transpose();
+            }
+          } else if (per_view) {
+            recon[ch].resize(rows_here, n);
+            for (int v = 0; v < factored.view_count(); ++v) {
+              for (int j = 0; j < k; ++j) {
+                const float* src = factored.rows[j].data() + 3 * (v * texels + band_first + first) + ch;
+                for (long long i = 0; i < rows_here; ++i) rows(i, j) = src[3 * i];
+              }
+              recon[ch].middleCols(static_cast<long long>(v) * set_columns, set_columns).noalias() =
+                  rows * columns[v][ch].transpose();
             }
           } else {
             recon[ch] = rows * columns[0][ch].transpose();

@@ -5,10 +5,11 @@
 // largest that fits a byte budget). The clustered layout (local PCA, Mueller
 // et al. 2003) splits the texels by k-means and factors each cluster's A on
 // its own; a cluster of one texel is exact at rank 1, and one of identical
-// texels at rank 1 as well. With the layout or colour left open, every
-// representation allowed is factored and the budget picks one; the spectra
-// settle the choice where they can, so mostly only the one kept has its
-// factors built and measured.
+// texels at rank 1 as well. The per_view layout (Sattler et al. 2003) gives
+// each view's texels x lights matrix its own SVD, one rank for all views.
+// With the layout or colour left open, every representation allowed is
+// factored and the budget picks one; the spectra settle the choice where
+// they can, so mostly only the one kept has its factors built and measured.
 //
 // Algorithm and conditioning: A is tall and skinny in the paper layout
 // (W*H*Nlight rows, Nview columns). Its SVD is taken as a Householder QR of A,

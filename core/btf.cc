@@ -108,8 +108,18 @@ const char* ToString(BtfFactorLayout layout) {
       return "per_texel";
     case BtfFactorLayout::kClustered:
       return "clustered";
+    case BtfFactorLayout::kPerView:
+      return "per_view";
   }
   return "?";
+}
+
+std::optional<BtfFactorLayout> BtfFactorLayoutNamed(const std::string& name) {
+  for (const BtfFactorLayout layout :
+       {BtfFactorLayout::kPaper, BtfFactorLayout::kPerTexel, BtfFactorLayout::kClustered, BtfFactorLayout::kPerView}) {
+    if (name == ToString(layout)) return layout;
+  }
+  return std::nullopt;
 }
 
 const char* ToString(BtfFactorColor color) { return color == BtfFactorColor::kRgb ? "rgb" : "ycbcr"; }
@@ -123,12 +133,16 @@ Eigen::Matrix3d YCbCrFromLinearRgbBt601() {
 }
 
 Eigen::Vector3f FactoredBtf::Reconstruct(int x, int y, int view, int light) const {
-  const int row = layout == BtfFactorLayout::kPaper ? light * height + y : y;
-  const int column = layout == BtfFactorLayout::kPaper ? view : view * light_count() + light;
+  const int row = layout == BtfFactorLayout::kPaper     ? light * height + y
+                  : layout == BtfFactorLayout::kPerView ? view * height + y
+                                                        : y;
+  const int column = layout == BtfFactorLayout::kPaper     ? view
+                     : layout == BtfFactorLayout::kPerView ? light
+                                                           : view * light_count() + light;
   Eigen::Vector3d c = Eigen::Vector3d::Zero();
   for (int k = 0; k < rank(); ++k) {
     const float* r = rows[k].pixel(x, row);
-    const float* w = columns.pixel(column, column_row(x, y, k));
+    const float* w = columns.pixel(column, column_row(x, y, view, k));
     for (int ch = 0; ch < 3; ++ch) c[ch] += static_cast<double>(r[ch]) * w[ch];
   }
   if (color == BtfFactorColor::kYCbCr) c = rgb_to_factored.inverse() * c;
@@ -140,7 +154,9 @@ void FactoredBtf::CheckShape() const {
     throw Error("factored BTF: texture size " + std::to_string(width) + "x" + std::to_string(height) +
                 " is not positive");
   }
-  const int row_height = PackedHeight(height, light_count(), "light");
+  // The row images stack the lights (paper) or the views (per_view).
+  PackedHeight(height, light_count(), "light");
+  if (layout == BtfFactorLayout::kPerView) PackedHeight(height, view_count(), "view");
   if (view_count() < 1) throw Error("a BTF needs at least one view direction");
   const long long columns_wide = static_cast<long long>(view_count()) * light_count();
   if (columns_wide > std::numeric_limits<int>::max()) throw Error("factored BTF: too many columns");
@@ -149,18 +165,13 @@ void FactoredBtf::CheckShape() const {
                 std::to_string(std::min(kMaxBtfRank, column_count())));
   }
   for (int k = 0; k < rank(); ++k) {
-    ExpectSize(rows[k], width, layout == BtfFactorLayout::kPaper ? row_height : height,
-               "row factor " + std::to_string(k));
+    ExpectSize(rows[k], width, row_image_height(), "row factor " + std::to_string(k));
   }
   const bool clustered = layout == BtfFactorLayout::kClustered;
   if (clustered) {
     if (cluster_count < 1 || cluster_count > kMaxBtfClusters) {
       throw Error("factored BTF: " + std::to_string(cluster_count) + " clusters, outside 1.." +
                   std::to_string(kMaxBtfClusters));
-    }
-    if (static_cast<long long>(rank()) * cluster_count > kMaxBtfColumnRows) {
-      throw Error("factored BTF: rank " + std::to_string(rank()) + " x " + std::to_string(cluster_count) +
-                  " clusters is over " + std::to_string(kMaxBtfColumnRows) + " rows of column factors");
     }
     if (texel_clusters.size() != static_cast<std::size_t>(width) * height) {
       throw Error("factored BTF: " + std::to_string(texel_clusters.size()) + " texel clusters for " +
@@ -173,7 +184,12 @@ void FactoredBtf::CheckShape() const {
       }
     }
   }
-  ExpectSize(columns, column_count(), rank() * (clustered ? cluster_count : 1), "column factors");
+  if (static_cast<long long>(rank()) * column_sets() > kMaxBtfColumnRows) {
+    throw Error("factored BTF: rank " + std::to_string(rank()) + " x " + std::to_string(column_sets()) +
+                (clustered ? " clusters" : " views") + " is over " + std::to_string(kMaxBtfColumnRows) +
+                " rows of column factors");
+  }
+  ExpectSize(columns, column_count(), rank() * column_sets(), "column factors");
   if (color == BtfFactorColor::kYCbCr) {
     const double scale = rgb_to_factored.norm();
     if (!rgb_to_factored.allFinite() || !(scale > 0) ||

@@ -10,17 +10,22 @@
 // Factored form (Sec. 5): the BTF as a matrix A, factored by SVD and truncated
 // to rank K, A ~= sum_k r_k c_k^T, with the singular values folded into the
 // row factors (r_k = sigma_k u_k, c_k = v_k), so reconstruction is a plain
-// sum of products. Two matrix layouts:
+// sum of products. The matrix layouts:
 //   paper:     rows (x, y, light), columns view -- the paper's eigenmaps
 //              E_k(x, y, light) and weight maps W_k(view);
 //   per_texel: rows (x, y), columns (view, light), column index
-//              view * Nlight + light.
+//              view * Nlight + light;
+//   clustered: per_texel's, one matrix per cluster of texels;
+//   per_view:  one matrix per view, rows (x, y), columns light (Sattler et
+//              al. 2003's per-view factorisation: eigen-textures of each view
+//              weighted per light).
 // Each of the 3 colour channels is factored separately, either the RGB
 // channels themselves or the channels of a decorrelating transform
 // (luminance/chroma), c = rgb_to_factored * rgb.
 #pragma once
 
 #include <Eigen/Core>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -101,11 +106,13 @@ class InMemoryFullBtfReader : public FullBtfReader {
 // or a view image too tall for one image.
 FullBtf MakeFullBtf(int width, int height, SamplingSet views, SamplingSet lights);
 
-enum class BtfFactorLayout { kPaper, kPerTexel, kClustered };
+enum class BtfFactorLayout { kPaper, kPerTexel, kClustered, kPerView };
 enum class BtfFactorColor { kRgb, kYCbCr };
 
-const char* ToString(BtfFactorLayout layout);  // "paper", "per_texel", "clustered"
-const char* ToString(BtfFactorColor color);    // "rgb", "ycbcr"
+const char* ToString(BtfFactorLayout layout);  // "paper", "per_texel", "clustered", "per_view"
+// The layout of a name ToString gives; std::nullopt for any other.
+std::optional<BtfFactorLayout> BtfFactorLayoutNamed(const std::string& name);
+const char* ToString(BtfFactorColor color);  // "rgb", "ycbcr"
 
 // Linear RGB to (Y, Cb, Cr) with the ITU-R BT.601 luma weights and no
 // offsets (the data are linear and signed chroma is fine for factors).
@@ -123,11 +130,13 @@ struct FactoredBtf {
   Eigen::Matrix3d rgb_to_factored = Eigen::Matrix3d::Identity();
   // Row factors r_k (singular values folded in), one image per k, 3 channels:
   // paper: width x height * Nlight (light l in rows [l*H, (l+1)*H));
+  // per_view: width x height * Nview (view v in rows [v*H, (v+1)*H));
   // per_texel and clustered: width x height.
   std::vector<Image> rows;
   // Column factors: column_count() wide, rank() tall (row k holds c_k),
   // 3 channels; clustered: rank() * cluster_count tall, cluster c's c_k in
-  // row c * rank() + k.
+  // row c * rank() + k; per_view: rank() * Nview tall, view v's c_k in row
+  // v * rank() + k.
   Image columns;
   // clustered (local PCA, Mueller et al. 2003): each texel's cluster,
   // width * height ids (row-major) in 0..cluster_count-1; the texels of a
@@ -139,11 +148,27 @@ struct FactoredBtf {
   int view_count() const { return views.size(); }
   int light_count() const { return lights.size(); }
   // Height of each row-factor image.
-  int row_image_height() const { return layout == BtfFactorLayout::kPaper ? height * light_count() : height; }
-  int column_count() const { return layout == BtfFactorLayout::kPaper ? view_count() : view_count() * light_count(); }
-  // The row of `columns` that holds c_k for texel (x, y).
-  int column_row(int x, int y, int k) const {
+  int row_image_height() const {
+    return layout == BtfFactorLayout::kPaper     ? height * light_count()
+           : layout == BtfFactorLayout::kPerView ? height * view_count()
+                                                 : height;
+  }
+  int column_count() const {
+    return layout == BtfFactorLayout::kPaper     ? view_count()
+           : layout == BtfFactorLayout::kPerView ? light_count()
+                                                 : view_count() * light_count();
+  }
+  // How many sets of rank() column factors `columns` holds: one per cluster
+  // (clustered), per view (per_view), else one.
+  int column_sets() const {
+    return layout == BtfFactorLayout::kClustered ? cluster_count
+           : layout == BtfFactorLayout::kPerView ? view_count()
+                                                 : 1;
+  }
+  // The row of `columns` that holds c_k for texel (x, y) seen from `view`.
+  int column_row(int x, int y, int view, int k) const {
     return layout == BtfFactorLayout::kClustered ? texel_clusters[static_cast<std::size_t>(y) * width + x] * rank() + k
+           : layout == BtfFactorLayout::kPerView ? view * rank() + k
                                                  : k;
   }
 
@@ -153,8 +178,8 @@ struct FactoredBtf {
   Eigen::Vector3f Reconstruct(int x, int y, int view, int light) const;
   // Throws Error when the factor images do not have the sizes above, the
   // rank is outside 1..min(100, column_count()), the colour matrix is not
-  // invertible, or (clustered) the cluster count is outside
-  // 1..kMaxBtfClusters, rank * clusters over kMaxBtfColumnRows or a texel's
+  // invertible, rank * column_sets() is over kMaxBtfColumnRows, or
+  // (clustered) the cluster count is outside 1..kMaxBtfClusters or a texel's
   // cluster out of range.
   void CheckShape() const;
 };

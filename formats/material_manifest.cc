@@ -187,15 +187,16 @@ MaterialManifest::FactoredBtfPart ReadFactoredPart(const core::JsonFieldReader& 
   MaterialManifest::FactoredBtfPart part;
   f.RejectUnknownMembers({"layout", "color", "rank", "singular_values", "row_files", "column_file", "rgb_to_factored",
                           "clusters", "cluster_file"});
-  const std::string layout = f.Choice("layout", {"paper", "per_texel", "clustered"});
-  part.layout = layout == "paper"       ? core::BtfFactorLayout::kPaper
-                : layout == "per_texel" ? core::BtfFactorLayout::kPerTexel
-                                        : core::BtfFactorLayout::kClustered;
+  part.layout = *core::BtfFactorLayoutNamed(f.Choice("layout", {"paper", "per_texel", "clustered", "per_view"}));
   part.color = f.Choice("color", {"rgb", "ycbcr"}) == "rgb" ? core::BtfFactorColor::kRgb : core::BtfFactorColor::kYCbCr;
-  const long long columns = part.layout == core::BtfFactorLayout::kPaper
-                                ? d.view_directions.size()
+  const long long columns = part.layout == core::BtfFactorLayout::kPaper ? d.view_directions.size()
+                            : part.layout == core::BtfFactorLayout::kPerView
+                                ? d.light_directions.size()
                                 : static_cast<long long>(d.view_directions.size()) * d.light_directions.size();
   long long max_rank = std::min<long long>(core::kMaxBtfRank, columns);
+  if (part.layout == core::BtfFactorLayout::kPerView) {
+    max_rank = std::min<long long>(max_rank, core::kMaxBtfColumnRows / std::max(1, d.view_directions.size()));
+  }
   if (part.layout == core::BtfFactorLayout::kClustered) {
     part.clusters = static_cast<int>(f.Integer("clusters", 1, core::kMaxBtfClusters));
     f.Choice("cluster_file", {kClusterFile});

@@ -150,8 +150,9 @@ core::FactoredBtf ReadFactoredBtf(const fs::path& dir, const MaterialManifest& m
     ExpectFiniteInFile(file, btf.rows.back());
   }
   const fs::path columns = dir / kColumnFactorFile;
+  const int column_sets = part.layout == core::BtfFactorLayout::kPerView ? d.view_directions.size() : part.clusters;
   btf.columns = ReadPartImage(dir, manifest, kColumnFactorFile, core::PixelEncoding::kFloat32, btf.column_count(),
-                              part.rank * part.clusters, 3);
+                              part.rank * column_sets, 3);
   ExpectFiniteInFile(columns, btf.columns);
   if (part.layout == core::BtfFactorLayout::kClustered) {
     btf.cluster_count = part.clusters;

@@ -158,7 +158,8 @@ struct GpuMaterial {
   BlendTextures views, lights;
   int rank = 0;
   int light_count = 0;
-  int layout = 0;  // as the shader's u_layout: 0 paper, 1 per_texel, 2 clustered
+  int view_count = 0;
+  int layout = 0;  // as the shader's u_layout: 0 paper, 1 per_texel, 2 clustered, 3 per_view
   Eigen::Matrix3f factored_to_rgb = Eigen::Matrix3f::Identity();
   float d_max = 0.0f;
 };
@@ -172,10 +173,13 @@ GpuMaterial Upload(const RenderMaterial& m) {
   for (float& d : mdf) d = core::IsNoHit(d) ? -1.0f : (core::IsUnknown(d) ? 0.0f : d);
   g.mdf = MakeTextureArray(GL_R32F, GL_RED, m.mdf.width, m.mdf.height, m.mdf.view_count(), mdf.data());
   const core::FactoredBtf& btf = m.btf;
-  g.layout = btf.layout == core::BtfFactorLayout::kPaper ? 0 : (btf.layout == core::BtfFactorLayout::kPerTexel ? 1 : 2);
+  static_assert(static_cast<int>(core::BtfFactorLayout::kPerView) == 3, "u_layout follows the enum's order");
+  g.layout = static_cast<int>(btf.layout);
   g.rank = btf.rank();
   g.light_count = btf.light_count();
-  const int layers_per_k = g.layout == 0 ? btf.light_count() : 1;
+  g.view_count = btf.view_count();
+  // Each row image is one layer per stacked light (paper) or view (per_view).
+  const int layers_per_k = btf.row_image_height() / btf.height;
   std::vector<float> clusters(btf.texel_clusters.begin(), btf.texel_clusters.end());
   if (clusters.empty()) clusters.assign(1, 0.0f);
   const bool clustered = g.layout == 2;
@@ -440,6 +444,7 @@ struct PeelingRenderer::Impl {
       resolve.Set("u_material", static_cast<int>(i));
       resolve.Set("u_rank", m.rank);
       resolve.Set("u_light_count", m.light_count);
+      resolve.Set("u_view_count", m.view_count);
       resolve.Set("u_layout", m.layout);
       resolve.Set("u_factored_to_rgb", m.factored_to_rgb);
       glDrawArrays(GL_TRIANGLES, 0, 3);

@@ -336,8 +336,9 @@ layout(location = 0) out vec4 out0;
 uniform int u_material;                 // shades the pixels of this material
 uniform sampler2D u_surface;            // texture coordinates, irradiance (-1: shadow), material + 1
 uniform sampler2D u_directions;         // view (theta, phi), light (theta, phi)
-uniform sampler2DArray u_rows;          // paper: layer k * Nlight + light; per_texel, clustered: layer k
-uniform sampler2D u_columns;            // x = view (paper) or view * Nlight + light; y = k (clustered: cluster * rank + k)
+uniform sampler2DArray u_rows;          // paper: layer k * Nlight + light; per_view: k * Nview + view; else k
+uniform sampler2D u_columns;            // x = view (paper), light (per_view) or view * Nlight + light;
+                                        // y = k (clustered: cluster * rank + k; per_view: view * rank + k)
 uniform sampler2D u_clusters;           // clustered: each texel's cluster
 uniform sampler2DArray u_ambient;       // layer = view
 uniform isampler2D u_view_index;
@@ -346,7 +347,8 @@ uniform isampler2D u_light_index;
 uniform sampler2D u_light_weight;
 uniform int u_rank;
 uniform int u_light_count;
-uniform int u_layout;                   // 0 paper, 1 per_texel, 2 clustered
+uniform int u_view_count;
+uniform int u_layout;                   // 0 paper, 1 per_texel, 2 clustered, 3 per_view
 uniform mat3 u_factored_to_rgb;
 uniform float u_ambient_scale;
 uniform float u_exposure;
@@ -366,7 +368,10 @@ vec3 Btf(vec2 t, vec2 v, vec2 l) {
       if (lw[b] <= 0.0) continue;
       vec3 value = vec3(0.0);
       for (int k = 0; k < u_rank; ++k) {
-        if (u_layout != 0) {
+        if (u_layout == 3) {
+          value += texelFetch(u_rows, ivec3(texel, k * u_view_count + vi[a]), 0).rgb *
+                   texelFetch(u_columns, ivec2(li[b], vi[a] * u_rank + k), 0).rgb;
+        } else if (u_layout != 0) {
           value += texelFetch(u_rows, ivec3(texel, k), 0).rgb *
                    texelFetch(u_columns, ivec2(vi[a] * u_light_count + li[b], first_column_row + k), 0).rgb;
         } else {

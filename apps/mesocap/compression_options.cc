@@ -36,15 +36,13 @@ void AddCompressionOptions(CLI::App* sub, btf::BtfCompressionOptions* o) {
            if (name == "auto") {
              o->layout.reset();
            } else {
-             o->layout = name == "paper"       ? core::BtfFactorLayout::kPaper
-                         : name == "per_texel" ? core::BtfFactorLayout::kPerTexel
-                                               : core::BtfFactorLayout::kClustered;
+             o->layout = core::BtfFactorLayoutNamed(name);
            }
          },
          "matrix layout: paper (rows x, y, light; columns view), per_texel (rows x, y; columns view, light), "
-         "clustered (per_texel within each cluster of texels: local PCA) or auto (the smallest or most accurate "
-         "for the budget)")
-      ->check(CLI::IsMember({"auto", "paper", "per_texel", "clustered"}))
+         "clustered (per_texel within each cluster of texels: local PCA), per_view (rows x, y; columns light; "
+         "one matrix per view) or auto (the smallest or most accurate for the budget)")
+      ->check(CLI::IsMember({"auto", "paper", "per_texel", "clustered", "per_view"}))
       ->default_str("auto");
   sub->add_option("--clusters", o->clusters,
                   "clustered layout: the number of clusters, 1..1024 (default: 8, 32 and 128 tried)")

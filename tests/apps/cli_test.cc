@@ -27,9 +27,7 @@ using testing::CommandResult;
 using testing::Mesocap;
 using testing::Slurp;
 
-std::string RigFile(const std::string& name) {
-  return std::string(MESOCAP_SOURCE_DIR) + "/sim/rigs/" + name + ".json";
-}
+std::string RigFile(const std::string& name) { return std::string(MESOCAP_SOURCE_DIR) + "/sim/rigs/" + name + ".json"; }
 
 TEST(Cli, VersionAndHelp) {
   const CommandResult v = Mesocap("--version");
@@ -187,9 +185,10 @@ TEST(Cli, CompressFactorsAGroundTruthPackage) {
   EXPECT_EQ(report["rank"], 1);
   EXPECT_LT(report["measured_relative_rms"].get<double>(), 1e-4);
   EXPECT_NEAR(formats::ReadFactoredBtf(out, m).Reconstruct(2, 3, 4, 5).x(), 0.5 / 3.14159265358979, 1e-5);
-  // The layout was left to choose: paper, per_texel and clustered at three
-  // cluster counts were factored, and the smallest that meets the budget kept.
-  ASSERT_EQ(report["candidates"].size(), 5u);
+  // The layout was left to choose: paper, per_texel, clustered at three
+  // cluster counts and per_view were factored, and the smallest that meets
+  // the budget kept.
+  ASSERT_EQ(report["candidates"].size(), 6u);
   long long smallest = std::numeric_limits<long long>::max();
   for (const auto& c : report["candidates"]) {
     if (c["meets_budget"].get<bool>()) smallest = std::min(smallest, c["factor_bytes"].get<long long>());
@@ -202,7 +201,7 @@ TEST(Cli, CompressFactorsAGroundTruthPackage) {
   ASSERT_EQ(Mesocap("-q compress --in " + gt + " --out " + bytes + " --max-bytes 60000").exit_code, 0);
   const auto byte_report = formats::ReadErrorReport(bytes, formats::ReadMaterialManifest(bytes))["btf_compression"];
   EXPECT_LE(byte_report["factor_bytes"].get<long long>(), 60000);
-  EXPECT_EQ(byte_report["candidates"].size(), 10u);
+  EXPECT_EQ(byte_report["candidates"].size(), 12u);
   EXPECT_NE(byte_report["representation_reason"].get<std::string>().find("most accurate"), std::string::npos);
 
   // Both --rank and --max-error, or a package without a full BTF: refused,
@@ -271,8 +270,8 @@ TEST(Cli, ABtfPlanRecordsTheBtfImagesAloneAndProcessesToTheSameBtf) {
 
   ASSERT_EQ(Mesocap("-q simulate --scene weave --rig tiny --out " + whole).exit_code, 0);
   for (const auto& [session, out] : {std::pair{btf, "m-btf"}, std::pair{whole, "m-whole"}}) {
-    const CommandResult r = Mesocap("-q process btf --session " + session + " --out " + (dir / out).string() +
-                                    " --texture-size 8 --full");
+    const CommandResult r =
+        Mesocap("-q process btf --session " + session + " --out " + (dir / out).string() + " --texture-size 8 --full");
     ASSERT_EQ(r.exit_code, 0) << r.err;
   }
   EXPECT_EQ(Slurp(dir / "m-btf" / "btf" / "view_0000.exr"), Slurp(dir / "m-whole" / "btf" / "view_0000.exr"));
@@ -286,8 +285,8 @@ TEST(Cli, ProcessBtfTurnsASessionIntoAMaterial) {
   testing::TemporaryDirectory dir;
   const std::string session = (dir / "s").string(), out = (dir / "m").string(), gt = (dir / "gt").string();
   ASSERT_EQ(Mesocap("-q simulate --scene flat --rig tiny --out " + session).exit_code, 0);
-  const CommandResult r = Mesocap("-q process btf --session " + session + " --out " + out +
-                                  " --texture-size 8 --full --max-error 1e-3");
+  const CommandResult r =
+      Mesocap("-q process btf --session " + session + " --out " + out + " --texture-size 8 --full --max-error 1e-3");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const formats::MaterialManifest m = formats::ReadMaterialManifest(out);
   EXPECT_TRUE(m.full_btf && m.factored_btf && m.ambient && m.calibration);
@@ -310,8 +309,9 @@ TEST(Cli, ProcessBtfTurnsASessionIntoAMaterial) {
   // Without --full the assembled views go through a scratch package that is
   // gone afterwards; the factors are the same as with them kept.
   const std::string compact = (dir / "m-compact").string();
-  ASSERT_EQ(Mesocap("-q process btf --session " + session + " --out " + compact +
-                    " --texture-size 8 --max-error 1e-3").exit_code, 0);
+  ASSERT_EQ(Mesocap("-q process btf --session " + session + " --out " + compact + " --texture-size 8 --max-error 1e-3")
+                .exit_code,
+            0);
   const formats::MaterialManifest mc = formats::ReadMaterialManifest(compact);
   EXPECT_TRUE(!mc.full_btf && mc.factored_btf && mc.ambient);
   const core::FactoredBtf with_full = formats::ReadFactoredBtf(out, m), without = formats::ReadFactoredBtf(compact, mc);
@@ -344,8 +344,7 @@ TEST(Cli, ProcessBtfTurnsASessionIntoAMaterial) {
   const CommandResult no_gain = Mesocap(args + (dir / "no-gain").string());
   EXPECT_EQ(no_gain.exit_code, 1);
   EXPECT_EQ(no_gain.err.find('\n'), no_gain.err.size() - 1) << "more than one line: " << no_gain.err;
-  EXPECT_NE(no_gain.err.find("v1-calibration.json: camera cam0 has no radiometry"), std::string::npos)
-      << no_gain.err;
+  EXPECT_NE(no_gain.err.find("v1-calibration.json: camera cam0 has no radiometry"), std::string::npos) << no_gain.err;
   EXPECT_NE(no_gain.err.find("--gain"), std::string::npos) << no_gain.err;
   EXPECT_FALSE(std::filesystem::exists(dir / "no-gain"));
 
@@ -360,8 +359,8 @@ TEST(Cli, ProcessBtfTurnsASessionIntoAMaterial) {
   // --gain also overrides a calibration that has radiometry: twice the gain
   // halves every BTF value (the SVD factors scale alike; each package is
   // within 1e-4 of its full BTF).
-  const CommandResult r2 = Mesocap("-q process btf --session " + session +
-                                   " --texture-size 4 --max-error 1e-4 --out " + g2 + " --gain " + gain_text(2 * gain));
+  const CommandResult r2 = Mesocap("-q process btf --session " + session + " --texture-size 4 --max-error 1e-4 --out " +
+                                   g2 + " --gain " + gain_text(2 * gain));
   ASSERT_EQ(r2.exit_code, 0) << r2.err;
   const auto scaled = nlohmann::json::parse(Mesocap("eval btf --json --truth " + g1 + " --estimate " + g2).out);
   EXPECT_NEAR(scaled["overall"]["relative_rms"].get<double>(), 0.5, 1e-3) << scaled.dump();

@@ -136,7 +136,8 @@ TEST(BtfCompression, ChoosesTheSmallestRepresentationThatMeetsTheErrorBudget) {
   o.max_relative_error = 1e-4;
   BtfCompressionReport report;
   const core::FactoredBtf f = CompressBtf(btf, o, &report);
-  ASSERT_EQ(report.candidates.size(), 10u) << "paper, per_texel and clustered at 8, 32, 128 clusters, rgb and ycbcr";
+  ASSERT_EQ(report.candidates.size(), 12u)
+      << "paper, per_texel, clustered at 8, 32, 128 clusters and per_view, rgb and ycbcr";
   long long smallest_meeting = std::numeric_limits<long long>::max();
   for (const BtfRepresentationCandidate& c : report.candidates) {
     // A ycbcr representation whose spectrum already needs more bytes than the
@@ -210,6 +211,45 @@ TEST(BtfCompression, ClusteredLayoutFactorsTwoMaterialsAtRankOne) {
   EXPECT_EQ(CompressBtf(btf, o).rank(), 2);
 }
 
+// The per-view factorisation (Sattler et al. 2003): a BTF whose every view
+// is one texture times a reflectance of the light, T = a_v(x, y) b_v(l), with
+// the texture moving from view to view (parallax), is rank 1 in each view's
+// matrix but of high rank in the per_texel and paper layouts.
+TEST(BtfCompression, PerViewLayoutFactorsEachViewAtRankOne) {
+  const core::SamplingSet views = core::SamplingSet::Named("grid6x3");
+  const core::SamplingSet lights = core::SamplingSet::Named("grid6x4");
+  const core::FullBtf btf = MakeBtf(8, views, lights, [](int x, int y, int v, int l) {
+    const float a = 0.2f + 0.05f * static_cast<float>((x + v + 3 * y) % 9);  // shifts with the view
+    const float b = 1.0f + 0.5f * std::sin(0.7f * static_cast<float>(l * l + v));
+    return Eigen::Vector3f(0.9f * a * b, 0.6f * a * b, 0.3f * a * b);
+  });
+  BtfCompressionOptions o;
+  o.layout = core::BtfFactorLayout::kPerView;
+  o.color = core::BtfFactorColor::kRgb;
+  o.max_relative_error = 1e-6;
+  BtfCompressionReport report;
+  const core::FactoredBtf f = CompressBtf(btf, o, &report);
+  EXPECT_EQ(f.layout, core::BtfFactorLayout::kPerView);
+  EXPECT_EQ(f.rank(), 1);
+  EXPECT_LT(MaxAbsError(btf, f), 1e-5);
+  EXPECT_NEAR(RelativeRmsError(btf, f), report.measured_relative_rms_error, 1e-9);
+  const int nv = btf.view_count(), nl = btf.light_count();
+  EXPECT_EQ(report.factor_bytes, 12LL * (64 * nv + nl * nv));
+  EXPECT_EQ(report.factor_bytes, FactorBytes(core::BtfFactorLayout::kPerView, 8, 8, nv, nl, 1));
+  // The view images reconstructed whole agree with the texel-wise path.
+  for (int v : {0, nv / 2, nv - 1}) {
+    const core::Image view = ReconstructBtfView(f, v);
+    for (int l : {0, nl - 1})
+      for (int y = 0; y < 8; y += 3)
+        for (int x = 0; x < 8; x += 3) EXPECT_NEAR(view.at(x, l * 8 + y, 1), f.Reconstruct(x, y, v, l).y(), 1e-6);
+  }
+  // One SVD of all texels, or of all views, needs more terms.
+  o.layout = core::BtfFactorLayout::kPerTexel;
+  EXPECT_GT(CompressBtf(btf, o).rank(), 1);
+  o.layout = core::BtfFactorLayout::kPaper;
+  EXPECT_GT(CompressBtf(btf, o).rank(), 1);
+}
+
 // Clusters of one texel each, and clusters of identical texels: exact, no
 // NaN, whatever k-means makes of duplicates.
 TEST(BtfCompression, ClustersOfOneTexelOrOfIdenticalTexelsAreExact) {
@@ -253,13 +293,14 @@ TEST(BtfCompression, ByteBudgetKeepsTheMostAccurateFactorsThatFit) {
   o.max_bytes = budget;
   BtfCompressionReport report;
   const core::FactoredBtf f = CompressBtf(btf, o, &report);
-  ASSERT_EQ(report.candidates.size(), 10u);
+  ASSERT_EQ(report.candidates.size(), 12u);
   EXPECT_LE(report.factor_bytes, budget);
   for (const BtfRepresentationCandidate& c : report.candidates) {
     if (c.rank == 0) continue;  // not even rank 1 fits
     EXPECT_LE(c.factor_bytes, budget);
-    if (c.layout != core::BtfFactorLayout::kClustered) {  // clusters may run out
-                                                          // of texels first
+    if (c.layout == core::BtfFactorLayout::kPaper ||
+        c.layout == core::BtfFactorLayout::kPerTexel) {  // clusters may run out
+                                                         // of texels first
       EXPECT_GT(FactorBytes(c.layout, 16, 16, nv, nl, c.rank + 1), budget) << "the largest rank that fits";
     }
     EXPECT_LE(report.measured_relative_rms_error, c.relative_rms_error + 1e-9);
@@ -303,7 +344,7 @@ TEST(BtfCompression, SpectrumErrorsOfCandidatesAreWhatTheirFactorsGive) {
   o.max_relative_error = 0.05;
   BtfCompressionReport report;
   const core::FactoredBtf chosen = CompressBtf(btf, o, &report);
-  ASSERT_EQ(report.candidates.size(), 10u);
+  ASSERT_EQ(report.candidates.size(), 12u);
   int from_spectrum = 0;
   for (const BtfRepresentationCandidate& c : report.candidates) {
     SCOPED_TRACE(std::string(ToString(c.layout)) + "/" + ToString(c.color) + " " + std::to_string(c.clusters));

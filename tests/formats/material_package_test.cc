@@ -97,8 +97,8 @@ core::FactoredBtf TestFactoredBtf(core::BtfFactorLayout layout, core::BtfFactorC
         for (int c = 0; c < 3; ++c) rows.at(x, y, c) = Dyadic(x, y, c, k) - 0.25f;
     btf.rows.push_back(rows);
   }
-  btf.columns = core::Image(btf.column_count(), rank, 3);
-  for (int k = 0; k < rank; ++k)
+  btf.columns = core::Image(btf.column_count(), rank * btf.column_sets(), 3);
+  for (int k = 0; k < btf.columns.height(); ++k)
     for (int i = 0; i < btf.column_count(); ++i)
       for (int c = 0; c < 3; ++c) btf.columns.at(i, k, c) = Dyadic(i, k, c, 1) + 0.5f;
   return btf;
@@ -267,7 +267,8 @@ TEST(Mdf, EveryCodeSurvivesTheEightBitFile) {
 // T = r_0 c_0^T + r_1 c_1^T built by hand in each layout; the package must
 // reconstruct it exactly (dyadic values make every product exact).
 TEST(FactoredBtf, ReconstructsAKnownRankTwoBtfExactly) {
-  for (core::BtfFactorLayout layout : {core::BtfFactorLayout::kPaper, core::BtfFactorLayout::kPerTexel}) {
+  for (core::BtfFactorLayout layout :
+       {core::BtfFactorLayout::kPaper, core::BtfFactorLayout::kPerTexel, core::BtfFactorLayout::kPerView}) {
     SCOPED_TRACE(ToString(layout));
     const core::FactoredBtf btf = TestFactoredBtf(layout, core::BtfFactorColor::kRgb, 2);
     testing::TemporaryDirectory dir;
@@ -281,12 +282,15 @@ TEST(FactoredBtf, ReconstructsAKnownRankTwoBtfExactly) {
       for (int l = 0; l < 4; ++l)
         for (int y = 0; y < kH; ++y)
           for (int x = 0; x < kW; ++x) {
-            const int row = layout == core::BtfFactorLayout::kPaper ? l * kH + y : y;
-            const int column = layout == core::BtfFactorLayout::kPaper ? v : v * 4 + l;
+            const bool paper = layout == core::BtfFactorLayout::kPaper;
+            const bool per_view = layout == core::BtfFactorLayout::kPerView;
+            const int row = paper ? l * kH + y : per_view ? v * kH + y : y;
+            const int column = paper ? v : per_view ? l : v * 4 + l;
+            const int first = per_view ? 2 * v : 0;  // per_view: view v's c_0, c_1 in rows 2v, 2v + 1
             const Eigen::Vector3f got = back.Reconstruct(x, y, v, l);
             for (int c = 0; c < 3; ++c) {
-              const float expected = btf.rows[0].at(x, row, c) * btf.columns.at(column, 0, c) +
-                                     btf.rows[1].at(x, row, c) * btf.columns.at(column, 1, c);
+              const float expected = btf.rows[0].at(x, row, c) * btf.columns.at(column, first, c) +
+                                     btf.rows[1].at(x, row, c) * btf.columns.at(column, first + 1, c);
               ASSERT_EQ(got[c], expected) << "x=" << x << " y=" << y << " v=" << v << " l=" << l;
             }
           }

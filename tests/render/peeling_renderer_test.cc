@@ -124,9 +124,10 @@ TEST_F(PeelingRendererTest, AdaptivePassesStopWhenNothingIsLeftToPeel) {
 }
 
 // The shader decodes every factor layout: one BTF stored as the paper's
-// eigenmaps, per texel, and in two clusters whose factors differ (cluster 1's
+// eigenmaps, per texel, in two clusters whose factors differ (cluster 1's
 // rows halved and its columns doubled, so a texel that read the other
-// cluster's columns would be off by 2x) renders the same image.
+// cluster's columns would be off by 2x), and per view (each view's factors
+// scaled against each other) renders the same image.
 TEST_F(PeelingRendererTest, EveryFactorLayoutRendersTheSameImage) {
   RenderScene scene = ShippedScene("cylinder");
   const core::FactoredBtf paper = scene.materials[0].btf;
@@ -151,6 +152,25 @@ TEST_F(PeelingRendererTest, EveryFactorLayoutRendersTheSameImage) {
   for (int i = 0; i < nv * nl; ++i)
     for (int ch = 0; ch < 3; ++ch) clustered.columns.at(i, 1, ch) = 2.0f;
   clustered.CheckShape();
+  // per_view at rank 2: view v's rows divided by v + 1 and its columns
+  // multiplied, the value split 1:3 between the two terms, so a pixel that
+  // read one view's or term's rows with another's columns would be off.
+  core::FactoredBtf per_view = per_texel;
+  per_view.layout = core::BtfFactorLayout::kPerView;
+  per_view.rows = {core::Image(w, h * nv, 3), core::Image(w, h * nv, 3)};
+  per_view.columns = core::Image(nl, 2 * nv, 3);
+  for (int v = 0; v < nv; ++v) {
+    for (int k = 0; k < 2; ++k) {
+      const float share = k == 0 ? 0.25f : 0.75f;
+      for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+          for (int ch = 0; ch < 3; ++ch)
+            per_view.rows[k].at(x, v * h + y, ch) = share * value / static_cast<float>(v + 1);
+      for (int l = 0; l < nl; ++l)
+        for (int ch = 0; ch < 3; ++ch) per_view.columns.at(l, 2 * v + k, ch) = static_cast<float>(v + 1);
+    }
+  }
+  per_view.CheckShape();
 
   PeelingOptions o;
   o.width = 160;
@@ -163,7 +183,7 @@ TEST_F(PeelingRendererTest, EveryFactorLayoutRendersTheSameImage) {
     return renderer.Render(scene.camera, scene.light, o);
   };
   const RenderResult a = render(paper);
-  for (const core::FactoredBtf* other : {&per_texel, &clustered}) {
+  for (const core::FactoredBtf* other : {&per_texel, &clustered, &per_view}) {
     SCOPED_TRACE(ToString(other->layout));
     const RenderResult b = render(*other);
     ASSERT_EQ(a.color.size(), b.color.size());
