@@ -466,8 +466,10 @@ TEST(BtfCompression, ConstantZeroChannelGivesZeroFactorsAndNoNaN) {
     const float r = IntegerRank3(x, y, v, l).x();
     return Eigen::Vector3f(r, 0.5f * r, 0.0f);
   });
-  // paper: 128 x 10 (tall); per_texel: 16 x 80 (wide, factored through A^T).
-  for (auto layout : {core::BtfFactorLayout::kPaper, core::BtfFactorLayout::kPerTexel}) {
+  // paper: 128 x 10 (tall); per_texel: 16 x 80 (wide, factored through A^T);
+  // per_view: 10 views' 16 x 8.
+  for (auto layout :
+       {core::BtfFactorLayout::kPaper, core::BtfFactorLayout::kPerTexel, core::BtfFactorLayout::kPerView}) {
     for (auto color : {core::BtfFactorColor::kRgb, core::BtfFactorColor::kYCbCr}) {
       BtfCompressionReport report;
       const core::FactoredBtf f = CompressBtf(btf, Options(layout, color, 6), &report);
@@ -504,11 +506,15 @@ TEST(BtfCompression, LayoutsAgreeAtFullRank) {
       CompressBtf(btf, Options(core::BtfFactorLayout::kPaper, core::BtfFactorColor::kRgb, 6));
   const core::FactoredBtf texel =
       CompressBtf(btf, Options(core::BtfFactorLayout::kPerTexel, core::BtfFactorColor::kYCbCr, 16));
+  // per_view: 6 views' 16 x 5, full rank 5.
+  const core::FactoredBtf per_view =
+      CompressBtf(btf, Options(core::BtfFactorLayout::kPerView, core::BtfFactorColor::kRgb, 5));
   for (int v = 0; v < 6; ++v)
     for (int l = 0; l < 5; ++l)
       for (int y = 0; y < 4; ++y)
         for (int x = 0; x < 4; ++x) {
           ASSERT_LT((paper.Reconstruct(x, y, v, l) - texel.Reconstruct(x, y, v, l)).cwiseAbs().maxCoeff(), 2e-6);
+          ASSERT_LT((paper.Reconstruct(x, y, v, l) - per_view.Reconstruct(x, y, v, l)).cwiseAbs().maxCoeff(), 2e-6);
           ASSERT_LT((paper.Reconstruct(x, y, v, l) - btf.at(x, y, v, l)).cwiseAbs().maxCoeff(), 2e-6);
         }
 }
@@ -604,12 +610,17 @@ TEST(BtfCompression, RejectsNonFiniteValuesNamingTheView) {
   core::FullBtf btf = MakeBtf(4, core::SamplingSet::Named("grid3x1"), core::SamplingSet::Named("grid2x1"),
                               [](int, int, int, int) { return Eigen::Vector3f(1, 1, 1); });
   btf.view_images[2].pixel(1, 4 + 3)[1] = std::nanf("");
-  try {
-    CompressBtf(btf, BtfCompressionOptions{});
-    FAIL() << "expected an error";
-  } catch (const core::Error& e) {
-    EXPECT_NE(std::string(e.what()).find("view 2"), std::string::npos) << e.what();
-    EXPECT_NE(std::string(e.what()).find("texel (1, 3), light 1"), std::string::npos) << e.what();
+  for (auto layout : {core::BtfFactorLayout::kPaper, core::BtfFactorLayout::kPerTexel,
+                      core::BtfFactorLayout::kClustered, core::BtfFactorLayout::kPerView}) {
+    BtfCompressionOptions o;
+    o.layout = layout;
+    try {
+      CompressBtf(btf, o);
+      ADD_FAILURE() << ToString(layout) << ": expected an error";
+    } catch (const core::Error& e) {
+      EXPECT_NE(std::string(e.what()).find("view 2"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("texel (1, 3), light 1"), std::string::npos) << e.what();
+    }
   }
 }
 
