@@ -26,6 +26,7 @@
 #include "tests/common/mesocap_command.h"
 #include "tests/common/normalized_tree.h"
 #include "tests/common/temporary_directory.h"
+#include "tests/common/trial_count.h"
 
 namespace mesocap {
 namespace {
@@ -44,10 +45,7 @@ double Timed(const std::vector<std::string>& args) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-int Trials() {
-  const char* env = std::getenv("MESOCAP_KILL_TRIALS");
-  return env ? std::max(1, std::atoi(env)) : 2;
-}
+int Trials() { return testing::TrialCount("MESOCAP_KILL_TRIALS", 2); }
 
 struct Job {
   std::string name;

@@ -29,6 +29,7 @@
 #include "tests/common/mesocap_command.h"
 #include "tests/common/normalized_tree.h"
 #include "tests/common/temporary_directory.h"
+#include "tests/common/trial_count.h"
 
 namespace mesocap {
 namespace {
@@ -93,10 +94,7 @@ class Daemon {
   pid_t pid_ = -1;
 };
 
-int Trials() {
-  const char* env = std::getenv("MESOCAP_KILL_TRIALS");
-  return env ? std::max(1, std::atoi(env)) : 3;
-}
+int Trials() { return testing::TrialCount("MESOCAP_KILL_TRIALS", 3); }
 
 class MesocapdTest : public ::testing::Test {
  protected:

@@ -21,6 +21,7 @@
 #include "formats/material_package_writer.h"
 #include "tests/common/largest_allocation.h"
 #include "tests/common/temporary_directory.h"
+#include "tests/common/trial_count.h"
 
 namespace mesocap::formats {
 namespace {
@@ -764,8 +765,10 @@ TEST_F(HostilePackage, SingleByteMutationsOfTheManifest) {
   std::uniform_int_distribution<int> byte(0, 255);
   std::string interesting = "0123456789-+.eE\"[]{}:,nNaI \xff";
   interesting.push_back('\0');
+  // MESOCAP_MUTATION_TRIALS (default 100) x 6 mutations.
+  const int mutations = 6 * testing::TrialCount("MESOCAP_MUTATION_TRIALS", 100);
   int rejected = 0;
-  for (int i = 0; i < 600; ++i) {
+  for (int i = 0; i < mutations; ++i) {
     std::string text = manifest_text_;
     const std::size_t at = offset(rng);
     // Half the time a byte that changes the JSON's meaning rather than its syntax.
@@ -773,21 +776,24 @@ TEST_F(HostilePackage, SingleByteMutationsOfTheManifest) {
     WriteBytes(pkg_ / "manifest.json", text);
     if (!ReadAndJudge().empty()) ++rejected;
   }
-  EXPECT_GT(rejected, 300);
+  EXPECT_GT(rejected, mutations / 2);
 }
 
 // No allocation bound here: a mutated EXR header (a huge data window) makes
 // OpenEXR allocate up to ~2 GiB inside OpenImageIO's open(), before any
 // mesocap code sees the header. The manifest-driven checks above bound what
-// mesocap itself allocates.
+// mesocap itself allocates. Under the address sanitizer such an allocation
+// takes most of a second, so its preset runs fewer
+// (MESOCAP_MUTATION_TRIALS mutations per file, default 100).
 TEST_F(HostilePackage, SingleByteMutationsOfTheImages) {
+  const int mutations = testing::TrialCount("MESOCAP_MUTATION_TRIALS", 100);
   std::mt19937 rng(42);
   for (const char* name : {"mdf.exr", "mdf8.tif", "btf/view_0001.exr", "btf/columns.exr", "ambient.exr"}) {
     SCOPED_TRACE(name);
     const std::string original = Slurp(pkg_ / name);
     std::uniform_int_distribution<std::size_t> offset(0, original.size() - 1);
     std::uniform_int_distribution<int> byte(0, 255);
-    for (int i = 0; i < 100; ++i) {
+    for (int i = 0; i < mutations; ++i) {
       std::string bytes = original;
       bytes[offset(rng)] = static_cast<char>(byte(rng));
       WriteBytes(pkg_ / name, bytes);
