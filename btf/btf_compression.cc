@@ -388,19 +388,19 @@ std::string Percent(double relative) {
   return s.str();
 }
 
-// The rank of the factorization: as requested (at most the matrix's), or the
-// smallest whose spectrum error meets the budget; says why in report->reason.
-int ChooseRank(const BtfCompressionOptions& options, core::BtfFactorColor color, long long m, long long n,
-               BtfCompressionReport* report) {
-  BtfCompressionReport& r = *report;
+// The rank of the factorization from a spectrum's report `r`: as requested
+// (at most the matrix's), or the smallest whose spectrum error meets the
+// budget; says why in *reason.
+int ChooseRank(const BtfCompressionOptions& options, core::BtfFactorColor color, const BtfCompressionReport& r,
+               std::string* reason) {
   const std::string space = color == core::BtfFactorColor::kRgb ? "" : " (in Y, Cb, Cr)";
   int rank = 0;
   if (options.rank > 0) {
     rank = std::min(options.rank, r.max_rank);
-    r.reason = rank == options.rank
-                   ? "rank " + std::to_string(rank) + " as requested"
-                   : "rank " + std::to_string(options.rank) + " requested, but the " + std::to_string(m) + " x " +
-                         std::to_string(n) + " matrix has at most rank " + std::to_string(rank);
+    *reason = rank == options.rank
+                  ? "rank " + std::to_string(rank) + " as requested"
+                  : "rank " + std::to_string(options.rank) + " requested, but the " + std::to_string(r.matrix_rows) +
+                        " x " + std::to_string(r.matrix_columns) + " matrix has at most rank " + std::to_string(rank);
   } else {
     rank = r.max_rank;
     for (int k = 1; k <= r.max_rank; ++k) {
@@ -409,14 +409,14 @@ int ChooseRank(const BtfCompressionOptions& options, core::BtfFactorColor color,
         break;
       }
     }
-    r.reason = r.relative_rms_error[rank - 1] <= options.max_relative_error
-                   ? "smallest rank with relative RMS error" + space + " " + Percent(r.relative_rms_error[rank - 1]) +
-                         " <= budget " + Percent(options.max_relative_error) +
-                         (rank > 1 ? " (rank " + std::to_string(rank - 1) + ": " +
-                                         Percent(r.relative_rms_error[rank - 2]) + ")"
-                                   : "")
-                   : "budget " + Percent(options.max_relative_error) + " not reachable: the largest rank " +
-                         std::to_string(rank) + " leaves " + Percent(r.relative_rms_error[rank - 1]);
+    *reason = r.relative_rms_error[rank - 1] <= options.max_relative_error
+                  ? "smallest rank with relative RMS error" + space + " " + Percent(r.relative_rms_error[rank - 1]) +
+                        " <= budget " + Percent(options.max_relative_error) +
+                        (rank > 1 ? " (rank " + std::to_string(rank - 1) + ": " +
+                                        Percent(r.relative_rms_error[rank - 2]) + ")"
+                                  : "")
+                  : "budget " + Percent(options.max_relative_error) + " not reachable: the largest rank " +
+                        std::to_string(rank) + " leaves " + Percent(r.relative_rms_error[rank - 1]);
   }
   return rank;
 }
@@ -513,7 +513,6 @@ struct Factorization {
   core::FactoredBtf shape;  // the size and representation, no factors
   // The spectrum, its error per rank, max_rank, the matrix size, svd.
   BtfCompressionReport report;
-  long long m = 0, n = 0;  // the matrix A of one channel
   // The factors of rank k into a copy of `shape`; holds the SVD.
   std::function<void(int, core::FactoredBtf*)> build;
 
@@ -531,7 +530,7 @@ struct Factorization {
 core::FactoredBtf BuildAtChosenRank(core::FullBtfReader& btf, const BtfCompressionOptions& options,
                                     const Factorization& f, BtfCompressionReport& r) {
   r = f.report;
-  int rank = ChooseRank(options, f.shape.color, f.m, f.n, &r);
+  int rank = ChooseRank(options, f.shape.color, r, &r.reason);
   core::FactoredBtf out = f.shape;
   f.build(rank, &out);
   r.measured_relative_rms_error = RelativeRmsError(btf, out, options.band_bytes);
@@ -547,7 +546,7 @@ core::FactoredBtf BuildAtChosenRank(core::FullBtfReader& btf, const BtfCompressi
   r.factor_bytes = f.Bytes(rank);
   out.CheckShape();
   spdlog::debug("compress: {} {}, {} x {} matrix per channel, rank {} ({})", ToString(out.layout), ToString(out.color),
-                f.m, f.n, rank, r.reason);
+                r.matrix_rows, r.matrix_columns, rank, r.reason);
   return out;
 }
 
@@ -575,10 +574,9 @@ Factorization FactorOneRepresentation(core::FullBtfReader& btf, const BtfCompres
   f.shape = NoFactors(btf, layout, color);
   auto state = std::make_shared<GlobalSvd>(btf, layout, options.band_bytes);
   state->weights = FactoredChannelWeights(f.shape);
-  f.m = state->a.rows();
-  f.n = state->a.columns();
-  const bool tall = f.m >= f.n;
-  const long long small = std::min(f.m, f.n);
+  const long long m = state->a.rows(), n = state->a.columns();
+  const bool tall = m >= n;
+  const long long small = std::min(m, n);
   // The SVD of A (tall) or of A^T (wide); `right` then holds the right
   // singular vectors of A (tall) or its left ones (wide).
   const bool randomized =
@@ -597,14 +595,14 @@ Factorization FactorOneRepresentation(core::FullBtfReader& btf, const BtfCompres
   BtfCompressionReport& r = f.report;
   for (int ch = 0; ch < 3; ++ch) r.singular_values[ch] = state->svd[ch].sigma;
   r.max_rank = max_rank;
-  r.matrix_rows = f.m;
-  r.matrix_columns = f.n;
+  r.matrix_rows = m;
+  r.matrix_columns = n;
   r.relative_rms_error = randomized ? TruncatedSpectrumErrors(r.singular_values, energy, r.max_rank)
                                     : SpectrumErrors(r.singular_values, r.max_rank);
   r.svd = randomized ? "randomized (" + std::to_string(state->svd[0].sigma.size()) + " components, " +
                            std::to_string(options.power_iterations) + " power iterations)"
                      : "exact";
-  f.build = [state, tall, m = f.m, n = f.n, small](int k, core::FactoredBtf* out) {
+  f.build = [state, tall, m, n, small](int k, core::FactoredBtf* out) {
     FactorsFromSvd{state->s, state->weights, state->svd, tall, m, n, small}.Build(k, out);
   };
   return f;
@@ -709,8 +707,7 @@ ClusteredSvd ClusterAndFactor(core::FullBtfReader& btf, const ChannelWeights& we
 Factorization FactorClustered(core::FullBtfReader& btf, int clusters, core::BtfFactorColor color) {
   Factorization f;
   f.shape = NoFactors(btf, core::BtfFactorLayout::kClustered, color);
-  f.m = static_cast<long long>(f.shape.width) * f.shape.height;
-  f.n = static_cast<long long>(f.shape.view_count()) * f.shape.light_count();
+  const long long n = static_cast<long long>(f.shape.view_count()) * f.shape.light_count();
   auto svd = std::make_shared<ClusteredSvd>(ClusterAndFactor(btf, FactoredChannelWeights(f.shape), clusters));
   f.shape.cluster_count = svd->clusters;
   f.shape.texel_clusters = svd->texel_clusters;
@@ -719,9 +716,9 @@ Factorization FactorClustered(core::FullBtfReader& btf, int clusters, core::BtfF
   long long largest = 0;
   for (const auto& members : svd->members) largest = std::max<long long>(largest, members.size());
   r.max_rank = static_cast<int>(
-      std::min<long long>({core::kMaxBtfRank, std::min(largest, f.n), core::kMaxBtfColumnRows / svd->clusters}));
-  r.matrix_rows = f.m;
-  r.matrix_columns = f.n;
+      std::min<long long>({core::kMaxBtfRank, std::min(largest, n), core::kMaxBtfColumnRows / svd->clusters}));
+  r.matrix_rows = static_cast<long long>(f.shape.width) * f.shape.height;
+  r.matrix_columns = n;
   r.relative_rms_error = SpectrumErrors(svd->spectra, r.max_rank);
   r.svd = "exact";
   for (int c = 0; c < svd->clusters; ++c) {
@@ -733,7 +730,7 @@ Factorization FactorClustered(core::FullBtfReader& btf, int clusters, core::BtfF
       right = right.leftCols(kept).eval();
     }
   }
-  f.build = [svd, n = f.n](int k, core::FactoredBtf* out) {
+  f.build = [svd, n](int k, core::FactoredBtf* out) {
     out->rows.assign(k, core::Image(out->width, out->height, 3));
     out->columns = core::Image(static_cast<int>(n), k * svd->clusters, 3);
     for (int c = 0; c < svd->clusters; ++c) {
@@ -764,28 +761,21 @@ Factorization FactorClustered(core::FullBtfReader& btf, int clusters, core::BtfF
 Factorization FactorPerView(core::FullBtfReader& btf, core::BtfFactorColor color) {
   Factorization f;
   f.shape = NoFactors(btf, core::BtfFactorLayout::kPerView, color);
-  const int nv = btf.view_count(), nl = btf.light_count(), h = btf.height();
-  const long long texels = static_cast<long long>(btf.width()) * h;
-  f.m = texels;
-  f.n = static_cast<long long>(nv) * nl;
+  const int nv = btf.view_count(), nl = btf.light_count();
+  // per_view's A is per_texel's texels x (view, light) matrix; view v's
+  // matrix A_v is its block of columns [v * Nlight, (v + 1) * Nlight).
+  const BtfMatrix a(btf, core::BtfFactorLayout::kPerView);
+  const long long texels = a.rows();
   const ChannelWeights weights = FactoredChannelWeights(f.shape);
-  // View v's matrix for channel ch: texels x lights.
-  const auto view_matrix = [&btf, weights, texels, nl, h](int v, std::array<MatrixXd, 3>* a) {
-    std::vector<float> rgb(static_cast<std::size_t>(3 * texels * nl));
-    btf.ReadRows(v, 0, h * nl, rgb.data());
-    for (int ch = 0; ch < 3; ++ch) {
-      (*a)[ch].resize(texels, nl);
-      for (int l = 0; l < nl; ++l)
-        for (long long p = 0; p < texels; ++p) {
-          (*a)[ch](p, l) = MatrixBlock::Weighted(weights[ch], rgb.data() + 3 * (l * texels + p));
-        }
-    }
+  const auto view_matrix = [a, weights, nl](int v, std::array<MatrixXd, 3>* out) {
+    const MatrixBlock block = a.Read(0, a.rows(), static_cast<long long>(v) * nl, nl);
+    for (int ch = 0; ch < 3; ++ch) block.FillRows(0, a.rows(), weights[ch], &(*out)[ch]);
   };
   BtfCompressionReport& r = f.report;
   r.max_rank = static_cast<int>(std::min<long long>(
       {core::kMaxBtfRank, std::min<long long>(texels, nl), core::kMaxBtfColumnRows / std::max(1, nv)}));
-  r.matrix_rows = f.m;
-  r.matrix_columns = f.n;
+  r.matrix_rows = a.rows();
+  r.matrix_columns = a.columns();
   r.svd = "exact";
   // Per view and channel: V truncated to max_rank columns; the spectra.
   auto right = std::make_shared<std::vector<std::array<MatrixXd, 3>>>(nv);
@@ -976,12 +966,6 @@ core::FactoredBtf CompressBtf(core::FullBtfReader& btf, const BtfCompressionOpti
       const long long per_rank =
           FactorBytes(c.layout, btf.width(), btf.height(), btf.view_count(), btf.light_count(), 1, c.clusters) - ids;
       one.rank = static_cast<int>(std::clamp<long long>((options.max_bytes - ids) / per_rank, 0, core::kMaxBtfRank));
-      if (c.layout == core::BtfFactorLayout::kClustered) {
-        one.rank = std::min(one.rank, core::kMaxBtfColumnRows / std::max(1, c.clusters));
-      }
-      if (c.layout == core::BtfFactorLayout::kPerView) {
-        one.rank = std::min({one.rank, btf.light_count(), core::kMaxBtfColumnRows / btf.view_count()});
-      }
       if (one.rank == 0) {
         c.factor_bytes = per_rank + ids;
         c.note = "not tried: rank 1 takes " + std::to_string(c.factor_bytes) + " bytes";
@@ -997,10 +981,13 @@ core::FactoredBtf CompressBtf(core::FullBtfReader& btf, const BtfCompressionOpti
                           ? FactorPerView(btf, c.color)
                           : FactorOneRepresentation(btf, one, c.layout, c.color);
     c.clusters = f.shape.cluster_count;
-    BtfCompressionReport spectral = f.report;
-    c.rank = ChooseRank(one, c.color, f.m, f.n, &spectral);
+    // A byte budget's rank, at most what this representation can hold (its
+    // clusters' sizes, its rows of column factors).
+    if (byte_budget) one.rank = std::min(one.rank, f.report.max_rank);
+    std::string reason;
+    c.rank = ChooseRank(one, c.color, f.report, &reason);
     c.factor_bytes = f.Bytes(c.rank);
-    c.relative_rms_error = spectral.relative_rms_error[c.rank - 1];
+    c.relative_rms_error = f.report.relative_rms_error[c.rank - 1];
     core::FactoredBtf built;
     BtfCompressionReport built_report;
     if (c.color != core::BtfFactorColor::kRgb) {
