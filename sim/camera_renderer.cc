@@ -450,7 +450,7 @@ double WrapAngle(double x) {
 
 LaserSweepRenderer::LaserSweepRenderer(const CameraRenderer& renderer, const CameraView& view, int mount,
                                        double arc_rad)
-    : width_(view.width), height_(view.height), sigma_mm_(renderer.rig().laser.stripe_sigma_mm) {
+    : view_(view), width_(view.width), height_(view.height), sigma_mm_(renderer.rig().laser.stripe_sigma_mm) {
   const formats::LaserMountCalibration& m = renderer.calibration().laser_mounts.at(mount);
   const Eigen::Matrix3d arc = RotationZ(arc_rad);
   source_ = arc * m.source_mm;
@@ -458,18 +458,24 @@ LaserSweepRenderer::LaserSweepRenderer(const CameraRenderer& renderer, const Cam
   n0_ = arc * m.plane_normal_at_zero_tilt;
   k_cross_n0_ = axis.cross(n0_);
   k_k_n0_ = axis.dot(n0_) * axis;
+  if (view.samples.size() > kIndexMask) {
+    throw core::Error("laser sweep: " + std::to_string(view.samples.size()) + " samples in a view, more than " +
+                      std::to_string(kIndexMask) + " can be indexed");
+  }
   const double gain = ExposureSeconds(renderer.rig().cameras.at(view.camera)) * kSignalPerRadianceSecond *
                       renderer.LaserPeakIrradiance();
   const Eigen::Vector3d centre = renderer.CameraCentre(view.camera);
   const formats::CameraCalibration& camera = renderer.calibration().cameras.at(view.camera);
   const int side = renderer.options().samples_per_pixel_side;
-  // Per row, the row's lit samples in pixel order, joined in order after.
-  std::vector<std::vector<LitSample>> rows(view.height);
+  // Per row, the row's lit samples in pixel order, binned in row order.
+  std::vector<std::vector<RangedSample>> rows(view.height);
   tbb::parallel_for(0, view.height, [&](int y) {
+    rows[y].reserve(static_cast<std::size_t>(view.width) * view.samples_per_pixel);
     for (int x = 0; x < view.width; ++x) {
       const std::size_t pixel = static_cast<std::size_t>(y) * view.width + x;
       for (int k = 0; k < view.samples_per_pixel; ++k) {
-        const ViewSample& s = view.samples[pixel * view.samples_per_pixel + k];
+        const std::size_t index = pixel * view.samples_per_pixel + k;
+        const ViewSample& s = view.samples[index];
         if (s.surface == ViewSample::Surface::kNothing) continue;
         const Eigen::Vector3d l = (source_ - s.Point()).normalized();
         const double n_dot_l = s.Normal().dot(l);
@@ -481,7 +487,7 @@ LaserSweepRenderer::LaserSweepRenderer(const CameraRenderer& renderer, const Cam
         // Sweeps tilt the plane by a few degrees (the stripe must stay on the
         // turntable), which changes the footprint along it by < 1 - cos(tilt).
         const double footprint = StripeFootprintVariance(camera, s, n0_, side);
-        AddLit(Stripe(s.Point(), weight, footprint), static_cast<std::uint32_t>(pixel), &rows[y]);
+        AddLit(Stripe(static_cast<std::uint32_t>(index), weight, footprint), s.Point(), &rows[y]);
       }
     }
   });
@@ -490,18 +496,19 @@ LaserSweepRenderer::LaserSweepRenderer(const CameraRenderer& renderer, const Cam
   Bin(rows);
 }
 
-LaserSweepRenderer::StripeSample LaserSweepRenderer::Stripe(const Eigen::Vector3d& point, double weight,
-                                                            double footprint_variance) const {
+LaserSweepRenderer::Distance LaserSweepRenderer::DistanceOf(const Eigen::Vector3d& point) const {
   const Eigen::Vector3d r = point - source_;
-  StripeSample out;
-  out.a = n0_.dot(r) - k_k_n0_.dot(r);
-  out.b = k_cross_n0_.dot(r);
-  out.c = k_k_n0_.dot(r);
+  return {n0_.dot(r) - k_k_n0_.dot(r), k_cross_n0_.dot(r), k_k_n0_.dot(r)};
+}
+
+LaserSweepRenderer::LitSample LaserSweepRenderer::Stripe(std::uint32_t source, double weight,
+                                                         double footprint_variance) const {
   const double variance = sigma_mm_ * sigma_mm_ + footprint_variance;
   const double sigma = std::sqrt(variance);
+  LitSample out;
+  out.source = source;
   out.weight = static_cast<float>(weight * sigma_mm_ / sigma);
   out.inv_two_sigma2 = static_cast<float>(1.0 / (2.0 * variance));
-  out.cutoff = static_cast<float>(kStripeCutoffSigmas * sigma);
   return out;
 }
 
@@ -527,53 +534,59 @@ double StripeFootprintVariance(const formats::CameraCalibration& camera, const V
   return (g_u * g_u + g_v * g_v) / 12.0;
 }
 
-void LaserSweepRenderer::AddLit(const StripeSample& s, std::uint32_t pixel, std::vector<LitSample>* lit) const {
+void LaserSweepRenderer::AddLit(LitSample s, const Eigen::Vector3d& point, std::vector<RangedSample>* lit) const {
   if (!(s.weight > 0.0f)) return;
   const double pi = std::numbers::pi;
-  const double cutoff = s.cutoff;
-  auto add = [&](double begin, double end) {
+  const double cutoff = kStripeCutoffSigmas / std::sqrt(2.0 * s.inv_two_sigma2);
+  auto add = [&](double begin, double end, Side side) {
+    LitSample entry = s;
+    entry.source |= static_cast<std::uint32_t>(side) << kIndexBits;
     if (end - begin >= 2.0 * pi) {
-      lit->push_back({s, pixel, static_cast<float>(-pi), static_cast<float>(pi)});
+      lit->push_back({entry, static_cast<float>(-pi), static_cast<float>(pi)});
       return;
     }
     const double span = end - begin;
     begin = WrapAngle(begin);
     end = begin + span;
-    if (end <= pi) {
-      lit->push_back({s, pixel, static_cast<float>(begin), static_cast<float>(end)});
+    // A wide range is checked at every frame: split, both pieces would count.
+    if (end <= pi || span > kMaxBinnedSpan) {
+      lit->push_back({entry, static_cast<float>(begin), static_cast<float>(end)});
     } else {  // across +-pi: two ranges
-      lit->push_back({s, pixel, static_cast<float>(begin), static_cast<float>(pi)});
-      lit->push_back({s, pixel, static_cast<float>(-pi), static_cast<float>(end - 2.0 * pi)});
+      lit->push_back({entry, static_cast<float>(begin), static_cast<float>(pi)});
+      lit->push_back({entry, static_cast<float>(-pi), static_cast<float>(end - 2.0 * pi)});
     }
   };
   // d(t) = a cos t + b sin t + c = r cos(t - phi) + c; |d| < cutoff where
   // cos(t - phi) lies in (lo, hi).
-  const double r = std::hypot(s.a, s.b);
+  const Distance d = DistanceOf(point);
+  const double r = std::hypot(d.a, d.b);
   if (!(r > 1e-12)) {
-    if (std::abs(s.c) < cutoff) add(-pi, pi);
+    if (std::abs(d.c) < cutoff) add(-pi, pi, Side::kAny);
     return;
   }
-  const double lo = (-cutoff - s.c) / r, hi = (cutoff - s.c) / r;
+  const double lo = (-cutoff - d.c) / r, hi = (cutoff - d.c) / r;
   if (lo >= 1.0 || hi <= -1.0) return;  // the plane never comes within the cutoff
-  const double phi = std::atan2(s.b, s.a);
+  const double phi = std::atan2(d.b, d.a);
   const double near = hi >= 1.0 ? 0.0 : std::acos(hi);  // |t - phi| in (near, far)
   const double far = lo <= -1.0 ? pi : std::acos(lo);
   const double pad = kTiltRangePadding;
   if (near <= pad) {
-    add(phi - far - pad, phi + far + pad);
+    add(phi - far - pad, phi + far + pad, Side::kAny);
   } else if (far >= pi - pad) {  // the two ranges meet at phi + pi: one range, so no tilt counts twice
-    add(phi + near - pad, phi + 2.0 * pi - near + pad);
+    add(phi + near - pad, phi + 2.0 * pi - near + pad, Side::kAny);
   } else {
-    add(phi + near - pad, phi + far + pad);
-    add(phi - far - pad, phi - near + pad);
+    add(phi + near - pad, phi + far + pad, Side::kAfterPhi);
+    add(phi - far - pad, phi - near + pad, Side::kBeforePhi);
   }
 }
 
 void LaserSweepRenderer::AddBounces(const CameraRenderer& renderer, const CameraView& view, double gain,
-                                    int rays_per_pixel, std::vector<std::vector<LitSample>>* lit_rows) const {
+                                    int rays_per_pixel, std::vector<std::vector<RangedSample>>* lit_rows) {
   const Eigen::Vector3d centre = renderer.CameraCentre(view.camera);
-  // Per row: the bounce samples in pixel order, after the direct ones.
-  std::vector<std::vector<LitSample>> rows(height_);
+  // Per row: the bounce samples in pixel order (their bounces_ index counted
+  // within the row until the rows are joined), after the direct ones.
+  std::vector<std::vector<RangedSample>> rows(height_);
+  std::vector<std::vector<BouncePoint>> points(height_);
   tbb::parallel_for(0, height_, [&](int y) {
     for (int x = 0; x < width_; ++x) {
       const std::size_t pixel = static_cast<std::size_t>(y) * width_ + x;
@@ -603,23 +616,34 @@ void LaserSweepRenderer::AddBounces(const CameraRenderer& renderer, const Camera
         const double weight = gain * std::numbers::pi / rays_per_pixel * Grey(f_s.cwiseProduct(f_q)) * n_dot_l;
         if (!(weight > 0.0)) continue;
         // q is lit by the stripe itself, not seen through a pixel: no footprint.
-        AddLit(Stripe(q->Point(), weight, 0.0), static_cast<std::uint32_t>(pixel), &rows[y]);
+        const std::size_t before = rows[y].size();
+        AddLit(Stripe(static_cast<std::uint32_t>(points[y].size()), weight, 0.0), q->Point(), &rows[y]);
+        if (rows[y].size() > before) points[y].push_back({q->point, static_cast<std::uint32_t>(pixel)});
       }
     }
   });
-  for (auto& row : rows) lit_rows->push_back(std::move(row));
+  for (int y = 0; y < height_; ++y) {
+    const std::size_t offset = bounces_.size();
+    if (offset + points[y].size() > kIndexMask) throw core::Error("laser sweep: too many bounce samples to index");
+    for (RangedSample& s : rows[y]) {
+      const std::uint32_t side = s.lit.source & ~kIndexMask;
+      s.lit.source = kBounceBit | side | static_cast<std::uint32_t>(offset + (s.lit.source & kIndexMask));
+    }
+    bounces_.insert(bounces_.end(), points[y].begin(), points[y].end());
+    lit_rows->push_back(std::move(rows[y]));
+  }
 }
 
-void LaserSweepRenderer::Bin(const std::vector<std::vector<LitSample>>& rows) {
+void LaserSweepRenderer::Bin(const std::vector<std::vector<RangedSample>>& rows) {
   // Wide ranges out; the narrow ones are binned in the order they come.
-  auto narrow = [](const LitSample& s) { return s.end - s.begin <= kMaxBinnedSpan; };
+  auto narrow = [](const RangedSample& s) { return s.end - s.begin <= kMaxBinnedSpan; };
   std::size_t narrow_count = 0;
   double last = -kInfinity;
   first_begin_ = kInfinity;
   for (const auto& row : rows) {
-    for (const LitSample& s : row) {
+    for (const RangedSample& s : row) {
       if (!narrow(s)) {
-        wide_.push_back(s);
+        wide_.push_back(s.lit);
         continue;
       }
       ++narrow_count;
@@ -632,7 +656,7 @@ void LaserSweepRenderer::Bin(const std::vector<std::vector<LitSample>>& rows) {
   bin_width_ = std::max((last - first_begin_) / (kTiltBins - 1), 1e-12);
   bin_begin_.assign(kTiltBins + 1, 0);
   for (const auto& row : rows) {
-    for (const LitSample& s : row) {
+    for (const RangedSample& s : row) {
       if (narrow(s)) ++bin_begin_[BinOf(s.begin) + 1];
     }
   }
@@ -640,8 +664,8 @@ void LaserSweepRenderer::Bin(const std::vector<std::vector<LitSample>>& rows) {
   binned_.resize(narrow_count);
   std::vector<std::uint32_t> next(bin_begin_.begin(), bin_begin_.end() - 1);
   for (const auto& row : rows) {
-    for (const LitSample& s : row) {
-      if (narrow(s)) binned_[next[BinOf(s.begin)]++] = s;
+    for (const RangedSample& s : row) {
+      if (narrow(s)) binned_[next[BinOf(s.begin)]++] = s.lit;
     }
   }
 }
@@ -657,12 +681,20 @@ core::Image LaserSweepRenderer::Frame(double tilt_rad) const {
   const float tilt = static_cast<float>(WrapAngle(tilt_rad));
   core::Image out(width_, height_, 1);
   float* values = out.data();
+  const double cutoff2 = kStripeCutoffSigmas * kStripeCutoffSigmas / 2.0;  // (d / sigma)^2 / 2 at the cutoff
   const auto add = [&](const LitSample& s) {
-    if (!(s.begin <= tilt && tilt <= s.end)) return;
-    const double d = cos_t * s.stripe.a + sin_t * s.stripe.b + s.stripe.c;
-    if (std::abs(d) < s.stripe.cutoff) {
-      values[s.pixel] += static_cast<float>(s.stripe.weight * std::exp(-d * d * s.stripe.inv_two_sigma2));
-    }
+    const std::uint32_t index = s.source & kIndexMask;
+    const bool bounce = (s.source & kBounceBit) != 0;
+    const Distance c = DistanceOf(bounce ? bounces_[index].point.cast<double>() : view_.samples[index].Point());
+    const double d = cos_t * c.a + sin_t * c.b + c.c;
+    const double exponent = d * d * s.inv_two_sigma2;
+    if (!(exponent < cutoff2)) return;
+    // sin(t - phi) r = a sin t - b cos t: which of two mirrored ranges t is in.
+    const auto side = static_cast<Side>((s.source >> kIndexBits) & 3u);
+    const double after = c.a * sin_t - c.b * cos_t;
+    if ((side == Side::kAfterPhi && !(after > 0.0)) || (side == Side::kBeforePhi && !(after < 0.0))) return;
+    const std::size_t pixel = bounce ? bounces_[index].pixel : index / view_.samples_per_pixel;
+    values[pixel] += static_cast<float>(s.weight * std::exp(-exponent));
   };
   for (const LitSample& s : wide_) add(s);
   if (!binned_.empty()) {

@@ -224,44 +224,68 @@ class CameraRenderer : public FrameRenderer {
 // come from a generator seeded by its index.
 class LaserSweepRenderer {
  public:
+  // Keeps a reference to `view`, which must outlive the sweep: a lit
+  // sample's point is read from it at every frame.
   LaserSweepRenderer(const CameraRenderer& renderer, const CameraView& view, int mount, double arc_rad);
 
   // The stripe's signal at one tilt: 1 channel, before the sensor.
   core::Image Frame(double tilt_rad) const;
 
  private:
-  // The signed distance of a sample from the plane at tilt t is
-  // cos(t) a + sin(t) b + c (Rodrigues' rotation of the tilt-0 normal). The
+  // The signed distance of a point from the plane at tilt t is
+  // cos(t) a + sin(t) b + c (Rodrigues' rotation of the tilt-0 normal), with
+  // a, b, c linear in the point, computed from it at every frame so that a
+  // lit sample keeps only its index and its stripe (12 bytes; every camera's
+  // sweep is held at once, 7 million samples for a paper-rig camera). The
   // stripe's profile over the sample's footprint is a Gaussian of variance
   // sigma^2 + StripeFootprintVariance (weight scaled by sigma / that sigma,
   // so the light it gets over a sweep stays the same), cut off at 8 of it.
-  struct StripeSample {
+  struct Distance {
     double a = 0, b = 0, c = 0;
-    float weight = 0;  // signal the pixel gets at the stripe's peak; 0 where unlit
-    float inv_two_sigma2 = 0;
-    float cutoff = 0;  // mm
   };
-  // A lit sample, the pixel it adds to, and the tilts [begin, end] (in
-  // [-pi, pi], padded) over which the stripe covers it.
+  // Over a turn of the plane, d(t) = r cos(t - phi) + c comes within the
+  // cutoff of a point in one interval of t or in two mirrored about phi;
+  // an entry of the latter counts only on its own side, where
+  // sin(t - phi) has the entry's sign.
+  enum class Side : std::uint32_t { kAny = 0, kAfterPhi = 1, kBeforePhi = 2 };
   struct LitSample {
-    StripeSample stripe;
+    // Bits 0-28: the view sample's index, or with kBounceBit the entry of
+    // bounces_; bits 29-30: the Side.
+    std::uint32_t source = 0;
+    float weight = 0;  // signal the pixel gets at the stripe's peak
+    float inv_two_sigma2 = 0;
+  };
+  static constexpr std::uint32_t kIndexBits = 29;
+  static constexpr std::uint32_t kIndexMask = (1u << kIndexBits) - 1;
+  static constexpr std::uint32_t kBounceBit = 1u << 31;
+  // A point lit by the stripe's light after one bounce and the pixel it adds to.
+  struct BouncePoint {
+    Eigen::Vector3f point = Eigen::Vector3f::Zero();
     std::uint32_t pixel = 0;
+  };
+  // A lit sample while the sweep is built: the tilts [begin, end] (in
+  // [-pi, pi], padded) over which the stripe covers it, for binning.
+  struct RangedSample {
+    LitSample lit;
     float begin = 0, end = 0;
   };
-  // The stripe at `point` for a sample of peak signal `weight` whose distance
-  // from the plane varies by `footprint_variance` (mm^2) over its footprint.
-  StripeSample Stripe(const Eigen::Vector3d& point, double weight, double footprint_variance) const;
-  // Adds s's tilt range(s) for `pixel` to `lit` (none when never covered).
-  void AddLit(const StripeSample& s, std::uint32_t pixel, std::vector<LitSample>* lit) const;
-  // Appends one list of bounce samples per row to `rows`.
+  Distance DistanceOf(const Eigen::Vector3d& point) const;
+  // The stripe's weight and Gaussian for a sample of peak signal `weight`
+  // whose distance from the plane varies by `footprint_variance` (mm^2)
+  // over its footprint.
+  LitSample Stripe(std::uint32_t source, double weight, double footprint_variance) const;
+  // Adds the lit sample's tilt range(s) for a point to `lit` (none when
+  // never covered).
+  void AddLit(LitSample s, const Eigen::Vector3d& point, std::vector<RangedSample>* lit) const;
+  // Appends one list of bounce samples per row to `rows`, their points to bounces_.
   void AddBounces(const CameraRenderer& renderer, const CameraView& view, double gain, int rays_per_pixel,
-                  std::vector<std::vector<LitSample>>* rows) const;
+                  std::vector<std::vector<RangedSample>>* rows);
   // Sorts the lit samples, list after list, into bins by the start of the
   // range (a counting sort: stable, so frames add in the same order on every
   // run); ranges wider than kMaxBinnedSpan go to wide_, checked at every
   // frame. Straight from the per-row lists: joining them first would fault
   // in another copy of them (tens of MB a sweep).
-  void Bin(const std::vector<std::vector<LitSample>>& rows);
+  void Bin(const std::vector<std::vector<RangedSample>>& rows);
   // The bin of a range starting at `begin` (clamped to the first and last).
   std::size_t BinOf(double begin) const;
   // The tilt-0 plane's rotation about the tilt axis k (Rodrigues):
@@ -270,9 +294,11 @@ class LaserSweepRenderer {
   Eigen::Vector3d n0_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d k_cross_n0_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d k_k_n0_ = Eigen::Vector3d::Zero();
+  const CameraView& view_;
   int width_ = 0;
   int height_ = 0;
   double sigma_mm_ = 1.0;
+  std::vector<BouncePoint> bounces_;
   // Binned lit samples: bin i holds binned_[bin_begin_[i], bin_begin_[i + 1]),
   // ranges starting in [first_begin_ + i bin_width_, + bin_width_).
   std::vector<LitSample> binned_;
