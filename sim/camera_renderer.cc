@@ -373,7 +373,8 @@ CameraRenderer::RenderCache& CameraRenderer::CachedRender(const SimulatedRigStat
   }
   if (state.laser_on &&
       (!entry->sweep || entry->laser_mount != state.laser_mount || entry->laser_arc_rad != state.light_arc_rad)) {
-    entry->sweep = std::make_unique<LaserSweepRenderer>(*this, entry->view, state.laser_mount, state.light_arc_rad);
+    entry->sweep = std::make_unique<LaserSweepRenderer>(*this, entry->view, state.laser_mount, state.light_arc_rad,
+                                                        kMaxSweptTiltRad);
     entry->laser_mount = state.laser_mount;
     entry->laser_arc_rad = state.light_arc_rad;
   }
@@ -449,8 +450,12 @@ double WrapAngle(double x) {
 }  // namespace
 
 LaserSweepRenderer::LaserSweepRenderer(const CameraRenderer& renderer, const CameraView& view, int mount,
-                                       double arc_rad)
-    : view_(view), width_(view.width), height_(view.height), sigma_mm_(renderer.rig().laser.stripe_sigma_mm) {
+                                       double arc_rad, double max_tilt_rad)
+    : view_(view),
+      max_tilt_(max_tilt_rad),
+      width_(view.width),
+      height_(view.height),
+      sigma_mm_(renderer.rig().laser.stripe_sigma_mm) {
   const formats::LaserMountCalibration& m = renderer.calibration().laser_mounts.at(mount);
   const Eigen::Matrix3d arc = RotationZ(arc_rad);
   source_ = arc * m.source_mm;
@@ -538,11 +543,15 @@ void LaserSweepRenderer::AddLit(LitSample s, const Eigen::Vector3d& point, std::
   if (!(s.weight > 0.0f)) return;
   const double pi = std::numbers::pi;
   const double cutoff = kStripeCutoffSigmas / std::sqrt(2.0 * s.inv_two_sigma2);
+  auto push = [&](const LitSample& entry, double begin, double end) {
+    if (end < -max_tilt_ || begin > max_tilt_) return;  // never swept
+    lit->push_back({entry, static_cast<float>(begin), static_cast<float>(end)});
+  };
   auto add = [&](double begin, double end, Side side) {
     LitSample entry = s;
     entry.source |= static_cast<std::uint32_t>(side) << kIndexBits;
     if (end - begin >= 2.0 * pi) {
-      lit->push_back({entry, static_cast<float>(-pi), static_cast<float>(pi)});
+      push(entry, -pi, pi);
       return;
     }
     const double span = end - begin;
@@ -550,10 +559,10 @@ void LaserSweepRenderer::AddLit(LitSample s, const Eigen::Vector3d& point, std::
     end = begin + span;
     // A wide range is checked at every frame: split, both pieces would count.
     if (end <= pi || span > kMaxBinnedSpan) {
-      lit->push_back({entry, static_cast<float>(begin), static_cast<float>(end)});
+      push(entry, begin, end);
     } else {  // across +-pi: two ranges
-      lit->push_back({entry, static_cast<float>(begin), static_cast<float>(pi)});
-      lit->push_back({entry, static_cast<float>(-pi), static_cast<float>(end - 2.0 * pi)});
+      push(entry, begin, pi);
+      push(entry, -pi, end - 2.0 * pi);
     }
   };
   // d(t) = a cos t + b sin t + c = r cos(t - phi) + c; |d| < cutoff where
@@ -676,6 +685,10 @@ std::size_t LaserSweepRenderer::BinOf(double begin) const {
 }
 
 core::Image LaserSweepRenderer::Frame(double tilt_rad) const {
+  if (!(std::abs(tilt_rad) <= max_tilt_)) {
+    throw core::Error("laser sweep: tilt " + std::to_string(tilt_rad) + " rad is beyond the sweep's " +
+                      std::to_string(max_tilt_) + " rad");
+  }
   const double cos_t = std::cos(tilt_rad);
   const double sin_t = std::sin(tilt_rad);
   const float tilt = static_cast<float>(WrapAngle(tilt_rad));

@@ -202,6 +202,12 @@ class CameraRenderer : public FrameRenderer {
   std::vector<std::shared_ptr<RenderCache>> cache_;  // per camera
 };
 
+// The tilts CameraRenderer renders a sweep at: a sweep tilts the emitter a
+// few degrees about its rest, and beyond a quarter turn its fan would face
+// away from the turntable. The plane at t + pi is the one at t, so each
+// point's second crossing, half of a sweep's lit samples, lies out there.
+inline constexpr double kMaxSweptTiltRad = std::numbers::pi / 2.0;
+
 // A laser sweep of one camera from one laser location (Sec. 3.2: the
 // sequence {I_v,l(x, y, t_i)}): everything that does not depend on the tilt
 // (the hits, their reflectance towards the source, the source's visibility:
@@ -225,10 +231,14 @@ class CameraRenderer : public FrameRenderer {
 class LaserSweepRenderer {
  public:
   // Keeps a reference to `view`, which must outlive the sweep: a lit
-  // sample's point is read from it at every frame.
-  LaserSweepRenderer(const CameraRenderer& renderer, const CameraView& view, int mount, double arc_rad);
+  // sample's point is read from it at every frame. Frames are rendered at
+  // tilts in [-max_tilt_rad, max_tilt_rad]; the samples lit only beyond
+  // are not kept.
+  LaserSweepRenderer(const CameraRenderer& renderer, const CameraView& view, int mount, double arc_rad,
+                     double max_tilt_rad = std::numbers::pi);
 
-  // The stripe's signal at one tilt: 1 channel, before the sensor.
+  // The stripe's signal at one tilt (an error beyond the sweep's maximum):
+  // 1 channel, before the sensor.
   core::Image Frame(double tilt_rad) const;
 
  private:
@@ -295,6 +305,7 @@ class LaserSweepRenderer {
   Eigen::Vector3d k_cross_n0_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d k_k_n0_ = Eigen::Vector3d::Zero();
   const CameraView& view_;
+  double max_tilt_ = 0.0;
   int width_ = 0;
   int height_ = 0;
   double sigma_mm_ = 1.0;

@@ -21,6 +21,7 @@
 #include "formats/frame_sequence.h"
 #include "sim/camera_sensor.h"
 #include "sim/shipped_rigs.h"
+#include "tests/common/error_of.h"
 #include "tests/common/temporary_directory.h"
 
 namespace mesocap::sim {
@@ -317,6 +318,32 @@ TEST(CameraRendererTest, SweepFramesEqualTheSumOverEveryLitSample) {
   EXPECT_GT(lit_pixels, 500);
   EXPECT_GT(widened_pixels, 50) << "the tiny rig's 2 x 2 samples are wider than the stripe on slanted threads";
   EXPECT_LT(edge_on_pixels, lit_pixels / 10);
+}
+
+// A sweep kept for tilts within a quarter turn (as CameraRenderer keeps
+// every sweep) renders those tilts as the whole turn's does and refuses a
+// tilt beyond.
+TEST(CameraRendererTest, SweepWithinAQuarterTurnMatchesTheWholeTurn) {
+  const auto rig = LoadRig("tiny");
+  const auto scene = MakeBuiltinScene("weave");
+  const CameraRenderer renderer(*scene, rig, {2});
+  const CameraView view = renderer.TraceSample(0, 0.4);
+  const auto& loc = rig.laser.locations[2];
+  const LaserSweepRenderer whole(renderer, view, loc.mount, loc.arc_angle_rad);
+  const LaserSweepRenderer quarter(renderer, view, loc.mount, loc.arc_angle_rad, kMaxSweptTiltRad);
+  double lit = 0.0;
+  for (const double offset : {-7.0, -2.0, 0.0, 0.3, 4.0, 7.0}) {
+    const double tilt = calibration::LaserTiltForOffset(rig.laser, loc.mount, offset);
+    const core::Image a = whole.Frame(tilt), b = quarter.Frame(tilt);
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      // Equal up to the order in which a pixel's samples add up.
+      ASSERT_NEAR(b.data()[i], a.data()[i], 1e-6 * (1.0 + a.data()[i])) << "tilt " << tilt << " value " << i;
+      lit += a.data()[i];
+    }
+  }
+  EXPECT_GT(lit, 1.0);
+  EXPECT_NE(testing::ErrorOf([&] { quarter.Frame(2.0); }).find("beyond the sweep's"), std::string::npos);
+  EXPECT_NO_THROW(whole.Frame(2.0));
 }
 
 // A stripe much narrower than a pixel's footprint (the paper rig's lowest
