@@ -4,8 +4,11 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
+#include <atomic>
 #include <cmath>
 #include <limits>
+#include <mutex>
 #include <new>
 #include <numbers>
 #include <random>
@@ -41,6 +44,40 @@ double ExposureSeconds(const formats::CameraDescription& camera) { return camera
 // The laser is one colour; a grey sensor response to it sees the mean of
 // the RGB reflectance.
 double Grey(const Eigen::Vector3f& rgb) { return (rgb[0] + rgb[1] + rgb[2]) / 3.0; }
+
+// The distinct glosses of a view as its samples are traced in parallel:
+// entries are appended under the lock and published through the count, so
+// the common lookup (a scene has a gloss per part) reads without locking.
+class GlossTable {
+ public:
+  std::uint8_t IndexOf(const Reflectance& r) {
+    const int published = count_.load(std::memory_order_acquire);
+    for (int i = 0; i < published; ++i) {
+      if (Same(entries_[i], r)) return static_cast<std::uint8_t>(i);
+    }
+    const std::lock_guard<std::mutex> lock(mutex_);
+    const int count = count_.load(std::memory_order_relaxed);
+    for (int i = published; i < count; ++i) {
+      if (Same(entries_[i], r)) return static_cast<std::uint8_t>(i);
+    }
+    if (count == CameraView::kMaxGlosses) {
+      throw core::Error("camera renderer: more than " + std::to_string(CameraView::kMaxGlosses) +
+                        " distinct specular albedos and exponents in one view");
+    }
+    entries_[count] = {r.specular_albedo, r.glossy_exponent};
+    count_.store(count + 1, std::memory_order_release);
+    return static_cast<std::uint8_t>(count);
+  }
+  std::vector<CameraView::Gloss> Entries() const { return {entries_.begin(), entries_.begin() + count_.load()}; }
+
+ private:
+  static bool Same(const CameraView::Gloss& g, const Reflectance& r) {
+    return g.specular_albedo == r.specular_albedo && g.glossy_exponent == r.glossy_exponent;
+  }
+  std::array<CameraView::Gloss, CameraView::kMaxGlosses> entries_{};
+  std::atomic<int> count_{0};
+  std::mutex mutex_;
+};
 
 // Sub-pixel offset of sample k of n per side, on a regular grid inside the
 // pixel [-0.5, 0.5]^2 around its centre.
@@ -119,7 +156,8 @@ CameraRenderer::CameraRenderer(const MesostructureScene& scene, const formats::R
 std::uint64_t CameraRenderer::FirstHitBytes(int camera) const {
   const formats::CameraDescription& c = rig_.cameras.at(camera);
   const auto n = static_cast<std::uint64_t>(options_.samples_per_pixel_side);
-  return static_cast<std::uint64_t>(c.width) * static_cast<std::uint64_t>(c.height) * n * n * sizeof(ViewSample);
+  return static_cast<std::uint64_t>(c.width) * static_cast<std::uint64_t>(c.height) * n * n *
+         sizeof(CameraView::StoredSample);
 }
 
 std::string CameraRenderer::FirstHitsText(int camera) const {
@@ -213,16 +251,32 @@ CameraView CameraRenderer::Trace(int camera, double turntable_rad, const HitFunc
                                                       FirstHitsText(camera) + ")");
   }
   const Eigen::Vector3d centre = CameraCentre(camera);
+  GlossTable glosses;
   tbb::parallel_for(0, c.height, [&](int y) {
     for (int x = 0; x < c.width; ++x) {
       const std::size_t first = (static_cast<std::size_t>(y) * c.width + x) * view.samples_per_pixel;
       for (int k = 0; k < view.samples_per_pixel; ++k) {
         const Eigen::Vector2d offset = SubPixelOffset(k, n);
-        view.samples[first + k] = first_hit(centre, PixelRay(camera, x + offset.x(), y + offset.y()));
+        const ViewSample s = first_hit(centre, PixelRay(camera, x + offset.x(), y + offset.y()));
+        view.samples[first + k] = {s.surface, glosses.IndexOf(s.reflectance), s.point, s.normal,
+                                   s.reflectance.diffuse_albedo};
       }
     }
   });
+  view.glosses = glosses.Entries();
   return view;
+}
+
+ViewSample CameraView::Sample(std::size_t index) const {
+  const StoredSample& stored = samples[index];
+  ViewSample s;
+  s.surface = stored.surface;
+  s.point = stored.point;
+  s.normal = stored.normal;
+  s.reflectance.diffuse_albedo = stored.diffuse_albedo;
+  s.reflectance.specular_albedo = glosses[stored.gloss].specular_albedo;
+  s.reflectance.glossy_exponent = glosses[stored.gloss].glossy_exponent;
+  return s;
 }
 
 CameraView CameraRenderer::TraceSample(int camera, double turntable_rad) const {
@@ -301,7 +355,7 @@ core::Image CameraRenderer::RenderLamps(const CameraView& view, double arc_rad,
       Eigen::Vector3d sum = Eigen::Vector3d::Zero();
       const std::size_t first = (static_cast<std::size_t>(y) * view.width + x) * view.samples_per_pixel;
       for (int k = 0; k < view.samples_per_pixel; ++k) {
-        const ViewSample& s = view.samples[first + k];
+        const ViewSample s = view.Sample(first + k);
         if (s.surface == ViewSample::Surface::kNothing) continue;
         const Eigen::Vector3d point = s.Point(), normal = s.Normal();
         const Eigen::Vector3d to_camera = (centre - point).normalized();
@@ -480,7 +534,7 @@ LaserSweepRenderer::LaserSweepRenderer(const CameraRenderer& renderer, const Cam
       const std::size_t pixel = static_cast<std::size_t>(y) * view.width + x;
       for (int k = 0; k < view.samples_per_pixel; ++k) {
         const std::size_t index = pixel * view.samples_per_pixel + k;
-        const ViewSample& s = view.samples[index];
+        const ViewSample s = view.Sample(index);
         if (s.surface == ViewSample::Surface::kNothing) continue;
         const Eigen::Vector3d l = (source_ - s.Point()).normalized();
         const double n_dot_l = s.Normal().dot(l);
@@ -603,7 +657,7 @@ void LaserSweepRenderer::AddBounces(const CameraRenderer& renderer, const Camera
       std::uniform_real_distribution<double> uniform(0.0, 1.0);
       for (int k = 0; k < rays_per_pixel; ++k) {
         const double u1 = uniform(rng), u2 = uniform(rng);
-        const ViewSample& s = view.samples[pixel * view.samples_per_pixel + k % view.samples_per_pixel];
+        const ViewSample s = view.Sample(pixel * view.samples_per_pixel + k % view.samples_per_pixel);
         if (s.surface != ViewSample::Surface::kSample) continue;
         // Cosine-distributed about the normal (pdf cos / pi).
         const Eigen::Vector3d n = s.Normal();
@@ -698,7 +752,8 @@ core::Image LaserSweepRenderer::Frame(double tilt_rad) const {
   const auto add = [&](const LitSample& s) {
     const std::uint32_t index = s.source & kIndexMask;
     const bool bounce = (s.source & kBounceBit) != 0;
-    const Distance c = DistanceOf(bounce ? bounces_[index].point.cast<double>() : view_.samples[index].Point());
+    const Distance c =
+        DistanceOf(bounce ? bounces_[index].point.cast<double>() : view_.samples[index].point.cast<double>());
     const double d = cos_t * c.a + sin_t * c.b + c.c;
     const double exponent = d * d * s.inv_two_sigma2;
     if (!(exponent < cutoff2)) return;

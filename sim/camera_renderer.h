@@ -73,12 +73,9 @@ struct CameraRendererOptions {
   int interreflection_rays_per_pixel = 0;
 };
 
-// What one camera ray meets; points and normals in the world frame. Stored
-// in float (48 bytes, against 80 in double): a camera's view holds one per
-// sub-pixel ray (7 million for a paper-rig camera at 3 x 3 rays a pixel),
-// and every camera's is kept. Float resolves 0.06 um at 1 m from the
-// origin, far below the scene's surface epsilon (1e-4 of a tile) that shadow
-// and bounce rays start past.
+// What one camera ray meets; points and normals in the world frame, in
+// float (0.06 um at 1 m from the origin, far below the scene's surface
+// epsilon (1e-4 of a tile) that shadow and bounce rays start past).
 struct ViewSample {
   enum class Surface : std::uint8_t { kNothing, kSample, kTurntable, kCalibrationPlate, kBacking };
   Surface surface = Surface::kNothing;
@@ -93,14 +90,37 @@ struct ViewSample {
 // The first hits of every sub-pixel ray of one camera in one setting (a
 // turntable angle, or a calibration plate): computed once, then lit by any
 // number of lamp settings and laser tilts. Pixel p's samples are
-// samples[p * samples_per_pixel, (p + 1) * samples_per_pixel), p = y W + x.
+// p * samples_per_pixel + k, k < samples_per_pixel, p = y W + x.
+//
+// A view holds one sample per sub-pixel ray (7 million for a paper-rig
+// camera at 3 x 3 rays a pixel) and every camera's is kept, so a sample is
+// kept in 40 bytes (a ViewSample takes 48): its gloss (specular albedo and
+// exponent, constant over a scene part) is an index into the view's few
+// distinct glosses.
 struct CameraView {
+  struct Gloss {
+    float specular_albedo = 0.0f;
+    float glossy_exponent = 20.0f;
+  };
+  struct StoredSample {
+    ViewSample::Surface surface = ViewSample::Surface::kNothing;
+    std::uint8_t gloss = 0;  // into glosses
+    Eigen::Vector3f point = Eigen::Vector3f::Zero();
+    Eigen::Vector3f normal = Eigen::Vector3f::UnitZ();
+    Eigen::Vector3f diffuse_albedo = Eigen::Vector3f::Constant(0.5f);
+  };
+  static constexpr int kMaxGlosses = 256;
+
   int camera = 0;
   double turntable_rad = 0.0;
   int width = 0;
   int height = 0;
   int samples_per_pixel = 1;
-  std::vector<ViewSample> samples;
+  std::vector<StoredSample> samples;
+  std::vector<Gloss> glosses;
+
+  // Sample `index` in full.
+  ViewSample Sample(std::size_t index) const;
 };
 
 // A laser plane in the world frame: points x with normal.(x - source) = 0.

@@ -196,9 +196,9 @@ TEST(CameraRendererTest, StripePeaksLieOnTheTrueLaserPlane) {
         // The height of the face all of the pixel's rays see, all lit.
         auto face = [&](int x, int y) -> std::optional<double> {
           const std::size_t first = (static_cast<std::size_t>(y) * view.width + x) * view.samples_per_pixel;
-          const ViewSample& s0 = view.samples[first];
+          const ViewSample s0 = view.Sample(first);
           for (int k = 0; k < view.samples_per_pixel; ++k) {
-            const ViewSample& s = view.samples[first + k];
+            const ViewSample s = view.Sample(first + k);
             if (s.surface == ViewSample::Surface::kNothing || s.Point().z() != s0.Point().z() ||
                 !renderer.Lit(view, s, source)) {
               return std::nullopt;
@@ -289,8 +289,7 @@ TEST(CameraRendererTest, SweepFramesEqualTheSumOverEveryLitSample) {
         double expected = 0.0;
         bool edge_on = false, widened = false;
         for (int k = 0; k < view.samples_per_pixel; ++k) {
-          const ViewSample& s =
-              view.samples[(static_cast<std::size_t>(y) * view.width + x) * view.samples_per_pixel + k];
+          const ViewSample s = view.Sample((static_cast<std::size_t>(y) * view.width + x) * view.samples_per_pixel + k);
           if (s.surface == ViewSample::Surface::kNothing) continue;
           const Eigen::Vector3d l = (source - s.Point()).normalized();
           const double n_dot_l = s.Normal().dot(l);
