@@ -144,7 +144,7 @@ class CameraRenderer : public FrameRenderer {
   // the light arc do, so a capture that walks the rig in its plan's order
   // traces each camera once per turntable angle and a sweep frame costs
   // only the stripe (the pieces below). The cache holds one camera view per
-  // camera: samples_per_pixel_side^2 ViewSamples a pixel.
+  // camera: samples_per_pixel_side^2 stored samples a pixel.
   core::Image Render(const SimulatedRigState& state, int camera, int channels) override;
 
   // The rig's calibration board on holder `holder` at a turntable angle,

@@ -28,8 +28,10 @@ void ExpectOneErrorLine(const CommandResult& r, const std::string& line) {
   EXPECT_EQ(r.err, "mesocap: error: " + line + "\n");
 }
 
-std::string Simulate(const testing::TemporaryDirectory& dir, const std::string& rig, const std::string& extra = "") {
-  return "simulate --scene flat --samples-per-pixel-side 1 --rig " + rig + " --out " + (dir / "s").string() + extra;
+std::string Simulate(const testing::TemporaryDirectory& dir, const std::string& rig, const std::string& extra = "",
+                     int samples_per_pixel_side = 1) {
+  return "simulate --scene flat --samples-per-pixel-side " + std::to_string(samples_per_pixel_side) + " --rig " + rig +
+         " --out " + (dir / "s").string() + extra;
 }
 
 TEST(StrictCli, QuietMeansNoProgressAndNoInfo) {
@@ -45,8 +47,8 @@ TEST(StrictCli, QuietMeansNoProgressAndNoInfo) {
 TEST(StrictCli, ResumeNeedsASession) {
   testing::TemporaryDirectory dir;
   const CommandResult r = Mesocap("-q " + Simulate(dir, testing::WriteRig(dir / "rig.json"), " --resume"));
-  ExpectOneErrorLine(
-      r, (dir / "s").string() + ": no capture session to resume (no such folder); leave out --resume to start one");
+  ExpectOneErrorLine(r, (dir / "s").string() +
+                            ": no capture session to resume (no such folder); leave out --resume to start one");
   EXPECT_FALSE(fs::exists(dir / "s"));
   // A folder whose session creation was killed (at most the manifest's
   // temporary in it) is started.
@@ -60,14 +62,13 @@ TEST(StrictCli, AResumeWithOtherOptionsNamesTheField) {
   testing::TemporaryDirectory dir;
   const std::string rig = testing::WriteRig(dir / "rig.json");
   ASSERT_EQ(Mesocap("-q " + Simulate(dir, rig)).exit_code, 0);
-  ExpectOneErrorLine(
-      Mesocap("-q " + Simulate(dir, rig, " --resume --seed 5")),
-      (dir / "s").string() + ": the session was started with other options: recording.seed was 1, now 5");
+  ExpectOneErrorLine(Mesocap("-q " + Simulate(dir, rig, " --resume --seed 5")),
+                     (dir / "s").string() + ": the session was started with other options: recording.seed was 1, now 5");
   nlohmann::json other = testing::OneSweepRig();
   other["cameras"][1]["bit_depth"] = 10;
-  ExpectOneErrorLine(
-      Mesocap("-q " + Simulate(dir, testing::WriteRig(dir / "other.json", other), " --resume")),
-      (dir / "s").string() + ": the session was started with another rig: rig.cameras[1].bit_depth was 12, now 10");
+  ExpectOneErrorLine(Mesocap("-q " + Simulate(dir, testing::WriteRig(dir / "other.json", other), " --resume")),
+                     (dir / "s").string() +
+                         ": the session was started with another rig: rig.cameras[1].bit_depth was 12, now 10");
 }
 
 // A camera that is gone at the first operation: the error names the step the
@@ -81,8 +82,9 @@ TEST(StrictCli, ADisconnectBeforeTheFirstStepSaysWhereAndHowToResume) {
   ExpectOneErrorLine(r, (dir / "s").string() +
                             ": step \"laser-calibration-loc0_h0\" (1 of 5): camera cam0: disconnected; 0 of 5 steps "
                             "are journaled; resume with: mesocap simulate --resume --out " +
-                            (dir / "s").string() + " --scene flat --rig " + rig + " --seed 1 --faults " +
-                            (dir / "faults.json").string() + " --samples-per-pixel-side 1 --interreflection-rays 0");
+                            (dir / "s").string() + " --scene flat --rig " + rig +
+                            " --seed 1 --faults " + (dir / "faults.json").string() +
+                            " --samples-per-pixel-side 1 --interreflection-rays 0");
 }
 
 TEST(StrictCli, MisspeltRigMembersAreRefusedBeforeAnythingIsWritten) {
@@ -104,8 +106,7 @@ TEST(StrictCli, ACameraTooLargeForMemoryNamesTheSizeAndTheLimit) {
   testing::TemporaryDirectory dir;
   nlohmann::json rig = testing::OneSweepRig();
   for (auto& camera : rig["cameras"]) camera["image_size"] = {16384, 16384};
-  const CommandResult r = Mesocap("-q simulate --scene flat --samples-per-pixel-side 3 --rig " +
-                                  testing::WriteRig(dir / "huge.json", rig) + " --out " + (dir / "s").string());
+  const CommandResult r = Mesocap("-q " + Simulate(dir, testing::WriteRig(dir / "huge.json", rig), "", 3));
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_EQ(r.err.rfind("mesocap: error: needs ", 0), 0u) << r.err;
   EXPECT_NE(r.err.find(" bytes for the first hits of the rig's 2 simulated cameras (16384 x 16384 pixels, 9 rays each "
@@ -145,9 +146,9 @@ TEST(StrictCli, ACorruptImageGivesOneLineAndNoLibraryChatter) {
     EXPECT_EQ(r.exit_code, 1);
     EXPECT_EQ(r.err.find("libpng"), std::string::npos) << r.err;
     const std::string last = r.err.substr(r.err.rfind('\n', r.err.size() - 2) + 1);
-    EXPECT_EQ(
-        last.rfind("mesocap: error: " + png.string() + ": field 'pixels': cannot read (truncated or corrupt?): ", 0),
-        0u)
+    EXPECT_EQ(last.rfind("mesocap: error: " + png.string() + ": field 'pixels': cannot read (truncated or corrupt?): ",
+                         0),
+              0u)
         << r.err;
     EXPECT_EQ(std::count(last.begin(), last.end(), '\n'), 1) << r.err;
   }
@@ -167,18 +168,17 @@ TEST(StrictCli, RenderAndEvalMdfReplaceTheirOutputOnlyWhenAsked) {
   testing::TemporaryDirectory dir;
   std::ofstream(dir / "picture.png") << "keep me";
   const std::string scene = std::string(MESOCAP_SOURCE_DIR) + "/render/scenes/cylinder.json";
-  ExpectOneErrorLine(
-      Mesocap("render " + scene + " --out " + (dir / "picture.png").string()),
-      (dir / "picture.png").string() + ": already exists; choose another output, or --replace to replace a file there");
+  ExpectOneErrorLine(Mesocap("render " + scene + " --out " + (dir / "picture.png").string()),
+                     (dir / "picture.png").string() +
+                         ": already exists; choose another output, or --replace to replace a file there");
   EXPECT_EQ(Slurp(dir / "picture.png"), "keep me");
 
   const std::string gt = (dir / "gt").string();
   ASSERT_EQ(Mesocap("-q groundtruth --scene flat --rig tiny --texture-size 4 --out " + gt).exit_code, 0);
   std::ofstream(dir / "table.json") << "keep me";
   const std::string eval = "eval mdf --truth " + gt + " --estimate " + gt + " --out " + (dir / "table.json").string();
-  ExpectOneErrorLine(
-      Mesocap(eval),
-      (dir / "table.json").string() + ": already exists; choose another output, or --replace to replace a file there");
+  ExpectOneErrorLine(Mesocap(eval), (dir / "table.json").string() +
+                                        ": already exists; choose another output, or --replace to replace a file there");
   EXPECT_EQ(Slurp(dir / "table.json"), "keep me");
   // Never the command's own input, with --replace or not.
   const std::string own = "eval mdf --truth " + gt + " --estimate " + gt + " --out " + gt + "/manifest.json --replace";
