@@ -28,6 +28,9 @@ using Eigen::VectorXd;
 constexpr long long kMaxExactSvdColumns = 2048;
 // Sketch columns beyond the largest rank kept (Halko et al. 2011 Sec. 4.2).
 constexpr long long kRandomizedOversampling = 10;
+// Up to this many bytes of float RGB a BTF is held in memory where it is
+// read many times (a choice of representation, the clustered layout).
+constexpr long long kMaxInMemoryBtfBytes = 2LL << 30;
 
 // A block of the BTF matrix A of a layout, all three RGB channels, as
 // BtfMatrix::Read gives it for rows [r0, r0 + rows) x columns [c0, c0 +
@@ -614,54 +617,110 @@ Factorization FactorOneRepresentation(core::FullBtfReader& btf, const BtfCompres
 // features are the texels' values projected to kClusterFeatures dimensions
 // by a fixed random Gaussian matrix, which keeps distances to a few percent
 // (Johnson-Lindenstrauss) at a fraction of k-means' cost. Each cluster's SVD
-// is taken of its matrix directly (Eigen BDCSVD), not of A^T A, so its
-// spectrum is accurate to rounding. The whole BTF is held in memory (float).
+// is taken of its matrix (QrSvd), not of A^T A, so its spectrum is accurate
+// to rounding. The whole BTF is in memory (float), read in place.
 constexpr int kClusterFeatures = 128;
-constexpr long long kMaxClusteredBtfBytes = 2LL << 30;
+// Texels per task when the features are computed: a few MiB of one
+// channel's rows.
+constexpr long long kFeatureTexels = 256;
+
+// The SVD of a (m x n): all min(m, n) singular values, and the leading
+// `keep` left singular vectors times sigma (m x keep) and right singular
+// vectors (n x keep). The longer side is reduced first by a Householder QR
+// of the tall orientation, t = Q R, and the SVD taken of the small square R
+// (Eigen BDCSVD). Both steps are backward stable, as a's own
+// bidiagonalization is, at a third of its cost where one side is several
+// times the other (a cluster of 2000 texels by 9216 directions).
+struct TruncatedSvd {
+  VectorXd sigma;
+  MatrixXd left_scaled;
+  MatrixXd right;
+};
+
+TruncatedSvd QrSvd(const MatrixXd& a, long long keep) {
+  const bool wide = a.cols() > a.rows();
+  Eigen::HouseholderQR<MatrixXd> qr;
+  if (wide) {
+    qr.compute(a.transpose());
+  } else {
+    qr.compute(a);
+  }
+  const long long tall_rows = qr.matrixQR().rows(), s = qr.matrixQR().cols();
+  const MatrixXd r = qr.matrixQR().topRows(s).triangularView<Eigen::Upper>();
+  Eigen::BDCSVD<MatrixXd> svd(r, Eigen::ComputeThinU | Eigen::ComputeThinV);
+  keep = std::min(keep, s);
+  // t = (Q Ur) S Vr^T: its left vectors Q Ur, its right ones Vr.
+  MatrixXd q_ur = MatrixXd::Zero(tall_rows, keep);
+  q_ur.topRows(s) = svd.matrixU().leftCols(keep);
+  q_ur.applyOnTheLeft(qr.householderQ());
+  const auto sigma = svd.singularValues().head(keep).asDiagonal();
+  TruncatedSvd out;
+  out.sigma = svd.singularValues();
+  if (wide) {  // a = t^T = Vr S (Q Ur)^T
+    out.left_scaled = svd.matrixV().leftCols(keep) * sigma;
+    out.right = std::move(q_ur);
+  } else {
+    out.left_scaled = q_ur * sigma;
+    out.right = svd.matrixV().leftCols(keep);
+  }
+  return out;
+}
 
 struct ClusteredSvd {
   int clusters = 0;
   std::vector<int> texel_clusters;
   std::vector<std::vector<long long>> members;  // texel indices of each cluster
-  // Per cluster and channel: U * Sigma (members x s) and V (n x s).
-  std::vector<std::array<MatrixXd, 3>> left, right;
+  // Per cluster and channel: U * Sigma (members x kept) and V (n x kept),
+  // kept up to kMaxBtfRank columns, in float as the factors are stored (at
+  // 128 clusters of a paper-rig BTF, V alone is 128 x 3 x 9216 x 100).
+  std::vector<std::array<Eigen::MatrixXf, 3>> left, right;
   std::vector<VectorXd> spectra;  // every cluster's and channel's singular values
 };
 
-ClusteredSvd ClusterAndFactor(core::FullBtfReader& btf, const ChannelWeights& weights, int clusters) {
-  const int w = btf.width(), h = btf.height(), nl = btf.light_count();
+ClusteredSvd ClusterAndFactor(const core::FullBtf& btf, const ChannelWeights& weights, int clusters) {
+  const int w = btf.width, h = btf.height, nl = btf.light_count(), nv = btf.view_count();
   const long long texels = static_cast<long long>(w) * h;
-  const long long n = static_cast<long long>(btf.view_count()) * nl;
-  // The BTF as texels x (view, light), one float matrix per channel.
-  std::array<Eigen::MatrixXf, 3> x;
-  for (Eigen::MatrixXf& c : x) c.resize(texels, n);
-  tbb::parallel_for(0, btf.view_count(), [&](int v) {
-    std::vector<float> rgb(static_cast<std::size_t>(3 * texels * nl));
-    btf.ReadRows(v, 0, h * nl, rgb.data());
-    for (int l = 0; l < nl; ++l)
-      for (long long p = 0; p < texels; ++p) {
-        const float* value = rgb.data() + 3 * (l * texels + p);
-        for (int ch = 0; ch < 3; ++ch) {
-          x[ch](p, static_cast<long long>(v) * nl + l) =
-              static_cast<float>(weights[ch][0] * value[0] + weights[ch][1] * value[1] + weights[ch][2] * value[2]);
-        }
-      }
-  });
+  const long long n = static_cast<long long>(nv) * nl;
+  // Texel p's value in column (view, light) of channel ch.
+  const auto value = [&](int ch, long long p, int v, int l) {
+    const float* rgb = btf.view_images[v].pixel(static_cast<int>(p % w), l * h + static_cast<int>(p / w));
+    return weights[ch][0] * rgb[0] + weights[ch][1] * rgb[1] + weights[ch][2] * rgb[2];
+  };
+  // Rows [first, first + count) of channel ch's texels x (view, light) matrix.
+  const auto texel_rows = [&](int ch, long long first, long long count, Eigen::MatrixXf* out) {
+    out->resize(count, n);
+    for (int v = 0; v < nv; ++v)
+      for (int l = 0; l < nl; ++l)
+        for (long long i = 0; i < count; ++i)
+          (*out)(i, static_cast<long long>(v) * nl + l) = value(ch, first + i, v, l);
+  };
   using RowMajor = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-  RowMajor features;
-  if (3 * n <= kClusterFeatures) {
-    features.resize(texels, 3 * n);
-    for (int ch = 0; ch < 3; ++ch) features.middleCols(ch * n, n) = x[ch];
-  } else {
+  const bool project = 3 * n > kClusterFeatures;
+  std::array<Eigen::MatrixXf, 3> projection;
+  if (project) {
     std::mt19937 rng(20031);
     std::normal_distribution<float> gauss(0.0f, 1.0f / std::sqrt(static_cast<float>(kClusterFeatures)));
-    features = RowMajor::Zero(texels, kClusterFeatures);
-    for (int ch = 0; ch < 3; ++ch) {
-      Eigen::MatrixXf projection(n, kClusterFeatures);
-      for (long long i = 0; i < projection.size(); ++i) projection.data()[i] = gauss(rng);
-      features.noalias() += x[ch] * projection;
+    for (Eigen::MatrixXf& p : projection) {
+      p.resize(n, kClusterFeatures);
+      for (long long i = 0; i < p.size(); ++i) p.data()[i] = gauss(rng);
     }
   }
+  RowMajor features(texels, project ? kClusterFeatures : 3 * n);
+  const long long chunks = (texels + kFeatureTexels - 1) / kFeatureTexels;
+  tbb::parallel_for(0LL, chunks, [&](long long c) {
+    const long long first = c * kFeatureTexels, count = std::min(kFeatureTexels, texels - first);
+    Eigen::MatrixXf rows;
+    auto out = features.middleRows(first, count);
+    if (project) out.setZero();
+    for (int ch = 0; ch < 3; ++ch) {
+      texel_rows(ch, first, count, &rows);
+      if (project) {
+        out.noalias() += rows * projection[ch];
+      } else {
+        out.middleCols(ch * n, n) = rows;
+      }
+    }
+  });
   ClusteredSvd out;
   const int k = static_cast<int>(std::min<long long>(clusters, texels));
   cv::Mat labels;
@@ -692,11 +751,14 @@ ClusteredSvd ClusterAndFactor(core::FullBtfReader& btf, const ChannelWeights& we
     const int c = t / 3, ch = t % 3;
     const std::vector<long long>& m = out.members[c];
     MatrixXd a(static_cast<long long>(m.size()), n);
-    for (std::size_t i = 0; i < m.size(); ++i) a.row(static_cast<long long>(i)) = x[ch].row(m[i]).cast<double>();
-    Eigen::BDCSVD<MatrixXd> svd(a, Eigen::ComputeThinU | Eigen::ComputeThinV);
-    out.spectra[t] = svd.singularValues();
-    out.left[c][ch] = svd.matrixU() * svd.singularValues().asDiagonal();
-    out.right[c][ch] = svd.matrixV();
+    for (int v = 0; v < nv; ++v)
+      for (int l = 0; l < nl; ++l)
+        for (std::size_t i = 0; i < m.size(); ++i)
+          a(static_cast<long long>(i), static_cast<long long>(v) * nl + l) = static_cast<float>(value(ch, m[i], v, l));
+    TruncatedSvd svd = QrSvd(a, core::kMaxBtfRank);
+    out.spectra[t] = std::move(svd.sigma);
+    out.left[c][ch] = svd.left_scaled.cast<float>();
+    out.right[c][ch] = svd.right.cast<float>();
   });
   return out;
 }
@@ -704,9 +766,9 @@ ClusteredSvd ClusterAndFactor(core::FullBtfReader& btf, const ChannelWeights& we
 // The clustered layout's k-means and per-cluster SVDs at `clusters`
 // clusters; each cluster's factors are kept up to the largest rank a budget
 // may choose.
-Factorization FactorClustered(core::FullBtfReader& btf, int clusters, core::BtfFactorColor color) {
+Factorization FactorClustered(const core::FullBtf& btf, int clusters, core::BtfFactorColor color) {
   Factorization f;
-  f.shape = NoFactors(btf, core::BtfFactorLayout::kClustered, color);
+  f.shape = NoFactors(core::InMemoryFullBtfReader(btf), core::BtfFactorLayout::kClustered, color);
   const long long n = static_cast<long long>(f.shape.view_count()) * f.shape.light_count();
   auto svd = std::make_shared<ClusteredSvd>(ClusterAndFactor(btf, FactoredChannelWeights(f.shape), clusters));
   f.shape.cluster_count = svd->clusters;
@@ -723,8 +785,8 @@ Factorization FactorClustered(core::FullBtfReader& btf, int clusters, core::BtfF
   r.svd = "exact";
   for (int c = 0; c < svd->clusters; ++c) {
     for (int ch = 0; ch < 3; ++ch) {
-      MatrixXd& left = svd->left[c][ch];
-      MatrixXd& right = svd->right[c][ch];
+      Eigen::MatrixXf& left = svd->left[c][ch];
+      Eigen::MatrixXf& right = svd->right[c][ch];
       const long long kept = std::min<long long>(left.cols(), r.max_rank);
       left = left.leftCols(kept).eval();
       right = right.leftCols(kept).eval();
@@ -735,14 +797,14 @@ Factorization FactorClustered(core::FullBtfReader& btf, int clusters, core::BtfF
     out->columns = core::Image(static_cast<int>(n), k * svd->clusters, 3);
     for (int c = 0; c < svd->clusters; ++c) {
       for (int ch = 0; ch < 3; ++ch) {
-        const MatrixXd& left = svd->left[c][ch];
-        const MatrixXd& right = svd->right[c][ch];
+        const Eigen::MatrixXf& left = svd->left[c][ch];
+        const Eigen::MatrixXf& right = svd->right[c][ch];
         for (int j = 0; j < std::min<long long>(k, left.cols()); ++j) {
           for (std::size_t i = 0; i < svd->members[c].size(); ++i) {
-            out->rows[j].data()[3 * svd->members[c][i] + ch] = static_cast<float>(left(static_cast<long long>(i), j));
+            out->rows[j].data()[3 * svd->members[c][i] + ch] = left(static_cast<long long>(i), j);
           }
           for (long long col = 0; col < n; ++col) {
-            out->columns.pixel(static_cast<int>(col), c * k + j)[ch] = static_cast<float>(right(col, j));
+            out->columns.pixel(static_cast<int>(col), c * k + j)[ch] = right(col, j);
           }
         }
       }
@@ -820,7 +882,13 @@ std::string RepresentationName(core::BtfFactorLayout layout, core::BtfFactorColo
 std::string Bytes(long long bytes) {
   std::ostringstream s;
   s.precision(3);
-  s << bytes / 1024.0 << " KiB";
+  if (bytes < (1LL << 20)) {
+    s << bytes / 1024.0 << " KiB";
+  } else if (bytes < (1LL << 30)) {
+    s << bytes / double(1LL << 20) << " MiB";
+  } else {
+    s << bytes / double(1LL << 30) << " GiB";
+  }
   return s.str();
 }
 
@@ -897,10 +965,23 @@ core::CheckResult BtfCompressionOptions::Check() const {
   return {};
 }
 
-core::FactoredBtf CompressBtf(core::FullBtfReader& btf, const BtfCompressionOptions& options,
-                              BtfCompressionReport* report) {
+namespace {
+
+// The BTF of `btf` whole in memory, its views read in parallel.
+core::FullBtf HoldInMemory(core::FullBtfReader& btf) {
+  core::FullBtf whole = core::MakeFullBtf(btf.width(), btf.height(), btf.views(), btf.lights());
+  tbb::parallel_for(0, btf.view_count(), [&](int v) {
+    core::Image& image = whole.view_images[v];
+    btf.ReadRows(v, 0, image.height(), image.data());
+  });
+  return whole;
+}
+
+// CompressBtf over `btf`; `whole` is the same BTF in memory, or null where it
+// is not held (then the clustered layout is not tried).
+core::FactoredBtf Compress(core::FullBtfReader& btf, const core::FullBtf* whole, const BtfCompressionOptions& options,
+                           BtfCompressionReport* report) {
   const auto start = std::chrono::steady_clock::now();
-  if (const auto problem = options.Check(); !problem.empty()) throw core::Error("compress: " + problem);
   BtfCompressionReport local;
   BtfCompressionReport& r = report ? *report : local;
 
@@ -954,9 +1035,9 @@ core::FactoredBtf CompressBtf(core::FullBtfReader& btf, const BtfCompressionOpti
   for (std::size_t i = 0; i < candidates.size(); ++i) {
     BtfRepresentationCandidate& c = candidates[i];
     const std::string name = RepresentationName(c.layout, c.color, c.clusters);
-    if (c.layout == core::BtfFactorLayout::kClustered && full_bytes > kMaxClusteredBtfBytes) {
+    if (c.layout == core::BtfFactorLayout::kClustered && !whole) {
       c.note = "not tried: the clustered layout holds the whole BTF in memory, and this one is over " +
-               Bytes(kMaxClusteredBtfBytes);
+               Bytes(kMaxInMemoryBtfBytes);
       if (!choosing) throw core::Error("compress: " + name + " " + c.note);
       continue;
     }
@@ -976,7 +1057,8 @@ core::FactoredBtf CompressBtf(core::FullBtfReader& btf, const BtfCompressionOpti
         continue;
       }
     }
-    Factorization f = c.layout == core::BtfFactorLayout::kClustered ? FactorClustered(btf, c.clusters, c.color)
+    const auto factored_at = std::chrono::steady_clock::now();
+    Factorization f = c.layout == core::BtfFactorLayout::kClustered ? FactorClustered(*whole, c.clusters, c.color)
                       : c.layout == core::BtfFactorLayout::kPerView
                           ? FactorPerView(btf, c.color)
                           : FactorOneRepresentation(btf, one, c.layout, c.color);
@@ -1007,6 +1089,9 @@ core::FactoredBtf CompressBtf(core::FullBtfReader& btf, const BtfCompressionOpti
       c.measured = true;
     }
     judge(c);
+    spdlog::info("compress: {}: rank {}, {}, {} {}({:.1f} s)", name, c.rank, Bytes(c.factor_bytes),
+                 Percent(c.relative_rms_error), c.measured ? "measured " : "from the spectrum ",
+                 std::chrono::duration<double>(std::chrono::steady_clock::now() - factored_at).count());
     if (best_index < 0 || Better(c, candidates[best_index], byte_budget)) {
       best_index = static_cast<int>(i);
       best_options = one;
@@ -1064,10 +1149,39 @@ core::FactoredBtf CompressBtf(core::FullBtfReader& btf, const BtfCompressionOpti
   return best;
 }
 
+}  // namespace
+
+core::FactoredBtf CompressBtf(core::FullBtfReader& btf, const BtfCompressionOptions& options,
+                              BtfCompressionReport* report) {
+  if (const auto problem = options.Check(); !problem.empty()) throw core::Error("compress: " + problem);
+  // A choice or the clustered layout makes many passes over the BTF (an SVD
+  // and its factors per representation): below kMaxInMemoryBtfBytes it is
+  // read once and held, rather than decoded from its files on every pass.
+  const long long bytes = static_cast<long long>(btf.width()) * btf.height() * btf.view_count() * btf.light_count() *
+                          3 * static_cast<long long>(sizeof(float));
+  const bool many_passes = !options.layout || !options.color || *options.layout == core::BtfFactorLayout::kClustered;
+  if (!many_passes || bytes > kMaxInMemoryBtfBytes) return Compress(btf, nullptr, options, report);
+  core::CheckMemoryFor(bytes, "the " + std::to_string(btf.width()) + "x" + std::to_string(btf.height()) +
+                                  " BTF held in memory while it is factored");
+  const auto read_at = std::chrono::steady_clock::now();
+  const core::FullBtf whole = HoldInMemory(btf);
+  spdlog::info("compress: read the BTF into memory ({}) in {:.1f} s", Bytes(bytes),
+               std::chrono::duration<double>(std::chrono::steady_clock::now() - read_at).count());
+  core::InMemoryFullBtfReader reader(whole);
+  return Compress(reader, &whole, options, report);
+}
+
 core::FactoredBtf CompressBtf(const core::FullBtf& btf, const BtfCompressionOptions& options,
                               BtfCompressionReport* report) {
+  if (const auto problem = options.Check(); !problem.empty()) throw core::Error("compress: " + problem);
   core::InMemoryFullBtfReader reader(btf);
-  return CompressBtf(reader, options, report);
+  if (!options.layout || *options.layout == core::BtfFactorLayout::kClustered) {
+    // The clustered layout reads `btf` in place, past the reader's check
+    // for non-finite values: that check runs here, a view at a time.
+    std::vector<float> view(static_cast<std::size_t>(3) * btf.width * btf.height * btf.light_count());
+    for (int v = 0; v < btf.view_count(); ++v) reader.ReadRows(v, 0, btf.height * btf.light_count(), view.data());
+  }
+  return Compress(reader, &btf, options, report);
 }
 
 nlohmann::json ToJson(const BtfCompressionReport& report, const core::FactoredBtf& factored) {

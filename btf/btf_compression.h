@@ -32,13 +32,17 @@
 // (BtfSvdMethod; Halko et al. 2011): a Gaussian sketch of rank + 10 columns
 // refined by power iterations, 2 + 2q passes, O(m n (K + 10)) work.
 //
-// Memory: the BTF is read through a FullBtfReader (core/btf.h) in bands of
-// about band_bytes (64 MiB; whole texture lines x all columns, or whole columns
-// when A is wide), one band at a time, so a BTF on disk (a material package) is
-// never whole in memory: besides the band, one row block (~thousands of rows x
-// n doubles) per worker, the n x n factors and the output factors (K images).
-// Passes over the BTF: one for R, one for the remaining factor, one for the
-// measured error (and two more per rank the ycbcr budget search adds).
+// Memory: one fixed representation other than clustered reads the BTF
+// through a FullBtfReader (core/btf.h) in bands of about band_bytes (64 MiB;
+// whole texture lines x all columns, or whole columns when A is wide), one
+// band at a time, so a BTF on disk (a material package) is never whole in
+// memory: besides the band, one row block (~thousands of rows x n doubles)
+// per worker, the n x n factors and the output factors (K images). Passes
+// over the BTF: one for R, one for the remaining factor, one for the measured
+// error (and two more per rank the ycbcr budget search adds). A choice of
+// representation, or the clustered layout, reads the BTF once and holds it
+// in memory (float) up to 2 GiB, the size of a paper-rig BTF at 128 x 128
+// texels; beyond, the choice streams and leaves the clustered layout out.
 #pragma once
 
 #include <Eigen/Core>

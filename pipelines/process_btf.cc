@@ -119,9 +119,10 @@ ProcessBtfReport RunProcessBtf(const ProcessBtfOptions& o) {
                            std::to_string(a.lights.size()) + " lights (--texture-size)");
   formats::MaterialPackageWriter writer(o.out, d, o.replace, {o.session, calibration_file});
 
-  // Each assembled view goes to disk as soon as it is made, and the SVD
-  // streams it back in bands, so the BTF (1.5 GB of float for a paper rig at
-  // 128 x 128) is never whole in memory. Without `full` the views go to a
+  // Each assembled view goes to disk as soon as it is made, so assembly
+  // never holds the BTF (1.8 GB of float for a paper rig at 128 x 128); the
+  // compression reads it back, whole where it chooses a representation (see
+  // btf/btf_compression.h). Without `full` the views go to a
   // scratch package beside the output that is never committed: it is
   // removed when the job ends, however it ends.
   std::optional<formats::MaterialPackageWriter> scratch;

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/SVD>
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <initializer_list>
@@ -669,23 +670,26 @@ TEST(BtfCompression, BandsOfAnySizeGiveTheSameFactors) {
   }
 }
 
-TEST(BtfCompression, StreamsAPackagesViewFilesWithoutReadingThemWhole) {
-  testing::TemporaryDirectory dir;
-  const core::SamplingSet views = core::SamplingSet::Named("grid3x2");
-  const core::SamplingSet lights = core::SamplingSet::Named("grid3x1");
-  const core::FullBtf btf = RandomSmoothBtf(8, views, lights, 9);
+// A material package at `dir` holding `btf` as its full BTF.
+void WriteFullBtfPackage(const std::filesystem::path& dir, const core::FullBtf& btf) {
   formats::MaterialDescription d;
-  d.name = "streamed";
-  d.width = d.height = 8;
+  d.name = "full BTF";
+  d.width = btf.width;
+  d.height = btf.height;
   d.physical_size_mm = {4.0, 4.0};
   d.d_max_mm = 1.0;
-  d.view_directions = views;
-  d.light_directions = lights;
-  {
-    formats::MaterialPackageWriter writer(dir / "pkg", d, false);
-    for (int v = 0; v < btf.view_count(); ++v) writer.WriteFullBtfView(v, btf.view_images[v]);
-    writer.Commit();
-  }
+  d.view_directions = btf.views;
+  d.light_directions = btf.lights;
+  formats::MaterialPackageWriter writer(dir, d, false);
+  for (int v = 0; v < btf.view_count(); ++v) writer.WriteFullBtfView(v, btf.view_images[v]);
+  writer.Commit();
+}
+
+TEST(BtfCompression, StreamsAPackagesViewFilesWithoutReadingThemWhole) {
+  testing::TemporaryDirectory dir;
+  const core::FullBtf btf =
+      RandomSmoothBtf(8, core::SamplingSet::Named("grid3x2"), core::SamplingSet::Named("grid3x1"), 9);
+  WriteFullBtfPackage(dir / "pkg", btf);
   BtfCompressionOptions o = Options(core::BtfFactorLayout::kPaper, core::BtfFactorColor::kRgb, 4);
   const core::FactoredBtf in_memory = CompressBtf(btf, o);
   o.band_bytes = 1;  // one texture line of every view file at a time
@@ -722,6 +726,35 @@ TEST(BtfCompression, StreamsAPackagesViewFilesWithoutReadingThemWhole) {
   // A view file of another size: named before any value is used.
   core::WriteImage(dir / "pkg" / formats::FullBtfViewFile(2), core::Image(8, 8, 3));
   expect_error_naming({"view_0002.exr", "height"});
+}
+
+// A choice of representation reads a package's BTF once and holds it (the
+// clustered layout among those tried): it picks what the same BTF in
+// memory picks, with the same factors.
+TEST(BtfCompression, AChoiceFromAPackageMatchesTheSameBtfInMemory) {
+  testing::TemporaryDirectory dir;
+  const core::FullBtf btf =
+      RandomSmoothBtf(8, core::SamplingSet::Named("grid3x2"), core::SamplingSet::Named("grid3x1"), 11);
+  WriteFullBtfPackage(dir / "pkg", btf);
+  for (const double budget : {0.01, 0.1}) {
+    BtfCompressionOptions o;
+    o.layout.reset();
+    o.color.reset();
+    o.max_relative_error = budget;
+    BtfCompressionReport held_report, in_memory_report;
+    const core::FactoredBtf in_memory = CompressBtf(btf, o, &in_memory_report);
+    formats::PackageFullBtfReader reader(dir / "pkg", formats::ReadMaterialManifest(dir / "pkg"));
+    const core::FactoredBtf held = CompressBtf(reader, o, &held_report);
+    EXPECT_EQ(held.layout, in_memory.layout) << budget;
+    EXPECT_EQ(held.color, in_memory.color) << budget;
+    EXPECT_EQ(held.rank(), in_memory.rank()) << budget;
+    EXPECT_EQ(held_report.candidates.size(), in_memory_report.candidates.size()) << budget;
+    EXPECT_LT(MaxAbsDifference(held, in_memory), 1e-6) << budget;
+    EXPECT_LE(held_report.measured_relative_rms_error, budget);
+    EXPECT_TRUE(std::any_of(held_report.candidates.begin(), held_report.candidates.end(), [](const auto& c) {
+      return c.layout == core::BtfFactorLayout::kClustered && c.rank > 0;
+    })) << "the clustered layout is tried on a package's BTF";
+  }
 }
 
 }  // namespace
