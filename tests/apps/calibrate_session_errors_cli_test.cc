@@ -14,7 +14,7 @@ using testing::TemporaryDirectory;
 
 TEST(CalibrateSessionCli, ACaptureSessionIsNotACalibrationSession) {
   TemporaryDirectory scratch;
-  const auto sim = Mesocap("simulate --rig tiny --scene weave --out " + (scratch / "capture").string());
+  const auto sim = Mesocap("simulate --rig tiny --scene weave --plan btf --out " + (scratch / "capture").string());
   ASSERT_EQ(sim.exit_code, 0) << sim.err;
   const auto r = Mesocap("calibrate --session " + (scratch / "capture").string() + " --out " +
                          (scratch / "c.json").string());

@@ -248,11 +248,6 @@ TEST(Cli, EvalBtfPrintsTheErrorOfACompressedPackage) {
   EXPECT_NE(bad.err.find("texture size"), std::string::npos) << bad.err;
 }
 
-// `mesocap process btf` on a tiny-rig session of the flat sample: the package
-// holds the factored (and full) BTF, the ambient term and the assembly's
-// figures, and its BTF is within the rig's error of the ground truth; each
-// camera's gain is the calibration's unless --gain overrides it; a missing
-// image is one error line naming it, and nothing is written.
 TEST(Cli, ABtfPlanRecordsTheBtfImagesAloneAndProcessesToTheSameBtf) {
   // `simulate --plan btf`: the capture plan's BTF image steps and nothing
   // else; `process btf` turns it into the BTF a whole capture session gives
@@ -281,10 +276,15 @@ TEST(Cli, ABtfPlanRecordsTheBtfImagesAloneAndProcessesToTheSameBtf) {
   EXPECT_FALSE(std::filesystem::exists(dir / "mdf"));
 }
 
+// `mesocap process btf` on a tiny-rig BTF session of the flat sample: the package
+// holds the factored (and full) BTF, the ambient term and the assembly's
+// figures, and its BTF is within the rig's error of the ground truth; each
+// camera's gain is the calibration's unless --gain overrides it; a missing
+// image is one error line naming it, and nothing is written.
 TEST(Cli, ProcessBtfTurnsASessionIntoAMaterial) {
   testing::TemporaryDirectory dir;
   const std::string session = (dir / "s").string(), out = (dir / "m").string(), gt = (dir / "gt").string();
-  ASSERT_EQ(Mesocap("-q simulate --scene flat --rig tiny --out " + session).exit_code, 0);
+  ASSERT_EQ(Mesocap("-q simulate --scene flat --rig tiny --plan btf --out " + session).exit_code, 0);
   const CommandResult r =
       Mesocap("-q process btf --session " + session + " --out " + out + " --texture-size 8 --full --max-error 1e-3");
   ASSERT_EQ(r.exit_code, 0) << r.err;

@@ -128,10 +128,12 @@ TEST_F(MdfCliTest, CalibrationOfAnotherRigWritesNothing) {
 
 TEST_F(MdfCliTest, SequenceWithWrongFrameSizeWritesNothingAndKeepsExistingOutput) {
   testing::TemporaryDirectory out;
-  // A copy of the session whose last sweep of cam0 has 64 x 48 frames.
+  // A copy of the session whose first sweep of cam0 has 64 x 48 frames (the
+  // first one read: nothing is written however late a file fails, and the
+  // output is only written once every sweep is in).
   const fs::path session = out / "session";
   fs::copy(session_, session, fs::copy_options::recursive);
-  const fs::path bad = session / "laser" / "t3_loc2_cam0.tif";
+  const fs::path bad = session / "laser" / "t0_loc0_cam0.tif";
   ASSERT_TRUE(fs::exists(bad));
   {
     formats::FrameSequenceWriter writer(bad, 64, 48, 1);
@@ -145,7 +147,7 @@ TEST_F(MdfCliTest, SequenceWithWrongFrameSizeWritesNothingAndKeepsExistingOutput
   for (std::string line; std::getline(lines, line);) {
     nlohmann::json record = nlohmann::json::parse(line);
     for (auto& file : record["files"]) {
-      if (file["path"] == "laser/t3_loc2_cam0.tif") {
+      if (file["path"] == "laser/t0_loc0_cam0.tif") {
         file["bytes"] = sum.bytes;
         file["xxh3_64"] = core::ChecksumText(sum.xxh3);
       }
@@ -160,7 +162,7 @@ TEST_F(MdfCliTest, SequenceWithWrongFrameSizeWritesNothingAndKeepsExistingOutput
                                   (session / "calibration.json").string() + " --out " + (out / "m").string() +
                                   " --replace");
   EXPECT_NE(p.exit_code, 0);
-  EXPECT_NE(p.err.find("t3_loc2_cam0.tif"), std::string::npos) << p.err;
+  EXPECT_NE(p.err.find("t0_loc0_cam0.tif"), std::string::npos) << p.err;
   EXPECT_NE(p.err.find("128x96"), std::string::npos) << p.err;
   EXPECT_EQ(Slurp(out / "m" / "keep.txt"), "old");
   // Without --replace an existing output is refused before any work.
