@@ -967,6 +967,12 @@ core::CheckResult BtfCompressionOptions::Check() const {
 
 namespace {
 
+// Bytes of the whole BTF in float RGB.
+long long FullBtfBytes(const core::FullBtfReader& btf) {
+  return static_cast<long long>(btf.width()) * btf.height() * btf.view_count() * btf.light_count() * 3 *
+         static_cast<long long>(sizeof(float));
+}
+
 // The BTF of `btf` whole in memory, its views read in parallel.
 core::FullBtf HoldInMemory(core::FullBtfReader& btf) {
   core::FullBtf whole = core::MakeFullBtf(btf.width(), btf.height(), btf.views(), btf.lights());
@@ -1012,8 +1018,7 @@ core::FactoredBtf Compress(core::FullBtfReader& btf, const core::FullBtf* whole,
   const bool choosing = candidates.size() > 1;
   const bool byte_budget = options.max_bytes > 0;
   const long long texels = static_cast<long long>(btf.width()) * btf.height();
-  const long long full_bytes =
-      texels * btf.view_count() * btf.light_count() * 3 * static_cast<long long>(sizeof(float));
+  const long long full_bytes = FullBtfBytes(btf);
 
   // Under an error budget, factors as large as the BTF itself compress
   // nothing: they do not count as meeting it.
@@ -1157,8 +1162,7 @@ core::FactoredBtf CompressBtf(core::FullBtfReader& btf, const BtfCompressionOpti
   // A choice or the clustered layout makes many passes over the BTF (an SVD
   // and its factors per representation): below kMaxInMemoryBtfBytes it is
   // read once and held, rather than decoded from its files on every pass.
-  const long long bytes = static_cast<long long>(btf.width()) * btf.height() * btf.view_count() * btf.light_count() *
-                          3 * static_cast<long long>(sizeof(float));
+  const long long bytes = FullBtfBytes(btf);
   const bool many_passes = !options.layout || !options.color || *options.layout == core::BtfFactorLayout::kClustered;
   if (!many_passes || bytes > kMaxInMemoryBtfBytes) return Compress(btf, nullptr, options, report);
   core::CheckMemoryFor(bytes, "the " + std::to_string(btf.width()) + "x" + std::to_string(btf.height()) +
