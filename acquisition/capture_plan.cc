@@ -102,6 +102,24 @@ std::vector<formats::PlannedStep> MakeCalibrationPlan(const formats::RigDescript
       plan.push_back(formats::ToPlannedStep("board-" + stem, step, recording));
     }
   }
+  if (rig.mirror_sphere) {
+    const std::vector<double>& turns = rig.mirror_sphere->turntable_angles_rad;
+    for (std::size_t t = 0; t < turns.size(); ++t) {
+      for (std::size_t a = 0; a < rig.mirror_sphere->arc_angles_rad.size(); ++a) {
+        for (std::size_t lamp = 0; lamp < rig.lamps.elevations_rad.size(); ++lamp) {
+          const std::string stem = "t" + std::to_string(t) + "_a" + std::to_string(a) + "_l" + std::to_string(lamp);
+          formats::MirrorSphereStep step;
+          step.turntable_index = static_cast<int>(t);
+          step.turntable_rad = turns[t];
+          step.arc_index = static_cast<int>(a);
+          step.arc_rad = rig.mirror_sphere->arc_angles_rad[a];
+          step.lamp = static_cast<int>(lamp);
+          step.files = CameraFiles(rig, "sphere/" + stem, ".png");
+          plan.push_back(formats::ToPlannedStep("sphere-" + stem, step, recording));
+        }
+      }
+    }
+  }
   if (rig.white_reference) {
     for (std::size_t lamp = 0; lamp < rig.lamps.elevations_rad.size(); ++lamp) {
       const std::string stem = "l" + std::to_string(lamp);

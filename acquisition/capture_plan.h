@@ -39,8 +39,11 @@ std::vector<formats::PlannedStep> MakeCapturePlan(const formats::RigDescription&
 // The plan of a calibration session (`simulate --plan calibration`): the
 // rig's calibration board on each holder tilt in turn (the operator sets it),
 // at each of its turntable angles, one image per camera; then, when the rig
-// has a white_reference, the reference under each lamp alone:
+// has a mirror_sphere, the sphere at each of its turntable angles under each
+// lamp alone at each light-arc angle; then, when it has a white_reference, the reference under each lamp
+// alone:
 //   board_image        board/h<hi>_t<ti>_<cam>.png   16-bit grey
+//   mirror_sphere      sphere/t<ti>_a<ai>_l<lamp>_<cam>.png 16-bit RGB
 //   white_reference    white/l<lamp>_<cam>.png       16-bit RGB, as a BTF image
 // Throws FormatError naming the rig file when it has no calibration_board.
 std::vector<formats::PlannedStep> MakeCalibrationPlan(const formats::RigDescription& rig,

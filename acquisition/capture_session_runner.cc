@@ -111,6 +111,7 @@ class SessionRun {
       AllOff();
       RemoveBoard();
       RemoveWhiteReference();
+      RemoveMirrorSphere();
     } catch (const drivers::DeviceError& e) {
       throw core::Error(Stopped(s, e.what()));
     } catch (const CaptureInterrupted&) {
@@ -138,6 +139,13 @@ class SessionRun {
         options_.resume_command.empty() ? "run the capture again to resume" : "resume with: " + options_.resume_command;
     return dir_.string() + ": " + where + ": " + why + "; " + std::to_string(journal_.records().size()) + " of " +
            std::to_string(total) + " steps are journaled; " + resume;
+  }
+
+  double DescriptionExposure(const std::string& camera_id) const {
+    for (const formats::CameraDescription& c : rig_description_.cameras) {
+      if (c.id == camera_id) return c.exposure_us;
+    }
+    throw core::Error(dir_.string() + ": the session's rig has no camera " + core::Quoted(camera_id));
   }
 
   drivers::Camera& CameraFor(const formats::PlannedStep& step, const formats::CameraFile& file) {
@@ -197,12 +205,18 @@ class SessionRun {
   // frames are read mono: processing needs the stripe's intensity, not its
   // hue (a camera that still gives colour is averaged to grey where the
   // frames are used).
+  // Every camera at its rig description's exposure unless the step sets
+  // another (the mirror sphere's): set on each grab, so a step that stopped
+  // midway never leaves its exposure to the next.
   std::vector<core::Image> GrabAll(const formats::PlannedStep& step, const std::vector<formats::CameraFile>& files,
-                                   drivers::PixelFormat format) {
+                                   drivers::PixelFormat format, std::optional<double> exposure_us = std::nullopt) {
     std::vector<drivers::Camera*> cameras;
     for (const formats::CameraFile& f : files) cameras.push_back(&CameraFor(step, f));
-    for (drivers::Camera* c : cameras) {
+    for (std::size_t i = 0; i < cameras.size(); ++i) {
+      drivers::Camera* c = cameras[i];
       if (c->settings().pixel_format != format) c->SetPixelFormat(format);
+      const double wanted = exposure_us ? *exposure_us : DescriptionExposure(files[i].camera);
+      if (c->settings().exposure_us != wanted) c->SetExposure(wanted);
     }
     for (drivers::Camera* c : cameras) c->Trigger();
     std::vector<core::Image> images;
@@ -247,6 +261,7 @@ class SessionRun {
     AllOff();
     if (!std::holds_alternative<formats::BoardImageStep>(typed)) RemoveBoard();
     if (!std::holds_alternative<formats::WhiteReferenceStep>(typed)) RemoveWhiteReference();
+    if (!std::holds_alternative<formats::MirrorSphereStep>(typed)) RemoveMirrorSphere();
     std::visit([&](const auto& s) { Run(step, s); }, typed);
   }
 
@@ -304,6 +319,27 @@ class SessionRun {
     if (!white_reference_placed_) return;
     operator_.RemoveWhiteReference();
     white_reference_placed_ = false;
+  }
+
+  // The sphere stays in its cup across its steps; each is imaged at the
+  // sphere's own exposure.
+  void Run(const formats::PlannedStep& step, const formats::MirrorSphereStep& sphere) {
+    if (!mirror_sphere_placed_) {
+      operator_.PlaceMirrorSphere();
+      mirror_sphere_placed_ = true;
+    }
+    Move(*rig_.turntable, sphere.turntable_rad);
+    Move(*rig_.light_arc, sphere.arc_rad);
+    rig_.lamps->SetLamp(sphere.lamp, true);
+    WriteColourImages(
+        GrabAll(step, sphere.files, drivers::PixelFormat::kNative, rig_description_.mirror_sphere->exposure_us),
+        sphere.files);
+  }
+
+  void RemoveMirrorSphere() {
+    if (!mirror_sphere_placed_) return;
+    operator_.RemoveMirrorSphere();
+    mirror_sphere_placed_ = false;
   }
 
   // One encoder per camera at once: PNG encoding is single-threaded.
@@ -408,6 +444,7 @@ class SessionRun {
   CaptureRunReport report_;
   std::optional<int> board_holder_;  // the calibration board's holder tilt while it is on the turntable
   bool white_reference_placed_ = false;
+  bool mirror_sphere_placed_ = false;
   // Made at the first sweep that stores its analysis.
   std::unique_ptr<mdf::SessionSweepGeometry> sweep_geometry_;
 };

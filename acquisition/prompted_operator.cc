@@ -58,4 +58,14 @@ void PromptedOperator::RemoveWhiteReference() {
   hands_.RemoveWhiteReference();
 }
 
+void PromptedOperator::PlaceMirrorSphere() {
+  prompt_("Set the mirror sphere in its cup at the centre of the turntable");
+  hands_.PlaceMirrorSphere();
+}
+
+void PromptedOperator::RemoveMirrorSphere() {
+  prompt_("Take the mirror sphere off the turntable");
+  hands_.RemoveMirrorSphere();
+}
+
 }  // namespace mesocap::acquisition

@@ -36,6 +36,8 @@ class PromptedOperator : public drivers::RigOperator {
   void RemoveCalibrationBoard() override;
   void PlaceWhiteReference(double height_mm) override;
   void RemoveWhiteReference() override;
+  void PlaceMirrorSphere() override;
+  void RemoveMirrorSphere() override;
 
  private:
   drivers::RigOperator& hands_;

@@ -99,19 +99,50 @@ nlohmann::json ToJson(const CalibrationReport& report) {
                                    "on the first holder tilt"},
                          {"holders", holders}};
   }
+  // One entry per lamp with what was calibrated of it: its position (from
+  // the mirror sphere) and its intensity (from the white reference).
+  nlohmann::json lamps = nlohmann::json::array();
+  const auto lamp_entry = [&](std::size_t l, const std::string& id) -> nlohmann::json& {
+    if (lamps.size() <= l) lamps.push_back({{"id", id}, {"std", nlohmann::json::object()}});
+    return lamps[l];
+  };
+  if (report.light_arc) {
+    const LightArcResult& a = *report.light_arc;
+    for (std::size_t l = 0; l < a.lamp_ids.size(); ++l) {
+      nlohmann::json& entry = lamp_entry(l, a.lamp_ids[l]);
+      entry["position_mm"] = Vector(a.lamp_position[l]);
+      entry["std"]["position_mm"] = Vector(a.lamp_position_sigma[l]);
+    }
+    nlohmann::json left_out = nlohmann::json::array();
+    for (const LeftOutHighlight& h : a.left_out) left_out.push_back({{"file", h.name}, {"reason", h.reason}});
+    const formats::LightArcCalibration::Uncertainty& u = a.light_arc.uncertainty;
+    json["light_arc"] = {{"axis_point_mm", Vector(a.light_arc.axis_point_mm)},
+                         {"axis_direction", Vector(a.light_arc.axis_direction)},
+                         {"axis_estimated", a.axis_estimated},
+                         {"std",
+                          {{"axis_point_mm", u.axis_point_mm ? Vector(*u.axis_point_mm) : nlohmann::json(nullptr)},
+                           {"axis_direction", u.axis_direction ? Vector(*u.axis_direction) : nlohmann::json(nullptr)}}},
+                         {"highlights_used", a.highlights_used},
+                         {"highlights_left_out", left_out},
+                         {"ray_residual_rms_mm", a.ray_residual_rms_mm},
+                         {"sphere_centre_mm", Vector(a.sphere_centre_mm)},
+                         {"sphere_centre_std_mm", Vector(a.sphere_centre_sigma_mm)},
+                         {"written", a.too_uncertain.empty()},
+                         {"too_uncertain", a.too_uncertain},
+                         {"warnings", a.warnings}};
+  }
   if (report.radiometry) {
     const RadiometryResult& r = *report.radiometry;
-    nlohmann::json lamps = nlohmann::json::array();
     for (std::size_t l = 0; l < r.lamp_ids.size(); ++l) {
-      lamps.push_back({{"id", r.lamp_ids[l]},
-                       {"intensity", Vector(r.lamp_intensity[l])},
-                       {"std", {{"intensity", Vector(r.lamp_intensity_sigma[l])}}}});
+      nlohmann::json& entry = lamp_entry(l, r.lamp_ids[l]);
+      entry["intensity"] = Vector(r.lamp_intensity[l]);
+      entry["std"]["intensity"] = Vector(r.lamp_intensity_sigma[l]);
     }
-    json["lamps"] = lamps;
     json["radiometry"] = {{"images_used", r.images_used},
                           {"relative_residual_rms", r.relative_residual_rms},
                           {"reduced_chi_square", r.reduced_chi_square}};
   }
+  if (!lamps.empty()) json["lamps"] = lamps;
   if (!report.nominal_parts.empty()) json["nominal_parts"] = report.nominal_parts;
   return json;
 }
@@ -169,6 +200,41 @@ std::string FormatCalibrationReport(const CalibrationReport& report) {
       out << Line("  lamp %-12s intensity %.4f %.4f %.4f (std %.2g %.2g %.2g)\n", r.lamp_ids[l].c_str(), i.x(), i.y(),
                   i.z(), s.x(), s.y(), s.z());
     }
+  }
+  if (report.light_arc) {
+    const LightArcResult& a = *report.light_arc;
+    const Eigen::Vector3d& d = a.light_arc.axis_direction;
+    const Eigen::Vector3d& q = a.light_arc.axis_point_mm;
+    out << Line(
+        "light arc from %d mirror sphere highlights (%zu left out): ray residual %.3f mm RMS; axis %s "
+        "direction %.6f %.6f %.6f through %.3f %.3f %.3f mm\n",
+        a.highlights_used, a.left_out.size(), a.ray_residual_rms_mm,
+        a.axis_estimated ? "estimated," : "nominal (not estimated),", d.x(), d.y(), d.z(), q.x(), q.y(), q.z());
+    if (a.light_arc.uncertainty.axis_direction) {
+      const Eigen::Vector3d& sd = *a.light_arc.uncertainty.axis_direction;
+      const Eigen::Vector3d& sq = *a.light_arc.uncertainty.axis_point_mm;
+      out << Line("  axis std: direction %.2g %.2g %.2g, point %.3f %.3f %.3f mm\n", sd.x(), sd.y(), sd.z(), sq.x(),
+                  sq.y(), sq.z());
+    }
+    for (std::size_t l = 0; l < a.lamp_ids.size(); ++l) {
+      const Eigen::Vector3d& p = a.lamp_position[l];
+      const Eigen::Vector3d& s = a.lamp_position_sigma[l];
+      out << Line("  lamp %-12s position %.3f %.3f %.3f mm (std %.3f %.3f %.3f)\n", a.lamp_ids[l].c_str(), p.x(), p.y(),
+                  p.z(), s.x(), s.y(), s.z());
+    }
+    out << Line("  sphere centre (sample frame) %.3f %.3f %.3f mm (std %.3f %.3f %.3f)\n", a.sphere_centre_mm.x(),
+                a.sphere_centre_mm.y(), a.sphere_centre_mm.z(), a.sphere_centre_sigma_mm.x(),
+                a.sphere_centre_sigma_mm.y(), a.sphere_centre_sigma_mm.z());
+    // The first few; --json lists them all.
+    constexpr std::size_t kListed = 6;
+    for (std::size_t i = 0; i < a.left_out.size() && i < kListed; ++i) {
+      out << "  left out " << a.left_out[i].name << ": " << a.left_out[i].reason << "\n";
+    }
+    if (a.left_out.size() > kListed) {
+      out << "  ... and " << a.left_out.size() - kListed << " more highlights left out (--json lists them)\n";
+    }
+    if (!a.too_uncertain.empty()) out << "  not written (nominal kept): " << a.too_uncertain << "\n";
+    for (const std::string& w : a.warnings) out << "warning: " << w << "\n";
   }
   if (!report.cross_validation) out << "cross-validation skipped: " << report.cross_validation_skipped << "\n";
   for (const std::string& warning : report.cameras.warnings) out << "warning: " << warning << "\n";

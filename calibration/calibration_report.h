@@ -12,6 +12,7 @@
 
 #include "calibration/camera_calibration.h"
 #include "calibration/cross_validation.h"
+#include "calibration/light_arc_calibration.h"
 #include "calibration/radiometric_calibration.h"
 
 namespace mesocap::calibration {
@@ -26,6 +27,9 @@ struct CalibrationReport {
   // A rig's calibration with a white reference: the cameras' gains (in the
   // cameras' order) and the lamps' intensities.
   std::optional<RadiometryResult> radiometry;
+  // A rig's calibration with mirror sphere images: the light arc's axis and
+  // the lamps' positions.
+  std::optional<LightArcResult> light_arc;
   // A rig's calibration: the parts it took from the rig description's
   // nominal geometry, not from images (empty for cameras alone).
   std::string nominal_parts;

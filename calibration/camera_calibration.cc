@@ -190,14 +190,6 @@ double Median(std::vector<double> values) {
   return *mid;
 }
 
-std::string Fixed(double value, int digits) {
-  std::ostringstream text;
-  text.setf(std::ios::fixed);
-  text.precision(digits);
-  text << value;
-  return text.str();
-}
-
 // The problem's unknowns: per camera its intrinsics and reference <- camera
 // (the first camera is the reference), per instant reference <- board.
 struct Unknowns {
@@ -723,14 +715,14 @@ CameraCalibrationResult CalibrateCameras(const CalibrationBoard& board, const st
       if (!views.qualities.empty()) {
         const DetectionQuality& q = views.qualities[i];
         if (q.saturated_fraction > options.max_saturated_fraction) {
-          out.outlier_images.push_back({views.names[i], "saturated: " + Fixed(100 * q.saturated_fraction, 1) +
+          out.outlier_images.push_back({views.names[i], "saturated: " + core::Fixed(100 * q.saturated_fraction, 1) +
                                                             " % of the board's pixels at full scale"});
           continue;
         }
         if (q.edge_width_px > options.max_edge_width_px) {
           out.outlier_images.push_back({views.names[i], "blurred: the board's edges are " +
-                                                            Fixed(q.edge_width_px, 1) + " px wide (at most " +
-                                                            Fixed(options.max_edge_width_px, 1) + ")"});
+                                                            core::Fixed(q.edge_width_px, 1) + " px wide (at most " +
+                                                            core::Fixed(options.max_edge_width_px, 1) + ")"});
           continue;
         }
       }
@@ -867,14 +859,14 @@ CameraCalibrationResult CalibrateCameras(const CalibrationBoard& board, const st
     }
   }
   const auto fit_text = [&](double rms) {
-    return "reprojection RMS " + Fixed(rms, 2) + " px over " + std::to_string(observations.size()) + " corners";
+    return "reprojection RMS " + core::Fixed(rms, 2) + " px over " + std::to_string(observations.size()) + " corners";
   };
   if (outliers > options.max_outlier_fraction * static_cast<double>(observations.size())) {
     double sum = 0;
     for (const double s : squared) sum += s;
     throw core::Error("the board " + core::Quoted(board.Spec()) + " does not fit the photos: " +
                       fit_text(std::sqrt(sum / static_cast<double>(observations.size()))) + ", " +
-                      std::to_string(outliers) + " of them beyond " + Fixed(corner_limit, 2) +
+                      std::to_string(outliers) + " of them beyond " + core::Fixed(corner_limit, 2) +
                       " px; check the board's size, squares and dictionary");
   }
   std::map<std::pair<int, int>, std::pair<double, int>> per_photo;  // (camera, instant) -> (sum, count)
@@ -894,7 +886,7 @@ CameraCalibrationResult CalibrateCameras(const CalibrationBoard& board, const st
     usable[static_cast<std::size_t>(c)][static_cast<std::size_t>(i)] = false;
     result.cameras[static_cast<std::size_t>(c)].outlier_images.push_back(
         {cameras[static_cast<std::size_t>(c)].names[static_cast<std::size_t>(i)],
-         "reprojection RMS " + Fixed(rms, 2) + " px, " + Fixed(rms / median_photo_rms, 1) +
+         "reprojection RMS " + core::Fixed(rms, 2) + " px, " + core::Fixed(rms / median_photo_rms, 1) +
              " times the median photo's"});
     for (Observation& o : observations) {
       if (o.camera == c && o.instant == i) o.inlier = false;
@@ -954,10 +946,10 @@ CameraCalibrationResult CalibrateCameras(const CalibrationBoard& board, const st
     for (const int f : {0, 1}) {
       const double relative = k_std[f] / unknowns.intrinsics[c][static_cast<std::size_t>(f)];
       if (relative > options.warn_relative_focal_sigma) {
-        result.warnings.push_back("camera " + core::Quoted(cameras[c].id) + ": focal length poorly observed (" +
-                                  kIntrinsicNames[f] + " " + Fixed(unknowns.intrinsics[c][static_cast<std::size_t>(f)], 1) +
-                                  " +- " + Fixed(k_std[f], 1) + " px, " + Fixed(100 * relative, 2) +
-                                  " %): tilt the board more between photos");
+        result.warnings.push_back(
+            "camera " + core::Quoted(cameras[c].id) + ": focal length poorly observed (" + kIntrinsicNames[f] + " " +
+            core::Fixed(unknowns.intrinsics[c][static_cast<std::size_t>(f)], 1) + " +- " + core::Fixed(k_std[f], 1) +
+            " px, " + core::Fixed(100 * relative, 2) + " %): tilt the board more between photos");
         break;
       }
     }
@@ -994,8 +986,9 @@ CameraCalibrationResult CalibrateCameras(const CalibrationBoard& board, const st
   for (const CalibratedCamera& c : result.cameras) {
     if (c.rms_px > options.max_rms_px) {
       throw core::Error("the board " + core::Quoted(board.Spec()) + " does not fit the photos of camera " +
-                        core::Quoted(c.calibration.id) + ": reprojection RMS " + Fixed(c.rms_px, 2) + " px over " +
-                        std::to_string(c.corners_used) + " corners (at most " + Fixed(options.max_rms_px, 2) +
+                        core::Quoted(c.calibration.id) + ": reprojection RMS " + core::Fixed(c.rms_px, 2) +
+                        " px over " + std::to_string(c.corners_used) + " corners (at most " +
+                        core::Fixed(options.max_rms_px, 2) +
                         " px expected); check the board's size, squares and dictionary");
     }
   }

@@ -85,6 +85,67 @@ std::vector<Product> MeasureProducts(const formats::Calibration& geometry, const
   return out;
 }
 
+// The log-domain fit of the products: x = (log G_c, log I_l,ch), its
+// covariance (scaled up by the reduced chi-square when above 1), and the
+// fit's figures.
+struct ProductFit {
+  Eigen::VectorXd x;
+  Eigen::MatrixXd covariance;
+  double reduced_chi_square = 1.0, relative_residual_rms = 0.0;
+};
+
+ProductFit FitProducts(const formats::Calibration& geometry, const std::vector<Product>& products) {
+  const int cameras = static_cast<int>(geometry.cameras.size()), lamps = static_cast<int>(geometry.lamps.size());
+  // log k = log G_c + log I_l,ch, weighted by 1 / sigma(log k)^2, with the
+  // lamps' geometric mean held at the nominal one (a Lagrange multiplier).
+  const int n = cameras + 3 * lamps, m = static_cast<int>(products.size());
+  Eigen::MatrixXd kkt = Eigen::MatrixXd::Zero(n + 1, n + 1);
+  Eigen::VectorXd rhs = Eigen::VectorXd::Zero(n + 1);
+  auto intensity_index = [&](int lamp, int channel) { return cameras + 3 * lamp + channel; };
+  std::vector<double> weights;
+  for (const Product& p : products) {
+    // A sigma of zero (a noiseless image) would be an infinite weight; the
+    // floor is far below any sensor's noise.
+    const double sigma_log = std::max(p.sigma / p.value, 1e-9);
+    const double w = 1.0 / (sigma_log * sigma_log);
+    weights.push_back(w);
+    const int a = p.camera, b = intensity_index(p.lamp, p.channel);
+    const double y = std::log(p.value);
+    kkt(a, a) += w;
+    kkt(b, b) += w;
+    kkt(a, b) += w;
+    kkt(b, a) += w;
+    rhs[a] += w * y;
+    rhs[b] += w * y;
+  }
+  for (int l = 0; l < lamps; ++l) {
+    for (int c = 0; c < 3; ++c) {
+      kkt(intensity_index(l, c), n) = kkt(n, intensity_index(l, c)) = 1.0;
+      rhs[n] += std::log(geometry.lamps[l].intensity[c]);
+    }
+  }
+  const Eigen::FullPivLU<Eigen::MatrixXd> lu(kkt);
+  if (!lu.isInvertible()) throw core::Error("radiometric calibration: the gains and intensities are not determined");
+  ProductFit fit;
+  fit.x = lu.solve(rhs);
+  fit.covariance = lu.inverse().topLeftCorner(n, n);
+  const Eigen::VectorXd& x = fit.x;
+
+  double chi2 = 0, relative2 = 0;
+  for (int i = 0; i < m; ++i) {
+    const Product& p = products[i];
+    const double fit = x[p.camera] + x[intensity_index(p.lamp, p.channel)];
+    const double r = fit - std::log(p.value);
+    chi2 += weights[i] * r * r;
+    relative2 += std::pow(std::exp(r) - 1.0, 2);
+  }
+  const int dof = m - n + 1;
+  fit.reduced_chi_square = dof > 0 ? chi2 / dof : 1.0;
+  fit.relative_residual_rms = std::sqrt(relative2 / m);
+  fit.covariance *= std::max(1.0, fit.reduced_chi_square);
+  return fit;
+}
+
 }  // namespace
 
 core::CheckResult RadiometryOptions::Check() const {
@@ -139,52 +200,41 @@ RadiometryResult CalibrateRadiometry(const formats::Calibration& geometry, const
     }
   }
 
-  // log k = log G_c + log I_l,ch, weighted by 1 / sigma(log k)^2, with the
-  // lamps' geometric mean held at the nominal one (a Lagrange multiplier).
-  const int n = cameras + 3 * lamps, m = static_cast<int>(products.size());
-  Eigen::MatrixXd kkt = Eigen::MatrixXd::Zero(n + 1, n + 1);
-  Eigen::VectorXd rhs = Eigen::VectorXd::Zero(n + 1);
-  auto intensity_index = [&](int lamp, int channel) { return cameras + 3 * lamp + channel; };
-  std::vector<double> weights;
-  for (const Product& p : products) {
-    // A sigma of zero (a noiseless image) would be an infinite weight; the
-    // floor is far below any sensor's noise.
-    const double sigma_log = std::max(p.sigma / p.value, 1e-9);
-    const double w = 1.0 / (sigma_log * sigma_log);
-    weights.push_back(w);
-    const int a = p.camera, b = intensity_index(p.lamp, p.channel);
-    const double y = std::log(p.value);
-    kkt(a, a) += w;
-    kkt(b, b) += w;
-    kkt(a, b) += w;
-    kkt(b, a) += w;
-    rhs[a] += w * y;
-    rhs[b] += w * y;
-  }
+  ProductFit fit = FitProducts(geometry, products);
+
+  // The lamps' positions' uncertainty, to first order: each lamp moved by
+  // its sigma along each axis in turn, its images measured again and the
+  // whole fit repeated; the changes add in quadrature (the lamps' errors
+  // taken as independent). Moving one lamp moves every gain, through the
+  // scale the lamps' mean holds.
+  Eigen::VectorXd geometric_variance = Eigen::VectorXd::Zero(fit.x.size());
   for (int l = 0; l < lamps; ++l) {
-    for (int c = 0; c < 3; ++c) {
-      kkt(intensity_index(l, c), n) = kkt(n, intensity_index(l, c)) = 1.0;
-      rhs[n] += std::log(geometry.lamps[l].intensity[c]);
+    const auto& sigma = geometry.lamps[l].uncertainty.position_mm;
+    if (!sigma) continue;
+    for (int axis = 0; axis < 3; ++axis) {
+      if (!((*sigma)[axis] > 0)) continue;
+      formats::Calibration moved = geometry;
+      moved.lamps[l].position_mm[axis] += (*sigma)[axis];
+      std::vector<Product> again;
+      for (const Product& p : products) {
+        if (p.lamp != l) again.push_back(p);
+      }
+      for (int c = 0; c < cameras; ++c) {
+        for (const Product& p : MeasureProducts(moved, rays[c], exposure_s[c], *pairs.at({c, l}), o)) {
+          again.push_back(p);
+        }
+      }
+      geometric_variance += (FitProducts(moved, again).x - fit.x).cwiseAbs2();
     }
   }
-  const Eigen::FullPivLU<Eigen::MatrixXd> lu(kkt);
-  if (!lu.isInvertible()) throw core::Error("radiometric calibration: the gains and intensities are not determined");
-  const Eigen::VectorXd x = lu.solve(rhs);
-  Eigen::MatrixXd covariance = lu.inverse().topLeftCorner(n, n);
+  fit.covariance.diagonal() += geometric_variance;
+  const Eigen::VectorXd& x = fit.x;
+  const Eigen::MatrixXd& covariance = fit.covariance;
+  auto intensity_index = [&](int lamp, int channel) { return cameras + 3 * lamp + channel; };
 
   RadiometryResult result;
-  double chi2 = 0, relative2 = 0;
-  for (int i = 0; i < m; ++i) {
-    const Product& p = products[i];
-    const double fit = x[p.camera] + x[intensity_index(p.lamp, p.channel)];
-    const double r = fit - std::log(p.value);
-    chi2 += weights[i] * r * r;
-    relative2 += std::pow(std::exp(r) - 1.0, 2);
-  }
-  const int dof = m - n + 1;
-  result.reduced_chi_square = dof > 0 ? chi2 / dof : 1.0;
-  result.relative_residual_rms = std::sqrt(relative2 / m);
-  covariance *= std::max(1.0, result.reduced_chi_square);
+  result.reduced_chi_square = fit.reduced_chi_square;
+  result.relative_residual_rms = fit.relative_residual_rms;
   result.images_used = static_cast<int>(pairs.size());
   for (int c = 0; c < cameras; ++c) {
     formats::CameraRadiometry r;

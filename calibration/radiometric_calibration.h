@@ -17,6 +17,10 @@
 // are left out; a (camera, lamp) with too few left is an error naming both.
 // The fit's covariance is scaled up by its reduced chi-square when the
 // products disagree beyond their sigmas (a model error the scatter misses).
+// Lamp positions that carry an uncertainty (from the mirror sphere) add
+// theirs: an error dD in a lamp's distance D moves its products by 2 dD / D,
+// which the scale the lamps' mean holds passes on to every gain. It is
+// propagated by refitting with each lamp moved by its sigma along each axis.
 #pragma once
 
 #include <Eigen/Core>

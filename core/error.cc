@@ -2,6 +2,8 @@
 
 #include <unistd.h>
 
+#include <sstream>
+
 namespace mesocap::core {
 namespace {
 
@@ -43,6 +45,14 @@ std::string Cut(std::string_view text, std::size_t max) {
 }
 
 std::string Quoted(std::string_view value) { return "\"" + Cut(value) + "\""; }
+
+std::string Fixed(double value, int digits) {
+  std::ostringstream text;
+  text.setf(std::ios::fixed);
+  text.precision(digits);
+  text << value;
+  return text.str();
+}
 
 void CheckMemoryFor(std::uint64_t bytes, std::string_view what) {
   if (bytes > PhysicalMemoryBytes()) ThrowOutOfMemory(bytes, what);

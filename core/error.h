@@ -46,6 +46,8 @@ inline constexpr std::size_t kMaxEchoedCharacters = 200;
 std::string Cut(std::string_view text, std::size_t max = kMaxEchoedCharacters);
 // `value` cut as Cut() does, in double quotes: how messages quote a value.
 std::string Quoted(std::string_view value);
+// A number for a message, with `digits` digits after the point.
+std::string Fixed(double value, int digits);
 
 // An allocation the inputs allow but the machine cannot hold: "needs N bytes
 // for WHAT; limit L bytes (this machine's memory)", in place of bad_alloc.

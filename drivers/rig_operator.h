@@ -3,7 +3,8 @@
 // paper Sec. 3.2), moving the laser unit between its mounts on the light
 // arc (Fig. 4: "we simply remount the laser unit ... manually"), setting
 // the calibration board's holder to each of its tilts, and laying the white
-// reference of the radiometric calibration. A capture
+// reference of the radiometric calibration and the mirror sphere of the
+// lamps' calibration. A capture
 // asks, the operator does it and confirms by returning; a real backend
 // prompts on the console, the simulated one changes the simulated rig.
 #pragma once
@@ -29,6 +30,10 @@ class RigOperator {
   // height_mm above the reference plane; and take it off again.
   virtual void PlaceWhiteReference(double height_mm) = 0;
   virtual void RemoveWhiteReference() = 0;
+  // Set the rig's mirror sphere in its cup at the sample centre; and take it
+  // off again.
+  virtual void PlaceMirrorSphere() = 0;
+  virtual void RemoveMirrorSphere() = 0;
 };
 
 }  // namespace mesocap::drivers

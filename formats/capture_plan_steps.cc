@@ -134,6 +134,17 @@ PlannedStep ToPlannedStep(std::string id, const WhiteReferenceStep& step, const 
                  recording);
 }
 
+PlannedStep ToPlannedStep(std::string id, const MirrorSphereStep& step, const json& recording) {
+  return Planned(std::move(id), StepKind::kMirrorSphere,
+                 {{"turntable_index", step.turntable_index},
+                  {"turntable_deg", PlanDegrees(step.turntable_rad)},
+                  {"arc_index", step.arc_index},
+                  {"arc_deg", PlanDegrees(step.arc_rad)},
+                  {"lamp", step.lamp},
+                  {"files", FilesJson(step.files)}},
+                 recording);
+}
+
 LaserCalibrationStep ReadLaserCalibrationStep(const PlannedStep& step, std::size_t index, const RigDescription& rig,
                                               const fs::path& manifest_file) {
   const core::JsonFieldReader fields = StepFields(step, StepKind::kLaserCalibration, index, manifest_file);
@@ -226,6 +237,25 @@ WhiteReferenceStep ReadWhiteReferenceStep(const PlannedStep& step, std::size_t i
   return out;
 }
 
+MirrorSphereStep ReadMirrorSphereStep(const PlannedStep& step, std::size_t index, const RigDescription& rig,
+                                      const fs::path& manifest_file) {
+  const core::JsonFieldReader fields = StepFields(step, StepKind::kMirrorSphere, index, manifest_file);
+  fields.RejectUnknownMembers(
+      {"turntable_index", "turntable_deg", "arc_index", "arc_deg", "lamp", "files", "recording"});
+  if (!rig.mirror_sphere) {
+    throw core::FormatError(manifest_file, "plan[" + std::to_string(index) + "].kind",
+                            "a mirror sphere image needs the rig's mirror_sphere, which the session's rig lacks");
+  }
+  MirrorSphereStep out;
+  out.turntable_index = Index(fields, "turntable_index", rig.mirror_sphere->turntable_angles_rad.size());
+  out.turntable_rad = Radians(fields, "turntable_deg");
+  out.arc_index = Index(fields, "arc_index", rig.mirror_sphere->arc_angles_rad.size());
+  out.arc_rad = Radians(fields, "arc_deg");
+  out.lamp = Index(fields, "lamp", rig.lamps.elevations_rad.size());
+  out.files = ReadFiles(fields, rig);
+  return out;
+}
+
 CaptureStep ReadCaptureStep(const PlannedStep& step, std::size_t index, const RigDescription& rig,
                             const fs::path& manifest_file) {
   switch (step.kind) {
@@ -239,12 +269,15 @@ CaptureStep ReadCaptureStep(const PlannedStep& step, std::size_t index, const Ri
       return ReadBoardImageStep(step, index, rig, manifest_file);
     case StepKind::kWhiteReference:
       return ReadWhiteReferenceStep(step, index, rig, manifest_file);
+    case StepKind::kMirrorSphere:
+      return ReadMirrorSphereStep(step, index, rig, manifest_file);
     case StepKind::kOther:
       break;
   }
   throw core::FormatError(
       manifest_file, "plan[" + std::to_string(index) + "].kind",
-      "a step the rig runs (laser_calibration, btf_image, laser_sweep, board_image or white_reference)");
+      "a step the rig runs (laser_calibration, btf_image, laser_sweep, board_image, white_reference or "
+      "mirror_sphere)");
 }
 
 const std::vector<CameraFile>& Files(const CaptureStep& step) {

@@ -13,6 +13,9 @@
 //                      on a holder tilt on the turntable, one image per camera
 //   white_reference    a calibration session's: the rig's white reference on
 //                      the turntable, one lamp on, one image per camera
+//   mirror_sphere      a calibration session's: the rig's mirror sphere at
+//                      the sample centre, one lamp on at one light-arc
+//                      angle, one image per camera at the sphere's exposure
 #pragma once
 
 #include <filesystem>
@@ -80,8 +83,17 @@ struct WhiteReferenceStep {
   std::vector<CameraFile> files;
 };
 
-using CaptureStep =
-    std::variant<LaserCalibrationStep, BtfImageStep, LaserSweepStep, BoardImageStep, WhiteReferenceStep>;
+struct MirrorSphereStep {
+  int turntable_index = 0;  // into the rig's mirror_sphere turntable angles
+  double turntable_rad = 0.0;
+  int arc_index = 0;  // into the rig's mirror_sphere arc angles
+  double arc_rad = 0.0;
+  int lamp = 0;
+  std::vector<CameraFile> files;
+};
+
+using CaptureStep = std::variant<LaserCalibrationStep, BtfImageStep, LaserSweepStep, BoardImageStep, WhiteReferenceStep,
+                                 MirrorSphereStep>;
 
 // A planned step of the type's kind. Angles are written in degrees rounded
 // to 1e-9 (and offsets to 1e-9 mm), so that a plan is byte-identical across
@@ -92,6 +104,7 @@ PlannedStep ToPlannedStep(std::string id, const BtfImageStep& step, const nlohma
 PlannedStep ToPlannedStep(std::string id, const LaserSweepStep& step, const nlohmann::json& recording = nullptr);
 PlannedStep ToPlannedStep(std::string id, const BoardImageStep& step, const nlohmann::json& recording = nullptr);
 PlannedStep ToPlannedStep(std::string id, const WhiteReferenceStep& step, const nlohmann::json& recording = nullptr);
+PlannedStep ToPlannedStep(std::string id, const MirrorSphereStep& step, const nlohmann::json& recording = nullptr);
 
 // Reads the plan's step `index`, which must be of the type's kind. Throws
 // FormatError naming `manifest_file` and the field ("plan[3].tilt_deg").
@@ -111,6 +124,9 @@ BoardImageStep ReadBoardImageStep(const PlannedStep& step, std::size_t index, co
 // Needs the rig's white_reference.
 WhiteReferenceStep ReadWhiteReferenceStep(const PlannedStep& step, std::size_t index, const RigDescription& rig,
                                           const std::filesystem::path& manifest_file);
+// Needs the rig's mirror_sphere.
+MirrorSphereStep ReadMirrorSphereStep(const PlannedStep& step, std::size_t index, const RigDescription& rig,
+                                      const std::filesystem::path& manifest_file);
 // Any step the rig runs; a step of kind "other" is a FormatError.
 CaptureStep ReadCaptureStep(const PlannedStep& step, std::size_t index, const RigDescription& rig,
                             const std::filesystem::path& manifest_file);

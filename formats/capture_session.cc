@@ -26,8 +26,8 @@ constexpr int kSessionMaxDepth = 64;
 constexpr std::size_t kMaxShortText = 256;
 
 const std::vector<std::string>& StepKindNames() {
-  static const std::vector<std::string> names = {"btf_image",       "laser_sweep", "laser_calibration", "board_image",
-                                                 "white_reference", "other"};
+  static const std::vector<std::string> names = {
+      "btf_image", "laser_sweep", "laser_calibration", "board_image", "white_reference", "mirror_sphere", "other"};
   return names;
 }
 

@@ -26,10 +26,10 @@ inline constexpr const char* kSessionJournalName = "journal.jsonl";
 inline constexpr std::size_t kMaxPlanSteps = 100'000;
 inline constexpr std::uintmax_t kMaxSessionManifestBytes = 16ull << 20;
 
-enum class StepKind { kBtfImage, kLaserSweep, kLaserCalibration, kBoardImage, kWhiteReference, kOther };
+enum class StepKind { kBtfImage, kLaserSweep, kLaserCalibration, kBoardImage, kWhiteReference, kMirrorSphere, kOther };
 
 // "btf_image", "laser_sweep", "laser_calibration", "board_image", "white_reference",
-// "other".
+// "mirror_sphere", "other".
 const char* StepKindName(StepKind kind);
 
 struct PlannedStep {

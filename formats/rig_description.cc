@@ -151,7 +151,7 @@ RigDescription ParseRigDescription(const nlohmann::json& json, const std::filesy
   const core::JsonFieldReader root(json, file);
   root.ExpectFormat("mesocap.rig", 1);
   root.RejectUnknownMembers({"format", "version", "name", "sample", "cameras", "turntable", "light_arc", "lamps",
-                             "laser", "faults", "calibration_board", "white_reference"});
+                             "laser", "faults", "calibration_board", "white_reference", "mirror_sphere"});
   RigDescription rig;
   rig.json = json;
   rig.file = file;
@@ -186,6 +186,20 @@ RigDescription ParseRigDescription(const nlohmann::json& json, const std::filesy
     w.arc_angle_rad = core::RadiansFromDegrees(white.Number("arc_angle_deg", 0.0, 360.0));
     rig.white_reference = w;
   }
+  if (root.Has("mirror_sphere")) {
+    const auto sphere = root.Object("mirror_sphere");
+    sphere.RejectUnknownMembers({"radius_mm", "offset_mm", "centre_height_mm", "turntable_angles_deg", "arc_angles_deg",
+                                 "reflectance", "exposure_us"});
+    MirrorSphereDescription m;
+    m.radius_mm = sphere.Number("radius_mm", 0.1, 1e3);
+    m.offset_mm = sphere.Number("offset_mm", 0.0, 1e4);
+    m.turntable_angles_rad = AnglesDeg(sphere, "turntable_angles_deg", 0.0, 360.0);
+    if (sphere.Has("arc_angles_deg")) m.arc_angles_rad = AnglesDeg(sphere, "arc_angles_deg", 0.0, 360.0);
+    m.centre_height_mm = sphere.Number("centre_height_mm", -1e4, 1e4);
+    m.reflectance = sphere.Number("reflectance", 1e-3, 1.0);
+    m.exposure_us = sphere.Number("exposure_us", 1.0, 1e7);
+    rig.mirror_sphere = m;
+  }
 
   std::set<std::string> ids;
   for (const auto& c : root.Objects("cameras", kMaxDevices)) {
@@ -196,15 +210,19 @@ RigDescription ParseRigDescription(const nlohmann::json& json, const std::filesy
   if (rig.cameras.empty()) root.Fail("cameras", "expected at least one camera");
   rig.turntable = ParseStage(root.Object("turntable"));
   rig.light_arc = ParseStage(root.Object("light_arc"));
+  if (rig.mirror_sphere && rig.mirror_sphere->arc_angles_rad.empty()) {
+    rig.mirror_sphere->arc_angles_rad = rig.light_arc.angles_rad;
+  }
 
   const auto lamps = root.Object("lamps");
   rig.lamps.backend = lamps.Choice("backend", {"sim", "gpiod"});
   if (rig.lamps.backend == "gpiod") {
-    lamps.RejectUnknownMembers({"backend", "distance_mm", "elevations_deg", "intensity", "lines", "sense_lines",
-                                "settle_ms"});
+    lamps.RejectUnknownMembers({"backend", "distance_mm", "elevations_deg", "intensity", "emitter_radius_mm", "lines",
+                                "sense_lines", "settle_ms"});
   } else {
-    lamps.RejectUnknownMembers({"backend", "distance_mm", "elevations_deg", "intensity"});
+    lamps.RejectUnknownMembers({"backend", "distance_mm", "elevations_deg", "intensity", "emitter_radius_mm"});
   }
+  if (lamps.Has("emitter_radius_mm")) rig.lamps.emitter_radius_mm = lamps.Number("emitter_radius_mm", 0.01, 1e4);
   rig.lamps.distance_mm = lamps.Number("distance_mm", 1.0, 1e5);
   rig.lamps.elevations_rad = AnglesDeg(lamps, "elevations_deg", 1.0, 90.0);
   if (rig.lamps.backend == "gpiod") {

@@ -94,6 +94,10 @@ struct LampBankDescription {
   double distance_mm = 0.0;            // from the origin
   std::vector<double> elevations_rad;  // one lamp per elevation
   Eigen::Vector3d intensity = Eigen::Vector3d::Ones();  // radiant intensity, relative RGB
+  // The light-emitting part of each lamp, a sphere of uniform radiance: its
+  // irradiance is a point lamp's, but its mirror image on the calibration's
+  // mirror sphere has a size (sim/mirror_sphere_renderer.h).
+  double emitter_radius_mm = 20.0;
 };
 
 // One laser source location: a mount on the light arc and an arc angle.
@@ -165,6 +169,25 @@ struct WhiteReferenceDescription {
   double arc_angle_rad = 0.0;
 };
 
+// The mirror sphere of a rig's calibration session ("mirror_sphere",
+// optional): a polished ball of known radius in a cup on the turntable, its
+// centre offset_mm from the turntable's axis along the sample's x and
+// centre_height_mm above the reference plane, imaged by every camera under
+// each lamp alone at each of its arc angles (by default the light arc's) and
+// each of its turntable angles, at its own exposure (a lamp's mirror image is far brighter than any
+// diffuse surface). The lamps' positions and the light arc's axis come from
+// the highlights (calibration/light_arc_calibration.h); the offset, turned
+// by the turntable, is the baseline that gives the lamps' distances.
+struct MirrorSphereDescription {
+  double radius_mm = 0.0;
+  double offset_mm = 0.0;
+  double centre_height_mm = 0.0;
+  std::vector<double> turntable_angles_rad = {0.0};
+  std::vector<double> arc_angles_rad;
+  double reflectance = 0.0;  // specular, grey, in (0, 1]
+  double exposure_us = 0.0;  // of every camera, for the sphere's images
+};
+
 struct RigDescription {
   std::string name;
   double sample_size_mm = 0.0;  // side of the clipped square sample
@@ -176,6 +199,7 @@ struct RigDescription {
   LaserDescription laser;
   std::optional<CalibrationBoardDescription> calibration_board;
   std::optional<WhiteReferenceDescription> white_reference;
+  std::optional<MirrorSphereDescription> mirror_sphere;
   nlohmann::json json;  // the file as read, kept for the session manifest's rig snapshot
   std::filesystem::path file;  // where it was read from, for messages
 

@@ -4,8 +4,10 @@
 
 #include "calibration/board_corner_detector.h"
 #include "calibration/cross_validation.h"
+#include "calibration/light_arc_calibration.h"
 #include "calibration/nominal_geometry.h"
 #include "calibration/radiometric_calibration.h"
+#include "calibration/sphere_highlight.h"
 #include "core/atomic_file.h"
 #include "core/image_io.h"
 #include "formats/calibration.h"
@@ -17,6 +19,7 @@ namespace mesocap::pipelines {
 core::CheckResult CalibrateRigOptions::Check() const {
   if (session.empty()) return "--session: a calibration session folder is needed";
   if (out.empty()) return "--out: a calibration file to write is needed";
+  if (!(light_arc.max_lamp_sigma_mm > 0)) return "--max-lamp-sigma-mm: expected a positive number of mm";
   return calibration.Check();
 }
 
@@ -46,6 +49,36 @@ std::vector<calibration::WhiteReferenceImage> ReadWhiteReferenceImages(const for
     }
   }
   return images;
+}
+
+// The lamps' highlights in the session's mirror sphere images, one per
+// (step, camera) that shows one; an image without a usable highlight is
+// reported in `left_out`. None when the session has no mirror_sphere steps.
+std::vector<calibration::HighlightObservation> FindMirrorSphereHighlights(
+    const formats::CapturedSession& session, const formats::RigDescription& rig,
+    std::vector<calibration::LeftOutHighlight>* left_out) {
+  std::vector<calibration::HighlightObservation> seen;
+  const auto& plan = session.manifest().plan;
+  for (std::size_t s = 0; s < plan.size(); ++s) {
+    if (plan[s].kind != formats::StepKind::kMirrorSphere) continue;
+    const formats::MirrorSphereStep step = formats::ReadMirrorSphereStep(plan[s], s, rig, session.manifest_file());
+    for (std::size_t c = 0; c < rig.cameras.size(); ++c) {
+      core::ImageReadOptions read;
+      read.expected_width = rig.cameras[c].width;
+      read.expected_height = rig.cameras[c].height;
+      const std::string& name = step.files.at(c).path;
+      const std::optional<calibration::SphereHighlight> highlight =
+          calibration::FindSphereHighlight(core::ReadImage(session.IntactFile(name), read));
+      if (!highlight) {
+        left_out->push_back({name, "no highlight (the lamp's reflection is hidden or off the picture)"});
+      } else if (!highlight->problem.empty()) {
+        left_out->push_back({name, highlight->problem});
+      } else {
+        seen.push_back({static_cast<int>(c), step.lamp, step.turntable_rad, step.arc_rad, highlight->pixels, name});
+      }
+    }
+  }
+  return seen;
 }
 
 }  // namespace
@@ -122,6 +155,33 @@ calibration::CalibrationReport RunCalibrateRig(const CalibrateRigOptions& option
   // Cameras and turntable from the photos; the rest nominal (see the header).
   formats::Calibration out = calibration::NominalCalibration(rig);
   for (std::size_t c = 0; c < cameras.size(); ++c) out.cameras[c] = report.cameras.cameras[c].calibration;
+  std::vector<std::string> nominal_parts;
+  std::vector<calibration::LeftOutHighlight> left_out;
+  const std::vector<calibration::HighlightObservation> highlights = FindMirrorSphereHighlights(session, rig, &left_out);
+  if (!highlights.empty() || !left_out.empty()) {
+    calibration::LightArcOptions arc = options.light_arc;
+    arc.sphere_radius_mm = rig.mirror_sphere->radius_mm;
+    arc.sphere_offset_mm = rig.mirror_sphere->offset_mm;
+    arc.sphere_centre_height_mm = rig.mirror_sphere->centre_height_mm;
+    report.light_arc = calibration::CalibrateLightArc(out, highlights, arc);
+    const calibration::LightArcResult& fit = *report.light_arc;
+    report.light_arc->left_out.insert(report.light_arc->left_out.begin(), left_out.begin(), left_out.end());
+    if (!fit.too_uncertain.empty()) {
+      // A fit this uncertain would replace a rig built to its drawing with
+      // a guess; the report gives it, the calibration keeps the drawing.
+      nominal_parts.push_back(
+          "light_arc, lamp positions (the mirror sphere's fit is too uncertain: " + fit.too_uncertain + ")");
+    } else {
+      if (fit.axis_estimated) out.light_arc = fit.light_arc;
+      for (std::size_t l = 0; l < out.lamps.size(); ++l) {
+        out.lamps[l].position_mm = fit.lamp_position[l];
+        out.lamps[l].uncertainty.position_mm = fit.lamp_position_sigma[l];
+      }
+      if (!fit.axis_estimated) nominal_parts.push_back("light_arc (the lamps were imaged at one arc angle)");
+    }
+  } else {
+    nominal_parts.push_back("light_arc, lamp positions (the session has no mirror sphere images)");
+  }
   std::vector<calibration::WhiteReferenceImage> white = ReadWhiteReferenceImages(session, rig);
   if (!white.empty()) {
     calibration::RadiometryOptions radiometry;
@@ -136,15 +196,23 @@ calibration::CalibrationReport RunCalibrateRig(const CalibrateRigOptions& option
       out.lamps[l].intensity = report.radiometry->lamp_intensity[l];
       out.lamps[l].uncertainty.intensity = report.radiometry->lamp_intensity_sigma[l];
     }
-    report.nominal_parts = "light_arc, lamp positions, laser_mounts";
   } else {
-    report.nominal_parts = "light_arc, lamps, laser_mounts, camera radiometry (the session has no white reference)";
+    nominal_parts.push_back("lamp intensities, camera radiometry (the session has no white reference)");
+  }
+  nominal_parts.push_back("laser_mounts");
+  for (const std::string& part : nominal_parts) {
+    report.nominal_parts += (report.nominal_parts.empty() ? "" : ", ") + part;
   }
   formats::WriteCalibration(options.out, out);
-  spdlog::info("cameras and turntable calibrated from {} board images{}; {} are the rig description's nominal values",
+  spdlog::info("cameras and turntable calibrated from {} board images{}{}; {} are the rig description's nominal values",
                steps.size() * rig.cameras.size(),
-               white.empty() ? "" : ", camera gains and lamp intensities from " + std::to_string(white.size()) +
-                                        " white reference images",
+               report.light_arc && report.light_arc->too_uncertain.empty()
+                   ? ", lamp positions" + std::string(report.light_arc->axis_estimated ? " and the light arc" : "") +
+                         " from " + std::to_string(report.light_arc->highlights_used) + " mirror sphere highlights"
+                   : "",
+               white.empty() ? ""
+                             : ", camera gains and lamp intensities from " + std::to_string(white.size()) +
+                                   " white reference images",
                report.nominal_parts);
   return report;
 }

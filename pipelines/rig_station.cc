@@ -24,6 +24,8 @@ class PersonAtTheRig : public drivers::RigOperator {
   void RemoveCalibrationBoard() override {}
   void PlaceWhiteReference(double) override {}
   void RemoveWhiteReference() override {}
+  void PlaceMirrorSphere() override {}
+  void RemoveMirrorSphere() override {}
 };
 
 std::vector<std::unique_ptr<drivers::RigBackend>> RealBackends() {

@@ -16,6 +16,7 @@
 
 #include "core/error.h"
 #include "sim/board_photo_renderer.h"
+#include "sim/mirror_sphere_renderer.h"
 #include "sim/true_calibration.h"
 
 namespace mesocap::sim {
@@ -461,6 +462,11 @@ core::Image CameraRenderer::Render(const SimulatedRigState& state, int camera, i
   }
   if (state.calibration_board_holder) {
     return RenderCalibrationBoard(camera, *state.calibration_board_holder, state.turntable_rad, channels);
+  }
+  if (state.mirror_sphere_placed) {
+    core::Image rgb =
+        RenderMirrorSpherePhoto(rig_, calibration_, camera, state.turntable_rad, state.light_arc_rad, state.lamps_on);
+    return channels == 1 ? core::ChannelMean(std::move(rgb)) : rgb;
   }
   const RenderCache& cached = CachedRender(state, camera);
   const bool any_lamp = std::find(state.lamps_on.begin(), state.lamps_on.end(), true) != state.lamps_on.end();

@@ -231,6 +231,7 @@ std::uint64_t SimulatedCamera::ImagedStateKey() const {
   mix(s.calibration_board_holder ? 1 + static_cast<std::uint64_t>(*s.calibration_board_holder) : 0);
   mix(s.white_reference_height_mm ? 1 : 0);
   if (s.white_reference_height_mm) mix_real(*s.white_reference_height_mm);
+  mix(s.mirror_sphere_placed ? 1 : 0);
   mix_real(settings_.exposure_us);
   mix_real(settings_.gain_db);
   const auto& r = settings_.region;

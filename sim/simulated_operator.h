@@ -42,6 +42,14 @@ class SimulatedOperator : public drivers::RigOperator {
     state_->white_reference_height_mm.reset();
     ++state_->changes;
   }
+  void PlaceMirrorSphere() override {
+    state_->mirror_sphere_placed = true;
+    ++state_->changes;
+  }
+  void RemoveMirrorSphere() override {
+    state_->mirror_sphere_placed = false;
+    ++state_->changes;
+  }
 
  private:
   std::shared_ptr<SimulatedRigState> state_;

@@ -31,6 +31,9 @@ struct SimulatedRigState {
   // The white reference of the radiometric calibration, its top at this
   // height: a plate like the one above, of the rig description's albedo.
   std::optional<double> white_reference_height_mm;
+  // The rig description's mirror sphere in its cup at the sample centre:
+  // while it is there the cameras see it (and only it) against a dark rig.
+  bool mirror_sphere_placed = false;
   double clock_s = 0.0;  // simulated time; moves advance it, nobody sleeps
   // Discrete changes so far (a lamp or the laser switched, a stage sent
   // moving or homing, the laser tilted or remounted, something laid on the

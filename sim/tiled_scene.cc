@@ -31,6 +31,7 @@
 
 #include "core/error.h"
 #include "sim/cell_walk.h"
+#include "sim/embree_handles.h"
 
 namespace mesocap::sim {
 namespace {
@@ -38,13 +39,6 @@ namespace {
 // Widening of each cell's query interval, relative to P + d_max: 1e-4 is
 // ~1000 times the single-precision rounding of coordinates of size P + d_max.
 constexpr double kCellMargin = 1e-4;
-
-struct DeviceRelease {
-  void operator()(RTCDevice device) const { rtcReleaseDevice(device); }
-};
-struct SceneRelease {
-  void operator()(RTCScene scene) const { rtcReleaseScene(scene); }
-};
 
 // A ray segment inside one cell, in the cell's frame: the points
 // origin + s dir for s in [0, length] are the ray's points t = t_offset + s.
@@ -76,8 +70,8 @@ class TiledScene final : public MesostructureScene {
   // Per Embree primitive: the tile triangle it copies and the copy's shift in periods.
   std::vector<std::uint32_t> prim_triangle_;
   std::vector<std::array<std::int8_t, 2>> prim_shift_;
-  std::unique_ptr<RTCDeviceTy, DeviceRelease> device_;
-  std::unique_ptr<RTCSceneTy, SceneRelease> scene_;
+  EmbreeDevice device_;
+  EmbreeScene scene_;
 };
 
 TiledScene::TiledScene(TileGeometry geometry)

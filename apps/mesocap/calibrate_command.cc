@@ -36,6 +36,9 @@ void RegisterCalibrateCommand(CLI::App& app) {
   group->add_option("--out", rig->out, "calibration file to write");
   group->add_flag("--json", *rig_json, "print the report as one JSON object");
   group->add_flag("--replace", rig->replace, "replace an existing file at --out");
+  group->add_option("--max-lamp-sigma-mm", rig->light_arc.max_lamp_sigma_mm,
+                    "keep the rig description's lamps and light arc when the mirror sphere's fit leaves any lamp "
+                    "(or the arc's axis point) more uncertain than this, mm at one sigma (default 5)");
   group->callback([group, rig, rig_json] {
     if (!group->get_subcommands().empty()) return;
     if (rig->session.empty() || rig->out.empty()) {

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <string>
+#include <variant>
 
 #include "core/error.h"
 #include "formats/rig_description.h"
@@ -118,6 +119,45 @@ TEST(CapturePlanSteps, AWhiteReferenceStepIsReadStrictly) {
   EXPECT_NE(error(bad, rig).find("field 'plan[2].albedo': unknown member"), std::string::npos) << error(bad, rig);
   rig.white_reference.reset();
   EXPECT_NE(error(step, rig).find("needs the rig's white_reference"), std::string::npos) << error(step, rig);
+}
+
+// A mirror sphere step names a turntable angle and an arc angle of the
+// rig's mirror_sphere and a lamp, and needs the rig's mirror_sphere.
+TEST(CapturePlanSteps, AMirrorSphereStepIsReadStrictly) {
+  RigDescription rig = TinyRig();
+  ASSERT_TRUE(rig.mirror_sphere.has_value());
+  MirrorSphereStep sphere;
+  sphere.turntable_index = static_cast<int>(rig.mirror_sphere->turntable_angles_rad.size()) - 1;
+  sphere.turntable_rad = rig.mirror_sphere->turntable_angles_rad.back();
+  sphere.arc_index = 1;
+  sphere.arc_rad = rig.mirror_sphere->arc_angles_rad.at(1);
+  sphere.lamp = 1;
+  for (const CameraDescription& c : rig.cameras) sphere.files.push_back({c.id, "sphere/t0_a1_l1_" + c.id + ".png"});
+  const PlannedStep step = ToPlannedStep("sphere-t0_a1_l1", sphere);
+  EXPECT_EQ(step.kind, StepKind::kMirrorSphere);
+  const MirrorSphereStep read = ReadMirrorSphereStep(step, 4, rig, "manifest.json");
+  EXPECT_EQ(read.turntable_index, sphere.turntable_index);
+  EXPECT_NEAR(read.turntable_rad, sphere.turntable_rad, 1e-9);
+  EXPECT_EQ(read.arc_index, 1);
+  EXPECT_NEAR(read.arc_rad, sphere.arc_rad, 1e-9);
+  EXPECT_EQ(read.lamp, 1);
+  EXPECT_EQ(read.files.size(), rig.cameras.size());
+  EXPECT_TRUE(std::holds_alternative<MirrorSphereStep>(ReadCaptureStep(step, 4, rig, "manifest.json")));
+  auto error = [&](const PlannedStep& s, const RigDescription& r) {
+    return ErrorOf<core::FormatError>([&] { ReadMirrorSphereStep(s, 4, r, "manifest.json"); });
+  };
+  PlannedStep bad = step;
+  bad.params["arc_index"] = static_cast<int>(rig.mirror_sphere->arc_angles_rad.size());
+  EXPECT_NE(error(bad, rig).find("field 'plan[4].arc_index': expected an integer in [0, "), std::string::npos)
+      << error(bad, rig);
+  bad = step;
+  bad.params["turntable_index"] = static_cast<int>(rig.mirror_sphere->turntable_angles_rad.size());
+  EXPECT_NE(error(bad, rig).find("field 'plan[4].turntable_index'"), std::string::npos) << error(bad, rig);
+  bad = step;
+  bad.params["radius_mm"] = 8;
+  EXPECT_NE(error(bad, rig).find("field 'plan[4].radius_mm': unknown member"), std::string::npos) << error(bad, rig);
+  rig.mirror_sphere.reset();
+  EXPECT_NE(error(step, rig).find("needs the rig's mirror_sphere"), std::string::npos) << error(step, rig);
 }
 
 }  // namespace

@@ -132,6 +132,31 @@ TEST(RigDescription, HostileDescriptionsNameTheField) {
   j = TinyJson();
   j["white_reference"]["arc_angle_deg"] = 400;
   EXPECT_NE(ErrorOf(j).find("white_reference.arc_angle_deg"), std::string::npos) << ErrorOf(j);
+  j = TinyJson();
+  j["mirror_sphere"]["radius_mm"] = 0;
+  EXPECT_NE(ErrorOf(j).find("mirror_sphere.radius_mm"), std::string::npos) << ErrorOf(j);
+  j = TinyJson();
+  j["mirror_sphere"].erase("offset_mm");
+  EXPECT_NE(ErrorOf(j).find("mirror_sphere.offset_mm': missing"), std::string::npos) << ErrorOf(j);
+  j = TinyJson();
+  j["mirror_sphere"]["exposure_us"] = 0.5;
+  EXPECT_NE(ErrorOf(j).find("mirror_sphere.exposure_us"), std::string::npos) << ErrorOf(j);
+  j = TinyJson();
+  j["lamps"]["emitter_radius_mm"] = -1;
+  EXPECT_NE(ErrorOf(j).find("lamps.emitter_radius_mm"), std::string::npos) << ErrorOf(j);
+}
+
+// The mirror sphere's arc angles default to the light arc's.
+TEST(RigDescription, TheMirrorSpheresArcAnglesDefaultToTheLightArcs) {
+  auto j = TinyJson();
+  j["mirror_sphere"].erase("arc_angles_deg");
+  RigDescription rig = ParseRigDescription(j, "tiny.json");
+  ASSERT_TRUE(rig.mirror_sphere.has_value());
+  EXPECT_EQ(rig.mirror_sphere->arc_angles_rad, rig.light_arc.angles_rad);
+  j["mirror_sphere"]["arc_angles_deg"] = {90.0};
+  rig = ParseRigDescription(j, "tiny.json");
+  ASSERT_EQ(rig.mirror_sphere->arc_angles_rad.size(), 1u);
+  EXPECT_NEAR(rig.mirror_sphere->arc_angles_rad[0], std::numbers::pi / 2, 1e-12);
 }
 
 // The tiny rig with every device on a real backend.
