@@ -2,7 +2,10 @@
 # The main job on the simulated rig, run by scripts/setup.sh after the build,
 # the whole chain as on a real rig, without the simulator's truth: the `tiny`
 # rig's calibration session (a ChArUco board on holder tilts at turntable
-# angles, a white reference under each lamp) and the rig calibrated from it;
+# angles, a mirror sphere and a white reference under each lamp) and the rig
+# calibrated from it (its cameras resolve the sphere too coarsely for the
+# lamps' positions: the calibration reports them and keeps the rig
+# description's);
 # a capture session of the `weave` scene (BTF images, laser-plane
 # calibration frames, laser sweeps, with sensor noise); the MDF and the BTF
 # processed with the estimated calibration; then, only to judge them, their

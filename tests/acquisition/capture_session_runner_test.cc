@@ -80,6 +80,10 @@ class SimulatedCapture {
     options.stop_before_step = std::move(stop_before_step);
     return RunCaptureSession(dir, rig_, operator_, options, step_done);
   }
+  CaptureRunReport Run(const fs::path& dir, CaptureRunnerOptions options) {
+    options.show_progress = false;
+    return RunCaptureSession(dir, rig_, operator_, options);
+  }
 
   const sim::SimulatedRigState& state() const { return backend_.state(); }
 
@@ -158,6 +162,42 @@ TEST(CaptureSessionRunner, RecordsEveryStepOfThePlan) {
   EXPECT_NE(peak(low) % 128, peak(high) % 128);
   // A sweep of 8 frames, 128 x 96 grey each.
   EXPECT_EQ(pixels.at("laser/t0_loc0_cam1.tif").size(), 8u * 128u * 96u);
+}
+
+// A mirror sphere step images at the sphere's exposure; the next step at
+// each camera's own, whatever the last step left.
+TEST(CaptureSessionRunner, TheMirrorSphereHasItsOwnExposure) {
+  testing::TemporaryDirectory dir;
+  formats::RigDescription rig = SmallPlanRig();
+  ASSERT_TRUE(rig.mirror_sphere.has_value());
+  formats::SessionManifest manifest;
+  manifest.rig = rig.json;
+  for (formats::PlannedStep& step : MakeCalibrationPlan(rig)) {
+    const bool first_turn = !step.params.contains("turntable_index") || step.params["turntable_index"] == 0;
+    if (step.kind == formats::StepKind::kMirrorSphere && first_turn && step.params["arc_index"] == 0) {
+      manifest.plan.push_back(step);
+    }
+    if (step.kind == formats::StepKind::kWhiteReference) manifest.plan.push_back(step);
+  }
+  ASSERT_EQ(manifest.plan.size(), 2 * rig.lamps.elevations_rad.size());
+  formats::CreateCaptureSession(dir / "s", manifest);
+  SimulatedCapture capture(rig, {});
+  std::vector<double> exposures;
+  CaptureRunnerOptions options;
+  options.frame_arrived = [&](const std::string&, const drivers::Frame& frame) {
+    exposures.push_back(frame.settings.exposure_us);
+  };
+  capture.Run(dir / "s", options);
+  const std::size_t sphere_frames = rig.lamps.elevations_rad.size() * rig.cameras.size();
+  ASSERT_EQ(exposures.size(), 2 * sphere_frames);
+  for (std::size_t i = 0; i < exposures.size(); ++i) {
+    EXPECT_EQ(exposures[i], i < sphere_frames ? rig.mirror_sphere->exposure_us : rig.cameras[0].exposure_us) << i;
+  }
+  EXPECT_FALSE(capture.state().mirror_sphere_placed);
+  // The lamp's highlight is in the sphere's image, well exposed.
+  const core::Image sphere = core::ReadImage(dir / "s" / "sphere/t0_a0_l0_cam0.png");
+  EXPECT_GT(*std::max_element(sphere.data(), sphere.data() + sphere.size()), 0.2f);
+  EXPECT_LT(*std::max_element(sphere.data(), sphere.data() + sphere.size()), 1.0f);
 }
 
 // Faults that retries cure leave the data unchanged: each frame's noise is

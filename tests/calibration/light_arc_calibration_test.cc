@@ -219,6 +219,7 @@ TEST_F(LightArcCalibrationTest, RecoversTheLampsTheArcsAxisAndTheSpheresPlace) {
   EXPECT_LT(AxisErrorDeg(result), 0.01);
   EXPECT_LT((result.light_arc.axis_point_mm - truth_.light_arc.axis_point_mm).head<2>().norm(), 0.5);
   const Eigen::Vector3d cup(rig_.mirror_sphere->offset_mm, 0, rig_.mirror_sphere->centre_height_mm);
+  std::printf("sphere centre error %.4f mm\n", (result.sphere_centre_mm - cup).norm());
   EXPECT_LT((result.sphere_centre_mm - cup).norm(), 0.01);
 }
 
