@@ -176,9 +176,16 @@ std::vector<ReflectedRay> ReflectedRays(const formats::Calibration& geometry,
     const auto ray_at = [&](const Eigen::Vector3d& c) {
       const std::optional<MeanRay> r =
           MeanReflectedRay(*u.camera, u.seen->pixels, sample.Apply(c), radius, min_cos, &problem);
-      // The fit moved the sphere far enough to lose a pixel: the start's
-      // ray, unchanged (the change per mm then comes out zero).
-      return r ? *r : MeanReflectedRay(*u.camera, u.seen->pixels, sample.Apply(cup), radius, 0.0, &problem).value();
+      if (r) return *r;
+      // A step of a micrometre took a pixel past the incidence limit: the
+      // ray without the limit (the step changes it smoothly).
+      const std::optional<MeanRay> unlimited =
+          MeanReflectedRay(*u.camera, u.seen->pixels, sample.Apply(c), radius, 0.0, &problem);
+      if (!unlimited) {
+        throw core::Error(u.seen->name + ": the fitted sphere no longer meets the highlight's rays (" + problem +
+                          "): the sphere's cup is far from its description");
+      }
+      return *unlimited;
     };
     ReflectedRay ray;
     ray.lamp = u.seen->lamp;
