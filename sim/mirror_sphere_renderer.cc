@@ -3,6 +3,7 @@
 #include <tbb/parallel_for.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -161,8 +162,18 @@ core::Image RenderMirrorSpherePhoto(const formats::RigDescription& rig, const fo
   };
   const int n = options.samples_per_pixel_side;
   core::Image signal(cam.width, cam.height, 3);
-  tbb::parallel_for(0, cam.height, [&](int y) {
-    for (int x = 0; x < cam.width; ++x) {
+  // The pixels to test: a square about the sphere's image, half again as
+  // wide as the sphere seen from its nearest point plus 4 pixels, so that it
+  // holds every pixel the test below keeps (lens distortion changes the
+  // scale by far less), without undistorting the whole image's rays.
+  const Eigen::Vector2d middle = ProjectToPixel(cam, centre);
+  const double half = 1.5 * sphere.radius_mm * std::max(k.fx, k.fy) / (origin.norm() - sphere.radius_mm) + 4.0;
+  const auto clamp = [](double v, int size) { return std::clamp(static_cast<int>(v), 0, size); };
+  const int x0 = clamp(std::floor(middle.x() - half), cam.width), x1 = clamp(std::ceil(middle.x() + half) + 1, cam.width);
+  const int y0 = clamp(std::floor(middle.y() - half), cam.height);
+  const int y1 = clamp(std::ceil(middle.y() + half) + 1, cam.height);
+  tbb::parallel_for(y0, y1, [&](int y) {
+    for (int x = x0; x < x1; ++x) {
       // Only pixels whose centre ray passes within two footprints of the
       // sphere can see it; the rest of the rig is dark.
       const Eigen::Vector3d d0 = ray_at(x, y);
