@@ -169,7 +169,8 @@ core::Image RenderMirrorSpherePhoto(const formats::RigDescription& rig, const fo
   const Eigen::Vector2d middle = ProjectToPixel(cam, centre);
   const double half = 1.5 * sphere.radius_mm * std::max(k.fx, k.fy) / (origin.norm() - sphere.radius_mm) + 4.0;
   const auto clamp = [](double v, int size) { return std::clamp(static_cast<int>(v), 0, size); };
-  const int x0 = clamp(std::floor(middle.x() - half), cam.width), x1 = clamp(std::ceil(middle.x() + half) + 1, cam.width);
+  const int x0 = clamp(std::floor(middle.x() - half), cam.width),
+            x1 = clamp(std::ceil(middle.x() + half) + 1, cam.width);
   const int y0 = clamp(std::floor(middle.y() - half), cam.height);
   const int y1 = clamp(std::ceil(middle.y() + half) + 1, cam.height);
   tbb::parallel_for(y0, y1, [&](int y) {
