@@ -16,23 +16,30 @@ std::vector<formats::CameraFile> CameraFiles(const formats::RigDescription& rig,
   return files;
 }
 
+// The stripe of laser location `li` at `tilt_rad` on the plate at its
+// `hi`-th calibration height (MDF paper Sec. 3.2).
+formats::PlannedStep LaserPlateStep(const formats::RigDescription& rig, std::size_t li, int hi, double tilt_rad,
+                                    const std::string& stem, const nlohmann::json& recording) {
+  const formats::LaserLocation& loc = rig.laser.locations[li];
+  formats::LaserCalibrationStep step;
+  step.location = static_cast<int>(li);
+  step.mount = loc.mount;
+  step.arc_rad = loc.arc_angle_rad;
+  step.height_mm = rig.laser.calibration_heights_mm[hi];
+  step.tilt_rad = tilt_rad;
+  step.files = CameraFiles(rig, "laser_calibration/" + stem, ".png");
+  return formats::ToPlannedStep("laser-calibration-" + stem, step, recording);
+}
+
 }  // namespace
 
 std::vector<formats::PlannedStep> MakeCapturePlan(const formats::RigDescription& rig, const nlohmann::json& recording) {
   std::vector<formats::PlannedStep> plan;
   const auto& laser = rig.laser;
   for (std::size_t li = 0; li < laser.locations.size(); ++li) {
-    const auto& loc = laser.locations[li];
     for (int hi = 0; hi < 2; ++hi) {
-      const std::string stem = "loc" + std::to_string(li) + "_h" + std::to_string(hi);
-      formats::LaserCalibrationStep step;
-      step.location = static_cast<int>(li);
-      step.mount = loc.mount;
-      step.arc_rad = loc.arc_angle_rad;
-      step.height_mm = laser.calibration_heights_mm[hi];
-      step.tilt_rad = 0.0;
-      step.files = CameraFiles(rig, "laser_calibration/" + stem, ".png");
-      plan.push_back(formats::ToPlannedStep("laser-calibration-" + stem, step, recording));
+      plan.push_back(
+          LaserPlateStep(rig, li, hi, 0.0, "loc" + std::to_string(li) + "_h" + std::to_string(hi), recording));
     }
   }
   for (std::size_t ti = 0; ti < rig.turntable.angles_rad.size(); ++ti) {
@@ -128,6 +135,20 @@ std::vector<formats::PlannedStep> MakeCalibrationPlan(const formats::RigDescript
       step.arc_rad = rig.white_reference->arc_angle_rad;
       step.files = CameraFiles(rig, "white/" + stem, ".png");
       plan.push_back(formats::ToPlannedStep("white-" + stem, step, recording));
+    }
+  }
+  // The laser mounts: each location's stripe on the two plates (Sec. 3.2) at
+  // both ends of its sweep, so the planes at two tilts meet on the tilt axis.
+  const formats::LaserDescription& laser = rig.laser;
+  for (std::size_t li = 0; li < laser.locations.size(); ++li) {
+    const formats::LaserLocation& loc = laser.locations[li];
+    const double tilts[2] = {calibration::LaserTiltForOffset(laser, loc.mount, laser.sweep_min_mm),
+                             calibration::LaserTiltForOffset(laser, loc.mount, laser.sweep_max_mm)};
+    for (int k = 0; k < 2; ++k) {
+      for (int hi = 0; hi < 2; ++hi) {
+        const std::string stem = "loc" + std::to_string(li) + "_k" + std::to_string(k) + "_h" + std::to_string(hi);
+        plan.push_back(LaserPlateStep(rig, li, hi, tilts[k], stem, recording));
+      }
     }
   }
   return plan;

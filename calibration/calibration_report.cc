@@ -4,6 +4,8 @@
 #include <cstdio>
 #include <sstream>
 
+#include "core/angles.h"
+
 namespace mesocap::calibration {
 namespace {
 
@@ -143,7 +145,33 @@ nlohmann::json ToJson(const CalibrationReport& report) {
                           {"reduced_chi_square", r.reduced_chi_square}};
   }
   if (!lamps.empty()) json["lamps"] = lamps;
-  if (!report.nominal_parts.empty()) json["nominal_parts"] = report.nominal_parts;
+  if (report.laser_mounts) {
+    const LaserMountResult& f = *report.laser_mounts;
+    nlohmann::json mounts = nlohmann::json::array();
+    const auto sigma = [](const std::optional<Eigen::Vector3d>& v) { return v ? Vector(*v) : nlohmann::json(nullptr); };
+    for (const formats::LaserMountCalibration& m : f.mounts) {
+      mounts.push_back({{"id", m.id},
+                        {"source_mm", Vector(m.source_mm)},
+                        {"plane_normal_at_zero_tilt", Vector(m.plane_normal_at_zero_tilt)},
+                        {"tilt_axis", Vector(m.tilt_axis)},
+                        {"std",
+                         {{"source_mm", sigma(m.uncertainty.source_mm)},
+                          {"plane_normal_at_zero_tilt", sigma(m.uncertainty.plane_normal_at_zero_tilt)},
+                          {"tilt_axis", sigma(m.uncertainty.tilt_axis)}}}});
+    }
+    json["laser_mounts"] = mounts;
+    nlohmann::json left_out = nlohmann::json::array();
+    for (const SetAsideImage& i : report.laser_plates_left_out)
+      left_out.push_back({{"file", i.name}, {"reason", i.reason}});
+    json["laser_mount_fit"] = {{"planes_used", f.planes_used},
+                               {"plates_left_out", left_out},
+                               {"position_residual_rms_mm", f.position_residual_rms_mm},
+                               {"normal_residual_rms_deg", f.normal_residual_rms_deg},
+                               {"written", f.too_uncertain.empty()},
+                               {"too_uncertain", f.too_uncertain}};
+  }
+  // A rig's (it has a turntable): empty when every part came from images.
+  if (!report.cameras.holder_poses.empty()) json["nominal_parts"] = report.nominal_parts;
   return json;
 }
 
@@ -235,6 +263,33 @@ std::string FormatCalibrationReport(const CalibrationReport& report) {
     }
     if (!a.too_uncertain.empty()) out << "  not written (nominal kept): " << a.too_uncertain << "\n";
     for (const std::string& w : a.warnings) out << "warning: " << w << "\n";
+  }
+  if (report.laser_mounts) {
+    const LaserMountResult& f = *report.laser_mounts;
+    out << Line("laser mounts from %d plate planes (%zu plate images left out): residual %.4f mm, %.4f degrees RMS\n",
+                f.planes_used, report.laser_plates_left_out.size(), f.position_residual_rms_mm,
+                f.normal_residual_rms_deg);
+    for (const formats::LaserMountCalibration& m : f.mounts) {
+      const Eigen::Vector3d& s = m.source_mm;
+      const Eigen::Vector3d& a = m.tilt_axis;
+      out << Line("  mount %-10s source %.2f %.2f %.2f mm, tilt axis %.5f %.5f %.5f", m.id.c_str(), s.x(), s.y(), s.z(),
+                  a.x(), a.y(), a.z());
+      if (m.uncertainty.source_mm && m.uncertainty.tilt_axis) {
+        out << Line(" (std %.2f mm, %.3f degrees)", m.uncertainty.source_mm->maxCoeff(),
+                    core::DegreesFromRadians(m.uncertainty.tilt_axis->maxCoeff()));
+      }
+      out << "\n";
+    }
+    constexpr std::size_t kListed = 6;
+    for (std::size_t i = 0; i < report.laser_plates_left_out.size() && i < kListed; ++i) {
+      out << "  left out " << report.laser_plates_left_out[i].name << ": " << report.laser_plates_left_out[i].reason
+          << "\n";
+    }
+    if (report.laser_plates_left_out.size() > kListed) {
+      out << "  ... and " << report.laser_plates_left_out.size() - kListed
+          << " more plate images left out (--json lists them)\n";
+    }
+    if (!f.too_uncertain.empty()) out << "  not written (nominal kept): " << f.too_uncertain << "\n";
   }
   if (!report.cross_validation) out << "cross-validation skipped: " << report.cross_validation_skipped << "\n";
   for (const std::string& warning : report.cameras.warnings) out << "warning: " << warning << "\n";

@@ -12,6 +12,7 @@
 
 #include "calibration/camera_calibration.h"
 #include "calibration/cross_validation.h"
+#include "calibration/laser_mount_calibration.h"
 #include "calibration/light_arc_calibration.h"
 #include "calibration/radiometric_calibration.h"
 
@@ -30,6 +31,11 @@ struct CalibrationReport {
   // A rig's calibration with mirror sphere images: the light arc's axis and
   // the lamps' positions.
   std::optional<LightArcResult> light_arc;
+  // A rig's calibration with laser plates at two tilts: the laser mounts,
+  // and the plates' images left out (one camera's pair of plates at one
+  // location and tilt): no stripe found, or an outlier plane.
+  std::optional<LaserMountResult> laser_mounts;
+  std::vector<SetAsideImage> laser_plates_left_out;
   // A rig's calibration: the parts it took from the rig description's
   // nominal geometry, not from images (empty for cameras alone).
   std::string nominal_parts;

@@ -2,8 +2,12 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
+#include <map>
+
 #include "calibration/board_corner_detector.h"
 #include "calibration/cross_validation.h"
+#include "calibration/laser_mount_calibration.h"
 #include "calibration/light_arc_calibration.h"
 #include "calibration/nominal_geometry.h"
 #include "calibration/radiometric_calibration.h"
@@ -13,6 +17,7 @@
 #include "formats/calibration.h"
 #include "formats/capture_plan_steps.h"
 #include "formats/captured_session.h"
+#include "mdf/session_sweeps.h"
 
 namespace mesocap::pipelines {
 
@@ -20,6 +25,7 @@ core::CheckResult CalibrateRigOptions::Check() const {
   if (session.empty()) return "--session: a calibration session folder is needed";
   if (out.empty()) return "--out: a calibration file to write is needed";
   if (!(light_arc.max_lamp_sigma_mm > 0)) return "--max-lamp-sigma-mm: expected a positive number of mm";
+  if (const core::CheckResult problem = laser_mounts.Check(); !problem.empty()) return problem;
   return calibration.Check();
 }
 
@@ -79,6 +85,69 @@ std::vector<calibration::HighlightObservation> FindMirrorSphereHighlights(
     }
   }
   return seen;
+}
+
+// The laser planes of the session's plates (laser_calibration steps), one
+// per (location, tilt, camera) whose stripe is found on both plates; the
+// others are reported in `left_out`. None when the session has no plates.
+std::vector<calibration::LaserPlaneObservation> MeasureLaserPlates(const formats::CapturedSession& session,
+                                                                   const formats::RigDescription& rig,
+                                                                   const formats::Calibration& geometry,
+                                                                   std::vector<calibration::SetAsideImage>* left_out) {
+  // (location, tilt in nano-radians) -> its plates, lower first.
+  std::map<std::pair<int, long long>, std::vector<formats::LaserCalibrationStep>> plates;
+  const auto& plan = session.manifest().plan;
+  for (std::size_t s = 0; s < plan.size(); ++s) {
+    if (plan[s].kind != formats::StepKind::kLaserCalibration) continue;
+    formats::LaserCalibrationStep step = formats::ReadLaserCalibrationStep(plan[s], s, rig, session.manifest_file());
+    plates[{step.location, std::llround(step.tilt_rad * 1e9)}].push_back(std::move(step));
+  }
+  std::vector<calibration::LaserPlaneObservation> planes;
+  if (plates.empty()) return planes;
+  std::vector<calibration::CameraRays> rays;
+  for (const formats::CameraCalibration& camera : geometry.cameras) rays.emplace_back(camera);
+  // The stripe is searched as far out as process mdf searches its reference.
+  const double outer_mm = mdf::SweepGeometryOptions().reference_extent * rig.sample_size_mm;
+  for (auto& [key, steps] : plates) {
+    if (steps.size() != 2) {
+      throw core::FormatError(session.manifest_file(), "plan",
+                              "two laser_calibration steps (two plate heights) for laser location " +
+                                  std::to_string(key.first) + " at each tilt; found " + std::to_string(steps.size()));
+    }
+    std::sort(steps.begin(), steps.end(), [](const auto& a, const auto& b) { return a.height_mm < b.height_mm; });
+    const formats::LaserCalibrationStep& lower = steps[0];
+    const formats::LaserCalibrationStep& upper = steps[1];
+    const Eigen::Vector2d scan =
+        calibration::MountInWorld(geometry, lower.mount, lower.arc_rad, lower.tilt_rad).normal.head<2>().normalized();
+    for (std::size_t c = 0; c < rig.cameras.size(); ++c) {
+      core::ImageReadOptions read;
+      read.expected_width = rig.cameras[c].width;
+      read.expected_height = rig.cameras[c].height;
+      read.expected_channels = 1;
+      const std::string names = lower.files.at(c).path + " and " + upper.files.at(c).path;
+      const core::Image low = core::ReadImage(session.IntactFile(lower.files.at(c).path), read);
+      const core::Image high = core::ReadImage(session.IntactFile(upper.files.at(c).path), read);
+      try {
+        calibration::LaserPlaneObservation plane;
+        plane.camera = static_cast<int>(c);
+        plane.mount = lower.mount;
+        plane.arc_rad = lower.arc_rad;
+        plane.tilt_rad = lower.tilt_rad;
+        plane.name = names;
+        plane.fit = calibration::CalibrateLaserPlane(low, lower.height_mm, high, upper.height_mm, rays[c], scan,
+                                                     outer_mm, {}, names);
+        planes.push_back(std::move(plane));
+      } catch (const core::FormatError&) {
+        throw;
+      } catch (const core::Error& e) {
+        // The message starts with the names; the report gives them apart.
+        std::string reason = e.what();
+        if (reason.rfind(names + ": ", 0) == 0) reason.erase(0, names.size() + 2);
+        left_out->push_back({names, reason});
+      }
+    }
+  }
+  return planes;
 }
 
 }  // namespace
@@ -182,6 +251,30 @@ calibration::CalibrationReport RunCalibrateRig(const CalibrateRigOptions& option
   } else {
     nominal_parts.push_back("light_arc, lamp positions (the session has no mirror sphere images)");
   }
+  const std::vector<calibration::LaserPlaneObservation> laser_planes =
+      MeasureLaserPlates(session, rig, out, &report.laser_plates_left_out);
+  if (laser_planes.empty()) {
+    nominal_parts.push_back("laser_mounts (the session has no laser plates" +
+                            std::string(report.laser_plates_left_out.empty() ? ")" : " with a stripe found)"));
+  } else {
+    try {
+      report.laser_mounts = calibration::CalibrateLaserMounts(out, laser_planes, options.laser_mounts);
+      report.laser_plates_left_out.insert(report.laser_plates_left_out.end(), report.laser_mounts->left_out.begin(),
+                                          report.laser_mounts->left_out.end());
+      if (report.laser_mounts->too_uncertain.empty()) {
+        out.laser_mounts = report.laser_mounts->mounts;
+      } else {
+        nominal_parts.push_back("laser_mounts (their fit is too uncertain: " + report.laser_mounts->too_uncertain +
+                                ")");
+      }
+    } catch (const core::FormatError&) {
+      throw;
+    } catch (const core::Error& e) {
+      // A mount without planes at two tilts leaves the rest of the rig's
+      // calibration as good as it was: keep its drawing and say why.
+      nominal_parts.push_back("laser_mounts (" + std::string(e.what()) + ")");
+    }
+  }
   std::vector<calibration::WhiteReferenceImage> white = ReadWhiteReferenceImages(session, rig);
   if (!white.empty()) {
     calibration::RadiometryOptions radiometry;
@@ -199,21 +292,27 @@ calibration::CalibrationReport RunCalibrateRig(const CalibrateRigOptions& option
   } else {
     nominal_parts.push_back("lamp intensities, camera radiometry (the session has no white reference)");
   }
-  nominal_parts.push_back("laser_mounts");
   for (const std::string& part : nominal_parts) {
     report.nominal_parts += (report.nominal_parts.empty() ? "" : ", ") + part;
   }
   formats::WriteCalibration(options.out, out);
-  spdlog::info("cameras and turntable calibrated from {} board images{}{}; {} are the rig description's nominal values",
-               steps.size() * rig.cameras.size(),
-               report.light_arc && report.light_arc->too_uncertain.empty()
-                   ? ", lamp positions" + std::string(report.light_arc->axis_estimated ? " and the light arc" : "") +
-                         " from " + std::to_string(report.light_arc->highlights_used) + " mirror sphere highlights"
-                   : "",
-               white.empty() ? ""
-                             : ", camera gains and lamp intensities from " + std::to_string(white.size()) +
-                                   " white reference images",
-               report.nominal_parts);
+  std::string from_images =
+      "cameras and turntable from " + std::to_string(steps.size() * rig.cameras.size()) + " board images";
+  if (report.light_arc && report.light_arc->too_uncertain.empty()) {
+    from_images += ", lamp positions" + std::string(report.light_arc->axis_estimated ? " and the light arc" : "") +
+                   " from " + std::to_string(report.light_arc->highlights_used) + " mirror sphere highlights";
+  }
+  if (report.laser_mounts && report.laser_mounts->too_uncertain.empty()) {
+    from_images += ", laser mounts from " + std::to_string(report.laser_mounts->planes_used) + " plate planes";
+  }
+  if (!white.empty()) {
+    from_images +=
+        ", camera gains and lamp intensities from " + std::to_string(white.size()) + " white reference images";
+  }
+  spdlog::info("calibrated {}{}", from_images,
+               report.nominal_parts.empty()
+                   ? std::string()
+                   : "; " + report.nominal_parts + " are the rig description's nominal values");
   return report;
 }
 

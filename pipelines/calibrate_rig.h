@@ -6,23 +6,27 @@
 //
 // When the session holds mirror sphere images, the lamps' positions and the
 // light arc's axis come from their highlights
-// (calibration/light_arc_calibration.h); when it holds white reference
+// (calibration/light_arc_calibration.h); when it holds the laser's plates at
+// both ends of each sweep, the laser mounts come from the planes they give
+// (calibration/laser_mount_calibration.h); when it holds white reference
 // images, the cameras' radiometric gains and the lamps' intensities come
-// from them (calibration/radiometric_calibration.h). Both with the
-// estimated cameras, the sphere first, so the radiometry sees the
-// estimated lamps.
+// from them (calibration/radiometric_calibration.h). All with the estimated
+// cameras, the sphere first, so the mounts sit on the estimated arc and the
+// radiometry sees the estimated lamps.
 //
-// What is not calibrated from images yet: the laser mounts (and what a
-// session without those images lacks). The calibration written takes them
-// from the rig description's nominal geometry (calibration/nominal_geometry.h),
-// without uncertainty, and the report says so; `process mdf` still finds the
-// laser planes from the capture session's own plates (MDF paper Sec. 3.2).
+// A part the session has no images for, or whose fit is too uncertain, is
+// written from the rig description's nominal geometry
+// (calibration/nominal_geometry.h) without uncertainty, and the report says
+// so. `process mdf` still finds each capture's laser planes from that
+// session's own plates (MDF paper Sec. 3.2); it takes the mounts' tilt axes
+// from the calibration.
 #pragma once
 
 #include <filesystem>
 
 #include "calibration/calibration_report.h"
 #include "calibration/camera_calibration.h"
+#include "calibration/laser_mount_calibration.h"
 #include "calibration/light_arc_calibration.h"
 #include "core/error.h"
 
@@ -37,6 +41,7 @@ struct CalibrateRigOptions {
   // Its limits on the fit's sigmas (the sphere's size and place come from
   // the session's rig).
   calibration::LightArcOptions light_arc;
+  calibration::LaserMountOptions laser_mounts;
   core::CheckResult Check() const;
 };
 

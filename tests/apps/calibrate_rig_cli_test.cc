@@ -3,8 +3,9 @@
 // the tiny one everywhere, the sanitizers included), against the simulated
 // rig's exact calibration: the sample area's image, the cameras' focal
 // lengths and centres within their reported uncertainty, honest
-// cross-validation, the light arc and lamps from the mirror sphere, and the
-// gains and lamp intensities from the white reference. The tiny rig's 128 x 96 cameras see the board's corners
+// cross-validation, the light arc and lamps from the mirror sphere, the
+// laser mounts from the plates, and the gains and lamp intensities from the
+// white reference. The tiny rig's 128 x 96 cameras see the board's corners
 // less sharply and its focal lengths only to a few percent, hence its own
 // bounds on the reported figures; the truth must lie within the same number
 // of sigmas on both.
@@ -116,6 +117,43 @@ TEST_F(CalibrateRigCli, CamerasAndTurntableWithinTheirUncertainty) {
     EXPECT_NE(report["nominal_parts"].get<std::string>().find("lamp positions"), std::string::npos);
     for (std::size_t l = 0; l < truth.lamps.size(); ++l) {
       EXPECT_EQ(estimate.lamps[l].position_mm, truth.lamps[l].position_mm) << truth.lamps[l].id;
+    }
+  }
+  // The laser mounts from the plates at both ends of each sweep. Small rig:
+  // each tilt axis within 0.5 degree and 4 of its sigmas (what processing
+  // uses, turning a plate's plane by the sweep's tilt); each source within
+  // 12 mm across its axis. The sources' sigmas leave out the error the
+  // cameras share (all estimated 0.6 to 1.2 mm short along their views),
+  // which turns every plate plane alike: the source's bound is in mm, not
+  // sigmas. Tiny rig: too uncertain, the description's mounts kept.
+  const nlohmann::json& laser = report["laser_mount_fit"];
+  ASSERT_TRUE(laser.is_object()) << report.dump();
+  ASSERT_EQ(report["laser_mounts"].size(), truth.laser_mounts.size());
+  ASSERT_EQ(estimate.laser_mounts.size(), truth.laser_mounts.size());
+  if (std::string(MESOCAP_CALIBRATION_RIG) == "small") {
+    EXPECT_TRUE(laser["written"].get<bool>()) << laser["too_uncertain"];
+    EXPECT_GT(laser["planes_used"].get<int>(), 32);
+    EXPECT_EQ(report["nominal_parts"].get<std::string>().find("laser_mounts"), std::string::npos);
+    for (std::size_t m = 0; m < truth.laser_mounts.size(); ++m) {
+      const formats::LaserMountCalibration& t = truth.laser_mounts[m];
+      const formats::LaserMountCalibration& e = estimate.laser_mounts[m];
+      ASSERT_TRUE(e.uncertainty.tilt_axis.has_value()) << t.id;
+      const Eigen::Vector3d axis = e.tilt_axis.normalized();
+      EXPECT_LT(std::acos(std::min(1.0, axis.dot(t.tilt_axis.normalized()))), 0.5 * std::numbers::pi / 180) << t.id;
+      for (int k = 0; k < 3; ++k) {
+        EXPECT_LT(std::abs(axis[k] - t.tilt_axis.normalized()[k]), 4 * (*e.uncertainty.tilt_axis)[k] + 1e-6)
+            << t.id << " axis component " << k;
+      }
+      const Eigen::Vector3d source = e.source_mm - t.source_mm;
+      EXPECT_LT((source - source.dot(axis) * axis).norm(), 12.0) << t.id;
+      EXPECT_LT(std::abs(axis.dot(e.plane_normal_at_zero_tilt.normalized())), 1e-6) << t.id;
+    }
+  } else {
+    EXPECT_FALSE(laser["written"].get<bool>());
+    EXPECT_NE(report["nominal_parts"].get<std::string>().find("laser_mounts"), std::string::npos);
+    for (std::size_t m = 0; m < truth.laser_mounts.size(); ++m) {
+      EXPECT_EQ(estimate.laser_mounts[m].tilt_axis, truth.laser_mounts[m].tilt_axis) << truth.laser_mounts[m].id;
+      EXPECT_EQ(estimate.laser_mounts[m].source_mm, truth.laser_mounts[m].source_mm) << truth.laser_mounts[m].id;
     }
   }
   // Gains and intensities from the white reference: within 1 % of the truth
