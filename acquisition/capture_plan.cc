@@ -138,14 +138,16 @@ std::vector<formats::PlannedStep> MakeCalibrationPlan(const formats::RigDescript
     }
   }
   // The laser mounts: each location's stripe on the two plates (Sec. 3.2) at
-  // both ends of its sweep, so the planes at two tilts meet on the tilt axis.
+  // both ends of its sweep, so the planes at two tilts meet on the tilt
+  // axis. One plate height after the other, so that consecutive steps image
+  // the plate at the same height.
   const formats::LaserDescription& laser = rig.laser;
-  for (std::size_t li = 0; li < laser.locations.size(); ++li) {
-    const formats::LaserLocation& loc = laser.locations[li];
-    const double tilts[2] = {calibration::LaserTiltForOffset(laser, loc.mount, laser.sweep_min_mm),
-                             calibration::LaserTiltForOffset(laser, loc.mount, laser.sweep_max_mm)};
-    for (int k = 0; k < 2; ++k) {
-      for (int hi = 0; hi < 2; ++hi) {
+  for (int hi = 0; hi < 2; ++hi) {
+    for (std::size_t li = 0; li < laser.locations.size(); ++li) {
+      const int mount = laser.locations[li].mount;
+      const double tilts[2] = {calibration::LaserTiltForOffset(laser, mount, laser.sweep_min_mm),
+                               calibration::LaserTiltForOffset(laser, mount, laser.sweep_max_mm)};
+      for (int k = 0; k < 2; ++k) {
         const std::string stem = "loc" + std::to_string(li) + "_k" + std::to_string(k) + "_h" + std::to_string(hi);
         plan.push_back(LaserPlateStep(rig, li, hi, tilts[k], stem, recording));
       }
