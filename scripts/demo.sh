@@ -49,6 +49,6 @@ echo "BTF (the tiny rig captures 32 of its 64 view and light pairs; the rest are
 echo "== the paper's cylinder with a blocks material: BTF, MDF silhouettes and shadows (headless GL) =="
 # sim: materials are built from ground truth and SVD-factored once, then cached.
 MESOCAP_CACHE_DIR="$out/cache" "$mesocap" render render/scenes/cylinder.json --mode full --size 400x300 \
-  --out "$out/cylinder.png"
+  --out "$out/cylinder.png" --replace
 echo "demo: wrote $out/calibration.json, $out/weave-session, $out/weave-measured, $out/weave-btf," \
   "$out/weave-truth and $out/cylinder.png"
