@@ -25,6 +25,8 @@ core::CheckResult CalibrateRigOptions::Check() const {
   if (session.empty()) return "--session: a calibration session folder is needed";
   if (out.empty()) return "--out: a calibration file to write is needed";
   if (!(light_arc.max_lamp_sigma_mm > 0)) return "--max-lamp-sigma-mm: expected a positive number of mm";
+  if (!(laser_mounts.max_axis_sigma_deg > 0))
+    return "--max-mount-axis-sigma-deg: expected a positive number of degrees";
   if (const core::CheckResult problem = laser_mounts.Check(); !problem.empty()) return problem;
   return calibration.Check();
 }

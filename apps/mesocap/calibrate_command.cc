@@ -39,6 +39,9 @@ void RegisterCalibrateCommand(CLI::App& app) {
   group->add_option("--max-lamp-sigma-mm", rig->light_arc.max_lamp_sigma_mm,
                     "keep the rig description's lamps and light arc when the mirror sphere's fit leaves any lamp "
                     "(or the arc's axis point) more uncertain than this, mm at one sigma (default 5)");
+  group->add_option("--max-mount-axis-sigma-deg", rig->laser_mounts.max_axis_sigma_deg,
+                    "keep the rig description's laser mounts when the plates' fit leaves any mount's tilt axis more "
+                    "uncertain than this, degrees at one sigma (default 1)");
   group->callback([group, rig, rig_json] {
     if (!group->get_subcommands().empty()) return;
     if (rig->session.empty() || rig->out.empty()) {

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <string>
 
 #include "tests/common/mesocap_command.h"
 
@@ -27,6 +28,18 @@ TEST(CalibrateSessionCli, CalibrateWithoutSessionOrSubcommandSaysWhatItNeeds) {
   const auto r = Mesocap("calibrate");
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.err.find("--session"), std::string::npos) << r.err;
+}
+
+// The limits on the fits' sigmas are checked before the session is read.
+TEST(CalibrateSessionCli, ANonPositiveSigmaLimitIsNamed) {
+  TemporaryDirectory scratch;
+  for (const std::string flag : {"--max-lamp-sigma-mm", "--max-mount-axis-sigma-deg"}) {
+    const auto r = Mesocap("calibrate --session " + (scratch / "none").string() + " --out " +
+                           (scratch / "c.json").string() + " " + flag + " 0");
+    EXPECT_NE(r.exit_code, 0) << flag;
+    EXPECT_NE(r.err.find(flag + ": expected a positive number"), std::string::npos) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(scratch / "c.json"));
+  }
 }
 
 }  // namespace
