@@ -286,7 +286,6 @@ LaserMountResult CalibrateLaserMounts(const formats::Calibration& geometry,
     // covariance takes as independent: with three or more cameras, the
     // spread of the fits each leaving one camera out (jackknife) is the
     // sigma where it is larger.
-    std::map<int, std::vector<formats::LaserMountCalibration>> without;
     std::set<int> cameras;
     for (std::size_t i = 0; i < seen.size(); ++i) {
       if (inlier[i]) cameras.insert(seen[i]->camera);
