@@ -175,6 +175,22 @@ nlohmann::json ToJson(const CalibrationReport& report) {
   return json;
 }
 
+namespace {
+
+// The first few of what a fit left out, with why; --json lists them all.
+template <typename LeftOut>
+void ListLeftOut(const std::vector<LeftOut>& left_out, const char* what, std::ostringstream& out) {
+  constexpr std::size_t kListed = 6;
+  for (std::size_t i = 0; i < left_out.size() && i < kListed; ++i) {
+    out << "  left out " << left_out[i].name << ": " << left_out[i].reason << "\n";
+  }
+  if (left_out.size() > kListed) {
+    out << "  ... and " << left_out.size() - kListed << " more " << what << " left out (--json lists them)\n";
+  }
+}
+
+}  // namespace
+
 std::string FormatCalibrationReport(const CalibrationReport& report) {
   std::ostringstream out;
   out << "board " << report.board << "; residual sigma " << Line("%.3f", report.cameras.residual_sigma_px)
@@ -253,14 +269,7 @@ std::string FormatCalibrationReport(const CalibrationReport& report) {
     out << Line("  sphere centre (sample frame) %.3f %.3f %.3f mm (std %.3f %.3f %.3f)\n", a.sphere_centre_mm.x(),
                 a.sphere_centre_mm.y(), a.sphere_centre_mm.z(), a.sphere_centre_sigma_mm.x(),
                 a.sphere_centre_sigma_mm.y(), a.sphere_centre_sigma_mm.z());
-    // The first few; --json lists them all.
-    constexpr std::size_t kListed = 6;
-    for (std::size_t i = 0; i < a.left_out.size() && i < kListed; ++i) {
-      out << "  left out " << a.left_out[i].name << ": " << a.left_out[i].reason << "\n";
-    }
-    if (a.left_out.size() > kListed) {
-      out << "  ... and " << a.left_out.size() - kListed << " more highlights left out (--json lists them)\n";
-    }
+    ListLeftOut(a.left_out, "highlights", out);
     if (!a.too_uncertain.empty()) out << "  not written (nominal kept): " << a.too_uncertain << "\n";
     for (const std::string& w : a.warnings) out << "warning: " << w << "\n";
   }
@@ -280,15 +289,7 @@ std::string FormatCalibrationReport(const CalibrationReport& report) {
       }
       out << "\n";
     }
-    constexpr std::size_t kListed = 6;
-    for (std::size_t i = 0; i < report.laser_plates_left_out.size() && i < kListed; ++i) {
-      out << "  left out " << report.laser_plates_left_out[i].name << ": " << report.laser_plates_left_out[i].reason
-          << "\n";
-    }
-    if (report.laser_plates_left_out.size() > kListed) {
-      out << "  ... and " << report.laser_plates_left_out.size() - kListed
-          << " more plate images left out (--json lists them)\n";
-    }
+    ListLeftOut(report.laser_plates_left_out, "plate images", out);
     if (!f.too_uncertain.empty()) out << "  not written (nominal kept): " << f.too_uncertain << "\n";
   }
   if (!report.cross_validation) out << "cross-validation skipped: " << report.cross_validation_skipped << "\n";
