@@ -1,5 +1,7 @@
 #include "acquisition/capture_plan.h"
 
+#include <algorithm>
+#include <numeric>
 #include <string>
 
 #include "calibration/nominal_geometry.h"
@@ -31,13 +33,24 @@ formats::PlannedStep LaserPlateStep(const formats::RigDescription& rig, std::siz
   return formats::ToPlannedStep("laser-calibration-" + stem, step, recording);
 }
 
+// The laser locations in the order their stripes are imaged on the plate at
+// its `hi`-th height. One height after the other, so that the operator lays
+// each plate once; the second in reverse, so that the laser unit stays on the
+// mount the first ended on.
+std::vector<std::size_t> PlateOrder(const formats::LaserDescription& laser, int hi) {
+  std::vector<std::size_t> order(laser.locations.size());
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  if (hi % 2 == 1) std::reverse(order.begin(), order.end());
+  return order;
+}
+
 }  // namespace
 
 std::vector<formats::PlannedStep> MakeCapturePlan(const formats::RigDescription& rig, const nlohmann::json& recording) {
   std::vector<formats::PlannedStep> plan;
   const auto& laser = rig.laser;
-  for (std::size_t li = 0; li < laser.locations.size(); ++li) {
-    for (int hi = 0; hi < 2; ++hi) {
+  for (int hi = 0; hi < 2; ++hi) {
+    for (const std::size_t li : PlateOrder(laser, hi)) {
       plan.push_back(
           LaserPlateStep(rig, li, hi, 0.0, "loc" + std::to_string(li) + "_h" + std::to_string(hi), recording));
     }
@@ -58,24 +71,37 @@ std::vector<formats::PlannedStep> MakeCapturePlan(const formats::RigDescription&
         plan.push_back(formats::ToPlannedStep("btf-" + stem, step, recording));
       }
     }
-    for (std::size_t li = 0; li < laser.locations.size(); ++li) {
-      const auto& loc = laser.locations[li];
-      const std::string stem = "t" + std::to_string(ti) + "_loc" + std::to_string(li);
-      formats::LaserSweepStep step;
-      step.turntable_index = static_cast<int>(ti);
-      step.turntable_rad = rig.turntable.angles_rad[ti];
-      step.location = static_cast<int>(li);
-      step.mount = loc.mount;
-      step.arc_rad = loc.arc_angle_rad;
-      for (int f = 0; f < laser.frames_per_sweep; ++f) {
-        const double offset =
-            laser.sweep_min_mm + (laser.sweep_max_mm - laser.sweep_min_mm) * f / (laser.frames_per_sweep - 1);
-        step.offsets_mm.push_back(offset);
-        step.tilts_rad.push_back(calibration::LaserTiltForOffset(laser, loc.mount, offset));
+  }
+  // The sweeps one mount after the other (the plates ended on the first
+  // location's), so that the operator remounts the laser unit once a mount.
+  std::vector<int> mounts;
+  for (const std::size_t li : PlateOrder(laser, 0)) {
+    if (std::find(mounts.begin(), mounts.end(), laser.locations[li].mount) == mounts.end()) {
+      mounts.push_back(laser.locations[li].mount);
+    }
+  }
+  for (const int mount : mounts) {
+    for (std::size_t ti = 0; ti < rig.turntable.angles_rad.size(); ++ti) {
+      for (std::size_t li = 0; li < laser.locations.size(); ++li) {
+        const auto& loc = laser.locations[li];
+        if (loc.mount != mount) continue;
+        const std::string stem = "t" + std::to_string(ti) + "_loc" + std::to_string(li);
+        formats::LaserSweepStep step;
+        step.turntable_index = static_cast<int>(ti);
+        step.turntable_rad = rig.turntable.angles_rad[ti];
+        step.location = static_cast<int>(li);
+        step.mount = loc.mount;
+        step.arc_rad = loc.arc_angle_rad;
+        for (int f = 0; f < laser.frames_per_sweep; ++f) {
+          const double offset =
+              laser.sweep_min_mm + (laser.sweep_max_mm - laser.sweep_min_mm) * f / (laser.frames_per_sweep - 1);
+          step.offsets_mm.push_back(offset);
+          step.tilts_rad.push_back(calibration::LaserTiltForOffset(laser, loc.mount, offset));
+        }
+        step.stores_analysis = laser.sweep_storage == formats::LaserDescription::SweepStorage::kAnalysis;
+        step.files = CameraFiles(rig, "laser/" + stem, step.stores_analysis ? ".sweep.json" : ".tif");
+        plan.push_back(formats::ToPlannedStep("laser-sweep-" + stem, step, recording));
       }
-      step.stores_analysis = laser.sweep_storage == formats::LaserDescription::SweepStorage::kAnalysis;
-      step.files = CameraFiles(rig, "laser/" + stem, step.stores_analysis ? ".sweep.json" : ".tif");
-      plan.push_back(formats::ToPlannedStep("laser-sweep-" + stem, step, recording));
     }
   }
   return plan;
@@ -139,11 +165,10 @@ std::vector<formats::PlannedStep> MakeCalibrationPlan(const formats::RigDescript
   }
   // The laser mounts: each location's stripe on the two plates (Sec. 3.2) at
   // both ends of its sweep, so the planes at two tilts meet on the tilt
-  // axis. One plate height after the other, so that consecutive steps image
-  // the plate at the same height.
+  // axis.
   const formats::LaserDescription& laser = rig.laser;
   for (int hi = 0; hi < 2; ++hi) {
-    for (std::size_t li = 0; li < laser.locations.size(); ++li) {
+    for (const std::size_t li : PlateOrder(laser, hi)) {
       const int mount = laser.locations[li].mount;
       const double tilts[2] = {calibration::LaserTiltForOffset(laser, mount, laser.sweep_min_mm),
                                calibration::LaserTiltForOffset(laser, mount, laser.sweep_max_mm)};

@@ -109,6 +109,7 @@ class SessionRun {
         if (step_done) step_done(report_, journal_.records().size());
       }
       AllOff();
+      RemoveCalibrationPlate();
       RemoveBoard();
       RemoveWhiteReference();
       RemoveMirrorSphere();
@@ -259,6 +260,7 @@ class SessionRun {
 
   void RunStep(const formats::PlannedStep& step, const formats::CaptureStep& typed) {
     AllOff();
+    if (!std::holds_alternative<formats::LaserCalibrationStep>(typed)) RemoveCalibrationPlate();
     if (!std::holds_alternative<formats::BoardImageStep>(typed)) RemoveBoard();
     if (!std::holds_alternative<formats::WhiteReferenceStep>(typed)) RemoveWhiteReference();
     if (!std::holds_alternative<formats::MirrorSphereStep>(typed)) RemoveMirrorSphere();
@@ -272,12 +274,17 @@ class SessionRun {
     Move(*rig_.turntable, 0.0);
     Move(*rig_.light_arc, calibration.arc_rad);
     MountLaser(calibration.mount);
-    operator_.PlaceCalibrationPlate(calibration.height_mm);
+    // The plate stays on across consecutive steps at its height: the plans
+    // order them so, and the operator lays each plate once.
+    if (plate_height_mm_ != calibration.height_mm) {
+      RemoveCalibrationPlate();
+      operator_.PlaceCalibrationPlate(calibration.height_mm);
+      plate_height_mm_ = calibration.height_mm;
+    }
     rig_.laser->SetEnabled(true);
     Tilt(calibration.tilt_rad);
     std::vector<core::Image> images = GrabAll(step, calibration.files, drivers::PixelFormat::kMono);
     rig_.laser->SetEnabled(false);
-    operator_.RemoveCalibrationPlate();
     for (std::size_t i = 0; i < images.size(); ++i) {
       core::WriteImage(FilePath(calibration.files[i]), core::ChannelMean(std::move(images[i])),
                        core::PixelEncoding::kUInt16);
@@ -294,6 +301,13 @@ class SessionRun {
     for (std::size_t i = 0; i < images.size(); ++i) {
       core::WriteImage(FilePath(board.files[i]), core::ChannelMean(std::move(images[i])), core::PixelEncoding::kUInt16);
     }
+  }
+
+  // The plate comes off before any other step, and at the end.
+  void RemoveCalibrationPlate() {
+    if (!plate_height_mm_) return;
+    operator_.RemoveCalibrationPlate();
+    plate_height_mm_.reset();
   }
 
   // The board comes off the turntable before any other step, and at the end.
@@ -442,6 +456,7 @@ class SessionRun {
   std::map<std::string, std::size_t> camera_index_;
   std::map<std::string, std::uint64_t> next_sequence_;
   CaptureRunReport report_;
+  std::optional<double> plate_height_mm_;  // the laser calibration plate's height while it is on the turntable
   std::optional<int> board_holder_;  // the calibration board's holder tilt while it is on the turntable
   bool white_reference_placed_ = false;
   bool mirror_sphere_placed_ = false;

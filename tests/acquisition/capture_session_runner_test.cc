@@ -61,6 +61,37 @@ sim::FaultRule Rule(sim::FaultKind kind, std::optional<double> rate, std::vector
   return r;
 }
 
+// The simulated operator, counting what the capture asked of the person.
+class CountingOperator : public drivers::RigOperator {
+ public:
+  explicit CountingOperator(std::shared_ptr<sim::SimulatedRigState> state) : hands_(std::move(state)) {}
+  void PlaceCalibrationPlate(double height_mm) override {
+    Count("place plate", &sim::SimulatedOperator::PlaceCalibrationPlate, height_mm);
+  }
+  void RemoveCalibrationPlate() override { Count("remove plate", &sim::SimulatedOperator::RemoveCalibrationPlate); }
+  void MountLaser(int mount) override { Count("mount laser", &sim::SimulatedOperator::MountLaser, mount); }
+  void PlaceCalibrationBoard(int holder, double tilt_rad) override {
+    Count("place board", &sim::SimulatedOperator::PlaceCalibrationBoard, holder, tilt_rad);
+  }
+  void RemoveCalibrationBoard() override { Count("remove board", &sim::SimulatedOperator::RemoveCalibrationBoard); }
+  void PlaceWhiteReference(double height_mm) override {
+    Count("place white", &sim::SimulatedOperator::PlaceWhiteReference, height_mm);
+  }
+  void RemoveWhiteReference() override { Count("remove white", &sim::SimulatedOperator::RemoveWhiteReference); }
+  void PlaceMirrorSphere() override { Count("place sphere", &sim::SimulatedOperator::PlaceMirrorSphere); }
+  void RemoveMirrorSphere() override { Count("remove sphere", &sim::SimulatedOperator::RemoveMirrorSphere); }
+  const std::map<std::string, int>& calls() const { return calls_; }
+
+ private:
+  template <typename... Args, typename... Values>
+  void Count(const std::string& what, void (sim::SimulatedOperator::*act)(Args...), Values... values) {
+    ++calls_[what];
+    (hands_.*act)(values...);
+  }
+  sim::SimulatedOperator hands_;
+  std::map<std::string, int> calls_;
+};
+
 // One simulated capture of `weave` into `dir`, with the given faults.
 class SimulatedCapture {
  public:
@@ -86,6 +117,8 @@ class SimulatedCapture {
   }
 
   const sim::SimulatedRigState& state() const { return backend_.state(); }
+  // What the capture asked of the operator, by kind.
+  const std::map<std::string, int>& operator_calls() const { return operator_.calls(); }
 
  private:
   std::unique_ptr<sim::MesostructureScene> scene_;
@@ -93,7 +126,7 @@ class SimulatedCapture {
   sim::CameraRenderer renderer_;
   sim::SimulatedRigBackend backend_;
   drivers::Rig rig_;
-  sim::SimulatedOperator operator_;
+  CountingOperator operator_;
 };
 
 void CreateSession(const fs::path& dir, const formats::RigDescription& rig) {
@@ -162,6 +195,29 @@ TEST(CaptureSessionRunner, RecordsEveryStepOfThePlan) {
   EXPECT_NE(peak(low) % 128, peak(high) % 128);
   // A sweep of 8 frames, 128 x 96 grey each.
   EXPECT_EQ(pixels.at("laser/t0_loc0_cam1.tif").size(), 8u * 128u * 96u);
+}
+
+// The operator lays each calibration plate once, whatever the number of
+// laser locations: the plan orders the plates by height, and the plate stays
+// on between the steps that image it. The laser unit moves to mount 1 and
+// back for the plates (the second height's locations in reverse), then once
+// more for the sweeps, which go one mount after the other.
+TEST(CaptureSessionRunner, EachCalibrationPlateIsLaidOnceAndEachMountVisitedOnce) {
+  testing::TemporaryDirectory dir;
+  formats::RigDescription rig = SmallPlanRig(4);
+  const formats::RigDescription tiny = sim::LoadRig("tiny");
+  rig.laser.locations = tiny.laser.locations;
+  rig.json["laser"]["locations"] = tiny.json["laser"]["locations"];
+  ASSERT_EQ(rig.laser.locations.size(), 3u);
+  rig.turntable.angles_rad = {0.6, 2.1};
+  rig.json["turntable"]["angles_deg"] = {core::DegreesFromRadians(0.6), core::DegreesFromRadians(2.1)};
+  CreateSession(dir / "s", rig);
+  SimulatedCapture capture(rig, {});
+  const CaptureRunReport report = capture.Run(dir / "s");
+  EXPECT_EQ(report.steps_run, 6u + 2u * 2u + 2u * 3u);
+  const std::map<std::string, int> expected{{"place plate", 2}, {"remove plate", 2}, {"mount laser", 3}};
+  EXPECT_EQ(capture.operator_calls(), expected);
+  EXPECT_FALSE(capture.state().calibration_plate_height_mm.has_value());
 }
 
 // A mirror sphere step images at the sphere's exposure; the next step at
