@@ -19,6 +19,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <random>
 #include <string>
 #include <thread>
@@ -111,21 +112,40 @@ class MesocapdTest : public ::testing::Test {
   std::string Differences(const fs::path& state, const std::string& id) {
     return testing::Differences(testing::Normalized(state / "sessions" / id), *reference_);
   }
+  // Submits the session to `daemon` and watches it to its end: the time
+  // that took and the frames the job counted, kept for the kill trials.
+  struct Uninterrupted {
+    double seconds = 0;
+    json frames;
+  };
+  static Uninterrupted SubmitAndWatch(const Daemon& daemon, testing::CommandResult* submitted,
+                                      testing::CommandResult* watched) {
+    const auto start = std::chrono::steady_clock::now();
+    *submitted = daemon.Client("submit");
+    *watched = daemon.Client("watch job-000001");
+    Uninterrupted run{std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
+                      daemon.Job("job-000001").at("frames")};
+    if (!uninterrupted_ && submitted->exit_code == 0 && watched->exit_code == 0) uninterrupted_ = run;
+    return run;
+  }
   static testing::TemporaryDirectory* dir_;
   static std::map<std::string, std::string>* reference_;
+  // The first uninterrupted session of this run, whichever test recorded it.
+  static std::optional<Uninterrupted> uninterrupted_;
   testing::TemporaryDirectory work_;
 };
 
 testing::TemporaryDirectory* MesocapdTest::dir_ = nullptr;
 std::map<std::string, std::string>* MesocapdTest::reference_ = nullptr;
+std::optional<MesocapdTest::Uninterrupted> MesocapdTest::uninterrupted_;
 
 TEST_F(MesocapdTest, ASubmittedCaptureRecordsTheSessionSimulateRecords) {
   const fs::path state = work_ / "state";
   Daemon daemon(state);
-  const testing::CommandResult submitted = daemon.Client("submit");
+  testing::CommandResult submitted, watched;
+  SubmitAndWatch(daemon, &submitted, &watched);
   ASSERT_EQ(submitted.exit_code, 0) << submitted.err;
   EXPECT_EQ(submitted.out, "job-000001\n");
-  const testing::CommandResult watched = daemon.Client("watch job-000001");
   EXPECT_EQ(watched.exit_code, 0) << watched.err;
   EXPECT_EQ(Differences(state, "job-000001"), "");
   const json job = daemon.Job("job-000001");
@@ -167,22 +187,23 @@ TEST_F(MesocapdTest, SigtermFinishesTheStepAndARestartResumes) {
 }
 
 TEST_F(MesocapdTest, KillAtARandomMomentThenRestartCompletesTheSameSession) {
-  // How long the capture takes in the daemon, to draw moments from.
-  // and the frames of an uninterrupted run.
-  double seconds = 0;
-  json frames;
-  {
+  // How long the capture takes in the daemon, to draw moments from, and the
+  // frames of an uninterrupted run: the first test's session, or one of its
+  // own when it runs alone.
+  if (!uninterrupted_) {
     const fs::path state = work_ / "timed";
     Daemon daemon(state);
-    const auto start = std::chrono::steady_clock::now();
-    ASSERT_EQ(daemon.Client("submit").exit_code, 0);
-    ASSERT_EQ(daemon.Client("watch job-000001").exit_code, 0);
-    seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    testing::CommandResult submitted, watched;
+    SubmitAndWatch(daemon, &submitted, &watched);
+    ASSERT_EQ(submitted.exit_code, 0) << submitted.err;
+    ASSERT_EQ(watched.exit_code, 0) << watched.err;
     ASSERT_EQ(Differences(state, "job-000001"), "");
-    frames = daemon.Job("job-000001").at("frames");
-    if (Rig() == "tiny") {
-      EXPECT_EQ(frames, 1580);
-    }
+  }
+  ASSERT_TRUE(uninterrupted_.has_value());
+  const double seconds = uninterrupted_->seconds;
+  const json frames = uninterrupted_->frames;
+  if (Rig() == "tiny") {
+    EXPECT_EQ(frames, 1580);
   }
   std::mt19937 rng(23);
   std::uniform_real_distribution<double> moment(0.0, seconds);
