@@ -72,13 +72,12 @@ std::vector<formats::PlannedStep> MakeCapturePlan(const formats::RigDescription&
       }
     }
   }
-  // The sweeps one mount after the other (the plates ended on the first
-  // location's), so that the operator remounts the laser unit once a mount.
+  // The sweeps one mount after the other, first location's first (the
+  // plates ended on it), so that the operator remounts the laser unit once a
+  // mount.
   std::vector<int> mounts;
-  for (const std::size_t li : PlateOrder(laser, 0)) {
-    if (std::find(mounts.begin(), mounts.end(), laser.locations[li].mount) == mounts.end()) {
-      mounts.push_back(laser.locations[li].mount);
-    }
+  for (const formats::LaserLocation& loc : laser.locations) {
+    if (std::find(mounts.begin(), mounts.end(), loc.mount) == mounts.end()) mounts.push_back(loc.mount);
   }
   for (const int mount : mounts) {
     for (std::size_t ti = 0; ti < rig.turntable.angles_rad.size(); ++ti) {

@@ -66,28 +66,44 @@ class CountingOperator : public drivers::RigOperator {
  public:
   explicit CountingOperator(std::shared_ptr<sim::SimulatedRigState> state) : hands_(std::move(state)) {}
   void PlaceCalibrationPlate(double height_mm) override {
-    Count("place plate", &sim::SimulatedOperator::PlaceCalibrationPlate, height_mm);
+    ++calls_["place plate"];
+    hands_.PlaceCalibrationPlate(height_mm);
   }
-  void RemoveCalibrationPlate() override { Count("remove plate", &sim::SimulatedOperator::RemoveCalibrationPlate); }
-  void MountLaser(int mount) override { Count("mount laser", &sim::SimulatedOperator::MountLaser, mount); }
+  void RemoveCalibrationPlate() override {
+    ++calls_["remove plate"];
+    hands_.RemoveCalibrationPlate();
+  }
+  void MountLaser(int mount) override {
+    ++calls_["mount laser"];
+    hands_.MountLaser(mount);
+  }
   void PlaceCalibrationBoard(int holder, double tilt_rad) override {
-    Count("place board", &sim::SimulatedOperator::PlaceCalibrationBoard, holder, tilt_rad);
+    ++calls_["place board"];
+    hands_.PlaceCalibrationBoard(holder, tilt_rad);
   }
-  void RemoveCalibrationBoard() override { Count("remove board", &sim::SimulatedOperator::RemoveCalibrationBoard); }
+  void RemoveCalibrationBoard() override {
+    ++calls_["remove board"];
+    hands_.RemoveCalibrationBoard();
+  }
   void PlaceWhiteReference(double height_mm) override {
-    Count("place white", &sim::SimulatedOperator::PlaceWhiteReference, height_mm);
+    ++calls_["place white"];
+    hands_.PlaceWhiteReference(height_mm);
   }
-  void RemoveWhiteReference() override { Count("remove white", &sim::SimulatedOperator::RemoveWhiteReference); }
-  void PlaceMirrorSphere() override { Count("place sphere", &sim::SimulatedOperator::PlaceMirrorSphere); }
-  void RemoveMirrorSphere() override { Count("remove sphere", &sim::SimulatedOperator::RemoveMirrorSphere); }
+  void RemoveWhiteReference() override {
+    ++calls_["remove white"];
+    hands_.RemoveWhiteReference();
+  }
+  void PlaceMirrorSphere() override {
+    ++calls_["place sphere"];
+    hands_.PlaceMirrorSphere();
+  }
+  void RemoveMirrorSphere() override {
+    ++calls_["remove sphere"];
+    hands_.RemoveMirrorSphere();
+  }
   const std::map<std::string, int>& calls() const { return calls_; }
 
  private:
-  template <typename... Args, typename... Values>
-  void Count(const std::string& what, void (sim::SimulatedOperator::*act)(Args...), Values... values) {
-    ++calls_[what];
-    (hands_.*act)(values...);
-  }
   sim::SimulatedOperator hands_;
   std::map<std::string, int> calls_;
 };

@@ -112,21 +112,21 @@ class MesocapdTest : public ::testing::Test {
   std::string Differences(const fs::path& state, const std::string& id) {
     return testing::Differences(testing::Normalized(state / "sessions" / id), *reference_);
   }
-  // Submits the session to `daemon` and watches it to its end: the time
-  // that took and the frames the job counted, kept for the kill trials.
+  // Submits the session to `daemon` and watches it to its end; the first
+  // uninterrupted run keeps the time that took and the frames the job
+  // counted, for the kill trials.
   struct Uninterrupted {
     double seconds = 0;
     json frames;
   };
-  static Uninterrupted SubmitAndWatch(const Daemon& daemon, testing::CommandResult* submitted,
-                                      testing::CommandResult* watched) {
+  static void SubmitAndWatch(const Daemon& daemon, testing::CommandResult* submitted, testing::CommandResult* watched) {
     const auto start = std::chrono::steady_clock::now();
     *submitted = daemon.Client("submit");
     *watched = daemon.Client("watch job-000001");
-    Uninterrupted run{std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
-                      daemon.Job("job-000001").at("frames")};
-    if (!uninterrupted_ && submitted->exit_code == 0 && watched->exit_code == 0) uninterrupted_ = run;
-    return run;
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (!uninterrupted_ && submitted->exit_code == 0 && watched->exit_code == 0) {
+      uninterrupted_ = Uninterrupted{seconds, daemon.Job("job-000001").at("frames")};
+    }
   }
   static testing::TemporaryDirectory* dir_;
   static std::map<std::string, std::string>* reference_;
