@@ -94,24 +94,31 @@ endfunction()
 # 260 libraries).
 # RUN_SERIAL keeps other tests off the cores while it runs: for a test whose
 # claim (frames on loopback arrive in time) a loaded host would falsify.
-# The label `accuracy` marks end-to-end accuracy tests on the small rig (minutes of CPU in release),
-# the label `browser` tests in headless Chromium (not our code, so not run under the sanitizers):
-# they run in the release and debug presets; the sanitize preset leaves them
-# out, since the code they run is covered there by the smaller tests. For the
-# same reason it leaves out, by name, the camera calibration's hard cases
-# (CameraCalibrationHardCases.*: minutes of Ceres and corner detection under
-# the sanitizers, the same code as CameraCalibration.*), the statistics
-# over noise seeds (*OverNoiseSeeds: one calibration repeated) and the chain
-# without truth against the one with it (CalibratedChainCli.*: 5 minutes
-# there; its commands run in the smaller CLI tests) and the CLI's kill -9
-# trials (apps_kill_recovery_cli_test: 6 minutes there; the resume code runs
-# under the sanitizers in the daemon's stop and restart tests).
-# A test binary all of whose labels are in MESOCAP_UNBUILT_TEST_LABELS is not
-# built with `all` nor registered with ctest: the sanitize preset leaves out
-# the labels its suite does not run, and with them minutes of compiling.
-set(MESOCAP_UNBUILT_TEST_LABELS "" CACHE STRING "Labels of test binaries left out of the build and of ctest")
+#
+# LABELS place a binary's tests in the tiers (docs/DEVELOPING.md):
+#   quick     the inner loop: each library's unit tests and one whole chain
+#             on the tiny rig (ctest --preset quick);
+#   sanitize  also run under the sanitizers: what reads files or network
+#             input, the daemon, the drivers (the sanitize preset runs
+#             `quick` tests only where they are `sanitize` too);
+#   accuracy  end-to-end accuracy on the small and paper rigs (minutes of CPU);
+#   served    cameras served over GigE Vision on loopback, in a network
+#             namespace of the test's own, RUN_SERIAL;
+#   browser   the daemon's status page in headless Chromium.
+# The release suite is every test but `served` and `browser`, which
+# scripts/test.sh runs after it.
+# With MESOCAP_BUILT_TEST_LABELS set, a test binary none of whose labels is
+# in it is not built with `all` nor registered with ctest: the sanitize
+# preset compiles only what its suite runs.
+set(MESOCAP_BUILT_TEST_LABELS "" CACHE STRING "Labels of the test binaries to build (empty: all)")
+set(MESOCAP_TEST_TIERS quick sanitize accuracy served browser)
 function(mesocap_test name)
   cmake_parse_arguments(ARG "ONE_PROCESS;RUN_SERIAL" "" "SOURCES;DEPS;LABELS;ENVIRONMENT;LAUNCHER" ${ARGN})
+  foreach(label IN LISTS ARG_LABELS)
+    if(NOT label IN_LIST MESOCAP_TEST_TIERS)
+      message(FATAL_ERROR "test ${name}: label '${label}' is none of the tiers (${MESOCAP_TEST_TIERS})")
+    endif()
+  endforeach()
   add_executable(${name} ${ARG_SOURCES})
   mesocap_unity_build(${name})
   # LAUNCHER runs the binary, for discovery and for each test (CTest takes
@@ -123,18 +130,17 @@ function(mesocap_test name)
   if(MESOCAP_PRECOMPILE_HEADERS)
     target_precompile_headers(${name} REUSE_FROM mesocap_test_pch)
   endif()
-  set(unbuilt FALSE)
-  if(ARG_LABELS)
-    set(unbuilt TRUE)
+  if(MESOCAP_BUILT_TEST_LABELS)
+    set(built FALSE)
     foreach(label IN LISTS ARG_LABELS)
-      if(NOT label IN_LIST MESOCAP_UNBUILT_TEST_LABELS)
-        set(unbuilt FALSE)
+      if(label IN_LIST MESOCAP_BUILT_TEST_LABELS)
+        set(built TRUE)
       endif()
     endforeach()
-  endif()
-  if(unbuilt)
-    set_target_properties(${name} PROPERTIES EXCLUDE_FROM_ALL TRUE)
-    return()
+    if(NOT built)
+      set_target_properties(${name} PROPERTIES EXCLUDE_FROM_ALL TRUE)
+      return()
+    endif()
   endif()
   set(properties "")
   if(ARG_LABELS)

@@ -5,8 +5,9 @@
 set -euo pipefail
 
 packages=(
-  # toolchain
-  build-essential cmake ninja-build pkg-config git
+  # toolchain; ccache keeps compiled objects across builds and clones
+  # (every preset compiles through it: CMakePresets.json)
+  build-essential cmake ninja-build pkg-config git ccache
   # numerics and vision
   libeigen3-dev libceres-dev libopencv-dev libopencv-contrib-dev libtbb-dev
   # content checksums of captured and processed files
