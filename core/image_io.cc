@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <mutex>
 #include <new>
 #include <string>
@@ -206,7 +207,16 @@ void WriteImage(const fs::path& file, const Image& image, PixelEncoding encoding
   if (!out->supports("ioproxy") || !out->set_ioproxy(&memory)) {
     throw Error(file.string() + ": the " + file.extension().string() + " writer cannot encode in memory");
   }
-  if (!out->open(file.string(), spec) || !out->write_image(OIIO::TypeDesc::FLOAT, image.data()) || !out->close()) {
+  // Converted here, on this thread: the writers would hand the conversion
+  // to the library's thread pool (the TIFF writer row by row), while the
+  // callers already write images in parallel. The same library routine.
+  std::vector<std::byte> encoded(image.size() * spec.format.size());
+  if (!OIIO::convert_image(image.channels(), image.width(), image.height(), 1, image.data(), OIIO::TypeDesc::FLOAT,
+                           OIIO::AutoStride, OIIO::AutoStride, OIIO::AutoStride, encoded.data(), spec.format,
+                           OIIO::AutoStride, OIIO::AutoStride, OIIO::AutoStride)) {
+    throw Error(file.string() + ": cannot convert the image to " + ToString(encoding));
+  }
+  if (!out->open(file.string(), spec) || !out->write_image(spec.format, encoded.data()) || !out->close()) {
     throw Error(file.string() + ": write failed: " + ImageLibraryMessage(out->geterror()));
   }
   WriteTextFileAtomically(file, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
