@@ -734,7 +734,7 @@ void LaserSweepRenderer::Bin(const std::vector<std::vector<RangedSample>>& rows)
   std::vector<std::uint32_t> next(bin_begin_.begin(), bin_begin_.end() - 1);
   for (const auto& row : rows) {
     for (const RangedSample& s : row) {
-      if (narrow(s)) binned_[next[BinOf(s.begin)]++] = s.lit;
+      if (narrow(s)) binned_[next[BinOf(s.begin)]++] = {s.lit, s.end};
     }
   }
 }
@@ -775,7 +775,9 @@ core::Image LaserSweepRenderer::Frame(double tilt_rad) const {
     // Ranges holding the tilt start in [tilt - max span, tilt] (a bin's
     // width of slack for the rounding of the bin index).
     const std::size_t lowest = BinOf(tilt - max_span_ - bin_width_), highest = BinOf(tilt);
-    for (std::uint32_t i = bin_begin_[lowest]; i < bin_begin_[highest + 1]; ++i) add(binned_[i]);
+    for (std::uint32_t i = bin_begin_[lowest]; i < bin_begin_[highest + 1]; ++i) {
+      if (!(tilt > binned_[i].end)) add(binned_[i].lit);
+    }
   }
   return out;
 }

@@ -265,7 +265,7 @@ class LaserSweepRenderer {
   // The signed distance of a point from the plane at tilt t is
   // cos(t) a + sin(t) b + c (Rodrigues' rotation of the tilt-0 normal), with
   // a, b, c linear in the point, computed from it at every frame so that a
-  // lit sample keeps only its index and its stripe (12 bytes; every camera's
+  // lit sample keeps only its index and its stripe (16 bytes binned; every camera's
   // sweep is held at once, 7 million samples for a paper-rig camera). The
   // stripe's profile over the sample's footprint is a Gaussian of variance
   // sigma^2 + StripeFootprintVariance (weight scaled by sigma / that sigma,
@@ -330,9 +330,17 @@ class LaserSweepRenderer {
   int height_ = 0;
   double sigma_mm_ = 1.0;
   std::vector<BouncePoint> bounces_;
+  // A binned lit sample keeps its range's end: a frame visits every bin
+  // that a range holding its tilt can start in, and most of their samples'
+  // ranges ended before it (they span a few milliradians, the bins
+  // kMaxBinnedSpan); those are passed over without reading their point.
+  struct BinnedSample {
+    LitSample lit;
+    float end = 0;
+  };
   // Binned lit samples: bin i holds binned_[bin_begin_[i], bin_begin_[i + 1]),
   // ranges starting in [first_begin_ + i bin_width_, + bin_width_).
-  std::vector<LitSample> binned_;
+  std::vector<BinnedSample> binned_;
   std::vector<std::uint32_t> bin_begin_;
   double first_begin_ = 0.0;
   double bin_width_ = 1.0;

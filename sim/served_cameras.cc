@@ -38,7 +38,21 @@ constexpr double kTriggerPollHz = 200.0;
 // takes seconds to render must not keep it from answering (Aravis declares a
 // device gone after its control channel is silent for a few retries).
 constexpr guint32 kRedirectedTriggerRegister = 0x8000;
-// How often the render thread looks at that register.
+// The client's AcquisitionStart is redirected the same way: the render
+// thread drops what it made for the stopped acquisition, then starts the
+// device. A real camera drops at AcquisitionStop what it has not sent;
+// without this, a frame made for a trigger that timed out just before the
+// client stopped the stream would answer the first trigger after the restart.
+constexpr guint32 kRedirectedAcquisitionStartRegister = 0x8004;
+// A TriggerSoftware command writes the token the client read from here
+// (GenICam's pCommandValue), and the render thread moves the token on at
+// each trigger it takes. A command the client sent again because its
+// acknowledgement came late (GVCP retries a write after 500 ms; the fake
+// device executes every copy) writes a spent token and is ignored: one frame
+// a trigger, not a second one that would answer the client's next trigger
+// with the scene before it.
+constexpr guint32 kTriggerTokenRegister = 0x8008;
+// How often the render thread looks at those registers.
 constexpr auto kTriggerWatchPeriod = std::chrono::milliseconds(1);
 
 bool IsIpv4Address(const std::string& s) {
@@ -59,9 +73,35 @@ std::vector<PixelFormatTraits> ServedFormats(const drivers::CameraInfo& info) {
   return formats;
 }
 
+// In `text`, the first `from` after `anchor` becomes `to`; an Error naming
+// `what` when either is missing.
+void ReplaceAfter(std::string& text, const std::string& anchor, const std::string& from, const std::string& to,
+                  const std::string& what) {
+  const auto at = text.find(anchor);
+  const auto found = at == std::string::npos ? std::string::npos : text.find(from, at);
+  if (found == std::string::npos) throw core::Error("Aravis' fake camera has no " + what + " to redirect");
+  text.replace(found, from.size(), to);
+}
+
+std::string Hex(guint32 value) {
+  char text[16];
+  std::snprintf(text, sizeof text, "0x%x", value);
+  return text;
+}
+
+// A 4-byte big-endian register of the device's memory, for the GenICam description.
+std::string IntReg(const std::string& name, guint32 address, const std::string& access) {
+  return "<IntReg Name=\"" + name + "\" NameSpace=\"Custom\"><Address>" + Hex(address) +
+         "</Address><Length>4</Length><AccessMode>" + access +
+         "</AccessMode><Cachable>NoCache</Cachable><pPort>Device</pPort><Sign>Unsigned</Sign>"
+         "<Endianess>BigEndian</Endianess></IntReg>\n\t";
+}
+
 // The fake device's own GenICam description, with its PixelFormat entries
-// replaced by `formats`: the register behind them takes any PFNC code, and
-// the payload follows the code's bits a pixel.
+// replaced by `formats` (the register behind them takes any PFNC code, and
+// the payload follows the code's bits a pixel), and the commands the render
+// thread acts on redirected to registers of its own: TriggerSoftware, whose
+// value is the trigger token, and AcquisitionStart.
 std::string GenICamDescription(const std::vector<PixelFormatTraits>& formats) {
   ArvFakeCamera* reference = arv_fake_camera_new("reference");
   size_t size = 0;
@@ -81,15 +121,22 @@ std::string GenICamDescription(const std::vector<PixelFormatTraits>& formats) {
   }
   text = text.substr(0, first) + entries + text.substr(value);
 
-  const auto trigger = text.find("<IntReg Name=\"TriggerSoftwareCommandRegister\"");
-  const auto address = text.find("<Address>", trigger);
+  const auto trigger_register = text.find("<IntReg Name=\"TriggerSoftwareCommandRegister\"");
+  const auto address = text.find("<Address>", trigger_register);
   const auto address_end = text.find("</Address>", address);
-  if (trigger == std::string::npos || address == std::string::npos || address_end == std::string::npos) {
+  if (trigger_register == std::string::npos || address == std::string::npos || address_end == std::string::npos) {
     throw core::Error("Aravis' fake camera has no TriggerSoftwareCommandRegister to redirect");
   }
-  char redirected[16];
-  std::snprintf(redirected, sizeof redirected, "0x%x", kRedirectedTriggerRegister);
-  return text.substr(0, address + 9) + redirected + text.substr(address_end);
+  text = text.substr(0, address + 9) + Hex(kRedirectedTriggerRegister) + text.substr(address_end);
+  ReplaceAfter(text, "<Command Name=\"TriggerSoftware\"", "<CommandValue>1</CommandValue>",
+               "<pCommandValue>TriggerSoftwareTokenRegister</pCommandValue>", "TriggerSoftware command");
+  // AcquisitionStop still writes the device's acquisition register directly.
+  ReplaceAfter(text, "<Command Name=\"AcquisitionStart\"", "<pValue>AcquisitionCommandRegister</pValue>",
+               "<pValue>AcquisitionStartCommandRegister</pValue>", "AcquisitionStart command");
+  const auto commands = text.find("<Command Name=\"AcquisitionStart\"");
+  return text.substr(0, commands) + IntReg("TriggerSoftwareTokenRegister", kTriggerTokenRegister, "RO") +
+         IntReg("AcquisitionStartCommandRegister", kRedirectedAcquisitionStartRegister, "WO") +
+         text.substr(commands);
 }
 
 }  // namespace
@@ -116,10 +163,12 @@ struct ServedCameras::Server {
   std::atomic<std::uint64_t> failed{0};
 
   // The frame rendered for the latest software trigger, until the device's
-  // thread sends it.
+  // thread sends it; `rendered_ok` false for a black frame sent for a Grab
+  // that failed.
   std::mutex rendered_mutex;
   std::vector<std::byte> rendered;
   bool has_rendered = false;
+  bool rendered_ok = true;
   std::thread render_thread;
   std::atomic<bool> stop_rendering{false};
   // The last frame rendered for a trigger, with the scene and settings it
@@ -128,6 +177,7 @@ struct ServedCameras::Server {
     std::uint64_t scene_changes = 0;
     ServedSettings settings;
     std::vector<std::byte> bytes;
+    bool ok = true;
   };
   std::optional<LastFrame> last;
 
@@ -174,43 +224,67 @@ struct ServedCameras::Server {
   // since the last one (a client that timed out and triggered again) sends
   // the same frame again: a late frame and its retry are one exposure, as a
   // frame lost in process draws no noise (SimulatedCamera), so the session
-  // does not depend on when a client gave up waiting.
+  // does not depend on when a client gave up waiting. An AcquisitionStart
+  // drops the frame not yet sent (made for the stopped acquisition) and the
+  // trigger the device has not acted on, then starts the device.
   void WatchTriggers() {
+    struct Made {
+      std::vector<std::byte> bytes;
+      bool ok = true;
+    };
+    std::optional<Made> unsent;
     while (!stop_rendering) {
-      if (Register(kRedirectedTriggerRegister) == 0) {
-        std::this_thread::sleep_for(kTriggerWatchPeriod);
+      if (Register(kRedirectedAcquisitionStartRegister) != 0) {
+        arv_fake_camera_write_register(fake(), kRedirectedAcquisitionStartRegister, 0);
+        unsent.reset();
+        {
+          std::lock_guard lock(rendered_mutex);
+          has_rendered = false;
+          arv_fake_camera_write_register(fake(), ARV_FAKE_CAMERA_REGISTER_TRIGGER_SOFTWARE, 0);
+        }
+        arv_fake_camera_write_register(fake(), ARV_FAKE_CAMERA_REGISTER_ACQUISITION, 1);
         continue;
       }
-      arv_fake_camera_write_register(fake(), kRedirectedTriggerRegister, 0);
-      if (!arv_fake_camera_is_in_software_trigger_mode(fake())) continue;  // a real device ignores it too
-      const ServedSettings settings = Settings();
-      const std::uint64_t changes = scene_changes ? scene_changes() : 0;
-      std::vector<std::byte> frame;
-      if (scene_changes && last && last->scene_changes == changes && last->settings == settings) {
-        frame = last->bytes;
-        ++served;
-      } else {
-        frame.resize(arv_fake_camera_get_payload(fake()));
-        Render(frame, settings);
-        if (scene_changes) last = LastFrame{changes, settings, frame};
-      }
-      // The device sends one frame a trigger: the previous one must be sent.
-      bool handed_over = false;
-      while (!stop_rendering && !handed_over) {
+      if (unsent) {
+        // The device sends one frame a trigger: the previous one must be sent.
+        bool handed_over = false;
         {
           std::lock_guard lock(rendered_mutex);
           if (!has_rendered && Register(ARV_FAKE_CAMERA_REGISTER_TRIGGER_SOFTWARE) == 0) {
-            rendered = std::move(frame);
+            rendered = std::move(unsent->bytes);
+            rendered_ok = unsent->ok;
             has_rendered = true;
             handed_over = true;
           }
         }
-        if (!handed_over) std::this_thread::sleep_for(kTriggerWatchPeriod);
+        if (!handed_over) {
+          std::this_thread::sleep_for(kTriggerWatchPeriod);
+          continue;
+        }
+        unsent.reset();
+        arv_fake_camera_write_register(fake(), ARV_FAKE_CAMERA_REGISTER_TRIGGER_SOFTWARE, 1);
+        continue;
       }
-      // Stopped first: no trigger, or the device's thread would render a
-      // second exposure of the same scene (other noise) in its place.
-      if (!handed_over) break;
-      arv_fake_camera_write_register(fake(), ARV_FAKE_CAMERA_REGISTER_TRIGGER_SOFTWARE, 1);
+      const guint32 token = Register(kRedirectedTriggerRegister);
+      if (token == 0) {
+        std::this_thread::sleep_for(kTriggerWatchPeriod);
+        continue;
+      }
+      arv_fake_camera_write_register(fake(), kRedirectedTriggerRegister, 0);
+      if (token != Register(kTriggerTokenRegister)) continue;  // a copy of a trigger already taken
+      arv_fake_camera_write_register(fake(), kTriggerTokenRegister, token == 0xffffffffu ? 1 : token + 1);
+      if (!arv_fake_camera_is_in_software_trigger_mode(fake())) continue;  // a real device ignores it too
+      const ServedSettings settings = Settings();
+      const std::uint64_t changes = scene_changes ? scene_changes() : 0;
+      if (scene_changes && last && last->scene_changes == changes && last->settings == settings) {
+        unsent = Made{last->bytes, last->ok};
+        continue;
+      }
+      Made made;
+      made.bytes.resize(arv_fake_camera_get_payload(fake()));
+      made.ok = Render(made.bytes, settings);
+      if (scene_changes) last = LastFrame{changes, settings, made.bytes, made.ok};
+      unsent = std::move(made);
     }
   }
 
@@ -227,21 +301,23 @@ struct ServedCameras::Server {
     // the current payload before calling.
     auto* data = static_cast<std::byte*>(const_cast<void*>(arv_buffer_get_data(buffer, nullptr)));
     const std::span<std::byte> payload(data, arv_fake_camera_get_payload(fake()));
+    std::optional<bool> sent_ok;
     {
       std::lock_guard lock(rendered_mutex);
-      const bool ready = has_rendered && rendered.size() == payload.size();
-      has_rendered = false;
-      if (ready) {
+      if (has_rendered && rendered.size() == payload.size()) {
         std::copy(rendered.begin(), rendered.end(), payload.begin());
-        return;
+        sent_ok = rendered_ok;
       }
+      has_rendered = false;
     }
-    Render(payload, Settings());
+    if (!sent_ok) sent_ok = Render(payload, Settings());
+    ++(*sent_ok ? served : failed);
   }
 
   // One Grab of the camera behind, with the settings the client wrote to the
-  // device's registers, encoded in the served pixel format.
-  void Render(std::span<std::byte> payload, const ServedSettings& wanted) {
+  // device's registers, encoded in the served pixel format; false, and a
+  // black frame, when the Grab failed.
+  bool Render(std::span<std::byte> payload, const ServedSettings& wanted) {
     std::lock_guard lock(*render_mutex);
     try {
       const PixelFormatTraits* format = nullptr;
@@ -269,11 +345,11 @@ struct ServedCameras::Server {
       camera->Trigger();
       const drivers::Frame frame = camera->Grab(std::chrono::milliseconds(0));
       drivers::aravis::EncodePixels(frame.image, *format, payload);
-      ++served;
+      return true;
     } catch (const std::exception&) {
       // The device sends a frame whatever happens here: a black one, counted.
       std::fill(payload.begin(), payload.end(), std::byte{0});
-      ++failed;
+      return false;
     }
   }
 };
@@ -342,6 +418,7 @@ void ServedCameras::Serve(std::size_t i) {
                   static_cast<int>(std::lround(server.camera->settings().exposure_us))}}) {
     arv_fake_camera_write_register(fake, reg, static_cast<guint32>(value));
   }
+  arv_fake_camera_write_register(fake, kTriggerTokenRegister, 1);  // 0 reads as no trigger
   arv_fake_camera_set_trigger_frequency(fake, kTriggerPollHz);
   arv_fake_camera_set_fill_pattern(fake, &Server::Fill, &server);
   server.StartRendering();
