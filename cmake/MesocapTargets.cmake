@@ -144,7 +144,12 @@ function(mesocap_test name)
   endif()
   set(properties "")
   if(ARG_LABELS)
-    list(APPEND properties LABELS "${ARG_LABELS}")
+    # A binary in several tiers carries one label that names them joined
+    # by '-' ("quick-sanitize"): ctest matches a label filter as a regular
+    # expression, so `-L quick` and `-L sanitize` both find it, and
+    # gtest_discover_tests cannot pass a list-valued property.
+    list(JOIN ARG_LABELS "-" labels)
+    list(APPEND properties LABELS "${labels}")
   endif()
   if(ARG_ENVIRONMENT)
     list(APPEND properties ENVIRONMENT "${ARG_ENVIRONMENT}")
