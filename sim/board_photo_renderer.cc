@@ -19,22 +19,25 @@ core::CheckResult BoardPhotoOptions::Check() const {
 }
 
 core::Image RenderBoardPhoto(const calibration::BoardPrint& print, const core::RigidTransform& world_from_board,
-                             const formats::CameraCalibration& camera, const BoardPhotoOptions& options) {
+                             const formats::CameraCalibration& camera, const BoardPhotoOptions& options,
+                             const UndistortedGrid* grid) {
   if (const core::CheckResult problem = options.Check(); !problem.empty()) {
     throw core::Error("board photo: " + problem);
   }
   // Rays in the board's frame: the plane z = 0 there.
   const core::RigidTransform board_from_camera = world_from_board.Inverse().Compose(camera.pose.transform);
   const Eigen::Vector3d origin = board_from_camera.translation;
-  const formats::Intrinsics& k = camera.intrinsics;
   const int n = options.samples_per_pixel_side;
+  if (grid && (grid->samples_per_pixel_side() != n || grid->rect().x1 != camera.width ||
+               grid->rect().y1 != camera.height || grid->rect().x0 != 0 || grid->rect().y0 != 0)) {
+    throw core::Error("board photo: the undistorted grid does not cover the image at the photo's samples");
+  }
   core::Image signal(camera.width, camera.height, 1);
   tbb::parallel_for(0, camera.height, [&](int y) {
     for (int x = 0; x < camera.width; ++x) {
       double sum = 0;
       for (int s = 0; s < n * n; ++s) {
-        const double u = x + ((s % n) + 0.5) / n - 0.5, v = y + ((s / n) + 0.5) / n - 0.5;
-        const Eigen::Vector2d m = Undistort(camera.distortion, Eigen::Vector2d((u - k.cx) / k.fx, (v - k.cy) / k.fy));
+        const Eigen::Vector2d m = grid ? grid->At(x, y, s) : UndistortedGrid::Compute(camera, n, x, y, s);
         const Eigen::Vector3d d = board_from_camera.rotation * Eigen::Vector3d(m.x(), m.y(), 1.0);
         // A ray parallel to the print (|d.z| tiny) or meeting it behind the
         // camera sees the background.

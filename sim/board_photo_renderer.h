@@ -16,6 +16,7 @@
 #include "core/image.h"
 #include "core/rigid_transform.h"
 #include "formats/calibration.h"
+#include "sim/undistorted_grid.h"
 
 namespace mesocap::sim {
 
@@ -30,9 +31,11 @@ struct BoardPhotoOptions {
 // The linear signal (one channel, fraction of full scale) of `camera`'s photo
 // of `print` with world <- board = `world_from_board`. The print is seen
 // from the side its z axis points away from; from behind the board reads as
-// background.
+// background. `grid`, when given, holds the camera's undistorted samples
+// over the whole image at the options' samples per pixel side.
 core::Image RenderBoardPhoto(const calibration::BoardPrint& print, const core::RigidTransform& world_from_board,
-                             const formats::CameraCalibration& camera, const BoardPhotoOptions& options);
+                             const formats::CameraCalibration& camera, const BoardPhotoOptions& options,
+                             const UndistortedGrid* grid = nullptr);
 
 // turntable <- board for the board on its holder in the simulated rig: the
 // printed side up (the board frame's z down), its centre on the turntable's

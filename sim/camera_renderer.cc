@@ -447,13 +447,26 @@ core::Image CameraRenderer::RenderCalibrationBoard(int camera, int holder, doubl
       turn.Compose(BoardOnHolder(board_print_->board(), board.height_mm, board.holder_tilts_rad.at(holder)));
   BoardPhotoOptions photo;
   photo.samples_per_pixel_side = options_.samples_per_pixel_side;
-  const core::Image signal = RenderBoardPhoto(*board_print_, world_from_board, calibration_.cameras.at(camera), photo);
+  const formats::CameraCalibration& c = calibration_.cameras.at(camera);
+  const auto grid = PhotoGrid(camera, photo.samples_per_pixel_side, {0, 0, c.width, c.height}, PhotoSlot::kBoard);
+  const core::Image signal = RenderBoardPhoto(*board_print_, world_from_board, c, photo, grid.get());
   if (channels == 1) return signal;
   core::Image rgb(signal.width(), signal.height(), 3);
   for (std::size_t i = 0; i < signal.size(); ++i) {
     for (int c = 0; c < 3; ++c) rgb.data()[3 * i + c] = signal.data()[i];
   }
   return rgb;
+}
+
+std::shared_ptr<const UndistortedGrid> CameraRenderer::PhotoGrid(int camera, int n, PixelRect rect,
+                                                                 PhotoSlot slot) const {
+  const std::lock_guard<std::mutex> lock(photo_grids_mutex_);
+  if (photo_grids_.empty()) photo_grids_.resize(3 * rig_.cameras.size());
+  std::shared_ptr<const UndistortedGrid>& kept = photo_grids_.at(3 * camera + static_cast<int>(slot));
+  const bool same = kept && kept->samples_per_pixel_side() == n && kept->rect().x0 == rect.x0 &&
+                    kept->rect().y0 == rect.y0 && kept->rect().x1 == rect.x1 && kept->rect().y1 == rect.y1;
+  if (!same) kept = std::make_shared<const UndistortedGrid>(calibration_.cameras.at(camera), n, rect);
+  return kept;
 }
 
 core::Image CameraRenderer::Render(const SimulatedRigState& state, int camera, int channels) {
@@ -464,8 +477,12 @@ core::Image CameraRenderer::Render(const SimulatedRigState& state, int camera, i
     return RenderCalibrationBoard(camera, *state.calibration_board_holder, state.turntable_rad, channels);
   }
   if (state.mirror_sphere_placed) {
-    core::Image rgb =
-        RenderMirrorSpherePhoto(rig_, calibration_, camera, state.turntable_rad, state.light_arc_rad, state.lamps_on);
+    const MirrorSpherePhotoOptions photo;
+    const PixelRect rect = MirrorSpherePixels(rig_, calibration_, camera, state.turntable_rad);
+    const auto grid = PhotoGrid(camera, photo.samples_per_pixel_side, rect, PhotoSlot::kSphere);
+    const auto centres = PhotoGrid(camera, 1, rect, PhotoSlot::kSphereCentres);
+    core::Image rgb = RenderMirrorSpherePhoto(rig_, calibration_, camera, state.turntable_rad, state.light_arc_rad,
+                                              state.lamps_on, photo, grid.get(), centres.get());
     return channels == 1 ? core::ChannelMean(std::move(rgb)) : rgb;
   }
   const RenderCache& cached = CachedRender(state, camera);

@@ -37,6 +37,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <memory>
+#include <mutex>
 #include <numbers>
 #include <optional>
 #include <string>
@@ -49,6 +50,7 @@
 #include "formats/rig_description.h"
 #include "sim/mesostructure_scene.h"
 #include "sim/simulated_rig_state.h"
+#include "sim/undistorted_grid.h"
 
 namespace mesocap::sim {
 
@@ -210,6 +212,13 @@ class CameraRenderer : public FrameRenderer {
   // -d_max or the pocket's walls (both black).
   double SlabExit(const Eigen::Vector3d& p, const Eigen::Vector3d& d) const;
 
+  // The undistorted samples of camera `camera` over `rect` at n samples per
+  // pixel side, kept from the last photo that asked for the same in the
+  // same slot (a calibration session takes many photos of the board and of
+  // the sphere; n = 1 gives the pixels' centres).
+  enum class PhotoSlot { kBoard, kSphere, kSphereCentres };
+  std::shared_ptr<const UndistortedGrid> PhotoGrid(int camera, int n, PixelRect rect, PhotoSlot slot) const;
+
   // What Render keeps of one camera between frames.
   struct RenderCache;
   RenderCache& CachedRender(const SimulatedRigState& state, int camera);
@@ -220,6 +229,8 @@ class CameraRenderer : public FrameRenderer {
   CameraRendererOptions options_;
   formats::Calibration calibration_;
   std::vector<std::shared_ptr<RenderCache>> cache_;  // per camera
+  mutable std::mutex photo_grids_mutex_;
+  mutable std::vector<std::shared_ptr<const UndistortedGrid>> photo_grids_;  // 3 per camera, by PhotoSlot
 };
 
 // The tilts CameraRenderer renders a sweep at: a sweep tilts the emitter a

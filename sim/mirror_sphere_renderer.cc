@@ -125,9 +125,30 @@ bool MayReflectAnEmitter(const MirrorSphereScene& scene, const Eigen::Vector3d& 
 
 }  // namespace
 
+PixelRect MirrorSpherePixels(const formats::RigDescription& rig, const formats::Calibration& truth, int camera,
+                             double turntable_rad) {
+  if (!rig.mirror_sphere) throw core::Error("camera renderer: rig " + core::Quoted(rig.name) + " has no mirror_sphere");
+  const formats::MirrorSphereDescription& sphere = *rig.mirror_sphere;
+  const formats::CameraCalibration& cam = truth.cameras.at(camera);
+  const Eigen::Vector3d centre = calibration::WorldFromSample(truth.turntable, turntable_rad)
+                                     .Apply(Eigen::Vector3d(sphere.offset_mm, 0, sphere.centre_height_mm));
+  const Eigen::Vector3d origin = cam.pose.transform.translation - centre;
+  const formats::Intrinsics& k = cam.intrinsics;
+  // A square about the sphere's image, half again as wide as the sphere seen
+  // from its nearest point plus 4 pixels, so that it holds every pixel the
+  // photo's test keeps (lens distortion changes the scale by far less),
+  // without undistorting the whole image's rays.
+  const Eigen::Vector2d middle = ProjectToPixel(cam, centre);
+  const double half = 1.5 * sphere.radius_mm * std::max(k.fx, k.fy) / (origin.norm() - sphere.radius_mm) + 4.0;
+  const auto clamp = [](double v, int size) { return std::clamp(static_cast<int>(v), 0, size); };
+  return {clamp(std::floor(middle.x() - half), cam.width), clamp(std::floor(middle.y() - half), cam.height),
+          clamp(std::ceil(middle.x() + half) + 1, cam.width), clamp(std::ceil(middle.y() + half) + 1, cam.height)};
+}
+
 core::Image RenderMirrorSpherePhoto(const formats::RigDescription& rig, const formats::Calibration& truth, int camera,
                                     double turntable_rad, double arc_rad, const std::vector<bool>& lamps_on,
-                                    const MirrorSpherePhotoOptions& options) {
+                                    const MirrorSpherePhotoOptions& options, const UndistortedGrid* grid,
+                                    const UndistortedGrid* centres) {
   if (const core::CheckResult problem = options.Check(); !problem.empty()) {
     throw core::Error("mirror sphere photo: " + problem);
   }
@@ -156,28 +177,22 @@ core::Image RenderMirrorSpherePhoto(const formats::RigDescription& rig, const fo
   const Eigen::Vector3d origin = cam.pose.transform.translation - centre;
   const Eigen::Matrix3d& rotation = cam.pose.transform.rotation;
   const formats::Intrinsics& k = cam.intrinsics;
-  const auto ray_at = [&](double u, double v) {
-    const Eigen::Vector2d m = Undistort(cam.distortion, Eigen::Vector2d((u - k.cx) / k.fx, (v - k.cy) / k.fy));
-    return (rotation * Eigen::Vector3d(m.x(), m.y(), 1.0)).normalized();
-  };
   const int n = options.samples_per_pixel_side;
   core::Image signal(cam.width, cam.height, 3);
-  // The pixels to test: a square about the sphere's image, half again as
-  // wide as the sphere seen from its nearest point plus 4 pixels, so that it
-  // holds every pixel the test below keeps (lens distortion changes the
-  // scale by far less), without undistorting the whole image's rays.
-  const Eigen::Vector2d middle = ProjectToPixel(cam, centre);
-  const double half = 1.5 * sphere.radius_mm * std::max(k.fx, k.fy) / (origin.norm() - sphere.radius_mm) + 4.0;
-  const auto clamp = [](double v, int size) { return std::clamp(static_cast<int>(v), 0, size); };
-  const int x0 = clamp(std::floor(middle.x() - half), cam.width),
-            x1 = clamp(std::ceil(middle.x() + half) + 1, cam.width);
-  const int y0 = clamp(std::floor(middle.y() - half), cam.height);
-  const int y1 = clamp(std::ceil(middle.y() + half) + 1, cam.height);
+  const auto [x0, y0, x1, y1] = MirrorSpherePixels(rig, truth, camera, turntable_rad);
+  const auto covers = [&](const UndistortedGrid* g, int side) {
+    return !g || (g->samples_per_pixel_side() == side && g->rect().x0 == x0 && g->rect().y0 == y0 &&
+                  g->rect().x1 == x1 && g->rect().y1 == y1);
+  };
+  if (!covers(grid, n) || !covers(centres, 1)) {
+    throw core::Error("mirror sphere photo: an undistorted grid does not cover the sphere's pixels");
+  }
   tbb::parallel_for(y0, y1, [&](int y) {
     for (int x = x0; x < x1; ++x) {
       // Only pixels whose centre ray passes within two footprints of the
       // sphere can see it; the rest of the rig is dark.
-      const Eigen::Vector3d d0 = ray_at(x, y);
+      const Eigen::Vector2d m0 = centres ? centres->At(x, y, 0) : UndistortedGrid::Compute(cam, 1, x, y, 0);
+      const Eigen::Vector3d d0 = (rotation * Eigen::Vector3d(m0.x(), m0.y(), 1.0)).normalized();
       const double along = -origin.dot(d0);
       if (along <= 0) continue;
       const double footprint = along / std::min(k.fx, k.fy);
@@ -185,7 +200,8 @@ core::Image RenderMirrorSpherePhoto(const formats::RigDescription& rig, const fo
       if (!MayReflectAnEmitter(scene, origin, d0, footprint)) continue;
       Eigen::Vector3f sum = Eigen::Vector3f::Zero();
       for (int s = 0; s < n * n; ++s) {
-        const Eigen::Vector3d d = ray_at(x + ((s % n) + 0.5) / n - 0.5, y + ((s / n) + 0.5) / n - 0.5);
+        const Eigen::Vector2d m = grid ? grid->At(x, y, s) : UndistortedGrid::Compute(cam, n, x, y, s);
+        const Eigen::Vector3d d = (rotation * Eigen::Vector3d(m.x(), m.y(), 1.0)).normalized();
         const MirrorSphereScene::Hit first = scene.Intersect(origin, d, 0.0f);
         if (first.geometry == kEmitterGeometry) {
           sum += emitter_signal[first.primitive];

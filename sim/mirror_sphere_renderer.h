@@ -17,6 +17,7 @@
 #include "core/image.h"
 #include "formats/calibration.h"
 #include "formats/rig_description.h"
+#include "sim/undistorted_grid.h"
 
 namespace mesocap::sim {
 
@@ -31,9 +32,18 @@ struct MirrorSpherePhotoOptions {
 // the turntable at turntable_rad (the sphere's cup turns with it), the
 // light arc at arc_rad and the lamps lamps_on[i] on. `truth` gives the
 // cameras, turntable, arc and lamps. Throws Error when the rig has no
-// mirror_sphere.
+// mirror_sphere. `grid` and `centres`, when given, hold the camera's
+// undistorted samples over MirrorSpherePixels at the options' samples per
+// pixel side and at the pixels' centres (1 per side).
 core::Image RenderMirrorSpherePhoto(const formats::RigDescription& rig, const formats::Calibration& truth, int camera,
                                     double turntable_rad, double arc_rad, const std::vector<bool>& lamps_on,
-                                    const MirrorSpherePhotoOptions& options = {});
+                                    const MirrorSpherePhotoOptions& options = {},
+                                    const UndistortedGrid* grid = nullptr, const UndistortedGrid* centres = nullptr);
+
+// The pixels a photo of the sphere looks at (the rest of the image is dark):
+// a square about the sphere's image. Throws Error when the rig has no
+// mirror_sphere.
+PixelRect MirrorSpherePixels(const formats::RigDescription& rig, const formats::Calibration& truth, int camera,
+                             double turntable_rad);
 
 }  // namespace mesocap::sim
