@@ -399,7 +399,9 @@ class SessionRun {
               FilePath(sweep.files[i]), images[i].width(), images[i].height(), 1, core::PixelEncoding::kUInt16));
         }
       }
-      for (std::size_t i = 0; i < images.size(); ++i) writers[i]->Append(core::ChannelMean(std::move(images[i])));
+      // One encoder per camera at once, as for the colour images.
+      tbb::parallel_for(std::size_t{0}, images.size(),
+                        [&](std::size_t i) { writers[i]->Append(core::ChannelMean(std::move(images[i]))); });
     }
     rig_.laser->SetEnabled(false);
     for (auto& w : writers) w->Commit();

@@ -751,9 +751,14 @@ void LaserSweepRenderer::Bin(const std::vector<std::vector<RangedSample>>& rows)
   std::vector<std::uint32_t> next(bin_begin_.begin(), bin_begin_.end() - 1);
   for (const auto& row : rows) {
     for (const RangedSample& s : row) {
-      if (narrow(s)) binned_[next[BinOf(s.begin)]++] = {s.lit, s.end};
+      if (narrow(s)) binned_[next[BinOf(s.begin)]++] = {s.lit, s.end, PointOf(s.lit)};
     }
   }
+}
+
+const Eigen::Vector3f& LaserSweepRenderer::PointOf(const LitSample& s) const {
+  const std::uint32_t index = s.source & kIndexMask;
+  return (s.source & kBounceBit) != 0 ? bounces_[index].point : view_.samples[index].point;
 }
 
 std::size_t LaserSweepRenderer::BinOf(double begin) const {
@@ -772,11 +777,10 @@ core::Image LaserSweepRenderer::Frame(double tilt_rad) const {
   core::Image out(width_, height_, 1);
   float* values = out.data();
   const double cutoff2 = kStripeCutoffSigmas * kStripeCutoffSigmas / 2.0;  // (d / sigma)^2 / 2 at the cutoff
-  const auto add = [&](const LitSample& s) {
+  const auto add = [&](const LitSample& s, const Eigen::Vector3f& point) {
     const std::uint32_t index = s.source & kIndexMask;
     const bool bounce = (s.source & kBounceBit) != 0;
-    const Distance c =
-        DistanceOf(bounce ? bounces_[index].point.cast<double>() : view_.samples[index].point.cast<double>());
+    const Distance c = DistanceOf(point.cast<double>());
     const double d = cos_t * c.a + sin_t * c.b + c.c;
     const double exponent = d * d * s.inv_two_sigma2;
     if (!(exponent < cutoff2)) return;
@@ -787,13 +791,13 @@ core::Image LaserSweepRenderer::Frame(double tilt_rad) const {
     const std::size_t pixel = bounce ? bounces_[index].pixel : index / view_.samples_per_pixel;
     values[pixel] += static_cast<float>(s.weight * std::exp(-exponent));
   };
-  for (const LitSample& s : wide_) add(s);
+  for (const LitSample& s : wide_) add(s, PointOf(s));
   if (!binned_.empty()) {
     // Ranges holding the tilt start in [tilt - max span, tilt] (a bin's
     // width of slack for the rounding of the bin index).
     const std::size_t lowest = BinOf(tilt - max_span_ - bin_width_), highest = BinOf(tilt);
     for (std::uint32_t i = bin_begin_[lowest]; i < bin_begin_[highest + 1]; ++i) {
-      if (!(tilt > binned_[i].end)) add(binned_[i].lit);
+      if (!(tilt > binned_[i].end)) add(binned_[i].lit, binned_[i].point);
     }
   }
   return out;

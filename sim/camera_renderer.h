@@ -276,7 +276,7 @@ class LaserSweepRenderer {
   // The signed distance of a point from the plane at tilt t is
   // cos(t) a + sin(t) b + c (Rodrigues' rotation of the tilt-0 normal), with
   // a, b, c linear in the point, computed from it at every frame so that a
-  // lit sample keeps only its index and its stripe (16 bytes binned; every camera's
+  // lit sample keeps only its index and its stripe (28 bytes binned, with its point; every camera's
   // sweep is held at once, 7 million samples for a paper-rig camera). The
   // stripe's profile over the sample's footprint is a Gaussian of variance
   // sigma^2 + StripeFootprintVariance (weight scaled by sigma / that sigma,
@@ -341,14 +341,17 @@ class LaserSweepRenderer {
   int height_ = 0;
   double sigma_mm_ = 1.0;
   std::vector<BouncePoint> bounces_;
-  // A binned lit sample keeps its range's end: a frame visits every bin
-  // that a range holding its tilt can start in, and most of their samples'
-  // ranges ended before it (they span a few milliradians, the bins
-  // kMaxBinnedSpan); those are passed over without reading their point.
+  // A binned lit sample keeps its range's end and its point: a frame
+  // visits every bin that a range holding its tilt can start in, passes
+  // over the samples whose range ended before it, and reads the others in
+  // bin order; a point read from the view instead was a cache miss each.
   struct BinnedSample {
     LitSample lit;
     float end = 0;
+    Eigen::Vector3f point = Eigen::Vector3f::Zero();
   };
+  // The world point of a lit sample: its view sample's or its bounce's.
+  const Eigen::Vector3f& PointOf(const LitSample& s) const;
   // Binned lit samples: bin i holds binned_[bin_begin_[i], bin_begin_[i + 1]),
   // ranges starting in [first_begin_ + i bin_width_, + bin_width_).
   std::vector<BinnedSample> binned_;
