@@ -162,13 +162,17 @@ struct ServedCameras::Server {
   std::atomic<std::uint64_t> served{0};
   std::atomic<std::uint64_t> failed{0};
 
+  // A frame made for a trigger: its payload, and false for a black frame
+  // sent for a Grab that failed.
+  struct Made {
+    std::vector<std::byte> bytes;
+    bool ok = true;
+  };
   // The frame rendered for the latest software trigger, until the device's
-  // thread sends it; `rendered_ok` false for a black frame sent for a Grab
-  // that failed.
+  // thread sends it.
   std::mutex rendered_mutex;
-  std::vector<std::byte> rendered;
+  Made rendered;
   bool has_rendered = false;
-  bool rendered_ok = true;
   std::thread render_thread;
   std::atomic<bool> stop_rendering{false};
   // The last frame rendered for a trigger, with the scene and settings it
@@ -176,8 +180,7 @@ struct ServedCameras::Server {
   struct LastFrame {
     std::uint64_t scene_changes = 0;
     ServedSettings settings;
-    std::vector<std::byte> bytes;
-    bool ok = true;
+    Made frame;
   };
   std::optional<LastFrame> last;
 
@@ -228,10 +231,6 @@ struct ServedCameras::Server {
   // drops the frame not yet sent (made for the stopped acquisition) and the
   // trigger the device has not acted on, then starts the device.
   void WatchTriggers() {
-    struct Made {
-      std::vector<std::byte> bytes;
-      bool ok = true;
-    };
     std::optional<Made> unsent;
     while (!stop_rendering) {
       if (Register(kRedirectedAcquisitionStartRegister) != 0) {
@@ -251,8 +250,7 @@ struct ServedCameras::Server {
         {
           std::lock_guard lock(rendered_mutex);
           if (!has_rendered && Register(ARV_FAKE_CAMERA_REGISTER_TRIGGER_SOFTWARE) == 0) {
-            rendered = std::move(unsent->bytes);
-            rendered_ok = unsent->ok;
+            rendered = std::move(*unsent);
             has_rendered = true;
             handed_over = true;
           }
@@ -277,13 +275,13 @@ struct ServedCameras::Server {
       const ServedSettings settings = Settings();
       const std::uint64_t changes = scene_changes ? scene_changes() : 0;
       if (scene_changes && last && last->scene_changes == changes && last->settings == settings) {
-        unsent = Made{last->bytes, last->ok};
+        unsent = last->frame;
         continue;
       }
       Made made;
       made.bytes.resize(arv_fake_camera_get_payload(fake()));
       made.ok = Render(made.bytes, settings);
-      if (scene_changes) last = LastFrame{changes, settings, made.bytes, made.ok};
+      if (scene_changes) last = LastFrame{changes, settings, made};
       unsent = std::move(made);
     }
   }
@@ -304,9 +302,9 @@ struct ServedCameras::Server {
     std::optional<bool> sent_ok;
     {
       std::lock_guard lock(rendered_mutex);
-      if (has_rendered && rendered.size() == payload.size()) {
-        std::copy(rendered.begin(), rendered.end(), payload.begin());
-        sent_ok = rendered_ok;
+      if (has_rendered && rendered.bytes.size() == payload.size()) {
+        std::copy(rendered.bytes.begin(), rendered.bytes.end(), payload.begin());
+        sent_ok = rendered.ok;
       }
       has_rendered = false;
     }
