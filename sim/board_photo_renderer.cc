@@ -28,8 +28,7 @@ core::Image RenderBoardPhoto(const calibration::BoardPrint& print, const core::R
   const core::RigidTransform board_from_camera = world_from_board.Inverse().Compose(camera.pose.transform);
   const Eigen::Vector3d origin = board_from_camera.translation;
   const int n = options.samples_per_pixel_side;
-  if (grid && (grid->samples_per_pixel_side() != n || grid->rect().x1 != camera.width ||
-               grid->rect().y1 != camera.height || grid->rect().x0 != 0 || grid->rect().y0 != 0)) {
+  if (grid && (grid->samples_per_pixel_side() != n || !(grid->rect() == PixelRect{0, 0, camera.width, camera.height}))) {
     throw core::Error("board photo: the undistorted grid does not cover the image at the photo's samples");
   }
   core::Image signal(camera.width, camera.height, 1);

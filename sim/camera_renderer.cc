@@ -463,9 +463,7 @@ std::shared_ptr<const UndistortedGrid> CameraRenderer::PhotoGrid(int camera, int
   const std::lock_guard<std::mutex> lock(photo_grids_mutex_);
   if (photo_grids_.empty()) photo_grids_.resize(3 * rig_.cameras.size());
   std::shared_ptr<const UndistortedGrid>& kept = photo_grids_.at(3 * camera + static_cast<int>(slot));
-  const bool same = kept && kept->samples_per_pixel_side() == n && kept->rect().x0 == rect.x0 &&
-                    kept->rect().y0 == rect.y0 && kept->rect().x1 == rect.x1 && kept->rect().y1 == rect.y1;
-  if (!same) kept = std::make_shared<const UndistortedGrid>(calibration_.cameras.at(camera), n, rect);
+  if (!kept || kept->samples_per_pixel_side() != n || !(kept->rect() == rect)) kept = std::make_shared<const UndistortedGrid>(calibration_.cameras.at(camera), n, rect);
   return kept;
 }
 

@@ -179,10 +179,10 @@ core::Image RenderMirrorSpherePhoto(const formats::RigDescription& rig, const fo
   const formats::Intrinsics& k = cam.intrinsics;
   const int n = options.samples_per_pixel_side;
   core::Image signal(cam.width, cam.height, 3);
-  const auto [x0, y0, x1, y1] = MirrorSpherePixels(rig, truth, camera, turntable_rad);
+  const PixelRect pixels = MirrorSpherePixels(rig, truth, camera, turntable_rad);
+  const auto [x0, y0, x1, y1] = pixels;
   const auto covers = [&](const UndistortedGrid* g, int side) {
-    return !g || (g->samples_per_pixel_side() == side && g->rect().x0 == x0 && g->rect().y0 == y0 &&
-                  g->rect().x1 == x1 && g->rect().y1 == y1);
+    return !g || (g->samples_per_pixel_side() == side && g->rect() == pixels);
   };
   if (!covers(grid, n) || !covers(centres, 1)) {
     throw core::Error("mirror sphere photo: an undistorted grid does not cover the sphere's pixels");

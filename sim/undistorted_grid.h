@@ -14,6 +14,7 @@ namespace mesocap::sim {
 
 struct PixelRect {
   int x0 = 0, y0 = 0, x1 = 0, y1 = 0;  // [x0, x1) x [y0, y1)
+  bool operator==(const PixelRect&) const = default;
 };
 
 class UndistortedGrid {
