@@ -2,6 +2,7 @@
 
 #include <spdlog/spdlog.h>
 #include <tbb/parallel_for.h>
+#include <tbb/task_group.h>
 
 #include <map>
 #include <memory>
@@ -381,6 +382,10 @@ class SessionRun {
     std::vector<std::unique_ptr<formats::FrameSequenceWriter>> writers;
     std::vector<std::unique_ptr<mdf::LaserSweepProcessor>> analyses;
     if (sweep.stores_analysis) analyses = SweepProcessors(sweep);
+    // Frame f is encoded while frame f + 1 is grabbed: a camera's frame is
+    // grabbed in part on one thread, and encoding fills the other. Declared
+    // after the writers, so that an exception waits for it before they go.
+    tbb::task_group encoding;
     rig_.laser->SetEnabled(true);
     for (std::size_t f = 0; f < sweep.tilts_rad.size(); ++f) {
       Tilt(sweep.tilts_rad[f]);
@@ -393,6 +398,7 @@ class SessionRun {
         });
         continue;
       }
+      encoding.wait();  // the previous frame's: a writer takes its frames in order
       if (writers.empty()) {
         for (std::size_t i = 0; i < images.size(); ++i) {
           writers.push_back(std::make_unique<formats::FrameSequenceWriter>(
@@ -400,9 +406,12 @@ class SessionRun {
         }
       }
       // One encoder per camera at once, as for the colour images.
-      tbb::parallel_for(std::size_t{0}, images.size(),
-                        [&](std::size_t i) { writers[i]->Append(core::ChannelMean(std::move(images[i]))); });
+      encoding.run([&writers, frame = std::make_shared<std::vector<core::Image>>(std::move(images))] {
+        tbb::parallel_for(std::size_t{0}, frame->size(),
+                          [&](std::size_t i) { writers[i]->Append(core::ChannelMean(std::move((*frame)[i]))); });
+      });
     }
+    encoding.wait();
     rig_.laser->SetEnabled(false);
     for (auto& w : writers) w->Commit();
     for (std::size_t i = 0; i < analyses.size(); ++i) {
