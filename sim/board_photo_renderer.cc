@@ -28,15 +28,16 @@ core::Image RenderBoardPhoto(const calibration::BoardPrint& print, const core::R
   const core::RigidTransform board_from_camera = world_from_board.Inverse().Compose(camera.pose.transform);
   const Eigen::Vector3d origin = board_from_camera.translation;
   const int n = options.samples_per_pixel_side;
-  if (grid && (grid->samples_per_pixel_side() != n || !(grid->rect() == PixelRect{0, 0, camera.width, camera.height}))) {
+  if (grid && (grid->samples_per_pixel_side() != n || !grid->rect().Contains({0, 0, camera.width, camera.height}))) {
     throw core::Error("board photo: the undistorted grid does not cover the image at the photo's samples");
   }
   core::Image signal(camera.width, camera.height, 1);
   tbb::parallel_for(0, camera.height, [&](int y) {
     for (int x = 0; x < camera.width; ++x) {
       double sum = 0;
+      const Eigen::Vector2d* samples = grid ? grid->Pixel(x, y) : nullptr;
       for (int s = 0; s < n * n; ++s) {
-        const Eigen::Vector2d m = grid ? grid->At(x, y, s) : UndistortedGrid::Compute(camera, n, x, y, s);
+        const Eigen::Vector2d m = samples ? samples[s] : UndistortedGrid::Compute(camera, n, x, y, s);
         const Eigen::Vector3d d = board_from_camera.rotation * Eigen::Vector3d(m.x(), m.y(), 1.0);
         // A ray parallel to the print (|d.z| tiny) or meeting it behind the
         // camera sees the background.

@@ -463,7 +463,9 @@ std::shared_ptr<const UndistortedGrid> CameraRenderer::PhotoGrid(int camera, int
   const std::lock_guard<std::mutex> lock(photo_grids_mutex_);
   if (photo_grids_.empty()) photo_grids_.resize(3 * rig_.cameras.size());
   std::shared_ptr<const UndistortedGrid>& kept = photo_grids_.at(3 * camera + static_cast<int>(slot));
-  if (!kept || kept->samples_per_pixel_side() != n || !(kept->rect() == rect)) kept = std::make_shared<const UndistortedGrid>(calibration_.cameras.at(camera), n, rect);
+  if (!kept || kept->samples_per_pixel_side() != n || !kept->rect().Contains(rect)) {
+    kept = std::make_shared<const UndistortedGrid>(calibration_.cameras.at(camera), n, rect);
+  }
   return kept;
 }
 
@@ -476,7 +478,12 @@ core::Image CameraRenderer::Render(const SimulatedRigState& state, int camera, i
   }
   if (state.mirror_sphere_placed) {
     const MirrorSpherePhotoOptions photo;
-    const PixelRect rect = MirrorSpherePixels(rig_, calibration_, camera, state.turntable_rad);
+    // One grid for every turntable angle the rig photographs the sphere at
+    // (its pixels are computed as photos first need them).
+    PixelRect rect = MirrorSpherePixels(rig_, calibration_, camera, state.turntable_rad);
+    for (const double angle : rig_.mirror_sphere->turntable_angles_rad) {
+      rect = rect.Union(MirrorSpherePixels(rig_, calibration_, camera, angle));
+    }
     const auto grid = PhotoGrid(camera, photo.samples_per_pixel_side, rect, PhotoSlot::kSphere);
     const auto centres = PhotoGrid(camera, 1, rect, PhotoSlot::kSphereCentres);
     core::Image rgb = RenderMirrorSpherePhoto(rig_, calibration_, camera, state.turntable_rad, state.light_arc_rad,

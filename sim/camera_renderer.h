@@ -212,10 +212,10 @@ class CameraRenderer : public FrameRenderer {
   // -d_max or the pocket's walls (both black).
   double SlabExit(const Eigen::Vector3d& p, const Eigen::Vector3d& d) const;
 
-  // The undistorted samples of camera `camera` over `rect` at n samples per
-  // pixel side, kept from the last photo that asked for the same in the
-  // same slot (a calibration session takes many photos of the board and of
-  // the sphere; n = 1 gives the pixels' centres).
+  // The undistorted samples of camera `camera` over (at least) `rect` at n
+  // samples per pixel side, kept from the last photo that asked for the same
+  // in the same slot (a calibration session takes many photos of the board
+  // and of the sphere; n = 1 gives the pixels' centres).
   enum class PhotoSlot { kBoard, kSphere, kSphereCentres };
   std::shared_ptr<const UndistortedGrid> PhotoGrid(int camera, int n, PixelRect rect, PhotoSlot slot) const;
 

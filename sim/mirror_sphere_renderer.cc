@@ -182,7 +182,7 @@ core::Image RenderMirrorSpherePhoto(const formats::RigDescription& rig, const fo
   const PixelRect pixels = MirrorSpherePixels(rig, truth, camera, turntable_rad);
   const auto [x0, y0, x1, y1] = pixels;
   const auto covers = [&](const UndistortedGrid* g, int side) {
-    return !g || (g->samples_per_pixel_side() == side && g->rect() == pixels);
+    return !g || (g->samples_per_pixel_side() == side && g->rect().Contains(pixels));
   };
   if (!covers(grid, n) || !covers(centres, 1)) {
     throw core::Error("mirror sphere photo: an undistorted grid does not cover the sphere's pixels");
@@ -191,7 +191,7 @@ core::Image RenderMirrorSpherePhoto(const formats::RigDescription& rig, const fo
     for (int x = x0; x < x1; ++x) {
       // Only pixels whose centre ray passes within two footprints of the
       // sphere can see it; the rest of the rig is dark.
-      const Eigen::Vector2d m0 = centres ? centres->At(x, y, 0) : UndistortedGrid::Compute(cam, 1, x, y, 0);
+      const Eigen::Vector2d m0 = centres ? centres->Pixel(x, y)[0] : UndistortedGrid::Compute(cam, 1, x, y, 0);
       const Eigen::Vector3d d0 = (rotation * Eigen::Vector3d(m0.x(), m0.y(), 1.0)).normalized();
       const double along = -origin.dot(d0);
       if (along <= 0) continue;
@@ -199,8 +199,9 @@ core::Image RenderMirrorSpherePhoto(const formats::RigDescription& rig, const fo
       if ((origin + along * d0).norm() > sphere.radius_mm + 2.0 * footprint) continue;
       if (!MayReflectAnEmitter(scene, origin, d0, footprint)) continue;
       Eigen::Vector3f sum = Eigen::Vector3f::Zero();
+      const Eigen::Vector2d* samples = grid ? grid->Pixel(x, y) : nullptr;
       for (int s = 0; s < n * n; ++s) {
-        const Eigen::Vector2d m = grid ? grid->At(x, y, s) : UndistortedGrid::Compute(cam, n, x, y, s);
+        const Eigen::Vector2d m = samples ? samples[s] : UndistortedGrid::Compute(cam, n, x, y, s);
         const Eigen::Vector3d d = (rotation * Eigen::Vector3d(m.x(), m.y(), 1.0)).normalized();
         const MirrorSphereScene::Hit first = scene.Intersect(origin, d, 0.0f);
         if (first.geometry == kEmitterGeometry) {

@@ -33,7 +33,7 @@ struct MirrorSpherePhotoOptions {
 // light arc at arc_rad and the lamps lamps_on[i] on. `truth` gives the
 // cameras, turntable, arc and lamps. Throws Error when the rig has no
 // mirror_sphere. `grid` and `centres`, when given, hold the camera's
-// undistorted samples over MirrorSpherePixels at the options' samples per
+// undistorted samples over (at least) MirrorSpherePixels at the options' samples per
 // pixel side and at the pixels' centres (1 per side).
 core::Image RenderMirrorSpherePhoto(const formats::RigDescription& rig, const formats::Calibration& truth, int camera,
                                     double turntable_rad, double arc_rad, const std::vector<bool>& lamps_on,
