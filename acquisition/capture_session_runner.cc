@@ -286,10 +286,7 @@ class SessionRun {
     Tilt(calibration.tilt_rad);
     std::vector<core::Image> images = GrabAll(step, calibration.files, drivers::PixelFormat::kMono);
     rig_.laser->SetEnabled(false);
-    for (std::size_t i = 0; i < images.size(); ++i) {
-      core::WriteImage(FilePath(calibration.files[i]), core::ChannelMean(std::move(images[i])),
-                       core::PixelEncoding::kUInt16);
-    }
+    WriteImages(MonoImages(std::move(images)), calibration.files);
   }
 
   void Run(const formats::PlannedStep& step, const formats::BoardImageStep& board) {
@@ -298,10 +295,7 @@ class SessionRun {
       operator_.PlaceCalibrationBoard(board.holder, board.holder_tilt_rad);
       board_holder_ = board.holder;
     }
-    std::vector<core::Image> images = GrabAll(step, board.files, drivers::PixelFormat::kMono);
-    for (std::size_t i = 0; i < images.size(); ++i) {
-      core::WriteImage(FilePath(board.files[i]), core::ChannelMean(std::move(images[i])), core::PixelEncoding::kUInt16);
-    }
+    WriteImages(MonoImages(GrabAll(step, board.files, drivers::PixelFormat::kMono)), board.files);
   }
 
   // The plate comes off before any other step, and at the end.
@@ -327,7 +321,7 @@ class SessionRun {
     Move(*rig_.turntable, 0.0);  // as for the laser plates: images independent of the previous step
     Move(*rig_.light_arc, white.arc_rad);
     rig_.lamps->SetLamp(white.lamp, true);
-    WriteColourImages(GrabAll(step, white.files, drivers::PixelFormat::kNative), white.files);
+    WriteImages(GrabAll(step, white.files, drivers::PixelFormat::kNative), white.files);
   }
 
   void RemoveWhiteReference() {
@@ -346,7 +340,7 @@ class SessionRun {
     Move(*rig_.turntable, sphere.turntable_rad);
     Move(*rig_.light_arc, sphere.arc_rad);
     rig_.lamps->SetLamp(sphere.lamp, true);
-    WriteColourImages(
+    WriteImages(
         GrabAll(step, sphere.files, drivers::PixelFormat::kNative, rig_description_.mirror_sphere->exposure_us),
         sphere.files);
   }
@@ -357,8 +351,14 @@ class SessionRun {
     mirror_sphere_placed_ = false;
   }
 
+  // A mono readout's frames, one channel each.
+  static std::vector<core::Image> MonoImages(std::vector<core::Image> images) {
+    for (core::Image& image : images) image = core::ChannelMean(std::move(image));
+    return images;
+  }
+
   // One encoder per camera at once: PNG encoding is single-threaded.
-  void WriteColourImages(const std::vector<core::Image>& images, const std::vector<formats::CameraFile>& files) {
+  void WriteImages(const std::vector<core::Image>& images, const std::vector<formats::CameraFile>& files) {
     std::vector<fs::path> paths;
     for (std::size_t i = 0; i < images.size(); ++i) paths.push_back(FilePath(files[i]));
     tbb::parallel_for(std::size_t{0}, images.size(),
@@ -369,7 +369,7 @@ class SessionRun {
     Move(*rig_.turntable, btf.turntable_rad);
     Move(*rig_.light_arc, btf.arc_rad);
     rig_.lamps->SetLamp(btf.lamp, true);
-    WriteColourImages(GrabAll(step, btf.files, drivers::PixelFormat::kNative), btf.files);
+    WriteImages(GrabAll(step, btf.files, drivers::PixelFormat::kNative), btf.files);
   }
 
   void Run(const formats::PlannedStep& step, const formats::LaserSweepStep& sweep) {
@@ -405,7 +405,7 @@ class SessionRun {
               FilePath(sweep.files[i]), images[i].width(), images[i].height(), 1, core::PixelEncoding::kUInt16));
         }
       }
-      // One encoder per camera at once, as for the colour images.
+      // One encoder per camera at once, as for the still images.
       encoding.run([&writers, frame = std::make_shared<std::vector<core::Image>>(std::move(images))] {
         tbb::parallel_for(std::size_t{0}, frame->size(),
                           [&](std::size_t i) { writers[i]->Append(core::ChannelMean(std::move((*frame)[i]))); });
