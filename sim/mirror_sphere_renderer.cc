@@ -4,6 +4,7 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -69,6 +70,36 @@ class MirrorSphereScene {
     rtcInitIntersectContext(&context);
     rtcIntersect1(scene_.get(), &context, &rh);
     return {rh.hit.geomID, rh.hit.primID, rh.ray.tfar};
+  }
+
+  // The same for up to kPacket rays at once (a pixel's sub-pixel rays are
+  // nearly parallel: Embree traces them together): ray i for i < count.
+  static constexpr int kPacket = 8;
+  std::array<Hit, kPacket> Intersect(const Eigen::Vector3d* origins, const Eigen::Vector3d* dirs, int count,
+                                     float t_near) const {
+    alignas(32) int valid[kPacket];
+    alignas(32) RTCRayHit8 rh{};
+    for (int i = 0; i < kPacket; ++i) {
+      valid[i] = i < count ? -1 : 0;
+      const int r = std::min(i, count - 1);
+      rh.ray.org_x[i] = static_cast<float>(origins[r].x());
+      rh.ray.org_y[i] = static_cast<float>(origins[r].y());
+      rh.ray.org_z[i] = static_cast<float>(origins[r].z());
+      rh.ray.dir_x[i] = static_cast<float>(dirs[r].x());
+      rh.ray.dir_y[i] = static_cast<float>(dirs[r].y());
+      rh.ray.dir_z[i] = static_cast<float>(dirs[r].z());
+      rh.ray.tnear[i] = t_near;
+      rh.ray.tfar[i] = std::numeric_limits<float>::infinity();
+      rh.ray.mask[i] = 0xffffffffu;
+      rh.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
+    }
+    RTCIntersectContext context;
+    rtcInitIntersectContext(&context);
+    context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    rtcIntersect8(valid, scene_.get(), &context, &rh);
+    std::array<Hit, kPacket> hits;
+    for (int i = 0; i < count; ++i) hits[i] = {rh.hit.geomID[i], rh.hit.primID[i], rh.ray.tfar[i]};
+    return hits;
   }
 
   const std::vector<Eigen::Vector3d>& emitters() const { return emitters_; }
@@ -200,20 +231,38 @@ core::Image RenderMirrorSpherePhoto(const formats::RigDescription& rig, const fo
       if (!MayReflectAnEmitter(scene, origin, d0, footprint)) continue;
       Eigen::Vector3f sum = Eigen::Vector3f::Zero();
       const Eigen::Vector2d* samples = grid ? grid->Pixel(x, y) : nullptr;
-      for (int s = 0; s < n * n; ++s) {
-        const Eigen::Vector2d m = samples ? samples[s] : UndistortedGrid::Compute(cam, n, x, y, s);
-        const Eigen::Vector3d d = (rotation * Eigen::Vector3d(m.x(), m.y(), 1.0)).normalized();
-        const MirrorSphereScene::Hit first = scene.Intersect(origin, d, 0.0f);
-        if (first.geometry == kEmitterGeometry) {
-          sum += emitter_signal[first.primitive];
-          continue;
+      for (int first_s = 0; first_s < n * n; first_s += MirrorSphereScene::kPacket) {
+        const int count = std::min(MirrorSphereScene::kPacket, n * n - first_s);
+        std::array<Eigen::Vector3d, MirrorSphereScene::kPacket> origins, dirs, points, reflected;
+        for (int i = 0; i < count; ++i) {
+          const int s = first_s + i;
+          const Eigen::Vector2d m = samples ? samples[s] : UndistortedGrid::Compute(cam, n, x, y, s);
+          origins[i] = origin;
+          dirs[i] = (rotation * Eigen::Vector3d(m.x(), m.y(), 1.0)).normalized();
         }
-        if (first.geometry != kMirrorGeometry) continue;
-        const Eigen::Vector3d point = origin + first.t * d;
-        const Eigen::Vector3d normal = point.normalized();
-        const Eigen::Vector3d reflected = d - 2.0 * d.dot(normal) * normal;
-        const MirrorSphereScene::Hit second = scene.Intersect(point, reflected, kReflectedRayStart);
-        if (second.geometry == kEmitterGeometry) sum += reflectance * emitter_signal[second.primitive];
+        const auto first = scene.Intersect(origins.data(), dirs.data(), count, 0.0f);
+        // The mirror's hits, reflected, make the second packet.
+        std::array<int, MirrorSphereScene::kPacket> bounced;
+        int bounces = 0;
+        for (int i = 0; i < count; ++i) {
+          if (first[i].geometry != kMirrorGeometry) continue;
+          const Eigen::Vector3d& d = dirs[i];
+          points[bounces] = origin + first[i].t * d;
+          const Eigen::Vector3d normal = points[bounces].normalized();
+          reflected[bounces] = d - 2.0 * d.dot(normal) * normal;
+          bounced[bounces++] = i;
+        }
+        std::array<MirrorSphereScene::Hit, MirrorSphereScene::kPacket> second{};
+        if (bounces > 0) second = scene.Intersect(points.data(), reflected.data(), bounces, kReflectedRayStart);
+        // Added in the order of the samples.
+        for (int i = 0, b = 0; i < count; ++i) {
+          if (first[i].geometry == kEmitterGeometry) {
+            sum += emitter_signal[first[i].primitive];
+          } else if (first[i].geometry == kMirrorGeometry) {
+            const MirrorSphereScene::Hit& hit = second[b++];
+            if (hit.geometry == kEmitterGeometry) sum += reflectance * emitter_signal[hit.primitive];
+          }
+        }
       }
       float* px = signal.pixel(x, y);
       for (int c = 0; c < 3; ++c) px[c] = sum[c] / static_cast<float>(n * n);
