@@ -28,6 +28,18 @@ constexpr std::uint64_t kWrapWindow = 1024;
 // was merely scheduled late on a loaded host.
 constexpr guint kFrameRetentionUs = 1000000;
 
+// The stream socket's receive buffer, in payloads of a frame, and its
+// least size. The kernel charges a datagram its buffers too (a 1.4 KB GVSP
+// packet costs about twice that on loopback), so a buffer of one payload,
+// Aravis' "auto", overflows before a late stream thread reads a small frame's
+// last packets. The kernel caps it at net.core.rmem_max.
+constexpr guint kSocketBufferPayloads = 4;
+constexpr guint kLeastSocketBufferBytes = 1u << 20;
+
+// Streams made before one gets a port no other camera of the rig holds
+// (stream_ports.h: a collision is about 1 in 7000).
+constexpr int kStreamAttempts = 8;
+
 std::uint64_t FrameIdGap(std::uint64_t last, std::uint64_t id) {
   if (id > last) return id - last - 1;
   if (last <= kLargestShortFrameId && last > kLargestShortFrameId - kWrapWindow && id >= 1 && id < kWrapWindow) {
@@ -58,6 +70,7 @@ struct AravisCamera::Device {
   gulong control_lost_handler = 0;
   std::atomic<bool> control_lost{false};
   bool acquiring = false;
+  std::uint16_t stream_port = 0;  // held in the rig's StreamPorts; 0: none
   // The stream's buffers point into these; they outlive the stream.
   std::vector<std::vector<std::byte>> pool;
 
@@ -187,6 +200,12 @@ void AravisCamera::Open() {
     info_.bit_depth = native_format_.bit_depth;
 
     if (arv_camera_is_gv_device(cam)) {
+      // A plain UDP socket, not Aravis' packet socket: that one takes every
+      // packet on the interface until its filter is attached, so a stream
+      // started while another camera of the rig sends can complete that
+      // camera's frame as its own (seen with two served cameras on one
+      // loopback, at the first frame after a stream starts).
+      arv_camera_gv_set_stream_options(cam, ARV_GV_STREAM_OPTION_PACKET_SOCKET_DISABLED);
       if (options_.packet_size > 0) {
         arv_camera_gv_set_packet_size(cam, options_.packet_size, &error);
         Check("setting the packet size", error);
@@ -273,14 +292,16 @@ void AravisCamera::StartStream() {
   const guint payload = arv_camera_get_payload(cam, &error);
   Check("reading PayloadSize", error);
   if (device_->stream == nullptr) {
-    device_->stream = arv_camera_create_stream(cam, nullptr, nullptr, &error);
-    if (device_->stream == nullptr) Fail("creating the stream", error);
+    CreateStream();
     if (ARV_IS_GV_STREAM(device_->stream)) {
-      // A receive buffer sized to a whole frame, so that a stream thread
+      // A receive buffer that holds a whole frame, so that a stream thread
       // scheduled late loses no packet.
+      const guint buffer_bytes = std::max(kLeastSocketBufferBytes, kSocketBufferPayloads * payload);
       g_object_set(device_->stream, "packet-resend",
                    options_.packet_resend ? ARV_GV_STREAM_PACKET_RESEND_ALWAYS : ARV_GV_STREAM_PACKET_RESEND_NEVER,
-                   "socket-buffer", ARV_GV_STREAM_SOCKET_BUFFER_AUTO, "frame-retention", kFrameRetentionUs, nullptr);
+                   "socket-buffer", ARV_GV_STREAM_SOCKET_BUFFER_FIXED, "socket-buffer-size",
+                   static_cast<gint>(std::min<guint>(buffer_bytes, G_MAXINT)), "frame-retention", kFrameRetentionUs,
+                   nullptr);
     }
     device_->pool.assign(options_.buffer_count, std::vector<std::byte>(payload));
     for (auto& memory : device_->pool) {
@@ -296,6 +317,28 @@ void AravisCamera::StartStream() {
   owed_frames_ = 0;
 }
 
+void AravisCamera::CreateStream() {
+  ArvCamera* cam = Connected();
+  for (int attempt = 1;; ++attempt) {
+    GError* error = nullptr;
+    device_->stream = arv_camera_create_stream(cam, nullptr, nullptr, &error);
+    if (device_->stream == nullptr) Fail("creating the stream", error);
+    if (!options_.stream_ports || !ARV_IS_GV_STREAM(device_->stream)) return;
+    // A port another camera of the rig holds would share its packets.
+    const std::uint16_t port = arv_gv_stream_get_port(ARV_GV_STREAM(device_->stream));
+    if (options_.stream_ports->Claim(port)) {
+      device_->stream_port = port;
+      return;
+    }
+    g_object_unref(device_->stream);
+    device_->stream = nullptr;
+    if (attempt == kStreamAttempts) {
+      throw DeviceError("camera " + options_.id + ": " + std::to_string(kStreamAttempts) +
+                        " streams in a row got a port another camera's stream holds");
+    }
+  }
+}
+
 void AravisCamera::StopStream() {
   if (!device_) return;
   if (device_->acquiring && device_->camera && !device_->control_lost) {
@@ -309,6 +352,8 @@ void AravisCamera::StopStream() {
     g_object_unref(device_->stream);
     device_->stream = nullptr;
   }
+  if (device_->stream_port != 0) options_.stream_ports->Release(device_->stream_port);
+  device_->stream_port = 0;
   device_->pool.clear();
 }
 

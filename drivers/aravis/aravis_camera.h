@@ -16,6 +16,7 @@
 #include <string>
 
 #include "drivers/aravis/pixel_format.h"
+#include "drivers/aravis/stream_ports.h"
 #include "drivers/camera.h"
 
 struct _GError;     // GLib's GError and Aravis' camera and buffer, without
@@ -40,6 +41,9 @@ struct AravisCameraOptions {
   // with the most bits.
   std::string native_pixel_format;
   std::string mono_pixel_format;
+  // The ports the rig's other cameras' streams hold (drivers/aravis/
+  // stream_ports.h); null for a camera on its own.
+  std::shared_ptr<StreamPorts> stream_ports;
 
   // "" when usable, else what is wrong, naming the field.
   std::string Check() const;
@@ -84,6 +88,8 @@ class AravisCamera : public Camera {
   // The open camera; DisconnectedError when a reopen failed and left none.
   ::_ArvCamera* Connected() const;
   void StartStream();
+  // The stream, on a port no other camera of the rig holds (StreamPorts).
+  void CreateStream();
   void StopStream();
   void ApplySettings();
   // Sets a float feature after checking it against the device's bounds.

@@ -12,6 +12,7 @@ std::unique_ptr<Camera> AravisRigBackend::MakeCamera(const formats::RigDescripti
   AravisCameraOptions options;
   options.id = description.id;
   options.device = description.device;
+  options.stream_ports = stream_ports_;
   auto camera = std::make_unique<AravisCamera>(options);
   // The description's sensor is what calibration and processing assume.
   const CameraInfo info = camera->info();

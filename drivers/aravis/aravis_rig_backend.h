@@ -5,6 +5,7 @@
 #include <memory>
 #include <string>
 
+#include "drivers/aravis/stream_ports.h"
 #include "drivers/rig.h"
 
 namespace mesocap::drivers::aravis {
@@ -13,6 +14,10 @@ class AravisRigBackend : public RigBackend {
  public:
   std::string name() const override { return "aravis"; }
   std::unique_ptr<Camera> MakeCamera(const formats::RigDescription& rig, int camera_index) override;
+
+ private:
+  // Shared by the cameras it makes: their streams' ports.
+  std::shared_ptr<StreamPorts> stream_ports_ = std::make_shared<StreamPorts>();
 };
 
 // Reopens each of `rig`'s Aravis cameras that no longer answers (unplugged,

@@ -68,10 +68,10 @@ class PatternCamera : public Camera {
   }
   CameraSettings last_settings;
   std::chrono::milliseconds render_time{0};  // how long a frame takes to make
+  int frames_ = 0;  // the next frame's number
 
  private:
   CameraSettings settings_;
-  int frames_ = 0;
 };
 
 // Pixels of `f` that differ from the pattern of the frame number it carries
@@ -151,6 +151,43 @@ TEST(AravisCamera, SoftwareTriggeredFramesArriveExact) {
     EXPECT_EQ(f.bit_depth, 12);
     EXPECT_EQ(f.sequence, static_cast<std::uint64_t>(i));
   }
+}
+
+// Two cameras of a rig on one interface whose streams restart together (a
+// pixel-format change) and are triggered one after the other, as the
+// capture runner does: each frame arrives, and is its own camera's. The
+// streams read plain UDP sockets (Aravis' packet socket, which takes every
+// packet on the interface until its filter is attached, once completed the
+// other camera's frame); a small frame's packets fit the socket's buffer.
+TEST(AravisCamera, TwoCamerasRestartedTogetherEachGetTheirOwnFrames) {
+  auto first = std::make_unique<PatternCamera>();
+  auto second = std::make_unique<PatternCamera>();
+  second->frames_ = 2000;  // its frames carry numbers from 2000 on (pixel (0, 0))
+  std::vector<std::unique_ptr<Camera>> cameras;
+  cameras.push_back(std::move(first));
+  cameras.push_back(std::move(second));
+  sim::ServedCameras served(std::move(cameras), {{"127.0.0.1", "PATTERN01"}, {"127.0.0.2", "PATTERN02"}});
+  AravisCameraOptions first_options = Options(), second_options = Options("127.0.0.2");
+  second_options.id = "cam1";
+  first_options.stream_ports = second_options.stream_ports = std::make_shared<StreamPorts>();
+  AravisCamera a(first_options), b(second_options);
+  a.SetTrigger(TriggerMode::kSoftware);
+  b.SetTrigger(TriggerMode::kSoftware);
+  int mixed = 0;
+  for (int i = 0; i < 100; ++i) {
+    const PixelFormat format = i % 2 ? PixelFormat::kMono : PixelFormat::kNative;
+    a.SetPixelFormat(format);
+    b.SetPixelFormat(format);
+    a.Trigger();
+    b.Trigger();
+    const Frame fa = a.Grab(std::chrono::milliseconds(2000));
+    const Frame fb = b.Grab(std::chrono::milliseconds(2000));
+    const long na = std::lround(fa.image.pixel(0, 0)[0] * kMaxCode);
+    const long nb = std::lround(fb.image.pixel(0, 0)[0] * kMaxCode);
+    mixed += (na >= 2000) + (nb < 2000);
+    EXPECT_EQ(WrongPixels(fa) + WrongPixels(fb), 0);
+  }
+  EXPECT_EQ(mixed, 0) << "frames taken from the other camera";
 }
 
 TEST(AravisCamera, KilledServerGivesDisconnectedThenReopens) {
