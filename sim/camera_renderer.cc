@@ -394,7 +394,7 @@ struct CameraRenderer::RenderCache {
   float plate_albedo = kCalibrationPlateAlbedo;
   CameraView view;
   // The sweep's stripe samples, for the laser at `laser_mount` with the arc
-  // at `laser_arc_rad`; empty until the laser is first on.
+  // at `laser_arc_rad`; empty until the laser is first on, and for a plate.
   std::unique_ptr<LaserSweepRenderer> sweep;
   int laser_mount = 0;
   double laser_arc_rad = 0.0;
@@ -426,7 +426,8 @@ CameraRenderer::RenderCache& CameraRenderer::CachedRender(const SimulatedRigStat
     entry->view =
         plate_height_mm ? TracePlate(camera, *plate_height_mm, plate_albedo) : TraceSample(camera, state.turntable_rad);
   }
-  if (state.laser_on &&
+  // A laser plate is photographed at one tilt: its frame needs no sweep.
+  if (state.laser_on && !plate_height_mm &&
       (!entry->sweep || entry->laser_mount != state.laser_mount || entry->laser_arc_rad != state.light_arc_rad)) {
     entry->sweep = std::make_unique<LaserSweepRenderer>(*this, entry->view, state.laser_mount, state.light_arc_rad,
                                                         kMaxSweptTiltRad);
@@ -491,13 +492,18 @@ core::Image CameraRenderer::Render(const SimulatedRigState& state, int camera, i
     return channels == 1 ? core::ChannelMean(std::move(rgb)) : rgb;
   }
   const RenderCache& cached = CachedRender(state, camera);
+  const auto stripe_frame = [&] {
+    return cached.sweep ? cached.sweep->Frame(state.laser_tilt_rad)
+                        : LaserSweepRenderer::SingleFrame(*this, cached.view, state.laser_mount,
+                                                          state.light_arc_rad, state.laser_tilt_rad);
+  };
   const bool any_lamp = std::find(state.lamps_on.begin(), state.lamps_on.end(), true) != state.lamps_on.end();
-  if (!any_lamp && state.laser_on && channels == 1) return cached.sweep->Frame(state.laser_tilt_rad);
+  if (!any_lamp && state.laser_on && channels == 1) return stripe_frame();
   core::Image image = any_lamp ? RenderLamps(cached.view, state.light_arc_rad, state.lamps_on)
                                : core::Image(cached.view.width, cached.view.height, channels);
   if (channels == 1) image = core::ChannelMean(std::move(image));
   if (state.laser_on) {
-    const core::Image stripe = cached.sweep->Frame(state.laser_tilt_rad);
+    const core::Image stripe = stripe_frame();
     for (int y = 0; y < image.height(); ++y) {
       for (int x = 0; x < image.width(); ++x) {
         for (int c = 0; c < channels; ++c) image.at(x, y, c) += stripe.at(x, y);
@@ -521,6 +527,22 @@ constexpr double kTiltRangePadding = 1e-6;
 constexpr double kMaxBinnedSpan = 0.02;
 constexpr std::size_t kTiltBins = 1 << 16;
 
+// Calls f(y, pixel, index, sample) for each view sample that sees a
+// surface: rows in parallel, a row's samples in pixel order.
+template <typename F>
+void ForEachSurfaceSample(const CameraView& view, F&& f) {
+  tbb::parallel_for(0, view.height, [&](int y) {
+    for (int x = 0; x < view.width; ++x) {
+      const std::size_t pixel = static_cast<std::size_t>(y) * view.width + x;
+      for (int k = 0; k < view.samples_per_pixel; ++k) {
+        const std::size_t index = pixel * view.samples_per_pixel + k;
+        const ViewSample s = view.Sample(index);
+        if (s.surface != ViewSample::Surface::kNothing) f(y, pixel, index, s);
+      }
+    }
+  });
+}
+
 // x in [-pi, pi).
 double WrapAngle(double x) {
   const double two_pi = 2.0 * std::numbers::pi;
@@ -532,7 +554,7 @@ double WrapAngle(double x) {
 }  // namespace
 
 LaserSweepRenderer::LaserSweepRenderer(const CameraRenderer& renderer, const CameraView& view, int mount,
-                                       double arc_rad, double max_tilt_rad)
+                                       double arc_rad, double max_tilt_rad, bool light_samples)
     : view_(view),
       max_tilt_(max_tilt_rad),
       width_(view.width),
@@ -549,38 +571,61 @@ LaserSweepRenderer::LaserSweepRenderer(const CameraRenderer& renderer, const Cam
     throw core::Error("laser sweep: " + std::to_string(view.samples.size()) + " samples in a view, more than " +
                       std::to_string(kIndexMask) + " can be indexed");
   }
-  const double gain = ExposureSeconds(renderer.rig().cameras.at(view.camera)) * kSignalPerRadianceSecond *
-                      renderer.LaserPeakIrradiance();
-  const Eigen::Vector3d centre = renderer.CameraCentre(view.camera);
+  gain_ = ExposureSeconds(renderer.rig().cameras.at(view.camera)) * kSignalPerRadianceSecond *
+          renderer.LaserPeakIrradiance();
+  camera_centre_ = renderer.CameraCentre(view.camera);
+  if (!light_samples) return;
   const formats::CameraCalibration& camera = renderer.calibration().cameras.at(view.camera);
   const int side = renderer.options().samples_per_pixel_side;
   // Per row, the row's lit samples in pixel order, binned in row order.
   std::vector<std::vector<RangedSample>> rows(view.height);
-  tbb::parallel_for(0, view.height, [&](int y) {
-    rows[y].reserve(static_cast<std::size_t>(view.width) * view.samples_per_pixel);
-    for (int x = 0; x < view.width; ++x) {
-      const std::size_t pixel = static_cast<std::size_t>(y) * view.width + x;
-      for (int k = 0; k < view.samples_per_pixel; ++k) {
-        const std::size_t index = pixel * view.samples_per_pixel + k;
-        const ViewSample s = view.Sample(index);
-        if (s.surface == ViewSample::Surface::kNothing) continue;
-        const Eigen::Vector3d l = (source_ - s.Point()).normalized();
-        const double n_dot_l = s.Normal().dot(l);
-        if (n_dot_l <= 0.0 || !renderer.Lit(view, s, source_)) continue;
-        const Eigen::Vector3d to_camera = (centre - s.Point()).normalized();
-        // The pixel averages its samples (a box filter).
-        const double weight =
-            Grey(s.reflectance.Evaluate(s.Normal(), l, to_camera)) * n_dot_l * gain / view.samples_per_pixel;
-        // Sweeps tilt the plane by a few degrees (the stripe must stay on the
-        // turntable), which changes the footprint along it by < 1 - cos(tilt).
-        const double footprint = StripeFootprintVariance(camera, s, n0_, side);
-        AddLit(Stripe(static_cast<std::uint32_t>(index), weight, footprint), s.Point(), &rows[y]);
-      }
-    }
+  for (auto& row : rows) row.reserve(static_cast<std::size_t>(view.width) * view.samples_per_pixel);
+  ForEachSurfaceSample(view, [&](int y, std::size_t, std::size_t index, const ViewSample& s) {
+    const double weight = DirectWeight(renderer, s);
+    if (!(weight > 0.0)) return;
+    // Sweeps tilt the plane by a few degrees (the stripe must stay on the
+    // turntable), which changes the footprint along it by < 1 - cos(tilt).
+    const double footprint = StripeFootprintVariance(camera, s, n0_, side);
+    AddLit(Stripe(static_cast<std::uint32_t>(index), weight, footprint), s.Point(), &rows[y]);
   });
   const int rays = renderer.options().interreflection_rays_per_pixel;
-  if (rays > 0) AddBounces(renderer, view, gain, rays, &rows);
+  if (rays > 0) AddBounces(renderer, view, gain_, rays, &rows);
   Bin(rows);
+}
+
+LaserSweepRenderer::LaserSweepRenderer(const CameraRenderer& renderer, const CameraView& view, int mount,
+                                       double arc_rad, double max_tilt_rad)
+    : LaserSweepRenderer(renderer, view, mount, arc_rad, max_tilt_rad, true) {}
+
+double LaserSweepRenderer::DirectWeight(const CameraRenderer& renderer, const ViewSample& s) const {
+  const Eigen::Vector3d l = (source_ - s.Point()).normalized();
+  const double n_dot_l = s.Normal().dot(l);
+  if (n_dot_l <= 0.0 || !renderer.Lit(view_, s, source_)) return 0.0;
+  const Eigen::Vector3d to_camera = (camera_centre_ - s.Point()).normalized();
+  // The pixel averages its samples (a box filter).
+  return Grey(s.reflectance.Evaluate(s.Normal(), l, to_camera)) * n_dot_l * gain_ / view_.samples_per_pixel;
+}
+
+core::Image LaserSweepRenderer::SingleFrame(const CameraRenderer& renderer, const CameraView& view, int mount,
+                                            double arc_rad, double tilt_rad) {
+  const LaserSweepRenderer plane(renderer, view, mount, arc_rad, std::numbers::pi, false);
+  const double cos_t = std::cos(tilt_rad);
+  const double sin_t = std::sin(tilt_rad);
+  const formats::CameraCalibration& camera = renderer.calibration().cameras.at(view.camera);
+  const int side = renderer.options().samples_per_pixel_side;
+  const double cutoff2 = kStripeCutoffSigmas * kStripeCutoffSigmas / 2.0;  // as in Frame
+  core::Image out(view.width, view.height, 1);
+  float* values = out.data();
+  ForEachSurfaceSample(view, [&](int, std::size_t pixel, std::size_t, const ViewSample& s) {
+    const Distance c = plane.DistanceOf(s.Point());
+    const double d = cos_t * c.a + sin_t * c.b + c.c;
+    const double footprint = StripeFootprintVariance(camera, s, plane.n0_, side);
+    const double exponent = d * d * plane.Stripe(0, 1.0, footprint).inv_two_sigma2;
+    if (!(exponent < cutoff2)) return;
+    const LitSample lit = plane.Stripe(0, plane.DirectWeight(renderer, s), footprint);
+    if (lit.weight > 0.0f) values[pixel] += static_cast<float>(lit.weight * std::exp(-exponent));
+  });
+  return out;
 }
 
 LaserSweepRenderer::Distance LaserSweepRenderer::DistanceOf(const Eigen::Vector3d& point) const {

@@ -272,7 +272,20 @@ class LaserSweepRenderer {
   // 1 channel, before the sensor.
   core::Image Frame(double tilt_rad) const;
 
+  // One frame without the sweep: each sample's distance from the plane at
+  // `tilt_rad` is tested first, and only the samples within the cutoff are
+  // lit. Direct light only (no interreflection: that needs the whole view's
+  // bounce points), so for a view with no mesostructure in it, as a laser
+  // plate's: there it equals Frame(tilt_rad) but for the order in which a
+  // pixel adds its samples, at a tiny fraction of building the sweep.
+  static core::Image SingleFrame(const CameraRenderer& renderer, const CameraView& view, int mount, double arc_rad,
+                                 double tilt_rad);
+
  private:
+  // The plane's geometry and the stripe's width only; the public
+  // constructor then lights and bins the view's samples.
+  LaserSweepRenderer(const CameraRenderer& renderer, const CameraView& view, int mount, double arc_rad,
+                     double max_tilt_rad, bool light_samples);
   // The signed distance of a point from the plane at tilt t is
   // cos(t) a + sin(t) b + c (Rodrigues' rotation of the tilt-0 normal), with
   // a, b, c linear in the point, computed from it at every frame so that a
@@ -311,6 +324,10 @@ class LaserSweepRenderer {
     float begin = 0, end = 0;
   };
   Distance DistanceOf(const Eigen::Vector3d& point) const;
+  // The signal a view sample gets at the stripe's peak (MDF paper Sec. 3.2:
+  // a diffuse-lit point seen through its pixel's box filter); 0 where the
+  // source is behind its surface or hidden from it.
+  double DirectWeight(const CameraRenderer& renderer, const ViewSample& s) const;
   // The stripe's weight and Gaussian for a sample of peak signal `weight`
   // whose distance from the plane varies by `footprint_variance` (mm^2)
   // over its footprint.
@@ -340,6 +357,9 @@ class LaserSweepRenderer {
   int width_ = 0;
   int height_ = 0;
   double sigma_mm_ = 1.0;
+  // The view's camera centre and the peak signal per unit reflectance.
+  Eigen::Vector3d camera_centre_ = Eigen::Vector3d::Zero();
+  double gain_ = 0.0;
   std::vector<BouncePoint> bounces_;
   // A binned lit sample keeps its range's end and its point: a frame
   // visits every bin that a range holding its tilt can start in, passes

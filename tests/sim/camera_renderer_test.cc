@@ -284,6 +284,7 @@ TEST(CameraRendererTest, SweepFramesEqualTheSumOverEveryLitSample) {
   for (const double tilt : tilts) {
     const LaserPlane plane = renderer.LaserPlaneAt(loc.mount, loc.arc_angle_rad, tilt);
     const core::Image frame = sweep.Frame(tilt);
+    const core::Image single = LaserSweepRenderer::SingleFrame(renderer, view, loc.mount, loc.arc_angle_rad, tilt);
     for (int y = 0; y < view.height; ++y) {
       for (int x = 0; x < view.width; ++x) {
         double expected = 0.0;
@@ -311,12 +312,36 @@ TEST(CameraRendererTest, SweepFramesEqualTheSumOverEveryLitSample) {
         lit_pixels += expected > 1e-3 ? 1 : 0;
         widened_pixels += expected > 1e-3 && widened ? 1 : 0;
         ASSERT_NEAR(frame.at(x, y), expected, 1e-6 + 1e-4 * expected) << "tilt " << tilt << " pixel " << x << ", " << y;
+        ASSERT_NEAR(single.at(x, y), expected, 1e-6 + 1e-4 * expected) << "tilt " << tilt << " pixel " << x << ", " << y;
       }
     }
   }
   EXPECT_GT(lit_pixels, 500);
   EXPECT_GT(widened_pixels, 50) << "the tiny rig's 2 x 2 samples are wider than the stripe on slanted threads";
   EXPECT_LT(edge_on_pixels, lit_pixels / 10);
+}
+
+// A laser plate's frame without the sweep (as CameraRenderer renders the
+// plate steps) is the sweep's frame but for the order in which a pixel adds
+// its samples: float rounding, 1e-6 of the value.
+TEST(CameraRendererTest, APlateFrameWithoutTheSweepIsTheSweepsFrame) {
+  const auto rig = LoadRig("small");
+  const auto scene = MakeBuiltinScene("weave");
+  const CameraRenderer renderer(*scene, rig, {3});
+  const CameraView plate = renderer.TracePlate(2, 4.0);
+  const auto& loc = rig.laser.locations[1];
+  const LaserSweepRenderer sweep(renderer, plate, loc.mount, loc.arc_angle_rad);
+  int lit = 0;
+  for (const double offset : {-5.0, 0.0, 2.5}) {
+    const double tilt = calibration::LaserTiltForOffset(rig.laser, loc.mount, offset);
+    const core::Image frame = sweep.Frame(tilt);
+    const core::Image single = LaserSweepRenderer::SingleFrame(renderer, plate, loc.mount, loc.arc_angle_rad, tilt);
+    for (std::size_t i = 0; i < frame.size(); ++i) {
+      lit += frame.data()[i] > 1e-3f ? 1 : 0;
+      ASSERT_NEAR(single.data()[i], frame.data()[i], 1e-6f * (1.0f + frame.data()[i])) << "tilt " << tilt << " pixel " << i;
+    }
+  }
+  EXPECT_GT(lit, 300);
 }
 
 // A sweep kept for tilts within a quarter turn (as CameraRenderer keeps
