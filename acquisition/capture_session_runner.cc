@@ -220,6 +220,7 @@ class SessionRun {
       const double wanted = exposure_us ? *exposure_us : DescriptionExposure(files[i].camera);
       if (c->settings().exposure_us != wanted) c->SetExposure(wanted);
     }
+    for (drivers::Camera* c : cameras) c->StartAcquisition();
     for (drivers::Camera* c : cameras) c->Trigger();
     std::vector<core::Image> images;
     for (drivers::Camera* c : cameras) {

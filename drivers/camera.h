@@ -77,6 +77,11 @@ class Camera {
   virtual void SetPixelFormat(PixelFormat format) = 0;
   virtual void SetTrigger(TriggerMode mode) = 0;
 
+  // Gets ready for triggers after a setting changed (GenICam's
+  // AcquisitionStart; Trigger does it too when needed). A step starts every
+  // camera it uses before it triggers any: a GigE Vision stream started while
+  // another camera of the rig sends can take that camera's frame for its own.
+  virtual void StartAcquisition() {}
   // Starts exposing one frame (kSoftware mode). A frame that arrived before
   // it answers an earlier trigger and is discarded, not handed out.
   virtual void Trigger() = 0;

@@ -29,10 +29,12 @@ constexpr std::uint64_t kWrapWindow = 1024;
 constexpr guint kFrameRetentionUs = 1000000;
 
 // The stream socket's receive buffer, in payloads of a frame, and its
-// least size. The kernel charges a datagram its buffers too (a 1.4 KB GVSP
-// packet costs about twice that on loopback), so a buffer of one payload,
-// Aravis' "auto", overflows before a late stream thread reads a small frame's
-// last packets. The kernel caps it at net.core.rmem_max.
+// least size, for a process that cannot open Aravis' packet socket (no
+// CAP_NET_RAW) and receives on the UDP socket. The kernel charges a
+// datagram its buffers too (a 1.4 KB GVSP packet costs about twice that on
+// loopback), so a buffer of one payload, Aravis' "auto", overflows before a
+// late stream thread reads a small frame's last packets. The kernel caps it
+// at net.core.rmem_max.
 constexpr guint kSocketBufferPayloads = 4;
 constexpr guint kLeastSocketBufferBytes = 1u << 20;
 
@@ -200,12 +202,6 @@ void AravisCamera::Open() {
     info_.bit_depth = native_format_.bit_depth;
 
     if (arv_camera_is_gv_device(cam)) {
-      // A plain UDP socket, not Aravis' packet socket: that one takes every
-      // packet on the interface until its filter is attached, so a stream
-      // started while another camera of the rig sends can complete that
-      // camera's frame as its own (seen with two served cameras on one
-      // loopback, at the first frame after a stream starts).
-      arv_camera_gv_set_stream_options(cam, ARV_GV_STREAM_OPTION_PACKET_SOCKET_DISABLED);
       if (options_.packet_size > 0) {
         arv_camera_gv_set_packet_size(cam, options_.packet_size, &error);
         Check("setting the packet size", error);
@@ -426,6 +422,13 @@ void AravisCamera::SetTrigger(TriggerMode mode) {
     Check("clearing the triggers", error);
   }
   settings_.trigger = mode;
+}
+
+void AravisCamera::StartAcquisition() {
+  // Aravis' packet socket takes every packet on the interface until its
+  // filter is attached: started after another camera's trigger, this
+  // stream completed that camera's frame as its own.
+  if (settings_.trigger == TriggerMode::kSoftware) StartStream();
 }
 
 void AravisCamera::Trigger() {

@@ -68,6 +68,8 @@ class AravisCamera : public Camera {
   void SetRegion(const CameraRegion& region) override;
   void SetPixelFormat(PixelFormat format) override;
   void SetTrigger(TriggerMode mode) override;
+  // In kSoftware mode, the stream a setting stopped.
+  void StartAcquisition() override;
   void Trigger() override;
   Frame Grab(std::chrono::milliseconds timeout) override;
 

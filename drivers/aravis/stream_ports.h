@@ -1,9 +1,11 @@
 // The UDP ports the streams of one rig's GigE Vision cameras receive on.
 // Aravis binds a stream's socket with SO_REUSEADDR and SO_REUSEPORT, so the
 // kernel may give a new stream the port of one still open (about 1 in 7000
-// bindings here); it then hands each camera's packets to either socket, and
-// a camera's frame can complete on the other camera's stream. A camera
-// whose new stream got a port another camera holds makes the stream again.
+// bindings here). Where Aravis receives on that socket (a process without
+// CAP_NET_RAW has no packet socket), the kernel then hands each camera's
+// packets to either socket, and a camera's frame can complete on the other
+// camera's stream. A camera whose new stream got a port another camera
+// holds makes the stream again.
 #pragma once
 
 #include <cstdint>

@@ -155,10 +155,8 @@ TEST(AravisCamera, SoftwareTriggeredFramesArriveExact) {
 
 // Two cameras of a rig on one interface whose streams restart together (a
 // pixel-format change) and are triggered one after the other, as the
-// capture runner does: each frame arrives, and is its own camera's. The
-// streams read plain UDP sockets (Aravis' packet socket, which takes every
-// packet on the interface until its filter is attached, once completed the
-// other camera's frame); a small frame's packets fit the socket's buffer.
+// capture runner does (both started, then both triggered): each frame
+// arrives, and is its own camera's.
 TEST(AravisCamera, TwoCamerasRestartedTogetherEachGetTheirOwnFrames) {
   auto first = std::make_unique<PatternCamera>();
   auto second = std::make_unique<PatternCamera>();
@@ -178,6 +176,8 @@ TEST(AravisCamera, TwoCamerasRestartedTogetherEachGetTheirOwnFrames) {
     const PixelFormat format = i % 2 ? PixelFormat::kMono : PixelFormat::kNative;
     a.SetPixelFormat(format);
     b.SetPixelFormat(format);
+    a.StartAcquisition();
+    b.StartAcquisition();
     a.Trigger();
     b.Trigger();
     const Frame fa = a.Grab(std::chrono::milliseconds(2000));
