@@ -156,7 +156,9 @@ TEST(AravisCamera, SoftwareTriggeredFramesArriveExact) {
 // Two cameras of a rig on one interface whose streams restart together (a
 // pixel-format change) and are triggered one after the other, as the
 // capture runner does (both started, then both triggered): each frame
-// arrives, and is its own camera's.
+// arrives, and is its own camera's. (The race this order closes has a
+// window of about a millisecond: a looped served session shows it, this
+// test does not; docs/BENCHMARKS.md.)
 TEST(AravisCamera, TwoCamerasRestartedTogetherEachGetTheirOwnFrames) {
   auto first = std::make_unique<PatternCamera>();
   auto second = std::make_unique<PatternCamera>();
@@ -172,7 +174,8 @@ TEST(AravisCamera, TwoCamerasRestartedTogetherEachGetTheirOwnFrames) {
   a.SetTrigger(TriggerMode::kSoftware);
   b.SetTrigger(TriggerMode::kSoftware);
   int mixed = 0;
-  for (int i = 0; i < 100; ++i) {
+  // 40 restarts: a one-payload socket buffer lost a frame within 2 to 18.
+  for (int i = 0; i < 40; ++i) {
     const PixelFormat format = i % 2 ? PixelFormat::kMono : PixelFormat::kNative;
     a.SetPixelFormat(format);
     b.SetPixelFormat(format);
