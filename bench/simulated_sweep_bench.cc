@@ -17,6 +17,7 @@
 #include "sim/builtin_scenes.h"
 #include "sim/camera_renderer.h"
 #include "sim/camera_sensor.h"
+#include "sim/laser_sweep_renderer.h"
 #include "sim/shipped_rigs.h"
 
 namespace {

@@ -17,6 +17,7 @@
 #include "calibration/rig_frames.h"
 #include "core/angles.h"
 #include "sim/camera_sensor.h"
+#include "sim/laser_sweep_renderer.h"
 #include "tests/common/flat_small_rig.h"
 
 namespace mesocap::calibration {

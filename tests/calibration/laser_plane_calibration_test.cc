@@ -19,6 +19,7 @@
 #include "mdf/laser_sweep.h"
 #include "sim/camera_renderer.h"
 #include "sim/camera_sensor.h"
+#include "sim/laser_sweep_renderer.h"
 #include "tests/common/flat_small_rig.h"
 
 namespace mesocap::calibration {

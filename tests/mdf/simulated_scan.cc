@@ -12,6 +12,7 @@
 #include "sim/camera_renderer.h"
 #include "sim/camera_sensor.h"
 #include "sim/ground_truth.h"
+#include "sim/laser_sweep_renderer.h"
 #include "sim/shipped_rigs.h"
 #include "sim/true_calibration.h"
 

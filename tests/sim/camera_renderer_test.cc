@@ -20,6 +20,7 @@
 #include "formats/capture_session.h"
 #include "formats/frame_sequence.h"
 #include "sim/camera_sensor.h"
+#include "sim/laser_sweep_renderer.h"
 #include "sim/shipped_rigs.h"
 #include "tests/common/error_of.h"
 #include "tests/common/temporary_directory.h"
