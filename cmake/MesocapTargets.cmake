@@ -103,7 +103,8 @@ endfunction()
 #             `quick` tests only where they are `sanitize` too);
 #   accuracy  end-to-end accuracy on the small and paper rigs (minutes of CPU);
 #   served    cameras served over GigE Vision on loopback, in a network
-#             namespace of the test's own, RUN_SERIAL;
+#             namespace of the test's own (mostly waiting on the network:
+#             scripts/test.sh runs three at a time);
 #   browser   the daemon's status page in headless Chromium.
 # The release suite is every test but `served` and `browser`, which
 # scripts/test.sh runs after it.

@@ -4,8 +4,9 @@
 #
 #   release, debug: every test but those labelled `served` and `browser`,
 #     then those (served GigE Vision cameras in network namespaces of their
-#     own, RUN_SERIAL; the status page in headless Chromium), once each: a
-#     test that needs a second try is a failing test;
+#     own; the status page in headless Chromium), once each, three at a
+#     time (they mostly wait on the network): a test that needs a second try
+#     is a failing test;
 #   sanitize: the sanitize tier under ASan and UBSan (the preset's filter);
 #   quick: the inner loop on the release build (ctest --preset quick).
 # docs/DEVELOPING.md says what each tier holds and how long it takes.
@@ -23,6 +24,6 @@ case "$tier" in
     ;;
   *)
     ctest --preset "$preset" -LE 'served|browser'
-    ctest --preset "$preset" -L 'served|browser'
+    ctest --preset "$preset" -L 'served|browser' --parallel 3
     ;;
 esac
