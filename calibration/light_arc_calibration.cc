@@ -206,6 +206,220 @@ std::vector<ReflectedRay> ReflectedRays(const formats::Calibration& geometry,
   return rays;
 }
 
+
+// The highlights whose pixels all meet the sphere where it is described,
+// centred on `cup`; the others are reported in `left_out`. `rays_of` keeps
+// the rays of the cameras the highlights point to; `ray_count` counts each
+// lamp's highlights.
+std::vector<UsableHighlight> FindUsableHighlights(const formats::Calibration& geometry,
+                                                  const std::vector<HighlightObservation>& seen,
+                                                  const Eigen::Vector3d& cup, double radius, double min_cos,
+                                                  std::map<int, CameraRays>* rays_of, std::vector<int>* ray_count,
+                                                  std::vector<LeftOutHighlight>* left_out) {
+  std::vector<UsableHighlight> usable;
+  for (const HighlightObservation& h : seen) {
+    if (h.camera < 0 || h.camera >= static_cast<int>(geometry.cameras.size()) || h.lamp < 0 ||
+        h.lamp >= static_cast<int>(geometry.lamps.size())) {
+      throw core::Error(h.name + ": camera " + std::to_string(h.camera) + " or lamp " + std::to_string(h.lamp) +
+                        " is not in the calibration");
+    }
+    auto it = rays_of->find(h.camera);
+    if (it == rays_of->end()) it = rays_of->emplace(h.camera, CameraRays(geometry.cameras[h.camera])).first;
+    std::string problem;
+    const Eigen::Vector3d centre = WorldFromSample(geometry.turntable, h.turntable_rad).Apply(cup);
+    if (!MeanReflectedRay(it->second, h.pixels, centre, radius, min_cos, &problem)) {
+      left_out->push_back({h.name, problem});
+      continue;
+    }
+    usable.push_back({&h, &it->second});
+    ++(*ray_count)[h.lamp];
+  }
+  return usable;
+}
+
+// The fit's unknowns, and its problem, which points to them.
+struct LightArcFit {
+  std::vector<std::array<double, 3>> lamp;
+  std::vector<double> distance;  // each lamp's nominal one: the scale of its ray angles
+  Eigen::Vector3d b1, b2;        // across the nominal axis
+  std::array<double, 2> offset = {0.0, 0.0};
+  std::array<double, 3> axis;
+  std::array<double, 3> cup;
+  std::unique_ptr<ceres::Problem> problem;
+  ceres::Solver::Summary summary;
+  int tangent_parameters = 0;
+};
+
+// Start: each lamp at its nominal distance along its rays, turned back into
+// the nominal arc's frame and averaged (their nearest point can lie back at
+// the sphere, where they all start); the arc's axis nominal, the sphere's
+// cup at `cup_start`.
+void StartLightArcFit(const formats::Calibration& geometry, const std::vector<ReflectedRay>& rays,
+                      const std::vector<int>& ray_count, const Eigen::Vector3d& cup_start, LightArcFit* fit) {
+  const formats::LightArcCalibration& nominal = geometry.light_arc;
+  fit->lamp.resize(geometry.lamps.size());
+  fit->distance.assign(geometry.lamps.size(), 1.0);
+  for (std::size_t l = 0; l < geometry.lamps.size(); ++l) {
+    const std::string& id = geometry.lamps[l].id;
+    if (ray_count[l] < 2) {
+      throw core::Error("lamp " + core::Quoted(id) + ": " + std::to_string(ray_count[l]) +
+                        " usable highlight(s) on the mirror sphere; its position needs two or more (cameras or "
+                        "arc angles)");
+    }
+    fit->distance[l] = geometry.lamps[l].position_mm.norm();
+    Eigen::Vector3d start = Eigen::Vector3d::Zero();
+    for (const ReflectedRay& r : rays) {
+      if (r.lamp == static_cast<int>(l))
+        start += LightArcPointToWorld(nominal, -r.arc_rad, r.origin + fit->distance[l] * r.dir);
+    }
+    start /= ray_count[l];
+    for (int i = 0; i < 3; ++i) fit->lamp[l][i] = start[i];
+  }
+  const Eigen::Vector3d nominal_dir = nominal.axis_direction.normalized();
+  Perpendiculars(nominal_dir, &fit->b1, &fit->b2);
+  fit->axis = {nominal_dir.x(), nominal_dir.y(), nominal_dir.z()};
+  fit->cup = {cup_start.x(), cup_start.y(), cup_start.z()};
+}
+
+// The axis is observed when some lamp is seen at two arc angles.
+void NoteWhetherArcAxisIsObserved(const std::vector<ReflectedRay>& rays, LightArcResult* result) {
+  std::map<int, std::vector<double>> arcs_of_lamp;
+  for (const ReflectedRay& r : rays) arcs_of_lamp[r.lamp].push_back(r.arc_rad);
+  for (auto& [l, arcs] : arcs_of_lamp) {
+    const auto [lo, hi] = std::minmax_element(arcs.begin(), arcs.end());
+    if (*hi - *lo > 1e-6) result->axis_estimated = true;
+  }
+  if (!result->axis_estimated) {
+    result->warnings.push_back(
+        "the lamps were imaged at one light-arc angle only: the arc's axis is the nominal one, not estimated");
+  }
+}
+
+// The lamps, the sphere's cup and, where observed, the arc's axis fitted to
+// the rays' angles. Twice: the rays are first order in the cup's move, so
+// they are recomputed where the first fit put the cup and the fit repeated.
+void FitLightArcTwice(const formats::Calibration& geometry, const std::vector<UsableHighlight>& usable,
+                      double radius, double min_cos, bool axis_estimated, std::vector<ReflectedRay>* rays,
+                      LightArcFit* fit) {
+  const formats::LightArcCalibration& nominal = geometry.light_arc;
+  for (int pass = 0; pass < 2; ++pass) {
+    if (pass > 0) {
+      *rays = ReflectedRays(geometry, usable, Eigen::Vector3d(fit->cup[0], fit->cup[1], fit->cup[2]), radius, min_cos);
+    }
+    fit->problem = std::make_unique<ceres::Problem>();
+    for (const ReflectedRay& r : *rays) {
+      fit->problem->AddResidualBlock(
+          new ceres::AutoDiffCostFunction<RayAngle, 2, 3, 2, 3, 3>(
+              new RayAngle{r, nominal.axis_point_mm, fit->b1, fit->b2, fit->distance[r.lamp]}),
+          nullptr, fit->axis.data(), fit->offset.data(), fit->lamp[r.lamp].data(), fit->cup.data());
+    }
+    fit->problem->SetManifold(fit->axis.data(), new ceres::SphereManifold<3>());
+    fit->tangent_parameters = 3 * static_cast<int>(geometry.lamps.size()) + 3;
+    if (axis_estimated) {
+      fit->tangent_parameters += 4;
+    } else {
+      fit->problem->SetParameterBlockConstant(fit->axis.data());
+      fit->problem->SetParameterBlockConstant(fit->offset.data());
+    }
+    ceres::Solver::Options solver;
+    solver.linear_solver_type = ceres::DENSE_QR;
+    solver.max_num_iterations = 200;
+    solver.function_tolerance = 1e-14;
+    solver.parameter_tolerance = 1e-14;
+    ceres::Solve(solver, fit->problem.get(), &fit->summary);
+    if (!fit->summary.IsSolutionUsable()) throw core::Error("light arc: the fit failed: " + fit->summary.message);
+  }
+}
+
+// The fitted lamps, sphere and (where estimated) arc into `result`, their
+// sigmas not a number until the covariance gives them.
+void SetLightArcEstimates(const formats::Calibration& geometry, const std::vector<ReflectedRay>& rays,
+                          const LightArcFit& fit, int residuals, LightArcResult* result) {
+  result->highlights_used = static_cast<int>(rays.size());
+  result->ray_residual_rms_mm = std::sqrt(2.0 * fit.summary.final_cost / residuals);
+  result->sphere_centre_mm = Eigen::Vector3d(fit.cup[0], fit.cup[1], fit.cup[2]);
+  result->sphere_centre_sigma_mm = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  const Eigen::Vector3d axis_dir(fit.axis[0], fit.axis[1], fit.axis[2]);
+  const Eigen::Vector3d q = geometry.light_arc.axis_point_mm + fit.offset[0] * fit.b1 + fit.offset[1] * fit.b2;
+  if (result->axis_estimated) {
+    result->light_arc.axis_direction = axis_dir.normalized();
+    result->light_arc.axis_point_mm = q;
+  }
+  for (std::size_t l = 0; l < geometry.lamps.size(); ++l) {
+    result->lamp_ids.push_back(geometry.lamps[l].id);
+    result->lamp_position.emplace_back(fit.lamp[l][0], fit.lamp[l][1], fit.lamp[l][2]);
+    result->lamp_position_sigma.push_back(Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN()));
+  }
+}
+
+// Sigmas: (J^T J)^-1 scaled by the residuals' variance. False, with why in
+// result->too_uncertain, where the fit has no uncertainty.
+bool SetLightArcSigmas(const LightArcFit& fit, int residuals, LightArcResult* result) {
+  const int dof = residuals - fit.tangent_parameters;
+  if (dof <= 0) {
+    result->too_uncertain = "as many unknowns as ray angles: no uncertainty";
+    return false;
+  }
+  const double variance = 2.0 * fit.summary.final_cost / dof;
+  ceres::Covariance::Options covariance_options;
+  covariance_options.algorithm_type = ceres::DENSE_SVD;
+  covariance_options.min_reciprocal_condition_number = 1e-20;
+  ceres::Covariance covariance(covariance_options);
+  std::vector<std::pair<const double*, const double*>> blocks;
+  for (const auto& p : fit.lamp) blocks.emplace_back(p.data(), p.data());
+  if (result->axis_estimated) {
+    blocks.emplace_back(fit.axis.data(), fit.axis.data());
+    blocks.emplace_back(fit.offset.data(), fit.offset.data());
+  }
+  blocks.emplace_back(fit.cup.data(), fit.cup.data());
+  if (!covariance.Compute(blocks, fit.problem.get())) {
+    result->too_uncertain = "the lamps' and arc's parameters are not all observed (singular fit): no uncertainty";
+    return false;
+  }
+  Eigen::Matrix3d cc;
+  covariance.GetCovarianceBlock(fit.cup.data(), fit.cup.data(), cc.data());
+  result->sphere_centre_sigma_mm = (variance * cc.diagonal()).cwiseSqrt();
+  for (std::size_t l = 0; l < fit.lamp.size(); ++l) {
+    Eigen::Matrix3d c;
+    covariance.GetCovarianceBlock(fit.lamp[l].data(), fit.lamp[l].data(), c.data());
+    result->lamp_position_sigma[l] = (variance * c.diagonal()).cwiseSqrt();
+  }
+  if (result->axis_estimated) {
+    Eigen::Matrix3d ca;
+    covariance.GetCovarianceBlock(fit.axis.data(), fit.axis.data(), ca.data());
+    Eigen::Matrix2d co;
+    covariance.GetCovarianceBlock(fit.offset.data(), fit.offset.data(), co.data());
+    Eigen::Matrix<double, 3, 2> basis;
+    basis << fit.b1, fit.b2;
+    const Eigen::Matrix3d cq = basis * co * basis.transpose();
+    result->light_arc.uncertainty.axis_direction = (variance * ca.diagonal()).cwiseSqrt();
+    result->light_arc.uncertainty.axis_point_mm = (variance * cq.diagonal()).cwiseSqrt();
+  }
+  return true;
+}
+
+// Why the fit is too uncertain where a lamp's or the axis' sigma passes its
+// limit (the first such).
+void CheckLightArcSigmaLimits(const LightArcOptions& options, LightArcResult* result) {
+  for (std::size_t l = 0; l < result->lamp_position_sigma.size(); ++l) {
+    const double worst = result->lamp_position_sigma[l].maxCoeff();
+    if (worst > options.max_lamp_sigma_mm && result->too_uncertain.empty()) {
+      result->too_uncertain = "lamp " + core::Quoted(result->lamp_ids[l]) + "'s position is uncertain to " +
+                              core::Fixed(worst, 1) + " mm (limit " + core::Fixed(options.max_lamp_sigma_mm, 1) +
+                              " mm)";
+    }
+  }
+  if (result->axis_estimated && result->too_uncertain.empty()) {
+    const double direction_deg = core::DegreesFromRadians(result->light_arc.uncertainty.axis_direction->maxCoeff());
+    const double point_mm = result->light_arc.uncertainty.axis_point_mm->maxCoeff();
+    if (direction_deg > options.max_axis_sigma_deg || point_mm > options.max_lamp_sigma_mm) {
+      result->too_uncertain = "the arc's axis is uncertain to " + core::Fixed(direction_deg, 3) + " degrees and " +
+                              core::Fixed(point_mm, 1) + " mm (limits " + core::Fixed(options.max_axis_sigma_deg, 3) +
+                              " degrees, " + core::Fixed(options.max_lamp_sigma_mm, 1) + " mm)";
+    }
+  }
+}
+
 }  // namespace
 
 LightArcResult CalibrateLightArc(const formats::Calibration& geometry, const std::vector<HighlightObservation>& seen,
@@ -217,174 +431,18 @@ LightArcResult CalibrateLightArc(const formats::Calibration& geometry, const std
   result.light_arc = geometry.light_arc;
   const Eigen::Vector3d cup_start(options.sphere_offset_mm, 0.0, options.sphere_centre_height_mm);
 
-  // The highlights whose pixels all meet the sphere where it is described.
   std::map<int, CameraRays> rays_of;
-  std::vector<UsableHighlight> usable;
   std::vector<int> ray_count(geometry.lamps.size(), 0);
-  for (const HighlightObservation& h : seen) {
-    if (h.camera < 0 || h.camera >= static_cast<int>(geometry.cameras.size()) || h.lamp < 0 ||
-        h.lamp >= static_cast<int>(geometry.lamps.size())) {
-      throw core::Error(h.name + ": camera " + std::to_string(h.camera) + " or lamp " + std::to_string(h.lamp) +
-                        " is not in the calibration");
-    }
-    auto it = rays_of.find(h.camera);
-    if (it == rays_of.end()) it = rays_of.emplace(h.camera, CameraRays(geometry.cameras[h.camera])).first;
-    std::string problem;
-    const Eigen::Vector3d centre = WorldFromSample(geometry.turntable, h.turntable_rad).Apply(cup_start);
-    if (!MeanReflectedRay(it->second, h.pixels, centre, radius, min_cos, &problem)) {
-      result.left_out.push_back({h.name, problem});
-      continue;
-    }
-    usable.push_back({&h, &it->second});
-    ++ray_count[h.lamp];
-  }
+  const std::vector<UsableHighlight> usable =
+      FindUsableHighlights(geometry, seen, cup_start, radius, min_cos, &rays_of, &ray_count, &result.left_out);
   std::vector<ReflectedRay> rays = ReflectedRays(geometry, usable, cup_start, radius, min_cos);
-
-  // Start: each lamp at its nominal distance along its rays, turned back
-  // into the nominal arc's frame and averaged (their nearest point can lie
-  // back at the sphere, where they all start).
-  const formats::LightArcCalibration& nominal = geometry.light_arc;
-  std::vector<std::array<double, 3>> lamp(geometry.lamps.size());
-  std::vector<double> distance(geometry.lamps.size(), 1.0);
-  for (std::size_t l = 0; l < geometry.lamps.size(); ++l) {
-    const std::string& id = geometry.lamps[l].id;
-    if (ray_count[l] < 2) {
-      throw core::Error("lamp " + core::Quoted(id) + ": " + std::to_string(ray_count[l]) +
-                        " usable highlight(s) on the mirror sphere; its position needs two or more (cameras or "
-                        "arc angles)");
-    }
-    distance[l] = geometry.lamps[l].position_mm.norm();
-    Eigen::Vector3d start = Eigen::Vector3d::Zero();
-    for (const ReflectedRay& r : rays) {
-      if (r.lamp == static_cast<int>(l))
-        start += LightArcPointToWorld(nominal, -r.arc_rad, r.origin + distance[l] * r.dir);
-    }
-    start /= ray_count[l];
-    for (int i = 0; i < 3; ++i) lamp[l][i] = start[i];
-  }
-
-  // The axis is observed when some lamp is seen at two arc angles.
-  std::map<int, std::vector<double>> arcs_of_lamp;
-  for (const ReflectedRay& r : rays) arcs_of_lamp[r.lamp].push_back(r.arc_rad);
-  for (auto& [l, arcs] : arcs_of_lamp) {
-    const auto [lo, hi] = std::minmax_element(arcs.begin(), arcs.end());
-    if (*hi - *lo > 1e-6) result.axis_estimated = true;
-  }
-  if (!result.axis_estimated) {
-    result.warnings.push_back(
-        "the lamps were imaged at one light-arc angle only: the arc's axis is the nominal one, not estimated");
-  }
-
-  Eigen::Vector3d b1, b2;
-  const Eigen::Vector3d nominal_dir = nominal.axis_direction.normalized();
-  Perpendiculars(nominal_dir, &b1, &b2);
-  std::array<double, 3> axis = {nominal_dir.x(), nominal_dir.y(), nominal_dir.z()};
-  std::array<double, 2> offset = {0.0, 0.0};
-  std::array<double, 3> cup = {cup_start.x(), cup_start.y(), cup_start.z()};
-  // Twice: the rays are first order in the cup's move, so they are
-  // recomputed where the first fit put the cup and the fit repeated.
-  std::unique_ptr<ceres::Problem> problem;
-  ceres::Solver::Summary summary;
-  int tangent_parameters = 0;
-  for (int pass = 0; pass < 2; ++pass) {
-    if (pass > 0) rays = ReflectedRays(geometry, usable, Eigen::Vector3d(cup[0], cup[1], cup[2]), radius, min_cos);
-    problem = std::make_unique<ceres::Problem>();
-    for (const ReflectedRay& r : rays) {
-      problem->AddResidualBlock(new ceres::AutoDiffCostFunction<RayAngle, 2, 3, 2, 3, 3>(
-                                    new RayAngle{r, nominal.axis_point_mm, b1, b2, distance[r.lamp]}),
-                                nullptr, axis.data(), offset.data(), lamp[r.lamp].data(), cup.data());
-    }
-    problem->SetManifold(axis.data(), new ceres::SphereManifold<3>());
-    tangent_parameters = 3 * static_cast<int>(geometry.lamps.size()) + 3;
-    if (result.axis_estimated) {
-      tangent_parameters += 4;
-    } else {
-      problem->SetParameterBlockConstant(axis.data());
-      problem->SetParameterBlockConstant(offset.data());
-    }
-    ceres::Solver::Options solver;
-    solver.linear_solver_type = ceres::DENSE_QR;
-    solver.max_num_iterations = 200;
-    solver.function_tolerance = 1e-14;
-    solver.parameter_tolerance = 1e-14;
-    ceres::Solve(solver, problem.get(), &summary);
-    if (!summary.IsSolutionUsable()) throw core::Error("light arc: the fit failed: " + summary.message);
-  }
-
+  LightArcFit fit;
+  StartLightArcFit(geometry, rays, ray_count, cup_start, &fit);
+  NoteWhetherArcAxisIsObserved(rays, &result);
+  FitLightArcTwice(geometry, usable, radius, min_cos, result.axis_estimated, &rays, &fit);
   const int residuals = 2 * static_cast<int>(rays.size());
-  result.highlights_used = static_cast<int>(rays.size());
-  result.ray_residual_rms_mm = std::sqrt(2.0 * summary.final_cost / residuals);
-  result.sphere_centre_mm = Eigen::Vector3d(cup[0], cup[1], cup[2]);
-  result.sphere_centre_sigma_mm = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
-  const Eigen::Vector3d axis_dir(axis[0], axis[1], axis[2]);
-  const Eigen::Vector3d q = nominal.axis_point_mm + offset[0] * b1 + offset[1] * b2;
-  if (result.axis_estimated) {
-    result.light_arc.axis_direction = axis_dir.normalized();
-    result.light_arc.axis_point_mm = q;
-  }
-  for (std::size_t l = 0; l < geometry.lamps.size(); ++l) {
-    result.lamp_ids.push_back(geometry.lamps[l].id);
-    result.lamp_position.emplace_back(lamp[l][0], lamp[l][1], lamp[l][2]);
-    result.lamp_position_sigma.push_back(Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN()));
-  }
-
-  // Sigmas: (J^T J)^-1 scaled by the residuals' variance.
-  const int dof = residuals - tangent_parameters;
-  if (dof <= 0) {
-    result.too_uncertain = "as many unknowns as ray angles: no uncertainty";
-    return result;
-  }
-  const double variance = 2.0 * summary.final_cost / dof;
-  ceres::Covariance::Options covariance_options;
-  covariance_options.algorithm_type = ceres::DENSE_SVD;
-  covariance_options.min_reciprocal_condition_number = 1e-20;
-  ceres::Covariance covariance(covariance_options);
-  std::vector<std::pair<const double*, const double*>> blocks;
-  for (const auto& p : lamp) blocks.emplace_back(p.data(), p.data());
-  if (result.axis_estimated) {
-    blocks.emplace_back(axis.data(), axis.data());
-    blocks.emplace_back(offset.data(), offset.data());
-  }
-  blocks.emplace_back(cup.data(), cup.data());
-  if (!covariance.Compute(blocks, problem.get())) {
-    result.too_uncertain = "the lamps' and arc's parameters are not all observed (singular fit): no uncertainty";
-    return result;
-  }
-  Eigen::Matrix3d cc;
-  covariance.GetCovarianceBlock(cup.data(), cup.data(), cc.data());
-  result.sphere_centre_sigma_mm = (variance * cc.diagonal()).cwiseSqrt();
-  for (std::size_t l = 0; l < lamp.size(); ++l) {
-    Eigen::Matrix3d c;
-    covariance.GetCovarianceBlock(lamp[l].data(), lamp[l].data(), c.data());
-    result.lamp_position_sigma[l] = (variance * c.diagonal()).cwiseSqrt();
-  }
-  if (result.axis_estimated) {
-    Eigen::Matrix3d ca;
-    covariance.GetCovarianceBlock(axis.data(), axis.data(), ca.data());
-    Eigen::Matrix2d co;
-    covariance.GetCovarianceBlock(offset.data(), offset.data(), co.data());
-    Eigen::Matrix<double, 3, 2> basis;
-    basis << b1, b2;
-    const Eigen::Matrix3d cq = basis * co * basis.transpose();
-    result.light_arc.uncertainty.axis_direction = (variance * ca.diagonal()).cwiseSqrt();
-    result.light_arc.uncertainty.axis_point_mm = (variance * cq.diagonal()).cwiseSqrt();
-  }
-  for (std::size_t l = 0; l < lamp.size(); ++l) {
-    const double worst = result.lamp_position_sigma[l].maxCoeff();
-    if (worst > options.max_lamp_sigma_mm && result.too_uncertain.empty()) {
-      result.too_uncertain = "lamp " + core::Quoted(result.lamp_ids[l]) + "'s position is uncertain to " +
-                             core::Fixed(worst, 1) + " mm (limit " + core::Fixed(options.max_lamp_sigma_mm, 1) + " mm)";
-    }
-  }
-  if (result.axis_estimated && result.too_uncertain.empty()) {
-    const double direction_deg = core::DegreesFromRadians(result.light_arc.uncertainty.axis_direction->maxCoeff());
-    const double point_mm = result.light_arc.uncertainty.axis_point_mm->maxCoeff();
-    if (direction_deg > options.max_axis_sigma_deg || point_mm > options.max_lamp_sigma_mm) {
-      result.too_uncertain = "the arc's axis is uncertain to " + core::Fixed(direction_deg, 3) + " degrees and " +
-                             core::Fixed(point_mm, 1) + " mm (limits " + core::Fixed(options.max_axis_sigma_deg, 3) +
-                             " degrees, " + core::Fixed(options.max_lamp_sigma_mm, 1) + " mm)";
-    }
-  }
+  SetLightArcEstimates(geometry, rays, fit, residuals, &result);
+  if (SetLightArcSigmas(fit, residuals, &result)) CheckLightArcSigmaLimits(options, &result);
   return result;
 }
 
