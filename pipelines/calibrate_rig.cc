@@ -152,19 +152,9 @@ std::vector<calibration::LaserPlaneObservation> MeasureLaserPlates(const formats
   return planes;
 }
 
-}  // namespace
-
-calibration::CalibrationReport RunCalibrateRig(const CalibrateRigOptions& options) {
-  if (const core::CheckResult problem = options.Check(); !problem.empty()) throw core::Error(problem);
-  core::RemoveStaleTemporariesOf(options.out);
-  core::ExpectReplaceable(options.out, {options.replace, "a file",
-                                        [](const std::filesystem::path& p) { return std::filesystem::is_regular_file(p); },
-                                        {options.session}});
-  formats::SessionOpenOptions open;
-  open.command = "calibrate";
-  const formats::CapturedSession session(options.session, open);
-  const std::filesystem::path manifest_file = session.manifest_file();
-  const formats::RigDescription rig = formats::ParseRigDescription(session.manifest().rig, manifest_file);
+// The calibration board the session's rig description names.
+calibration::CalibrationBoard ParseRigCalibrationBoard(const formats::RigDescription& rig,
+                                                       const std::filesystem::path& manifest_file) {
   if (!rig.calibration_board) {
     throw core::FormatError(manifest_file, "rig.calibration_board", "missing: not a calibration session's rig");
   }
@@ -174,8 +164,14 @@ calibration::CalibrationReport RunCalibrateRig(const CalibrateRigOptions& option
   } catch (const core::Error& e) {
     throw core::FormatError(manifest_file, "rig.calibration_board.board", e.what());
   }
+  return board;
+}
 
-  // One instant per board step, in plan order.
+// One instant per board step, in plan order.
+std::vector<formats::BoardImageStep> ReadBoardImageSteps(const formats::CapturedSession& session,
+                                                         const formats::RigDescription& rig,
+                                                         const std::filesystem::path& manifest_file,
+                                                         const std::filesystem::path& session_folder) {
   std::vector<formats::BoardImageStep> steps;
   const auto& plan = session.manifest().plan;
   for (std::size_t s = 0; s < plan.size(); ++s) {
@@ -184,9 +180,15 @@ calibration::CalibrationReport RunCalibrateRig(const CalibrateRigOptions& option
     }
   }
   if (steps.empty()) {
-    throw core::Error(options.session.string() + ": the session has no board images (record one with mesocap "
+    throw core::Error(session_folder.string() + ": the session has no board images (record one with mesocap "
                       "simulate --plan calibration)");
   }
+  return steps;
+}
+
+// The holder and turntable angle of each board step.
+calibration::TurntableMotion BoardStepsTurntableMotion(const formats::RigDescription& rig,
+                                                       const std::vector<formats::BoardImageStep>& steps) {
   calibration::TurntableMotion motion;
   motion.board_height_mm = rig.calibration_board->height_mm;
   motion.sample_size_mm = rig.sample_size_mm;
@@ -194,6 +196,14 @@ calibration::CalibrationReport RunCalibrateRig(const CalibrateRigOptions& option
     motion.holder.push_back(step.holder);
     motion.angle_rad.push_back(step.turntable_rad);
   }
+  return motion;
+}
+
+// Each camera's photos of the board steps, the board's corners found in them.
+std::vector<calibration::CameraViews> DetectBoardInSessionPhotos(const formats::CapturedSession& session,
+                                                                 const formats::RigDescription& rig,
+                                                                 const calibration::CalibrationBoard& board,
+                                                                 const std::vector<formats::BoardImageStep>& steps) {
   const calibration::BoardCornerDetector detector(board);
   std::vector<calibration::CameraViews> cameras;
   for (std::size_t c = 0; c < rig.cameras.size(); ++c) {
@@ -213,7 +223,15 @@ calibration::CalibrationReport RunCalibrateRig(const CalibrateRigOptions& option
         &views);
     cameras.push_back(std::move(views));
   }
+  return cameras;
+}
 
+// The cameras and the turntable from the board photos, cross-validated
+// where asked.
+calibration::CalibrationReport CalibrateCamerasAndTurntable(const calibration::CalibrationBoard& board,
+                                                            const std::vector<calibration::CameraViews>& cameras,
+                                                            const CalibrateRigOptions& options,
+                                                            const calibration::TurntableMotion& motion) {
   calibration::CalibrationReport report;
   report.board = board.Spec();
   report.cameras = calibration::CalibrateCameras(board, cameras, options.calibration, &motion);
@@ -223,10 +241,15 @@ calibration::CalibrationReport RunCalibrateRig(const CalibrateRigOptions& option
   } else {
     report.cross_validation_skipped = "not asked for";
   }
-  // Cameras and turntable from the photos; the rest nominal (see the header).
-  formats::Calibration out = calibration::NominalCalibration(rig);
-  for (std::size_t c = 0; c < cameras.size(); ++c) out.cameras[c] = report.cameras.cameras[c].calibration;
-  std::vector<std::string> nominal_parts;
+  return report;
+}
+
+// The light arc and the lamps' positions from the mirror sphere's
+// highlights, into `out` where the session has them and their fit is
+// certain enough; otherwise why they stay nominal, in `nominal_parts`.
+void CalibrateLampsFromMirrorSphere(const formats::CapturedSession& session, const formats::RigDescription& rig,
+                                    const CalibrateRigOptions& options, formats::Calibration* out,
+                                    calibration::CalibrationReport* report, std::vector<std::string>* nominal_parts) {
   std::vector<calibration::LeftOutHighlight> left_out;
   const std::vector<calibration::HighlightObservation> highlights = FindMirrorSphereHighlights(session, rig, &left_out);
   if (!highlights.empty() || !left_out.empty()) {
@@ -234,49 +257,67 @@ calibration::CalibrationReport RunCalibrateRig(const CalibrateRigOptions& option
     arc.sphere_radius_mm = rig.mirror_sphere->radius_mm;
     arc.sphere_offset_mm = rig.mirror_sphere->offset_mm;
     arc.sphere_centre_height_mm = rig.mirror_sphere->centre_height_mm;
-    report.light_arc = calibration::CalibrateLightArc(out, highlights, arc);
-    const calibration::LightArcResult& fit = *report.light_arc;
-    report.light_arc->left_out.insert(report.light_arc->left_out.begin(), left_out.begin(), left_out.end());
+    report->light_arc = calibration::CalibrateLightArc(*out, highlights, arc);
+    const calibration::LightArcResult& fit = *report->light_arc;
+    report->light_arc->left_out.insert(report->light_arc->left_out.begin(), left_out.begin(), left_out.end());
     if (!fit.too_uncertain.empty()) {
       // A fit this uncertain would replace a rig built to its drawing with
       // a guess; the report gives it, the calibration keeps the drawing.
-      nominal_parts.push_back(
+      nominal_parts->push_back(
           "light_arc, lamp positions (the mirror sphere's fit is too uncertain: " + fit.too_uncertain + ")");
     } else {
-      if (fit.axis_estimated) out.light_arc = fit.light_arc;
-      for (std::size_t l = 0; l < out.lamps.size(); ++l) {
-        out.lamps[l].position_mm = fit.lamp_position[l];
-        out.lamps[l].uncertainty.position_mm = fit.lamp_position_sigma[l];
+      if (fit.axis_estimated) out->light_arc = fit.light_arc;
+      for (std::size_t l = 0; l < out->lamps.size(); ++l) {
+        out->lamps[l].position_mm = fit.lamp_position[l];
+        out->lamps[l].uncertainty.position_mm = fit.lamp_position_sigma[l];
       }
-      if (!fit.axis_estimated) nominal_parts.push_back("light_arc (the lamps were imaged at one arc angle)");
+      if (!fit.axis_estimated) nominal_parts->push_back("light_arc (the lamps were imaged at one arc angle)");
     }
   } else {
-    nominal_parts.push_back("light_arc, lamp positions (the session has no mirror sphere images)");
+    nominal_parts->push_back("light_arc, lamp positions (the session has no mirror sphere images)");
   }
+}
+
+// The laser mounts from the planes of the stripe on the plates, into `out`
+// where the session has plates and their fit is certain enough; otherwise
+// why they stay nominal, in `nominal_parts`.
+void CalibrateLaserMountsFromPlates(const formats::CapturedSession& session, const formats::RigDescription& rig,
+                                    const CalibrateRigOptions& options, formats::Calibration* out,
+                                    calibration::CalibrationReport* report, std::vector<std::string>* nominal_parts) {
   const std::vector<calibration::LaserPlaneObservation> laser_planes =
-      MeasureLaserPlates(session, rig, out, &report.laser_plates_left_out);
+      MeasureLaserPlates(session, rig, *out, &report->laser_plates_left_out);
   if (laser_planes.empty()) {
-    nominal_parts.push_back("laser_mounts (the session has no laser plates" +
-                            std::string(report.laser_plates_left_out.empty() ? ")" : " with a stripe found)"));
+    nominal_parts->push_back("laser_mounts (the session has no laser plates" +
+                             std::string(report->laser_plates_left_out.empty() ? ")" : " with a stripe found)"));
   } else {
     try {
-      report.laser_mounts = calibration::CalibrateLaserMounts(out, laser_planes, options.laser_mounts);
-      report.laser_plates_left_out.insert(report.laser_plates_left_out.end(), report.laser_mounts->left_out.begin(),
-                                          report.laser_mounts->left_out.end());
-      if (report.laser_mounts->too_uncertain.empty()) {
-        out.laser_mounts = report.laser_mounts->mounts;
+      report->laser_mounts = calibration::CalibrateLaserMounts(*out, laser_planes, options.laser_mounts);
+      report->laser_plates_left_out.insert(report->laser_plates_left_out.end(),
+                                           report->laser_mounts->left_out.begin(),
+                                           report->laser_mounts->left_out.end());
+      if (report->laser_mounts->too_uncertain.empty()) {
+        out->laser_mounts = report->laser_mounts->mounts;
       } else {
-        nominal_parts.push_back("laser_mounts (their fit is too uncertain: " + report.laser_mounts->too_uncertain +
-                                ")");
+        nominal_parts->push_back("laser_mounts (their fit is too uncertain: " + report->laser_mounts->too_uncertain +
+                                 ")");
       }
     } catch (const core::FormatError&) {
       throw;
     } catch (const core::Error& e) {
       // A mount without planes at two tilts leaves the rest of the rig's
       // calibration as good as it was: keep its drawing and say why.
-      nominal_parts.push_back("laser_mounts (" + std::string(e.what()) + ")");
+      nominal_parts->push_back("laser_mounts (" + std::string(e.what()) + ")");
     }
   }
+}
+
+// The cameras' gains and the lamps' intensities from the white reference,
+// into `out` where the session has one; otherwise why they stay nominal,
+// in `nominal_parts`. Returns how many white reference images there were.
+std::size_t CalibrateRadiometryFromWhiteReference(const formats::CapturedSession& session,
+                                                  const formats::RigDescription& rig, formats::Calibration* out,
+                                                  calibration::CalibrationReport* report,
+                                                  std::vector<std::string>* nominal_parts) {
   std::vector<calibration::WhiteReferenceImage> white = ReadWhiteReferenceImages(session, rig);
   if (!white.empty()) {
     calibration::RadiometryOptions radiometry;
@@ -285,21 +326,23 @@ calibration::CalibrationReport RunCalibrateRig(const CalibrateRigOptions& option
     radiometry.sample_size_mm = rig.sample_size_mm;
     std::vector<double> exposure_s;
     for (const formats::CameraDescription& camera : rig.cameras) exposure_s.push_back(camera.exposure_us * 1e-6);
-    report.radiometry = calibration::CalibrateRadiometry(out, exposure_s, white, radiometry);
-    for (std::size_t c = 0; c < out.cameras.size(); ++c) out.cameras[c].radiometry = report.radiometry->cameras[c];
-    for (std::size_t l = 0; l < out.lamps.size(); ++l) {
-      out.lamps[l].intensity = report.radiometry->lamp_intensity[l];
-      out.lamps[l].uncertainty.intensity = report.radiometry->lamp_intensity_sigma[l];
+    report->radiometry = calibration::CalibrateRadiometry(*out, exposure_s, white, radiometry);
+    for (std::size_t c = 0; c < out->cameras.size(); ++c) out->cameras[c].radiometry = report->radiometry->cameras[c];
+    for (std::size_t l = 0; l < out->lamps.size(); ++l) {
+      out->lamps[l].intensity = report->radiometry->lamp_intensity[l];
+      out->lamps[l].uncertainty.intensity = report->radiometry->lamp_intensity_sigma[l];
     }
   } else {
-    nominal_parts.push_back("lamp intensities, camera radiometry (the session has no white reference)");
+    nominal_parts->push_back("lamp intensities, camera radiometry (the session has no white reference)");
   }
-  for (const std::string& part : nominal_parts) {
-    report.nominal_parts += (report.nominal_parts.empty() ? "" : ", ") + part;
-  }
-  formats::WriteCalibration(options.out, out);
-  std::string from_images =
-      "cameras and turntable from " + std::to_string(steps.size() * rig.cameras.size()) + " board images";
+  return white.size();
+}
+
+// What was calibrated from how many images, and what kept the rig
+// description's nominal values.
+void LogWhatWasCalibrated(const calibration::CalibrationReport& report, std::size_t board_images,
+                          std::size_t white_images) {
+  std::string from_images = "cameras and turntable from " + std::to_string(board_images) + " board images";
   if (report.light_arc && report.light_arc->too_uncertain.empty()) {
     from_images += ", lamp positions" + std::string(report.light_arc->axis_estimated ? " and the light arc" : "") +
                    " from " + std::to_string(report.light_arc->highlights_used) + " mirror sphere highlights";
@@ -307,14 +350,47 @@ calibration::CalibrationReport RunCalibrateRig(const CalibrateRigOptions& option
   if (report.laser_mounts && report.laser_mounts->too_uncertain.empty()) {
     from_images += ", laser mounts from " + std::to_string(report.laser_mounts->planes_used) + " plate planes";
   }
-  if (!white.empty()) {
+  if (white_images != 0) {
     from_images +=
-        ", camera gains and lamp intensities from " + std::to_string(white.size()) + " white reference images";
+        ", camera gains and lamp intensities from " + std::to_string(white_images) + " white reference images";
   }
   spdlog::info("calibrated {}{}", from_images,
                report.nominal_parts.empty()
                    ? std::string()
                    : "; " + report.nominal_parts + " are the rig description's nominal values");
+}
+
+}  // namespace
+
+calibration::CalibrationReport RunCalibrateRig(const CalibrateRigOptions& options) {
+  if (const core::CheckResult problem = options.Check(); !problem.empty()) throw core::Error(problem);
+  core::RemoveStaleTemporariesOf(options.out);
+  core::ExpectReplaceable(options.out, {options.replace, "a file",
+                                        [](const std::filesystem::path& p) { return std::filesystem::is_regular_file(p); },
+                                        {options.session}});
+  formats::SessionOpenOptions open;
+  open.command = "calibrate";
+  const formats::CapturedSession session(options.session, open);
+  const std::filesystem::path manifest_file = session.manifest_file();
+  const formats::RigDescription rig = formats::ParseRigDescription(session.manifest().rig, manifest_file);
+  const calibration::CalibrationBoard board = ParseRigCalibrationBoard(rig, manifest_file);
+  const std::vector<formats::BoardImageStep> steps = ReadBoardImageSteps(session, rig, manifest_file, options.session);
+  const calibration::TurntableMotion motion = BoardStepsTurntableMotion(rig, steps);
+  const std::vector<calibration::CameraViews> cameras = DetectBoardInSessionPhotos(session, rig, board, steps);
+  calibration::CalibrationReport report = CalibrateCamerasAndTurntable(board, cameras, options, motion);
+
+  // Cameras and turntable from the photos; the rest nominal (see the header).
+  formats::Calibration out = calibration::NominalCalibration(rig);
+  for (std::size_t c = 0; c < cameras.size(); ++c) out.cameras[c] = report.cameras.cameras[c].calibration;
+  std::vector<std::string> nominal_parts;
+  CalibrateLampsFromMirrorSphere(session, rig, options, &out, &report, &nominal_parts);
+  CalibrateLaserMountsFromPlates(session, rig, options, &out, &report, &nominal_parts);
+  const std::size_t white_images = CalibrateRadiometryFromWhiteReference(session, rig, &out, &report, &nominal_parts);
+  for (const std::string& part : nominal_parts) {
+    report.nominal_parts += (report.nominal_parts.empty() ? "" : ", ") + part;
+  }
+  formats::WriteCalibration(options.out, out);
+  LogWhatWasCalibrated(report, steps.size() * rig.cameras.size(), white_images);
   return report;
 }
 
