@@ -31,9 +31,7 @@ std::string Line(const char* format, ...) {
   return buffer;
 }
 
-}  // namespace
-
-nlohmann::json ToJson(const CalibrationReport& report) {
+nlohmann::json CameraEntries(const CalibrationReport& report) {
   nlohmann::json cameras = nlohmann::json::array();
   for (std::size_t c = 0; c < report.cameras.cameras.size(); ++c) {
     const CalibratedCamera& camera = report.cameras.cameras[c];
@@ -72,6 +70,10 @@ nlohmann::json ToJson(const CalibrationReport& report) {
     }
     cameras.push_back(entry);
   }
+  return cameras;
+}
+
+nlohmann::json RelativePoseEntries(const CalibrationReport& report) {
   nlohmann::json poses = nlohmann::json::array();
   for (const RelativePose& p : report.cameras.relative_poses) {
     poses.push_back({{"from", p.from},
@@ -84,6 +86,83 @@ nlohmann::json ToJson(const CalibrationReport& report) {
                                                          {"translation_mm", Vector(p.translation_std_mm)}}
                                        : nlohmann::json(nullptr)}});
   }
+  return poses;
+}
+
+// One entry per lamp with what was calibrated of it: its position (from
+// the mirror sphere) and its intensity (from the white reference).
+nlohmann::json& LampEntry(nlohmann::json& lamps, std::size_t l, const std::string& id) {
+  if (lamps.size() <= l) lamps.push_back({{"id", id}, {"std", nlohmann::json::object()}});
+  return lamps[l];
+}
+
+nlohmann::json LightArcJson(const LightArcResult& a, nlohmann::json& lamps) {
+  for (std::size_t l = 0; l < a.lamp_ids.size(); ++l) {
+    nlohmann::json& entry = LampEntry(lamps, l, a.lamp_ids[l]);
+    entry["position_mm"] = Vector(a.lamp_position[l]);
+    entry["std"]["position_mm"] = Vector(a.lamp_position_sigma[l]);
+  }
+  nlohmann::json left_out = nlohmann::json::array();
+  for (const LeftOutHighlight& h : a.left_out) left_out.push_back({{"file", h.name}, {"reason", h.reason}});
+  const formats::LightArcCalibration::Uncertainty& u = a.light_arc.uncertainty;
+  return {{"axis_point_mm", Vector(a.light_arc.axis_point_mm)},
+          {"axis_direction", Vector(a.light_arc.axis_direction)},
+          {"axis_estimated", a.axis_estimated},
+          {"std",
+           {{"axis_point_mm", u.axis_point_mm ? Vector(*u.axis_point_mm) : nlohmann::json(nullptr)},
+            {"axis_direction", u.axis_direction ? Vector(*u.axis_direction) : nlohmann::json(nullptr)}}},
+          {"highlights_used", a.highlights_used},
+          {"highlights_left_out", left_out},
+          {"ray_residual_rms_mm", a.ray_residual_rms_mm},
+          {"sphere_centre_mm", Vector(a.sphere_centre_mm)},
+          {"sphere_centre_std_mm", Vector(a.sphere_centre_sigma_mm)},
+          {"written", a.too_uncertain.empty()},
+          {"too_uncertain", a.too_uncertain},
+          {"warnings", a.warnings}};
+}
+
+nlohmann::json RadiometryJson(const RadiometryResult& r, nlohmann::json& lamps) {
+  for (std::size_t l = 0; l < r.lamp_ids.size(); ++l) {
+    nlohmann::json& entry = LampEntry(lamps, l, r.lamp_ids[l]);
+    entry["intensity"] = Vector(r.lamp_intensity[l]);
+    entry["std"]["intensity"] = Vector(r.lamp_intensity_sigma[l]);
+  }
+  return {{"images_used", r.images_used},
+          {"relative_residual_rms", r.relative_residual_rms},
+          {"reduced_chi_square", r.reduced_chi_square}};
+}
+
+void AddLaserMounts(const CalibrationReport& report, nlohmann::json* json) {
+  const LaserMountResult& f = *report.laser_mounts;
+  nlohmann::json mounts = nlohmann::json::array();
+  const auto sigma = [](const std::optional<Eigen::Vector3d>& v) { return v ? Vector(*v) : nlohmann::json(nullptr); };
+  for (const formats::LaserMountCalibration& m : f.mounts) {
+    mounts.push_back({{"id", m.id},
+                      {"source_mm", Vector(m.source_mm)},
+                      {"plane_normal_at_zero_tilt", Vector(m.plane_normal_at_zero_tilt)},
+                      {"tilt_axis", Vector(m.tilt_axis)},
+                      {"std",
+                       {{"source_mm", sigma(m.uncertainty.source_mm)},
+                        {"plane_normal_at_zero_tilt", sigma(m.uncertainty.plane_normal_at_zero_tilt)},
+                        {"tilt_axis", sigma(m.uncertainty.tilt_axis)}}}});
+  }
+  (*json)["laser_mounts"] = mounts;
+  nlohmann::json left_out = nlohmann::json::array();
+  for (const SetAsideImage& i : report.laser_plates_left_out)
+    left_out.push_back({{"file", i.name}, {"reason", i.reason}});
+  (*json)["laser_mount_fit"] = {{"planes_used", f.planes_used},
+                                {"plates_left_out", left_out},
+                                {"position_residual_rms_mm", f.position_residual_rms_mm},
+                                {"normal_residual_rms_deg", f.normal_residual_rms_deg},
+                                {"written", f.too_uncertain.empty()},
+                                {"too_uncertain", f.too_uncertain}};
+}
+
+}  // namespace
+
+nlohmann::json ToJson(const CalibrationReport& report) {
+  const nlohmann::json cameras = CameraEntries(report);
+  const nlohmann::json poses = RelativePoseEntries(report);
   nlohmann::json json = {{"board", report.board},
                          {"cameras", cameras},
                          {"relative_poses", poses},
@@ -101,75 +180,11 @@ nlohmann::json ToJson(const CalibrationReport& report) {
                                    "on the first holder tilt"},
                          {"holders", holders}};
   }
-  // One entry per lamp with what was calibrated of it: its position (from
-  // the mirror sphere) and its intensity (from the white reference).
   nlohmann::json lamps = nlohmann::json::array();
-  const auto lamp_entry = [&](std::size_t l, const std::string& id) -> nlohmann::json& {
-    if (lamps.size() <= l) lamps.push_back({{"id", id}, {"std", nlohmann::json::object()}});
-    return lamps[l];
-  };
-  if (report.light_arc) {
-    const LightArcResult& a = *report.light_arc;
-    for (std::size_t l = 0; l < a.lamp_ids.size(); ++l) {
-      nlohmann::json& entry = lamp_entry(l, a.lamp_ids[l]);
-      entry["position_mm"] = Vector(a.lamp_position[l]);
-      entry["std"]["position_mm"] = Vector(a.lamp_position_sigma[l]);
-    }
-    nlohmann::json left_out = nlohmann::json::array();
-    for (const LeftOutHighlight& h : a.left_out) left_out.push_back({{"file", h.name}, {"reason", h.reason}});
-    const formats::LightArcCalibration::Uncertainty& u = a.light_arc.uncertainty;
-    json["light_arc"] = {{"axis_point_mm", Vector(a.light_arc.axis_point_mm)},
-                         {"axis_direction", Vector(a.light_arc.axis_direction)},
-                         {"axis_estimated", a.axis_estimated},
-                         {"std",
-                          {{"axis_point_mm", u.axis_point_mm ? Vector(*u.axis_point_mm) : nlohmann::json(nullptr)},
-                           {"axis_direction", u.axis_direction ? Vector(*u.axis_direction) : nlohmann::json(nullptr)}}},
-                         {"highlights_used", a.highlights_used},
-                         {"highlights_left_out", left_out},
-                         {"ray_residual_rms_mm", a.ray_residual_rms_mm},
-                         {"sphere_centre_mm", Vector(a.sphere_centre_mm)},
-                         {"sphere_centre_std_mm", Vector(a.sphere_centre_sigma_mm)},
-                         {"written", a.too_uncertain.empty()},
-                         {"too_uncertain", a.too_uncertain},
-                         {"warnings", a.warnings}};
-  }
-  if (report.radiometry) {
-    const RadiometryResult& r = *report.radiometry;
-    for (std::size_t l = 0; l < r.lamp_ids.size(); ++l) {
-      nlohmann::json& entry = lamp_entry(l, r.lamp_ids[l]);
-      entry["intensity"] = Vector(r.lamp_intensity[l]);
-      entry["std"]["intensity"] = Vector(r.lamp_intensity_sigma[l]);
-    }
-    json["radiometry"] = {{"images_used", r.images_used},
-                          {"relative_residual_rms", r.relative_residual_rms},
-                          {"reduced_chi_square", r.reduced_chi_square}};
-  }
+  if (report.light_arc) json["light_arc"] = LightArcJson(*report.light_arc, lamps);
+  if (report.radiometry) json["radiometry"] = RadiometryJson(*report.radiometry, lamps);
   if (!lamps.empty()) json["lamps"] = lamps;
-  if (report.laser_mounts) {
-    const LaserMountResult& f = *report.laser_mounts;
-    nlohmann::json mounts = nlohmann::json::array();
-    const auto sigma = [](const std::optional<Eigen::Vector3d>& v) { return v ? Vector(*v) : nlohmann::json(nullptr); };
-    for (const formats::LaserMountCalibration& m : f.mounts) {
-      mounts.push_back({{"id", m.id},
-                        {"source_mm", Vector(m.source_mm)},
-                        {"plane_normal_at_zero_tilt", Vector(m.plane_normal_at_zero_tilt)},
-                        {"tilt_axis", Vector(m.tilt_axis)},
-                        {"std",
-                         {{"source_mm", sigma(m.uncertainty.source_mm)},
-                          {"plane_normal_at_zero_tilt", sigma(m.uncertainty.plane_normal_at_zero_tilt)},
-                          {"tilt_axis", sigma(m.uncertainty.tilt_axis)}}}});
-    }
-    json["laser_mounts"] = mounts;
-    nlohmann::json left_out = nlohmann::json::array();
-    for (const SetAsideImage& i : report.laser_plates_left_out)
-      left_out.push_back({{"file", i.name}, {"reason", i.reason}});
-    json["laser_mount_fit"] = {{"planes_used", f.planes_used},
-                               {"plates_left_out", left_out},
-                               {"position_residual_rms_mm", f.position_residual_rms_mm},
-                               {"normal_residual_rms_deg", f.normal_residual_rms_deg},
-                               {"written", f.too_uncertain.empty()},
-                               {"too_uncertain", f.too_uncertain}};
-  }
+  if (report.laser_mounts) AddLaserMounts(report, &json);
   // A rig's (it has a turntable): empty when every part came from images.
   if (!report.cameras.holder_poses.empty()) json["nominal_parts"] = report.nominal_parts;
   return json;

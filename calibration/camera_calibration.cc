@@ -2,459 +2,46 @@
 
 #include <algorithm>
 #include <array>
-#include <Eigen/Geometry>
-#include <ceres/ceres.h>
-#include <ceres/manifold.h>
 #include <ceres/rotation.h>
 #include <cmath>
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
 #include <map>
 #include <opencv2/calib3d.hpp>
 #include <queue>
 #include <tbb/parallel_for.h>
-#include <sstream>
+
+#include "calibration/board_adjustment.h"
 
 namespace mesocap::calibration {
 namespace {
 
-constexpr int kIntrinsicCount = 9;  // fx fy cx cy k1 k2 p1 p2 k3
+using board_adjustment::BoardProblem;
+using board_adjustment::CameraCovariance;
+using board_adjustment::Compose;
+using board_adjustment::FromRvecTvec;
+using board_adjustment::HolderPose;
+using board_adjustment::InCamera;
+using board_adjustment::InitTurntable;
+using board_adjustment::Inverse;
+using board_adjustment::kCameraParameters;
+using board_adjustment::kIntrinsicCount;
+using board_adjustment::Observation;
+using board_adjustment::Pose;
+using board_adjustment::ProjectOpenCv;
+using board_adjustment::kRadToDeg;
+using board_adjustment::Residual;
+using board_adjustment::Rotation;
+using board_adjustment::SolveSummary;
+using board_adjustment::Unknowns;
+
 constexpr const char* kIntrinsicNames[kIntrinsicCount] = {"fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3"};
-constexpr double kRadToDeg = 180.0 / 3.14159265358979323846;
-
-// OpenCV's pinhole and Brown-Conrady model (the same as cv::projectPoints).
-template <typename T>
-void ProjectOpenCv(const T* k, const T* p, T* uv) {
-  const T x = p[0] / p[2], y = p[1] / p[2];
-  const T r2 = x * x + y * y;
-  const T radial = T(1) + r2 * (k[4] + r2 * (k[5] + r2 * k[8]));
-  const T xd = x * radial + T(2) * k[6] * x * y + k[7] * (r2 + T(2) * x * x);
-  const T yd = y * radial + k[6] * (r2 + T(2) * y * y) + T(2) * k[7] * x * y;
-  uv[0] = k[0] * xd + k[2];
-  uv[1] = k[1] * yd + k[3];
-}
-
-// A pose parent <- child as a unit quaternion (w x y z, Ceres' order, on
-// Ceres' QuaternionManifold, whose tangent is half a rotation vector about
-// the parent's axes: twice it is the format's uncertainty convention) and a
-// translation.
-struct Pose {
-  std::array<double, 4> q{1, 0, 0, 0};
-  std::array<double, 3> t{0, 0, 0};
-};
-
-// The solver's units: lengths in kLengthUnitMm, the pinhole's four
-// intrinsics in units of the camera's initial focal length, and each
-// distortion coefficient in the unit that moves the image's corner by about
-// a pixel, so that the Jacobian's columns are of one magnitude and the
-// covariance's conditioning measures what the photos leave unobserved, not
-// a choice of units (k3 of a narrow lens moves its corner by 1e-5 px per
-// unit, a condition number no solver resolves).
-constexpr double kLengthUnitMm = 100.0;
-
-// A point in the reference frame (world on a turntable, else the first
-// camera's) into a camera (reference <- camera = (camera_q, camera_c)),
-// projected; the residual is in pixels.
-using IntrinsicUnits = std::array<double, kIntrinsicCount>;
-
-template <typename T>
-void ReprojectionResidual(const T* scaled_k, const IntrinsicUnits& units, const T* camera_q, const T* camera_c,
-                          const T* in_reference, const Eigen::Vector2d& observed, T* residual) {
-  T k[kIntrinsicCount];
-  for (int i = 0; i < kIntrinsicCount; ++i) k[i] = scaled_k[i] * units[static_cast<std::size_t>(i)];
-  const T relative[3] = {in_reference[0] - camera_c[0], in_reference[1] - camera_c[1], in_reference[2] - camera_c[2]};
-  const T inverse[4] = {camera_q[0], -camera_q[1], -camera_q[2], -camera_q[3]};
-  T in_camera[3];
-  ceres::QuaternionRotatePoint(inverse, relative, in_camera);
-  T uv[2];
-  ProjectOpenCv(k, in_camera, uv);
-  residual[0] = uv[0] - T(observed.x());
-  residual[1] = uv[1] - T(observed.y());
-}
-
-// One detected corner, the board free at its instant (reference <- board).
-struct CornerResidual {
-  Eigen::Vector2d observed;
-  Eigen::Vector3d board_point;  // in kLengthUnitMm
-  IntrinsicUnits units{1, 1, 1, 1, 1, 1, 1, 1, 1};
-
-  template <typename T>
-  bool operator()(const T* scaled_k, const T* camera_q, const T* camera_c, const T* board_q, const T* board_t,
-                  T* residual) const {
-    const T point[3] = {T(board_point.x()), T(board_point.y()), T(board_point.z())};
-    T in_reference[3];
-    ceres::QuaternionRotatePoint(board_q, point, in_reference);
-    for (int i = 0; i < 3; ++i) in_reference[i] += board_t[i];
-    ReprojectionResidual(scaled_k, units, camera_q, camera_c, in_reference, observed, residual);
-    return true;
-  }
-};
-
-// A weak prior on the distortion coefficients, in the solver's units (a
-// unit moves the image's corner by a pixel): zero, with a sigma of
-// kDistortionPriorPx. It leaves what the corners observe as it is, and keeps
-// what they do not (k3 of a narrow lens seen over part of its field) from
-// making J^T J singular: such a coefficient then reports a sigma near the
-// prior's, honestly unknown, instead of no uncertainty at all.
-constexpr double kDistortionPriorPx = 100.0;
-
-struct DistortionPrior {
-  template <typename T>
-  bool operator()(const T* scaled_k, T* residual) const {
-    for (int i = 0; i < 5; ++i) residual[i] = scaled_k[4 + i] / T(kDistortionPriorPx);
-    return true;
-  }
-};
-
-// turntable <- board on a holder: Rz(yaw) Ry(pitch) Rx(roll), then the
-// translation. Yaw is the azimuth of the board's x axis (which the first
-// holder's fixes to 0, the world's gauge); the angles are singular only
-// with the board's x axis vertical (pitch 90 degrees), which no holder does.
-template <typename T>
-void HolderToTurntable(const T* angles, const T* t, const T* point, T* out) {
-  const T cz = cos(angles[0]), sz = sin(angles[0]);
-  const T cx = cos(angles[1]), sx = sin(angles[1]);
-  const T cy = cos(angles[2]), sy = sin(angles[2]);
-  const T a[3] = {point[0], cx * point[1] - sx * point[2], sx * point[1] + cx * point[2]};
-  const T b[3] = {cy * a[0] + sy * a[2], a[1], -sy * a[0] + cy * a[2]};
-  out[0] = cz * b[0] - sz * b[1] + t[0];
-  out[1] = sz * b[0] + cz * b[1] + t[1];
-  out[2] = b[2] + t[2];
-}
-
-// One detected corner with the board on a holder on the turntable, turned
-// to `angle_rad` about the world's z axis (the turntable's axis).
-struct TurntableCornerResidual {
-  Eigen::Vector2d observed;
-  Eigen::Vector3d board_point;  // in kLengthUnitMm
-  IntrinsicUnits units{1, 1, 1, 1, 1, 1, 1, 1, 1};
-  double angle_rad = 0;
-
-  template <typename T>
-  bool operator()(const T* scaled_k, const T* camera_q, const T* camera_c, const T* holder_angles,
-                  const T* holder_t, T* residual) const {
-    const T point[3] = {T(board_point.x()), T(board_point.y()), T(board_point.z())};
-    T on_table[3];
-    HolderToTurntable(holder_angles, holder_t, point, on_table);
-    const T c(std::cos(angle_rad)), s(std::sin(angle_rad));
-    const T in_world[3] = {c * on_table[0] - s * on_table[1], s * on_table[0] + c * on_table[1], on_table[2]};
-    ReprojectionResidual(scaled_k, units, camera_q, camera_c, in_world, observed, residual);
-    return true;
-  }
-};
-
-struct Observation {
-  int camera = 0;
-  int instant = 0;
-  Eigen::Vector2d pixel;
-  Eigen::Vector3d board_point;
-  bool inlier = true;
-};
-
-Pose FromRvecTvec(const cv::Vec3d& rvec, const cv::Vec3d& tvec) {
-  double aa[3] = {rvec[0], rvec[1], rvec[2]};
-  Pose pose;
-  ceres::AngleAxisToQuaternion(aa, pose.q.data());
-  pose.t = {tvec[0], tvec[1], tvec[2]};
-  return pose;
-}
-
-Eigen::Matrix3d Rotation(const Pose& p) {
-  double r[9];
-  ceres::QuaternionToRotation(p.q.data(), r);
-  Eigen::Matrix3d m;
-  m << r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8];
-  return m;
-}
-
-Pose FromMatrix(const Eigen::Matrix3d& rotation, const Eigen::Vector3d& translation) {
-  const Eigen::Matrix<double, 3, 3, Eigen::RowMajor> r = rotation;
-  Pose pose;
-  ceres::RotationMatrixToQuaternion(ceres::RowMajorAdapter3x3(r.data()), pose.q.data());
-  pose.t = {translation.x(), translation.y(), translation.z()};
-  return pose;
-}
-
-Pose Compose(const Pose& a, const Pose& b) {  // a * b
-  const Eigen::Vector3d t = Rotation(a) * Eigen::Vector3d(b.t[0], b.t[1], b.t[2]) + Eigen::Vector3d(a.t[0], a.t[1], a.t[2]);
-  return FromMatrix(Rotation(a) * Rotation(b), t);
-}
-
-Pose Inverse(const Pose& a) {
-  const Eigen::Matrix3d r = Rotation(a).transpose();
-  return FromMatrix(r, -r * Eigen::Vector3d(a.t[0], a.t[1], a.t[2]));
-}
 
 double Median(std::vector<double> values) {
   if (values.empty()) return std::nan("");
   const auto mid = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
   std::nth_element(values.begin(), mid, values.end());
   return *mid;
-}
-
-// The problem's unknowns: per camera its intrinsics and reference <- camera
-// (the first camera is the reference), per instant reference <- board.
-struct Unknowns {
-  std::vector<std::array<double, kIntrinsicCount>> intrinsics;
-  std::vector<Pose> cameras;
-  std::vector<Pose> boards;  // per instant; on a turntable derived from the holders
-  std::vector<bool> board_seen;
-  // On a turntable: the reference is the world (the turntable frame at
-  // angle 0) and the board's poses follow from its holders' (turntable <-
-  // board as yaw, tilt_x, tilt_y and a translation) and the angles.
-  const TurntableMotion* motion = nullptr;
-  std::vector<std::array<double, 3>> holder_angles, holder_t;
-};
-
-Pose HolderPose(const Unknowns& u, std::size_t holder) {
-  Eigen::Matrix3d r;
-  const double zero[3] = {0, 0, 0};
-  for (int axis = 0; axis < 3; ++axis) {
-    double unit[3] = {0, 0, 0}, out[3];
-    unit[axis] = 1;
-    HolderToTurntable(u.holder_angles[holder].data(), zero, unit, out);
-    r.col(axis) = Eigen::Vector3d(out[0], out[1], out[2]);
-  }
-  const auto& t = u.holder_t[holder];
-  return FromMatrix(r, Eigen::Vector3d(t[0], t[1], t[2]));
-}
-
-// The boards' poses at every instant from the holders' and the angles.
-void DeriveBoardPoses(Unknowns* u) {
-  if (!u->motion) return;
-  for (std::size_t i = 0; i < u->boards.size(); ++i) {
-    const Pose turn = FromMatrix(Eigen::AngleAxisd(u->motion->angle_rad[i], Eigen::Vector3d::UnitZ()).toRotationMatrix(),
-                                 Eigen::Vector3d::Zero());
-    u->boards[i] = Compose(turn, HolderPose(*u, static_cast<std::size_t>(u->motion->holder[i])));
-  }
-}
-
-struct SolveSummary {
-  double cost = 0;  // half the sum of squared residuals
-  int residuals = 0;
-  int tangent_parameters = 0;
-};
-
-// fx fy cx cy in units of the focal length F; k1 k2 k3 and p1 p2 in the
-// units that move a point at the image's corner (normalized radius r) by
-// one pixel: 1 / (F r^3), 1 / (F r^5), 1 / (F r^7), 1 / (F r^2).
-IntrinsicUnits UnitsOf(const std::array<double, kIntrinsicCount>& k, double corner_radius_px) {
-  const double f = k[0], r = std::max(corner_radius_px / f, 1e-3);
-  return {f, f, f, f, 1 / (f * std::pow(r, 3)), 1 / (f * std::pow(r, 5)), 1 / (f * r * r), 1 / (f * r * r),
-          1 / (f * std::pow(r, 7))};
-}
-
-// Physical-unit covariances of one camera's parameters.
-// Physical-unit covariances of one camera's parameters, jointly: the
-// intrinsics (9), the rotation's tangent (3: a rotation vector about the
-// reference's axes, rad) and the centre (3, mm); the pose part is zero for
-// the reference camera when it is the gauge.
-constexpr int kCameraParameters = kIntrinsicCount + 6;
-struct CameraCovariance {
-  Eigen::Matrix<double, kCameraParameters, kCameraParameters> joint =
-      Eigen::Matrix<double, kCameraParameters, kCameraParameters>::Zero();
-  auto intrinsics() const { return joint.topLeftCorner<kIntrinsicCount, kIntrinsicCount>(); }
-  auto rotation() const { return joint.block<3, 3>(kIntrinsicCount, kIntrinsicCount); }
-  auto centre() const { return joint.bottomRightCorner<3, 3>(); }
-};
-
-// The least-squares problem over the unknowns, solved in the solver's units
-// (kLengthUnitMm, focal units) and written back in physical units.
-class BoardProblem {
- public:
-  // corner_radius: per camera, the image corner's distance from the
-  // principal point in pixels.
-  BoardProblem(Unknowns* unknowns, const std::vector<Observation>& observations, double huber_px,
-               const std::vector<double>& corner_radius)
-      : unknowns_(unknowns), scaled_(*unknowns) {
-    for (std::size_t c = 0; c < scaled_.intrinsics.size(); ++c) {
-      units_.push_back(UnitsOf(unknowns_->intrinsics[c], corner_radius[c]));
-      for (std::size_t i = 0; i < kIntrinsicCount; ++i) scaled_.intrinsics[c][i] /= units_[c][i];
-    }
-    for (Pose& pose : scaled_.cameras) {
-      for (double& t : pose.t) t /= kLengthUnitMm;
-    }
-    for (Pose& pose : scaled_.boards) {
-      for (double& t : pose.t) t /= kLengthUnitMm;
-    }
-    for (auto& t : scaled_.holder_t) {
-      for (double& v : t) v /= kLengthUnitMm;
-    }
-    ceres::Problem::Options problem_options;
-    problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-    problem_options.loss_function_ownership = ceres::TAKE_OWNERSHIP;
-    problem_ = std::make_unique<ceres::Problem>(problem_options);
-    for (const Observation& o : observations) {
-      if (!o.inlier) continue;
-      const auto c = static_cast<std::size_t>(o.camera);
-      const auto i = static_cast<std::size_t>(o.instant);
-      ceres::LossFunction* loss = huber_px > 0 ? new ceres::HuberLoss(huber_px) : nullptr;
-      Pose& camera = scaled_.cameras[c];
-      if (scaled_.motion) {
-        const auto h = static_cast<std::size_t>(scaled_.motion->holder[i]);
-        auto* cost = new ceres::AutoDiffCostFunction<TurntableCornerResidual, 2, kIntrinsicCount, 4, 3, 3, 3>(
-            new TurntableCornerResidual{o.pixel, o.board_point / kLengthUnitMm, units_[c],
-                                        scaled_.motion->angle_rad[i]});
-        problem_->AddResidualBlock(cost, loss, scaled_.intrinsics[c].data(), camera.q.data(), camera.t.data(),
-                                   scaled_.holder_angles[h].data(), scaled_.holder_t[h].data());
-      } else {
-        auto* cost = new ceres::AutoDiffCostFunction<CornerResidual, 2, kIntrinsicCount, 4, 3, 4, 3>(
-            new CornerResidual{o.pixel, o.board_point / kLengthUnitMm, units_[c]});
-        Pose& board = scaled_.boards[i];
-        problem_->AddResidualBlock(cost, loss, scaled_.intrinsics[c].data(), camera.q.data(), camera.t.data(),
-                                   board.q.data(), board.t.data());
-      }
-      summary_.residuals += 2;
-    }
-    for (std::size_t c = 0; c < scaled_.cameras.size(); ++c) {
-      Pose& camera = scaled_.cameras[c];
-      if (!problem_->HasParameterBlock(camera.q.data())) continue;
-      problem_->AddResidualBlock(new ceres::AutoDiffCostFunction<DistortionPrior, 5, kIntrinsicCount>(new DistortionPrior),
-                                 nullptr, scaled_.intrinsics[c].data());
-      problem_->SetManifold(camera.q.data(), &quaternion_);
-      if (c == 0 && !scaled_.motion) {  // the reference frame: the gauge
-        problem_->SetParameterBlockConstant(camera.q.data());
-        problem_->SetParameterBlockConstant(camera.t.data());
-      } else {
-        summary_.tangent_parameters += 6;
-      }
-      summary_.tangent_parameters += kIntrinsicCount;
-    }
-    for (Pose& board : scaled_.boards) {
-      if (!problem_->HasParameterBlock(board.q.data())) continue;
-      problem_->SetManifold(board.q.data(), &quaternion_);
-      summary_.tangent_parameters += 6;
-    }
-    for (std::size_t h = 0; h < scaled_.holder_angles.size(); ++h) {
-      if (!problem_->HasParameterBlock(scaled_.holder_angles[h].data())) continue;
-      summary_.tangent_parameters += 6;
-      if (h != 0) continue;
-      // The world's gauge: the first holder's board has yaw 0 (it sets the
-      // world's x axis) and its surface lies at its known height.
-      problem_->SetManifold(scaled_.holder_angles[h].data(), &fixed_first_);
-      problem_->SetManifold(scaled_.holder_t[h].data(), &fixed_third_);
-      summary_.tangent_parameters -= 2;
-    }
-  }
-
-  SolveSummary Solve() {
-    ceres::Solver::Options options;
-    options.linear_solver_type = ceres::DENSE_SCHUR;
-    options.max_num_iterations = 200;
-    options.function_tolerance = 1e-12;
-    options.parameter_tolerance = 1e-12;
-    options.num_threads = 2;
-    ceres::Solver::Summary summary;
-    ceres::Solve(options, problem_.get(), &summary);
-    summary_.cost = summary.final_cost;
-    *unknowns_ = scaled_;
-    for (std::size_t c = 0; c < unknowns_->intrinsics.size(); ++c) {
-      for (std::size_t i = 0; i < kIntrinsicCount; ++i) unknowns_->intrinsics[c][i] *= units_[c][i];
-    }
-    for (Pose& pose : unknowns_->cameras) {
-      for (double& t : pose.t) t *= kLengthUnitMm;
-    }
-    for (Pose& pose : unknowns_->boards) {
-      for (double& t : pose.t) t *= kLengthUnitMm;
-    }
-    for (auto& t : unknowns_->holder_t) {
-      for (double& v : t) v *= kLengthUnitMm;
-    }
-    DeriveBoardPoses(unknowns_);
-    return summary_;
-  }
-
-  // (J^T J)^-1 at the solution for every camera, in physical units (not yet
-  // scaled by the residual variance); false when J^T J is singular to
-  // working precision (some parameter is not observed at all).
-  bool Covariances(std::vector<CameraCovariance>* out) {
-    ceres::Covariance::Options options;
-    options.algorithm_type = summary_.tangent_parameters <= 2000 ? ceres::DENSE_SVD : ceres::SPARSE_QR;
-    // DENSE_SVD factors J itself, whose singular values it resolves to about
-    // 1e-10 of the largest (1e-20 for J^T J): a narrow lens's focal length
-    // and distance are that weakly tied, and get a large sigma, not none.
-    options.min_reciprocal_condition_number = 1e-20;
-    options.num_threads = 2;
-    ceres::Covariance covariance(options);
-    std::vector<std::pair<const double*, const double*>> blocks;
-    for (std::size_t c = 0; c < scaled_.cameras.size(); ++c) {
-      const double* k = scaled_.intrinsics[c].data();
-      blocks.emplace_back(k, k);
-      if (c == 0 && !scaled_.motion) continue;
-      const double* q = scaled_.cameras[c].q.data();
-      const double* t = scaled_.cameras[c].t.data();
-      for (const auto& pair : {std::pair{q, q}, std::pair{t, t}, std::pair{k, q}, std::pair{k, t}, std::pair{q, t}}) {
-        blocks.push_back(pair);
-      }
-    }
-    if (!covariance.Compute(blocks, problem_.get())) {
-      return false;
-    }
-    out->resize(scaled_.cameras.size());
-    for (std::size_t c = 0; c < scaled_.cameras.size(); ++c) {
-      // The solver's units back to physical ones, parameter by parameter.
-      Eigen::Matrix<double, kCameraParameters, 1> units;
-      units.head<kIntrinsicCount>() = Eigen::Matrix<double, kIntrinsicCount, 1>(units_[c].data());
-      // Ceres' QuaternionManifold turns by twice its tangent: a tangent
-      // delta is the rotation vector 2 delta.
-      units.segment<3>(kIntrinsicCount).setConstant(2.0);
-      units.tail<3>().setConstant(kLengthUnitMm);
-      Eigen::Matrix<double, kCameraParameters, kCameraParameters> joint;
-      joint.setZero();
-      const double* k = scaled_.intrinsics[c].data();
-      Eigen::Matrix<double, kIntrinsicCount, kIntrinsicCount, Eigen::RowMajor> kk;
-      covariance.GetCovarianceBlock(k, k, kk.data());
-      joint.topLeftCorner<kIntrinsicCount, kIntrinsicCount>() = kk;
-      if (c != 0 || scaled_.motion) {
-        const double* q = scaled_.cameras[c].q.data();
-        const double* t = scaled_.cameras[c].t.data();
-        Eigen::Matrix<double, 3, 3, Eigen::RowMajor> qq, tt, qt;
-        Eigen::Matrix<double, kIntrinsicCount, 3, Eigen::RowMajor> kq, kt;
-        covariance.GetCovarianceBlockInTangentSpace(q, q, qq.data());
-        covariance.GetCovarianceBlock(t, t, tt.data());
-        covariance.GetCovarianceBlockInTangentSpace(k, q, kq.data());
-        covariance.GetCovarianceBlockInTangentSpace(k, t, kt.data());
-        covariance.GetCovarianceBlockInTangentSpace(q, t, qt.data());
-        constexpr int r0 = kIntrinsicCount, c0 = kIntrinsicCount + 3;
-        joint.block<3, 3>(r0, r0) = qq;
-        joint.block<3, 3>(c0, c0) = tt;
-        joint.block<kIntrinsicCount, 3>(0, r0) = kq;
-        joint.block<kIntrinsicCount, 3>(0, c0) = kt;
-        joint.block<3, 3>(r0, c0) = qt;
-        joint.block<3, kIntrinsicCount>(r0, 0) = kq.transpose();
-        joint.block<3, kIntrinsicCount>(c0, 0) = kt.transpose();
-        joint.block<3, 3>(c0, r0) = qt.transpose();
-      }
-      (*out)[c].joint = units.asDiagonal() * joint * units.asDiagonal();
-    }
-    return true;
-  }
-
- private:
-  Unknowns* unknowns_;
-  Unknowns scaled_;
-  std::vector<IntrinsicUnits> units_;
-  ceres::QuaternionManifold quaternion_;
-  ceres::SubsetManifold fixed_first_{3, {0}};
-  ceres::SubsetManifold fixed_third_{3, {2}};
-  std::unique_ptr<ceres::Problem> problem_;
-  SolveSummary summary_;
-};
-
-Eigen::Vector2d Residual(const Unknowns& u, const Observation& o) {
-  const CornerResidual residual{o.pixel, o.board_point};
-  const Pose& camera = u.cameras[static_cast<std::size_t>(o.camera)];
-  const Pose& board = u.boards[static_cast<std::size_t>(o.instant)];
-  double r[2];
-  residual(u.intrinsics[static_cast<std::size_t>(o.camera)].data(), camera.q.data(), camera.t.data(), board.q.data(),
-           board.t.data(), r);
-  return {r[0], r[1]};
-}
-
-Eigen::Vector3d InCamera(const Unknowns& u, const Observation& o) {
-  const Pose& camera = u.cameras[static_cast<std::size_t>(o.camera)];
-  const Pose& board = u.boards[static_cast<std::size_t>(o.instant)];
-  const Eigen::Vector3d in_reference =
-      Rotation(board) * o.board_point + Eigen::Vector3d(board.t[0], board.t[1], board.t[2]);
-  return Rotation(camera).transpose() * (in_reference - Eigen::Vector3d(camera.t[0], camera.t[1], camera.t[2]));
 }
 
 formats::CameraCalibration ToCalibration(const CameraViews& views, const std::array<double, kIntrinsicCount>& k,
@@ -533,84 +120,6 @@ double ProjectionSigma(const Unknowns& u, std::size_t c,
   return std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(projected).eigenvalues().maxCoeff()));
 }
 
-// The turntable's axis from the free solution's board poses (reference =
-// the first camera): the board's motion between two angles on one holder is
-// a rotation about the axis by their difference. Then everything moves into
-// the world frame TurntableMotion defines. Conditioning: the axis comes from
-// pairs of angles at least 5 degrees apart; a holder seen at one angle only
-// gives its pose, not the axis.
-void InitTurntable(Unknowns* u, const TurntableMotion& motion) {
-  std::vector<std::size_t> seen;
-  for (std::size_t i = 0; i < u->boards.size(); ++i) {
-    if (u->board_seen[i]) seen.push_back(i);
-  }
-  Eigen::Vector3d direction = Eigen::Vector3d::Zero();
-  Eigen::MatrixXd a(0, 3);
-  Eigen::VectorXd b(0);
-  for (std::size_t x = 0; x < seen.size(); ++x) {
-    for (std::size_t y = x + 1; y < seen.size(); ++y) {
-      const std::size_t i = seen[x], j = seen[y];
-      if (motion.holder[i] != motion.holder[j]) continue;
-      const double turn = motion.angle_rad[j] - motion.angle_rad[i];
-      if (std::abs(std::sin(turn)) < std::sin(5.0 / kRadToDeg)) continue;
-      const Pose m = Compose(u->boards[j], Inverse(u->boards[i]));
-      const Eigen::AngleAxisd rotation(Rotation(m));
-      direction += rotation.axis() * (rotation.angle() * turn > 0 ? 1.0 : -1.0) * std::abs(std::sin(rotation.angle()));
-      // (I - R) p = t for every point p on the axis.
-      a.conservativeResize(a.rows() + 3, 3);
-      b.conservativeResize(b.rows() + 3);
-      a.bottomRows(3) = Eigen::Matrix3d::Identity() - Rotation(m);
-      b.tail(3) = Eigen::Vector3d(m.t[0], m.t[1], m.t[2]);
-    }
-  }
-  if (direction.norm() < 1e-9) {
-    throw core::Error(
-        "the turntable's axis cannot be found: the board was not seen on one holder at two turntable angles at "
-        "least 5 degrees apart");
-  }
-  const Eigen::Vector3d z = direction.normalized();
-  const Eigen::Vector3d point = a.completeOrthogonalDecomposition().solve(b);
-  // The origin: on the axis, board_height_mm below the first holder's board.
-  std::size_t first = seen.size();
-  for (std::size_t x = 0; x < seen.size() && first == seen.size(); ++x) {
-    if (motion.holder[seen[x]] == 0) first = seen[x];
-  }
-  if (first == seen.size()) throw core::Error("the board was never seen on the first holder tilt");
-  const Pose& board0 = u->boards[first];
-  const Eigen::Vector3d board_origin(board0.t[0], board0.t[1], board0.t[2]);
-  const Eigen::Vector3d origin = point + ((board_origin - point).dot(z) - motion.board_height_mm) * z;
-  const Eigen::Vector3d board_x = Eigen::AngleAxisd(-motion.angle_rad[first], z) * (Rotation(board0) * Eigen::Vector3d::UnitX());
-  const Eigen::Vector3d x = (board_x - board_x.dot(z) * z).normalized();
-  Eigen::Matrix3d world_axes;
-  world_axes << x, z.cross(x), z;
-  const Pose world_from_reference = Inverse(FromMatrix(world_axes, origin));
-  for (Pose& camera : u->cameras) camera = Compose(world_from_reference, camera);
-  int holders = 0;
-  for (const int h : motion.holder) holders = std::max(holders, h + 1);
-  u->holder_angles.assign(static_cast<std::size_t>(holders), {0, 0, 0});
-  u->holder_t.assign(static_cast<std::size_t>(holders), {0, 0, motion.board_height_mm});
-  std::vector<bool> placed(static_cast<std::size_t>(holders), false);
-  for (const std::size_t i : seen) {
-    const auto h = static_cast<std::size_t>(motion.holder[i]);
-    if (placed[h]) continue;
-    placed[h] = true;
-    // turntable <- board = Rz(-angle) (world <- reference) (reference <- board)
-    const Pose unturn = FromMatrix(Eigen::AngleAxisd(-motion.angle_rad[i], Eigen::Vector3d::UnitZ()).toRotationMatrix(),
-                                   Eigen::Vector3d::Zero());
-    const Pose on_table = Compose(unturn, Compose(world_from_reference, u->boards[i]));
-    const Eigen::Matrix3d r = Rotation(on_table);
-    const double pitch = std::asin(std::clamp(-r(2, 0), -1.0, 1.0));
-    const double roll = std::atan2(r(2, 1), r(2, 2));
-    u->holder_angles[h] = {h == 0 ? 0.0 : std::atan2(r(1, 0), r(0, 0)), roll, pitch};
-    u->holder_t[h] = {on_table.t[0], on_table.t[1], h == 0 ? motion.board_height_mm : on_table.t[2]};
-  }
-  for (std::size_t h = 0; h < placed.size(); ++h) {
-    if (!placed[h]) throw core::Error("the board was never seen on holder tilt " + std::to_string(h));
-  }
-  u->motion = &motion;
-  DeriveBoardPoses(u);
-}
-
 }  // namespace
 
 Eigen::Vector2d ProjectInCamera(const formats::CameraCalibration& camera, const Eigen::Vector3d& point) {
@@ -679,8 +188,12 @@ core::CheckResult TurntableMotion::Check(std::size_t instants) const {
   return {};
 }
 
-CameraCalibrationResult CalibrateCameras(const CalibrationBoard& board, const std::vector<CameraViews>& cameras,
-                                         const CameraCalibrationOptions& options, const TurntableMotion* motion) {
+namespace {
+
+using Usable = std::vector<std::vector<bool>>;  // per camera, per instant
+using CameraFromBoard = std::vector<std::map<std::size_t, Pose>>;  // per camera: instant -> camera <- board
+
+void CheckCalibrationInputs(const std::vector<CameraViews>& cameras, const CameraCalibrationOptions& options) {
   if (const core::CheckResult problem = options.Check(); !problem.empty()) {
     throw core::Error("camera calibration: " + problem);
   }
@@ -693,40 +206,48 @@ CameraCalibrationResult CalibrateCameras(const CalibrationBoard& board, const st
                         std::to_string(c.detections.size()) + " photos, expected " + std::to_string(instants));
     }
   }
-  CameraCalibrationResult result;
-  result.cameras.resize(cameras.size());
+}
 
-  // Which photos are usable, and why the others are not.
-  std::vector<std::vector<bool>> usable(cameras.size(), std::vector<bool>(instants, false));
+// Why one photo cannot be used (empty: it can); `outlier` tells a photo
+// set aside for its quality from one where the board was not found.
+std::string UnusablePhotoReason(const CameraViews& views, std::size_t i, const CameraCalibrationOptions& options,
+                                bool* outlier) {
+  const BoardDetection& d = views.detections[i];
+  *outlier = false;
+  if (d.empty()) return "board not found";
+  if (static_cast<int>(d.size()) < options.min_corners_per_view) {
+    return "only " + std::to_string(d.size()) + " corners found (" + std::to_string(options.min_corners_per_view) +
+           " needed)";
+  }
+  if (views.qualities.empty()) return "";
+  const DetectionQuality& q = views.qualities[i];
+  *outlier = true;
+  if (q.saturated_fraction > options.max_saturated_fraction) {
+    return "saturated: " + core::Fixed(100 * q.saturated_fraction, 1) + " % of the board's pixels at full scale";
+  }
+  if (q.edge_width_px > options.max_edge_width_px) {
+    return "blurred: the board's edges are " + core::Fixed(q.edge_width_px, 1) + " px wide (at most " +
+           core::Fixed(options.max_edge_width_px, 1) + ")";
+  }
+  return "";
+}
+
+// Which photos are usable, and why the others are not.
+Usable SelectUsablePhotos(const CalibrationBoard& board, const std::vector<CameraViews>& cameras,
+                          const CameraCalibrationOptions& options, CameraCalibrationResult* result) {
+  const std::size_t instants = cameras[0].detections.size();
+  Usable usable(cameras.size(), std::vector<bool>(instants, false));
   for (std::size_t c = 0; c < cameras.size(); ++c) {
     const CameraViews& views = cameras[c];
-    CalibratedCamera& out = result.cameras[c];
+    CalibratedCamera& out = result->cameras[c];
     for (std::size_t i = 0; i < instants; ++i) {
-      const BoardDetection& d = views.detections[i];
-      if (d.empty()) {
-        out.unused_images.push_back({views.names[i], "board not found"});
-        continue;
+      bool outlier = false;
+      const std::string reason = UnusablePhotoReason(views, i, options, &outlier);
+      if (reason.empty()) {
+        usable[c][i] = true;
+      } else {
+        (outlier ? out.outlier_images : out.unused_images).push_back({views.names[i], reason});
       }
-      if (static_cast<int>(d.size()) < options.min_corners_per_view) {
-        out.unused_images.push_back({views.names[i], "only " + std::to_string(d.size()) + " corners found (" +
-                                                         std::to_string(options.min_corners_per_view) + " needed)"});
-        continue;
-      }
-      if (!views.qualities.empty()) {
-        const DetectionQuality& q = views.qualities[i];
-        if (q.saturated_fraction > options.max_saturated_fraction) {
-          out.outlier_images.push_back({views.names[i], "saturated: " + core::Fixed(100 * q.saturated_fraction, 1) +
-                                                            " % of the board's pixels at full scale"});
-          continue;
-        }
-        if (q.edge_width_px > options.max_edge_width_px) {
-          out.outlier_images.push_back({views.names[i], "blurred: the board's edges are " +
-                                                            core::Fixed(q.edge_width_px, 1) + " px wide (at most " +
-                                                            core::Fixed(options.max_edge_width_px, 1) + ")"});
-          continue;
-        }
-      }
-      usable[c][i] = true;
     }
     const int count = static_cast<int>(std::count(usable[c].begin(), usable[c].end(), true));
     if (count == 0) {
@@ -738,14 +259,19 @@ CameraCalibrationResult CalibrateCameras(const CalibrationBoard& board, const st
                         " usable photos; at least " + std::to_string(options.min_views_per_camera) + " are needed");
     }
   }
+  return usable;
+}
 
-  // Zhang's method per camera: intrinsics and each view's camera <- board.
-  Unknowns unknowns;
-  unknowns.intrinsics.resize(cameras.size());
-  unknowns.cameras.resize(cameras.size());
-  unknowns.boards.resize(instants);
-  unknowns.board_seen.assign(instants, false);
-  std::vector<std::map<std::size_t, Pose>> camera_from_board(cameras.size());
+// Zhang's method per camera (OpenCV's): its intrinsics and each usable
+// view's camera <- board.
+CameraFromBoard InitializeWithZhang(const CalibrationBoard& board, const std::vector<CameraViews>& cameras,
+                                    const Usable& usable, Unknowns* unknowns) {
+  const std::size_t instants = cameras[0].detections.size();
+  unknowns->intrinsics.resize(cameras.size());
+  unknowns->cameras.resize(cameras.size());
+  unknowns->boards.resize(instants);
+  unknowns->board_seen.assign(instants, false);
+  CameraFromBoard camera_from_board(cameras.size());
   for (std::size_t c = 0; c < cameras.size(); ++c) {
     std::vector<std::vector<cv::Point3f>> object_points;
     std::vector<std::vector<cv::Point2f>> image_points;
@@ -771,16 +297,22 @@ CameraCalibrationResult CalibrateCameras(const CalibrationBoard& board, const st
       throw core::Error("camera " + core::Quoted(cameras[c].id) + ": Zhang's initial calibration failed: " +
                         core::Cut(e.what()));
     }
-    unknowns.intrinsics[c] = {matrix.at<double>(0, 0), matrix.at<double>(1, 1), matrix.at<double>(0, 2),
-                              matrix.at<double>(1, 2), distortion.at<double>(0), distortion.at<double>(1),
-                              distortion.at<double>(2), distortion.at<double>(3), 0.0};
+    unknowns->intrinsics[c] = {matrix.at<double>(0, 0), matrix.at<double>(1, 1), matrix.at<double>(0, 2),
+                               matrix.at<double>(1, 2), distortion.at<double>(0), distortion.at<double>(1),
+                               distortion.at<double>(2), distortion.at<double>(3), 0.0};
     for (std::size_t v = 0; v < views.size(); ++v) {
       camera_from_board[c][views[v]] = FromRvecTvec(rvecs[v], tvecs[v]);
     }
   }
+  return camera_from_board;
+}
 
-  // Cameras' poses in the first camera's frame, through shared instants
-  // (breadth first, each link through the instant where both see the most).
+// Cameras' poses in the first camera's frame, through shared instants
+// (breadth first, each link through the instant where both see the most),
+// then each instant's board in that frame.
+void ChainCameraPoses(const std::vector<CameraViews>& cameras, CameraFromBoard& camera_from_board,
+                      Unknowns* unknowns) {
+  const std::size_t instants = cameras[0].detections.size();
   std::vector<bool> placed(cameras.size(), false);
   placed[0] = true;
   std::queue<std::size_t> frontier;
@@ -798,8 +330,8 @@ CameraCalibrationResult CalibrateCameras(const CalibrationBoard& board, const st
       }
       if (best == instants) continue;
       // reference <- c = (reference <- known)(known <- board)(board <- c)
-      unknowns.cameras[c] = Compose(Compose(unknowns.cameras[known], camera_from_board[known][best]),
-                                    Inverse(camera_from_board[c][best]));
+      unknowns->cameras[c] = Compose(Compose(unknowns->cameras[known], camera_from_board[known][best]),
+                                     Inverse(camera_from_board[c][best]));
       placed[c] = true;
       frontier.push(c);
     }
@@ -814,17 +346,18 @@ CameraCalibrationResult CalibrateCameras(const CalibrationBoard& board, const st
     for (std::size_t c = 0; c < cameras.size(); ++c) {
       const auto found = camera_from_board[c].find(i);
       if (found == camera_from_board[c].end()) continue;
-      unknowns.boards[i] = Compose(unknowns.cameras[c], found->second);
-      unknowns.board_seen[i] = true;
+      unknowns->boards[i] = Compose(unknowns->cameras[c], found->second);
+      unknowns->board_seen[i] = true;
       break;
     }
   }
+}
 
-  std::vector<double> corner_radius;
-  for (const CameraViews& c : cameras) corner_radius.push_back(0.5 * std::hypot(c.width, c.height));
+std::vector<Observation> CollectCorners(const CalibrationBoard& board, const std::vector<CameraViews>& cameras,
+                                        const Usable& usable) {
   std::vector<Observation> observations;
   for (std::size_t c = 0; c < cameras.size(); ++c) {
-    for (std::size_t i = 0; i < instants; ++i) {
+    for (std::size_t i = 0; i < usable[c].size(); ++i) {
       if (!usable[c][i]) continue;
       const BoardDetection& d = cameras[c].detections[i];
       for (std::size_t j = 0; j < d.size(); ++j) {
@@ -832,47 +365,49 @@ CameraCalibrationResult CalibrateCameras(const CalibrationBoard& board, const st
       }
     }
   }
+  return observations;
+}
 
-  if (motion) {
-    if (const core::CheckResult problem = motion->Check(instants); !problem.empty()) {
-      throw core::Error("camera calibration: " + problem);
-    }
-    BoardProblem(&unknowns, observations, options.huber_px, corner_radius).Solve();
-    InitTurntable(&unknowns, *motion);
-  }
-
-  // Robust solve, then outliers: corners far beyond the rest, then photos
-  // that fit much worse than the median photo.
-  BoardProblem(&unknowns, observations, options.huber_px, corner_radius).Solve();
+// Corners far beyond the rest after the robust solve; their squared
+// residuals, per observation, for the photos' test.
+std::vector<double> SetAsideOutlierCorners(const CalibrationBoard& board, const CameraCalibrationOptions& options,
+                                           const Unknowns& unknowns, std::vector<Observation>* observations,
+                                           CameraCalibrationResult* result) {
   std::vector<double> squared;
-  for (const Observation& o : observations) squared.push_back(Residual(unknowns, o).squaredNorm());
+  for (const Observation& o : *observations) squared.push_back(Residual(unknowns, o).squaredNorm());
   // A 2D residual with per-coordinate sigma s has median squared norm
   // 2 ln 2 s^2.
   const double robust_sigma = std::sqrt(Median(squared) / (2 * std::log(2.0)));
   const double corner_limit = std::max(options.outlier_corner_sigmas * robust_sigma, 0.25);
   int outliers = 0;
-  for (std::size_t n = 0; n < observations.size(); ++n) {
+  for (std::size_t n = 0; n < observations->size(); ++n) {
     if (std::sqrt(squared[n]) > corner_limit) {
-      observations[n].inlier = false;
+      (*observations)[n].inlier = false;
       ++outliers;
-      ++result.cameras[static_cast<std::size_t>(observations[n].camera)].outlier_corners;
+      ++result->cameras[static_cast<std::size_t>((*observations)[n].camera)].outlier_corners;
     }
   }
-  const auto fit_text = [&](double rms) {
-    return "reprojection RMS " + core::Fixed(rms, 2) + " px over " + std::to_string(observations.size()) + " corners";
-  };
-  if (outliers > options.max_outlier_fraction * static_cast<double>(observations.size())) {
+  if (outliers > options.max_outlier_fraction * static_cast<double>(observations->size())) {
     double sum = 0;
     for (const double s : squared) sum += s;
-    throw core::Error("the board " + core::Quoted(board.Spec()) + " does not fit the photos: " +
-                      fit_text(std::sqrt(sum / static_cast<double>(observations.size()))) + ", " +
-                      std::to_string(outliers) + " of them beyond " + core::Fixed(corner_limit, 2) +
+    throw core::Error("the board " + core::Quoted(board.Spec()) + " does not fit the photos: reprojection RMS " +
+                      core::Fixed(std::sqrt(sum / static_cast<double>(observations->size())), 2) + " px over " +
+                      std::to_string(observations->size()) + " corners, " + std::to_string(outliers) +
+                      " of them beyond " + core::Fixed(corner_limit, 2) +
                       " px; check the board's size, squares and dictionary");
   }
+  return squared;
+}
+
+// Photos that fit much worse than the median photo (on their inlier
+// corners); throws when a camera keeps too few.
+void SetAsideOutlierPhotos(const std::vector<CameraViews>& cameras, const CameraCalibrationOptions& options,
+                           const std::vector<double>& squared, std::vector<Observation>* observations, Usable* usable,
+                           CameraCalibrationResult* result) {
   std::map<std::pair<int, int>, std::pair<double, int>> per_photo;  // (camera, instant) -> (sum, count)
-  for (std::size_t n = 0; n < observations.size(); ++n) {
-    if (!observations[n].inlier) continue;
-    auto& entry = per_photo[{observations[n].camera, observations[n].instant}];
+  for (std::size_t n = 0; n < observations->size(); ++n) {
+    if (!(*observations)[n].inlier) continue;
+    auto& entry = per_photo[{(*observations)[n].camera, (*observations)[n].instant}];
     entry.first += squared[n];
     entry.second += 1;
   }
@@ -883,82 +418,102 @@ CameraCalibrationResult CalibrateCameras(const CalibrationBoard& board, const st
     const double rms = std::sqrt(entry.first / entry.second);
     if (rms <= options.outlier_image_ratio * median_photo_rms || rms <= 0.5) continue;
     const auto [c, i] = key;
-    usable[static_cast<std::size_t>(c)][static_cast<std::size_t>(i)] = false;
-    result.cameras[static_cast<std::size_t>(c)].outlier_images.push_back(
+    (*usable)[static_cast<std::size_t>(c)][static_cast<std::size_t>(i)] = false;
+    result->cameras[static_cast<std::size_t>(c)].outlier_images.push_back(
         {cameras[static_cast<std::size_t>(c)].names[static_cast<std::size_t>(i)],
          "reprojection RMS " + core::Fixed(rms, 2) + " px, " + core::Fixed(rms / median_photo_rms, 1) +
              " times the median photo's"});
-    for (Observation& o : observations) {
+    for (Observation& o : *observations) {
       if (o.camera == c && o.instant == i) o.inlier = false;
     }
   }
   for (std::size_t c = 0; c < cameras.size(); ++c) {
-    const int count = static_cast<int>(std::count(usable[c].begin(), usable[c].end(), true));
+    const int count = static_cast<int>(std::count((*usable)[c].begin(), (*usable)[c].end(), true));
     if (count < options.min_views_per_camera) {
       throw core::Error("camera " + core::Quoted(cameras[c].id) + " keeps only " + std::to_string(count) +
                         " photos after outliers are set aside; at least " +
                         std::to_string(options.min_views_per_camera) + " are needed");
     }
   }
+}
 
-  // Least squares on the inliers, and its covariance.
-  BoardProblem final_problem(&unknowns, observations, 0.0, corner_radius);
+// The least-squares solution on the inliers: the residual variance and,
+// when J^T J can be inverted, each camera's covariance.
+struct InlierSolution {
+  double variance = 0;
+  std::vector<CameraCovariance> covariances;  // empty: not computed
+};
+
+InlierSolution SolveOnInliers(Unknowns* unknowns, const std::vector<Observation>& observations,
+                              const std::vector<double>& corner_radius, CameraCalibrationResult* result) {
+  BoardProblem final_problem(unknowns, observations, 0.0, corner_radius);
   const SolveSummary solved = final_problem.Solve();
   const int dof = solved.residuals - solved.tangent_parameters;
   if (dof <= 0) {
     throw core::Error("camera calibration: " + std::to_string(solved.residuals / 2) + " corners cannot determine " +
                       std::to_string(solved.tangent_parameters) + " parameters; take more photos");
   }
-  const double variance = 2 * solved.cost / dof;
-  result.residual_sigma_px = std::sqrt(variance);
-
-  std::vector<CameraCovariance> covariances;
-  const bool have_covariance = final_problem.Covariances(&covariances);
-  if (!have_covariance) {
-    result.warnings.push_back(
+  InlierSolution solution;
+  solution.variance = 2 * solved.cost / dof;
+  result->residual_sigma_px = std::sqrt(solution.variance);
+  if (!final_problem.Covariances(&solution.covariances)) {
+    solution.covariances.clear();
+    result->warnings.push_back(
         "the parameters' covariance could not be computed (J^T J is singular to working precision: some "
         "parameters, such as the focal length with every photo square to the camera, are not observed); no "
         "uncertainty is reported and the values are not to be trusted");
   }
+  return solution;
+}
 
-  for (std::size_t c = 0; c < cameras.size(); ++c) {
-    CalibratedCamera& out = result.cameras[c];
-    out.calibration = ToCalibration(cameras[c], unknowns.intrinsics[c], unknowns.cameras[c]);
-    double sum = 0;
-    std::vector<double> depths;
-    for (const Observation& o : observations) {
-      if (!o.inlier || o.camera != static_cast<int>(c)) continue;
-      sum += Residual(unknowns, o).squaredNorm();
-      depths.push_back(InCamera(unknowns, o).z());
-      ++out.corners_used;
-    }
-    out.images_used = static_cast<int>(std::count(usable[c].begin(), usable[c].end(), true));
-    out.rms_px = std::sqrt(sum / std::max(1, out.corners_used));
-    out.working_distance_mm = Median(depths);
-    if (!have_covariance) continue;
-    const Eigen::Matrix<double, kIntrinsicCount, kIntrinsicCount> k_cov = variance * covariances[c].intrinsics();
-    const Eigen::Matrix<double, kIntrinsicCount, 1> k_std = k_cov.diagonal().cwiseSqrt();
-    formats::CameraCalibration& cal = out.calibration;
-    cal.intrinsics.uncertainty = {k_std[0], k_std[1], k_std[2], k_std[3]};
-    cal.distortion.uncertainty = {k_std[4], k_std[5], k_std[6], k_std[7], k_std[8]};
-    out.projection_uncertainty_px = ProjectionSigma(unknowns, c, variance * covariances[c].joint, motion != nullptr,
-                                                    out.working_distance_mm);
-    for (const int f : {0, 1}) {
-      const double relative = k_std[f] / unknowns.intrinsics[c][static_cast<std::size_t>(f)];
-      if (relative > options.warn_relative_focal_sigma) {
-        result.warnings.push_back(
-            "camera " + core::Quoted(cameras[c].id) + ": focal length poorly observed (" + kIntrinsicNames[f] + " " +
-            core::Fixed(unknowns.intrinsics[c][static_cast<std::size_t>(f)], 1) + " +- " + core::Fixed(k_std[f], 1) +
-            " px, " + core::Fixed(100 * relative, 2) + " %): tilt the board more between photos");
-        break;
-      }
-    }
-    if (c == 0 && !motion) continue;
-    cal.pose.uncertainty.rotation_rad = (variance * covariances[c].rotation().diagonal()).cwiseSqrt();
-    cal.pose.uncertainty.translation_mm = (variance * covariances[c].centre().diagonal()).cwiseSqrt();
+// Camera c's calibration, fit and uncertainties as the report gives them.
+void DescribeCamera(std::size_t c, const std::vector<CameraViews>& cameras, const CameraCalibrationOptions& options,
+                    const Unknowns& unknowns, const std::vector<Observation>& observations, const Usable& usable,
+                    const InlierSolution& solution, bool on_turntable, CameraCalibrationResult* result) {
+  CalibratedCamera& out = result->cameras[c];
+  out.calibration = ToCalibration(cameras[c], unknowns.intrinsics[c], unknowns.cameras[c]);
+  double sum = 0;
+  std::vector<double> depths;
+  for (const Observation& o : observations) {
+    if (!o.inlier || o.camera != static_cast<int>(c)) continue;
+    sum += Residual(unknowns, o).squaredNorm();
+    depths.push_back(InCamera(unknowns, o).z());
+    ++out.corners_used;
   }
+  out.images_used = static_cast<int>(std::count(usable[c].begin(), usable[c].end(), true));
+  out.rms_px = std::sqrt(sum / std::max(1, out.corners_used));
+  out.working_distance_mm = Median(depths);
+  if (solution.covariances.empty()) return;
+  const double variance = solution.variance;
+  const CameraCovariance& covariance = solution.covariances[c];
+  const Eigen::Matrix<double, kIntrinsicCount, kIntrinsicCount> k_cov = variance * covariance.intrinsics();
+  const Eigen::Matrix<double, kIntrinsicCount, 1> k_std = k_cov.diagonal().cwiseSqrt();
+  formats::CameraCalibration& cal = out.calibration;
+  cal.intrinsics.uncertainty = {k_std[0], k_std[1], k_std[2], k_std[3]};
+  cal.distortion.uncertainty = {k_std[4], k_std[5], k_std[6], k_std[7], k_std[8]};
+  out.projection_uncertainty_px =
+      ProjectionSigma(unknowns, c, variance * covariance.joint, on_turntable, out.working_distance_mm);
+  for (const int f : {0, 1}) {
+    const double relative = k_std[f] / unknowns.intrinsics[c][static_cast<std::size_t>(f)];
+    if (relative > options.warn_relative_focal_sigma) {
+      result->warnings.push_back(
+          "camera " + core::Quoted(cameras[c].id) + ": focal length poorly observed (" + kIntrinsicNames[f] + " " +
+          core::Fixed(unknowns.intrinsics[c][static_cast<std::size_t>(f)], 1) + " +- " + core::Fixed(k_std[f], 1) +
+          " px, " + core::Fixed(100 * relative, 2) + " %): tilt the board more between photos");
+      break;
+    }
+  }
+  if (c == 0 && !on_turntable) return;
+  cal.pose.uncertainty.rotation_rad = (variance * covariance.rotation().diagonal()).cwiseSqrt();
+  cal.pose.uncertainty.translation_mm = (variance * covariance.centre().diagonal()).cwiseSqrt();
+}
+
+// Each camera's pose relative to the first, and on a turntable each
+// holder's board pose.
+void DescribeRelativePoses(const std::vector<CameraViews>& cameras, const Unknowns& unknowns, bool on_turntable,
+                           CameraCalibrationResult* result) {
   for (std::size_t c = 1; c < cameras.size(); ++c) {
-    const formats::CameraCalibration& cal = result.cameras[c].calibration;
+    const formats::CameraCalibration& cal = result->cameras[c].calibration;
     RelativePose relative;
     relative.from = cameras[0].id;
     relative.to = cameras[c].id;
@@ -967,22 +522,26 @@ CameraCalibrationResult CalibrateCameras(const CalibrationBoard& board, const st
     ceres::QuaternionToAngleAxis(first_from_c.q.data(), aa);
     relative.rotation_deg = Eigen::Vector3d(aa[0], aa[1], aa[2]) * kRadToDeg;
     relative.translation_mm = Eigen::Vector3d(first_from_c.t[0], first_from_c.t[1], first_from_c.t[2]);
-    if (!motion && cal.pose.uncertainty.rotation_rad) {
+    if (!on_turntable && cal.pose.uncertainty.rotation_rad) {
       relative.rotation_std_deg = *cal.pose.uncertainty.rotation_rad * kRadToDeg;
       relative.translation_std_mm = *cal.pose.uncertainty.translation_mm;
       relative.has_std = true;
     }
-    result.relative_poses.push_back(relative);
+    result->relative_poses.push_back(relative);
   }
-  for (std::size_t h = 0; motion && h < unknowns.holder_angles.size(); ++h) {
+  for (std::size_t h = 0; on_turntable && h < unknowns.holder_angles.size(); ++h) {
     const Pose pose = HolderPose(unknowns, h);
     core::RigidTransform holder;
     holder.parent_frame = "turntable";
     holder.child_frame = "board";
     holder.rotation = Rotation(pose);
     holder.translation = Eigen::Vector3d(pose.t[0], pose.t[1], pose.t[2]);
-    result.holder_poses.push_back(holder);
+    result->holder_poses.push_back(holder);
   }
+}
+
+void CheckEveryCameraFits(const CalibrationBoard& board, const CameraCalibrationOptions& options,
+                          const CameraCalibrationResult& result) {
   for (const CalibratedCamera& c : result.cameras) {
     if (c.rms_px > options.max_rms_px) {
       throw core::Error("the board " + core::Quoted(board.Spec()) + " does not fit the photos of camera " +
@@ -992,6 +551,40 @@ CameraCalibrationResult CalibrateCameras(const CalibrationBoard& board, const st
                         " px expected); check the board's size, squares and dictionary");
     }
   }
+}
+
+}  // namespace
+
+CameraCalibrationResult CalibrateCameras(const CalibrationBoard& board, const std::vector<CameraViews>& cameras,
+                                         const CameraCalibrationOptions& options, const TurntableMotion* motion) {
+  CheckCalibrationInputs(cameras, options);
+  CameraCalibrationResult result;
+  result.cameras.resize(cameras.size());
+  Usable usable = SelectUsablePhotos(board, cameras, options, &result);
+  Unknowns unknowns;
+  CameraFromBoard camera_from_board = InitializeWithZhang(board, cameras, usable, &unknowns);
+  ChainCameraPoses(cameras, camera_from_board, &unknowns);
+  std::vector<double> corner_radius;
+  for (const CameraViews& c : cameras) corner_radius.push_back(0.5 * std::hypot(c.width, c.height));
+  std::vector<Observation> observations = CollectCorners(board, cameras, usable);
+  if (motion) {
+    if (const core::CheckResult problem = motion->Check(cameras[0].detections.size()); !problem.empty()) {
+      throw core::Error("camera calibration: " + problem);
+    }
+    BoardProblem(&unknowns, observations, options.huber_px, corner_radius).Solve();
+    InitTurntable(&unknowns, *motion);
+  }
+  // Robust solve, then outliers: corners far beyond the rest, then photos
+  // that fit much worse than the median photo.
+  BoardProblem(&unknowns, observations, options.huber_px, corner_radius).Solve();
+  const std::vector<double> squared = SetAsideOutlierCorners(board, options, unknowns, &observations, &result);
+  SetAsideOutlierPhotos(cameras, options, squared, &observations, &usable, &result);
+  const InlierSolution solution = SolveOnInliers(&unknowns, observations, corner_radius, &result);
+  for (std::size_t c = 0; c < cameras.size(); ++c) {
+    DescribeCamera(c, cameras, options, unknowns, observations, usable, solution, motion != nullptr, &result);
+  }
+  DescribeRelativePoses(cameras, unknowns, motion != nullptr, &result);
+  CheckEveryCameraFits(board, options, result);
   return result;
 }
 

@@ -145,27 +145,8 @@ CameraDescription ParseCamera(const core::JsonFieldReader& f) {
   return c;
 }
 
-}  // namespace
-
-RigDescription ParseRigDescription(const nlohmann::json& json, const std::filesystem::path& file) {
-  const core::JsonFieldReader root(json, file);
-  root.ExpectFormat("mesocap.rig", 1);
-  root.RejectUnknownMembers({"format", "version", "name", "sample", "cameras", "turntable", "light_arc", "lamps",
-                             "laser", "faults", "calibration_board", "white_reference", "mirror_sphere"});
-  RigDescription rig;
-  rig.json = json;
-  rig.file = file;
-  rig.name = root.String("name");
-  const auto sample = root.Object("sample");
-  sample.RejectUnknownMembers({"size_mm", "backing"});
-  rig.sample_size_mm = sample.Number("size_mm", 1e-3, 1e4);
-  if (sample.Has("backing")) {
-    const auto backing = sample.Object("backing");
-    backing.RejectUnknownMembers({"depth_mm", "albedo"});
-    rig.backing.depth_mm = backing.Number("depth_mm", 1e-3, 1e4);
-    rig.backing.albedo = backing.Number("albedo", 0.0, 1.0);
-  }
-
+// The calibration targets a calibration session photographs, each optional.
+void ParseCalibrationTargets(const core::JsonFieldReader& root, RigDescription* rig) {
   if (root.Has("calibration_board")) {
     const auto board = root.Object("calibration_board");
     board.RejectUnknownMembers({"board", "height_mm", "holder_tilts_deg", "turntable_angles_deg"});
@@ -175,7 +156,7 @@ RigDescription ParseRigDescription(const nlohmann::json& json, const std::filesy
     b.holder_tilts_rad = AnglesDeg(board, "holder_tilts_deg", -80.0, 80.0);
     if (b.holder_tilts_rad[0] != 0.0) board.Fail("holder_tilts_deg[0]", "expected 0: the first tilt sets the sample frame");
     b.turntable_angles_rad = AnglesDeg(board, "turntable_angles_deg", 0.0, 360.0);
-    rig.calibration_board = b;
+    rig->calibration_board = b;
   }
   if (root.Has("white_reference")) {
     const auto white = root.Object("white_reference");
@@ -184,7 +165,7 @@ RigDescription ParseRigDescription(const nlohmann::json& json, const std::filesy
     w.albedo = white.Number("albedo", 1e-3, 1.0);
     w.height_mm = white.Number("height_mm", -1e4, 1e4);
     w.arc_angle_rad = core::RadiansFromDegrees(white.Number("arc_angle_deg", 0.0, 360.0));
-    rig.white_reference = w;
+    rig->white_reference = w;
   }
   if (root.Has("mirror_sphere")) {
     const auto sphere = root.Object("mirror_sphere");
@@ -198,55 +179,46 @@ RigDescription ParseRigDescription(const nlohmann::json& json, const std::filesy
     m.centre_height_mm = sphere.Number("centre_height_mm", -1e4, 1e4);
     m.reflectance = sphere.Number("reflectance", 1e-3, 1.0);
     m.exposure_us = sphere.Number("exposure_us", 1.0, 1e7);
-    rig.mirror_sphere = m;
+    rig->mirror_sphere = m;
   }
+}
 
-  std::set<std::string> ids;
-  for (const auto& c : root.Objects("cameras", kMaxDevices)) {
-    rig.cameras.push_back(ParseCamera(c));
-    if (!ids.insert(rig.cameras.back().id).second)
-      c.Fail("id", "duplicate camera id " + core::Quoted(rig.cameras.back().id));
-  }
-  if (rig.cameras.empty()) root.Fail("cameras", "expected at least one camera");
-  rig.turntable = ParseStage(root.Object("turntable"));
-  rig.light_arc = ParseStage(root.Object("light_arc"));
-  if (rig.mirror_sphere && rig.mirror_sphere->arc_angles_rad.empty()) {
-    rig.mirror_sphere->arc_angles_rad = rig.light_arc.angles_rad;
-  }
-
-  const auto lamps = root.Object("lamps");
-  rig.lamps.backend = lamps.Choice("backend", {"sim", "gpiod"});
-  if (rig.lamps.backend == "gpiod") {
+LampBankDescription ParseLamps(const core::JsonFieldReader& lamps) {
+  LampBankDescription bank;
+  bank.backend = lamps.Choice("backend", {"sim", "gpiod"});
+  if (bank.backend == "gpiod") {
     lamps.RejectUnknownMembers({"backend", "distance_mm", "elevations_deg", "intensity", "emitter_radius_mm", "lines",
                                 "sense_lines", "settle_ms"});
   } else {
     lamps.RejectUnknownMembers({"backend", "distance_mm", "elevations_deg", "intensity", "emitter_radius_mm"});
   }
-  if (lamps.Has("emitter_radius_mm")) rig.lamps.emitter_radius_mm = lamps.Number("emitter_radius_mm", 0.01, 1e4);
-  rig.lamps.distance_mm = lamps.Number("distance_mm", 1.0, 1e5);
-  rig.lamps.elevations_rad = AnglesDeg(lamps, "elevations_deg", 1.0, 90.0);
-  if (rig.lamps.backend == "gpiod") {
-    for (const auto& line : lamps.Objects("lines", kMaxDevices)) rig.lamps.lines.push_back(ParseGpioLine(line));
-    if (rig.lamps.lines.size() != rig.lamps.elevations_rad.size()) {
-      lamps.Fail("lines", "expected one line per lamp (" + std::to_string(rig.lamps.elevations_rad.size()) + ")");
+  if (lamps.Has("emitter_radius_mm")) bank.emitter_radius_mm = lamps.Number("emitter_radius_mm", 0.01, 1e4);
+  bank.distance_mm = lamps.Number("distance_mm", 1.0, 1e5);
+  bank.elevations_rad = AnglesDeg(lamps, "elevations_deg", 1.0, 90.0);
+  if (bank.backend == "gpiod") {
+    for (const auto& line : lamps.Objects("lines", kMaxDevices)) bank.lines.push_back(ParseGpioLine(line));
+    if (bank.lines.size() != bank.elevations_rad.size()) {
+      lamps.Fail("lines", "expected one line per lamp (" + std::to_string(bank.elevations_rad.size()) + ")");
     }
     if (lamps.Has("sense_lines")) {
       for (const auto& line : lamps.Objects("sense_lines", kMaxDevices)) {
-        rig.lamps.sense_lines.push_back(ParseGpioLine(line));
+        bank.sense_lines.push_back(ParseGpioLine(line));
       }
-      if (rig.lamps.sense_lines.size() != rig.lamps.lines.size()) {
-        lamps.Fail("sense_lines", "expected one sense line per lamp (" + std::to_string(rig.lamps.lines.size()) + ")");
+      if (bank.sense_lines.size() != bank.lines.size()) {
+        lamps.Fail("sense_lines", "expected one sense line per lamp (" + std::to_string(bank.lines.size()) + ")");
       }
     }
-    rig.lamps.settle_ms = lamps.NumberOr("settle_ms", 200.0, 0.0, 600000.0);
+    bank.settle_ms = lamps.NumberOr("settle_ms", 200.0, 0.0, 600000.0);
   }
-  rig.lamps.intensity = lamps.Vector3("intensity");
-  if (rig.lamps.intensity.minCoeff() < 0 || rig.lamps.intensity.maxCoeff() > kMaxLampIntensity) {
+  bank.intensity = lamps.Vector3("intensity");
+  if (bank.intensity.minCoeff() < 0 || bank.intensity.maxCoeff() > kMaxLampIntensity) {
     lamps.Fail("intensity", "expected three numbers in [0, 1e+12]");
   }
+  return bank;
+}
 
-  const auto laser = root.Object("laser");
-  auto& l = rig.laser;
+LaserDescription ParseLaser(const core::JsonFieldReader& laser) {
+  LaserDescription l;
   l.backend = laser.Choice("backend", {"sim", "gpiod"});
   if (l.backend == "gpiod") {
     laser.RejectUnknownMembers({"backend", "distance_mm", "mount_elevations_deg", "locations", "sweep_mm",
@@ -299,6 +271,47 @@ RigDescription ParseRigDescription(const nlohmann::json& json, const std::filesy
   if (laser.Has("sweep_storage") && laser.Choice("sweep_storage", {"frames", "analysis"}) == "analysis") {
     l.sweep_storage = LaserDescription::SweepStorage::kAnalysis;
   }
+  return l;
+}
+
+}  // namespace
+
+RigDescription ParseRigDescription(const nlohmann::json& json, const std::filesystem::path& file) {
+  const core::JsonFieldReader root(json, file);
+  root.ExpectFormat("mesocap.rig", 1);
+  root.RejectUnknownMembers({"format", "version", "name", "sample", "cameras", "turntable", "light_arc", "lamps",
+                             "laser", "faults", "calibration_board", "white_reference", "mirror_sphere"});
+  RigDescription rig;
+  rig.json = json;
+  rig.file = file;
+  rig.name = root.String("name");
+  const auto sample = root.Object("sample");
+  sample.RejectUnknownMembers({"size_mm", "backing"});
+  rig.sample_size_mm = sample.Number("size_mm", 1e-3, 1e4);
+  if (sample.Has("backing")) {
+    const auto backing = sample.Object("backing");
+    backing.RejectUnknownMembers({"depth_mm", "albedo"});
+    rig.backing.depth_mm = backing.Number("depth_mm", 1e-3, 1e4);
+    rig.backing.albedo = backing.Number("albedo", 0.0, 1.0);
+  }
+
+  ParseCalibrationTargets(root, &rig);
+
+  std::set<std::string> ids;
+  for (const auto& c : root.Objects("cameras", kMaxDevices)) {
+    rig.cameras.push_back(ParseCamera(c));
+    if (!ids.insert(rig.cameras.back().id).second)
+      c.Fail("id", "duplicate camera id " + core::Quoted(rig.cameras.back().id));
+  }
+  if (rig.cameras.empty()) root.Fail("cameras", "expected at least one camera");
+  rig.turntable = ParseStage(root.Object("turntable"));
+  rig.light_arc = ParseStage(root.Object("light_arc"));
+  if (rig.mirror_sphere && rig.mirror_sphere->arc_angles_rad.empty()) {
+    rig.mirror_sphere->arc_angles_rad = rig.light_arc.angles_rad;
+  }
+
+  rig.lamps = ParseLamps(root.Object("lamps"));
+  rig.laser = ParseLaser(root.Object("laser"));
   return rig;
 }
 
