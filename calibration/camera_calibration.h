@@ -72,7 +72,7 @@ struct CameraViews {
 // holder at one of several tilts (an operator's step), the turntable turned
 // by the stages. The board's pose at each instant then follows from the
 // holder's and the angle, and the photos give the turntable's axis: the
-// world frame becomes the turntable frame at angle 0 (DESIGN.md), with z
+// world frame becomes the turntable frame at angle 0 (docs/ARCHITECTURE.md), with z
 // along the axis, the origin on the axis in the reference plane (the first
 // holder's board surface lies board_height_mm above it) and x along that
 // board's x axis, which sets the sample frame's orientation.

@@ -1,4 +1,4 @@
-// The rig's moving frames (DESIGN.md "Conventions of the data"): the sample
+// The rig's moving frames (docs/ARCHITECTURE.md "Conventions of the data"): the sample
 // in the world at a turntable angle, the light arc's frame at an arc angle,
 // and the laser mounts on the arc, all from a calibration.
 #pragma once

@@ -1,4 +1,4 @@
-// Degrees and radians (DESIGN.md "Conventions of the data": radians inside
+// Degrees and radians (docs/ARCHITECTURE.md "Conventions of the data": radians inside
 // the code, degrees only in files and flags meant for people). One
 // conversion for the whole tree, so that the same degrees give the same
 // radians bit for bit everywhere, and degrees written from radians read

@@ -1,5 +1,5 @@
 // Atomic replacement of files and folders: write under a temporary name in the
-// same folder, then rename (DESIGN.md "On disk"). A reader never sees a half
+// same folder, then rename (docs/ARCHITECTURE.md "On disk"). A reader never sees a half
 // written file, and a crash or an error never destroys what was there before.
 #pragma once
 

@@ -1,5 +1,5 @@
 // The bidirectional texture function T(x, y, view, light): linear RGB
-// reflectance (DESIGN.md), in the two forms a material package holds.
+// reflectance (docs/ARCHITECTURE.md), in the two forms a material package holds.
 //
 // Full form: one image per view direction, W wide and H * Nlight tall, light
 // l in rows [l*H, (l+1)*H) -- lights packed along the 3rd axis, as Wang et

@@ -1,5 +1,5 @@
 // A float image with 1 to 4 interleaved channels, row-major, origin top-left.
-// Values are linear (DESIGN.md: BTF values are linear reflectance).
+// Values are linear (docs/ARCHITECTURE.md: BTF values are linear reflectance).
 #pragma once
 
 #include <cstddef>

@@ -1,6 +1,6 @@
 // The mesostructure distance function (MDF) of Wang et al. 2005, Sec. 3:
 // D(x, y, view) is the distance in mm from the reference-plane point p(x, y)
-// along -view to the first mesostructure hit (DESIGN.md "Conventions of the
+// along -view to the first mesostructure hit (docs/ARCHITECTURE.md "Conventions of the
 // data"). Two special values are never confused with a distance:
 //   no hit:  the ray leaves the slab -d_max <= z <= 0 without a hit;
 //   unknown: the texel was not measured for that view.

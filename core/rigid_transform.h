@@ -1,4 +1,4 @@
-// A rigid transform between two named frames of the rig (DESIGN.md: world,
+// A rigid transform between two named frames of the rig (docs/ARCHITECTURE.md: world,
 // turntable, sample, camera:<id>, lamp:<id>, laser). It maps coordinates in
 // the child frame to the parent frame: x_parent = rotation * x_child + translation.
 #pragma once

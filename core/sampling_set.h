@@ -1,5 +1,5 @@
 // Directions in the sample frame and the named sets of directions a BTF and
-// an MDF are sampled on (DESIGN.md "Conventions of the data": +z out of the
+// an MDF are sampled on (docs/ARCHITECTURE.md "Conventions of the data": +z out of the
 // sample, theta the polar angle from +z, phi the azimuth from +X towards +Y,
 // directions point away from the surface).
 #pragma once

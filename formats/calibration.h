@@ -1,4 +1,4 @@
-// The rig calibration (DESIGN.md "On disk"; docs/FORMATS.md "Calibration"):
+// The rig calibration (docs/ARCHITECTURE.md "On disk"; docs/FORMATS.md "Calibration"):
 // cameras on a fixed arc, a turntable carrying the sample, and a light arc
 // rotating in azimuth that carries the lamps and the laser unit's mount
 // positions (Wang et al. 2005, Sec. 3.1). One JSON file, version 2 (version 1,

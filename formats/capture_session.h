@@ -1,4 +1,4 @@
-// A capture session on disk (DESIGN.md "On disk"; docs/FORMATS.md "Capture
+// A capture session on disk (docs/ARCHITECTURE.md "On disk"; docs/FORMATS.md "Capture
 // session"): a folder holding
 //   manifest.json   what is captured: rig snapshot, calibration, plan, version
 //   journal.jsonl   the steps completed so far (core/capture_journal.h)

@@ -1,4 +1,4 @@
-// The version-1 material package (DESIGN.md "On disk"; docs/FORMATS.md
+// The version-1 material package (docs/ARCHITECTURE.md "On disk"; docs/FORMATS.md
 // "Material package"): a folder holding manifest.json and the image files of
 // whichever parts the material has -- the MDF (float and 8-bit forms), the BTF
 // (full and/or SVD-factored), the ambient term of Wang et al. 2005 Sec. 4.2

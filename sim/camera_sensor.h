@@ -1,8 +1,8 @@
 // The simulated camera's sensor: turns the linear signal a FrameRenderer
 // forms (fraction of full scale) into what a real camera delivers: photon
 // shot noise, read noise, quantization to the camera's bit depth and
-// saturation at full scale (the noise and saturation cases of DESIGN.md "How
-// correctness is shown").
+// saturation at full scale (the noise and saturation cases of docs/ARCHITECTURE.md
+// "How correctness is shown").
 #pragma once
 
 #include <cstdint>

@@ -1,6 +1,6 @@
 // Mesostructure scenes for the simulated rig: one tile of geometry with known
 // shape, repeated periodically in x and y, lying under the reference plane
-// (DESIGN.md: sample frame, +z out of the sample, mesostructure in
+// (docs/ARCHITECTURE.md "Conventions of the data": +z out of the sample, mesostructure in
 // -d_max <= z <= 0). Ray tracing through Embree.
 #pragma once
 
