@@ -82,8 +82,9 @@ def functions(text):
                 kind = "block"
             elif "(" not in words:
                 kind = "scope" if any(w in SCOPE_KEYWORDS for w in words) else "block"
-            elif (re.match(r"[A-Za-z_]", previous) and previous not in QUALIFIERS) or previous in ("(", ",") or (
-                    previous == ">" and "->" not in " ".join(words)):
+            elif any(a == "-" and b == ">" for a, b in zip(words, words[1:])):
+                kind = "function"  # a trailing return type
+            elif (re.match(r"[A-Za-z_]", previous) and previous not in QUALIFIERS) or previous in ("(", ",", ">"):
                 kind = "init"  # a member's brace initializer in a constructor's list, a braced argument
             else:
                 kind = "function"

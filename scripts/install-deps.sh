@@ -29,8 +29,9 @@ packages=(
   # watchdog (libsystemd), and the client's HTTP over a Unix socket (libcurl)
   libmicrohttpd-dev libsystemd-dev libcurl4-openssl-dev
   # tests and benchmarks; chromium (/usr/bin/chromium) runs the daemon's
-  # status page headless in a test
-  libgtest-dev libgmock-dev libbenchmark-dev chromium
+  # status page headless in a test; python3 runs the size check
+  # (scripts/check_code_size.py)
+  libgtest-dev libgmock-dev libbenchmark-dev chromium python3
   # the benchmarks' PNG plots (bench/*_plot.sh)
   gnuplot-nox
   # fuzzing (scripts/fuzz.sh): clang and its runtimes, libFuzzer's among them
