@@ -31,8 +31,7 @@ JobCommandResult NoSuchJob(const std::string& id) {
 
 JobCommandResult NotNow(const CaptureJob& job, const std::string& what) {
   return {JobCommandResult::Outcome::kNotNow,
-          "job " + job.id + " is " + std::string(JobStateName(job.state)) + ": cannot " + what + " it",
-          job};
+          "job " + job.id + " is " + std::string(JobStateName(job.state)) + ": cannot " + what + " it", job};
 }
 
 }  // namespace
@@ -106,9 +105,7 @@ fs::path CaptureDaemon::RecordPath(const std::string& id) const {
   return options_.state_dir / kJobsFolder / (id + ".json");
 }
 
-fs::path CaptureDaemon::SessionDir(const std::string& id) const {
-  return options_.state_dir / kSessionsFolder / id;
-}
+fs::path CaptureDaemon::SessionDir(const std::string& id) const { return options_.state_dir / kSessionsFolder / id; }
 
 std::string CaptureDaemon::rig_name() const { return station_->rig_name(); }
 

@@ -142,7 +142,7 @@ class CaptureDaemon {
 
   mutable std::mutex mutex_;
   std::condition_variable wake_;
-  std::map<std::string, CaptureJob> jobs_;  // by id, which is submission order
+  std::map<std::string, CaptureJob> jobs_;                                 // by id, which is submission order
   std::map<std::string, std::chrono::steady_clock::time_point> retry_at_;  // fault-paused jobs
   std::uint64_t next_number_ = 1;
   std::string running_;

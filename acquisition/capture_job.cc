@@ -1,8 +1,8 @@
 #include "acquisition/capture_job.h"
 
 #include <array>
-#include <vector>
 #include <nlohmann/json.hpp>
+#include <vector>
 
 #include "acquisition/capture_plan.h"
 #include "core/atomic_file.h"
@@ -15,11 +15,11 @@ namespace {
 constexpr std::string_view kFormat = "mesocap.capture_job";
 constexpr int kVersion = 1;
 constexpr std::array<std::pair<JobState, std::string_view>, 6> kNames{{{JobState::kQueued, "queued"},
-                                                                        {JobState::kRunning, "running"},
-                                                                        {JobState::kPaused, "paused"},
-                                                                        {JobState::kDone, "done"},
-                                                                        {JobState::kFailed, "failed"},
-                                                                        {JobState::kCancelled, "cancelled"}}};
+                                                                       {JobState::kRunning, "running"},
+                                                                       {JobState::kPaused, "paused"},
+                                                                       {JobState::kDone, "done"},
+                                                                       {JobState::kFailed, "failed"},
+                                                                       {JobState::kCancelled, "cancelled"}}};
 
 std::vector<std::string> JobStateNames() {
   std::vector<std::string> names;
@@ -84,9 +84,25 @@ CaptureJob ReadCaptureJob(const std::filesystem::path& file) {
   const nlohmann::json document = core::ReadJsonFile(file, 1 << 20);
   const core::JsonFieldReader r(document, file);
   r.ExpectFormat(kFormat, kVersion);
-  r.RejectUnknownMembers({"format", "version", "id", "plan", "state", "submitted_at", "steps_done", "steps_total",
-                          "frames", "dropped_frames", "retries", "faults", "running_s", "pause_reason",
-                          "paused_by_fault", "operator_prompt", "error", "pause_requested", "cancel_requested",
+  r.RejectUnknownMembers({"format",
+                          "version",
+                          "id",
+                          "plan",
+                          "state",
+                          "submitted_at",
+                          "steps_done",
+                          "steps_total",
+                          "frames",
+                          "dropped_frames",
+                          "retries",
+                          "faults",
+                          "running_s",
+                          "pause_reason",
+                          "paused_by_fault",
+                          "operator_prompt",
+                          "error",
+                          "pause_requested",
+                          "cancel_requested",
                           "eta_s"});
   CaptureJob job;
   job.id = r.String("id");

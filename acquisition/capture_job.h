@@ -25,7 +25,7 @@ std::optional<JobState> JobStateFromName(std::string_view name);
 bool IsFinished(JobState state);
 
 struct CaptureJob {
-  std::string id;  // "job-000001": the order of submission
+  std::string id;         // "job-000001": the order of submission
   std::string plan_kind;  // "capture" or "calibration" (acquisition/capture_plan.h)
   JobState state = JobState::kQueued;
   // Why a paused job waits: a client's pause, or the fault that the
@@ -35,15 +35,15 @@ struct CaptureJob {
   // What the person at the rig is asked to do while the job waits for
   // their acknowledgement (the job is paused meanwhile). Empty otherwise.
   std::string operator_prompt;
-  std::string error;  // why a failed job failed
+  std::string error;         // why a failed job failed
   std::string submitted_at;  // UTC, ISO 8601
   std::uint64_t steps_done = 0;
   std::uint64_t steps_total = 0;  // 0 until the session is opened
-  std::uint64_t frames = 0;  // frames delivered, over every run of the job
+  std::uint64_t frames = 0;       // frames delivered, over every run of the job
   std::uint64_t dropped_frames = 0;
   std::uint64_t retries = 0;
-  std::uint64_t faults = 0;  // pauses on faults so far
-  double running_s = 0;      // wall time spent running steps, over every run
+  std::uint64_t faults = 0;       // pauses on faults so far
+  double running_s = 0;           // wall time spent running steps, over every run
   bool cancel_requested = false;  // a cancel of a running job, until it stops between steps
   bool pause_requested = false;   // likewise for a pause
 

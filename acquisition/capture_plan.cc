@@ -58,8 +58,7 @@ std::vector<formats::PlannedStep> MakeCapturePlan(const formats::RigDescription&
   for (std::size_t ti = 0; ti < rig.turntable.angles_rad.size(); ++ti) {
     for (std::size_t ai = 0; ai < rig.light_arc.angles_rad.size(); ++ai) {
       for (std::size_t lamp = 0; lamp < rig.lamps.elevations_rad.size(); ++lamp) {
-        const std::string stem =
-            "t" + std::to_string(ti) + "_a" + std::to_string(ai) + "_l" + std::to_string(lamp);
+        const std::string stem = "t" + std::to_string(ti) + "_a" + std::to_string(ai) + "_l" + std::to_string(lamp);
         formats::BtfImageStep step;
         step.turntable_index = static_cast<int>(ti);
         step.turntable_rad = rig.turntable.angles_rad[ti];

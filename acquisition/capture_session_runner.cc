@@ -65,7 +65,7 @@ class SessionRun {
       const auto* sweep = std::get_if<formats::LaserSweepStep>(&steps_.back());
       if (sweep && sweep->stores_analysis && !options_.calibration) {
         throw core::Error(dir_.string() + ": step \"" + step.id +
-                    "\" stores a sweep analysis, which needs the rig's calibration (none was given)");
+                          "\" stores a sweep analysis, which needs the rig's calibration (none was given)");
       }
     }
     // A resumed session's finished steps must still hold what they captured:
@@ -89,7 +89,7 @@ class SessionRun {
 
   CaptureRunReport Run(const CaptureStepDone& step_done) {
     core::Progress progress("capture " + manifest_.rig.value("name", std::string()), manifest_.plan.size(),
-                      options_.show_progress ? core::Progress::Style::kAuto : core::Progress::Style::kSilent);
+                            options_.show_progress ? core::Progress::Style::kAuto : core::Progress::Style::kSilent);
     progress.Advance(report_.steps_done_before);
     // The step under way, or before the first, the first still to do.
     std::size_t s = 0;
@@ -153,7 +153,8 @@ class SessionRun {
   drivers::Camera& CameraFor(const formats::PlannedStep& step, const formats::CameraFile& file) {
     const auto it = camera_index_.find(file.camera);
     if (it == camera_index_.end()) {
-      throw core::Error(dir_.string() + ": step \"" + step.id + "\" names camera " + core::Quoted(file.camera) + ", which the rig lacks");
+      throw core::Error(dir_.string() + ": step \"" + step.id + "\" names camera " + core::Quoted(file.camera) +
+                        ", which the rig lacks");
     }
     return *rig_.cameras[it->second];
   }
@@ -196,8 +197,7 @@ class SessionRun {
 
   void Retry(int attempt, const drivers::DeviceError& e) {
     if (attempt >= options_.retries) {
-      throw drivers::DeviceError(std::string(e.what()) + "; gave up after " + std::to_string(attempt + 1) +
-                                 " tries");
+      throw drivers::DeviceError(std::string(e.what()) + "; gave up after " + std::to_string(attempt + 1) + " tries");
     }
     spdlog::warn("{}; trying again", e.what());
     ++report_.retries;
@@ -341,9 +341,8 @@ class SessionRun {
     Move(*rig_.turntable, sphere.turntable_rad);
     Move(*rig_.light_arc, sphere.arc_rad);
     rig_.lamps->SetLamp(sphere.lamp, true);
-    WriteImages(
-        GrabAll(step, sphere.files, drivers::PixelFormat::kNative, rig_description_.mirror_sphere->exposure_us),
-        sphere.files);
+    WriteImages(GrabAll(step, sphere.files, drivers::PixelFormat::kNative, rig_description_.mirror_sphere->exposure_us),
+                sphere.files);
   }
 
   void RemoveMirrorSphere() {
@@ -427,16 +426,16 @@ class SessionRun {
     if (!sweep_geometry_) {
       // The plates' files were journaled (and, on a resume, checked) before any sweep.
       sweep_geometry_ = std::make_unique<mdf::SessionSweepGeometry>(
-          dir_ / formats::kSessionManifestName, manifest_, [this](const std::string& path) { return dir_ / path; }, rig_description_,
-          *options_.calibration, options_.sweep_geometry);
+          dir_ / formats::kSessionManifestName, manifest_, [this](const std::string& path) { return dir_ / path; },
+          rig_description_, *options_.calibration, options_.sweep_geometry);
     }
     const mdf::SweepPoses poses = sweep_geometry_->Poses(sweep);
     std::vector<std::unique_ptr<mdf::LaserSweepProcessor>> processors;
     for (const formats::CameraFile& f : sweep.files) {
       const int camera = sweep_geometry_->CameraIndex(f.camera);
-      processors.push_back(std::make_unique<mdf::LaserSweepProcessor>(sweep_geometry_->rays(camera),
-                                                                 sweep_geometry_->Geometry(sweep, poses, camera),
-                                                                 options_.sweep_geometry.line, options_.space_time));
+      processors.push_back(std::make_unique<mdf::LaserSweepProcessor>(
+          sweep_geometry_->rays(camera), sweep_geometry_->Geometry(sweep, poses, camera), options_.sweep_geometry.line,
+          options_.space_time));
     }
     return processors;
   }
@@ -469,7 +468,7 @@ class SessionRun {
   std::map<std::string, std::uint64_t> next_sequence_;
   CaptureRunReport report_;
   std::optional<double> plate_height_mm_;  // the laser calibration plate's height while it is on the turntable
-  std::optional<int> board_holder_;  // the calibration board's holder tilt while it is on the turntable
+  std::optional<int> board_holder_;        // the calibration board's holder tilt while it is on the turntable
   bool white_reference_placed_ = false;
   bool mirror_sphere_placed_ = false;
   // Made at the first sweep that stores its analysis.

@@ -78,7 +78,7 @@ struct CaptureRunReport {
   // The frames of the steps journaled when the run began, as the plan has
   // them: with `frames`, the session's frames however often it was stopped.
   std::uint64_t frames_done_before = 0;
-  std::uint64_t frames = 0;  // this run's
+  std::uint64_t frames = 0;          // this run's
   std::uint64_t dropped_frames = 0;  // sequence gaps the cameras reported
   std::uint64_t retries = 0;         // grabs, moves and tilts tried again
   bool stopped = false;              // stop_before_step ended the run early

@@ -41,8 +41,8 @@ std::vector<std::string_view> Segments(std::string_view path) {
 }
 
 ControlResponse MethodNotAllowed(const ControlRequest& request, const std::string& allowed) {
-  return Error(405, core::Cut(request.method) + " " + core::Cut(request.path) + ": method not allowed (use " +
-                        allowed + ")");
+  return Error(
+      405, core::Cut(request.method) + " " + core::Cut(request.path) + ": method not allowed (use " + allowed + ")");
 }
 
 ControlResponse Submit(CaptureDaemon& daemon, const ControlRequest& request) {
@@ -172,9 +172,10 @@ std::optional<ControlResponse> RefusedAccess(const ControlRequest& request, std:
   if (!request.over_tcp) return std::nullopt;  // the Unix socket's mode is its guard
   if (request.method == "GET" && IsStatusPage(request.path)) return std::nullopt;  // holds no data
   if (request.authorization.empty()) {
-    return Unauthorized("missing Authorization header: expected \"Authorization: Bearer TOKEN\" with the token in "
-                        "mesocapd's control.token",
-                        false);
+    return Unauthorized(
+        "missing Authorization header: expected \"Authorization: Bearer TOKEN\" with the token in "
+        "mesocapd's control.token",
+        false);
   }
   // "Bearer" is case-insensitive (RFC 7235); one or more spaces follow it.
   std::string_view value = request.authorization;

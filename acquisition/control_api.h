@@ -37,10 +37,10 @@ namespace mesocap::acquisition {
 inline constexpr std::size_t kMaxRequestBodyBytes = 64 * 1024;
 
 struct ControlRequest {
-  std::string method;  // "GET", "POST", ...
-  std::string path;    // without the query
-  std::string query;   // after '?', undecoded
-  std::string body;  // at most kMaxRequestBodyBytes: the server answers 413 to a longer one
+  std::string method;           // "GET", "POST", ...
+  std::string path;             // without the query
+  std::string query;            // after '?', undecoded
+  std::string body;             // at most kMaxRequestBodyBytes: the server answers 413 to a longer one
   bool body_too_large = false;  // for the server's own use
   bool over_tcp = false;        // came to the loopback TCP listener (else the Unix socket)
   std::string authorization{};  // the Authorization header; empty when none came

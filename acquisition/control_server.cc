@@ -58,8 +58,8 @@ ssize_t ReadEvents(void* cls, std::uint64_t, char* buffer, std::size_t max) {
 void FreeEventStream(void* cls) { delete static_cast<EventStream*>(cls); }
 
 MHD_Result Respond(MHD_Connection* connection, const ControlResponse& r) {
-  MHD_Response* response = MHD_create_response_from_buffer(r.body.size(), const_cast<char*>(r.body.data()),
-                                                           MHD_RESPMEM_MUST_COPY);
+  MHD_Response* response =
+      MHD_create_response_from_buffer(r.body.size(), const_cast<char*>(r.body.data()), MHD_RESPMEM_MUST_COPY);
   if (response == nullptr) return MHD_NO;
   MHD_add_response_header(response, "Content-Type", r.content_type.c_str());
   MHD_add_response_header(response, "Cache-Control", "no-store");
@@ -123,8 +123,8 @@ MHD_Result HandleConnection(void* cls, MHD_Connection* connection, const char* u
   auto stream = std::make_unique<EventStream>();
   stream->server = server;
   stream->after = response.events_after;
-  MHD_Response* r = MHD_create_response_from_callback(MHD_SIZE_UNKNOWN, 4096, ReadEvents, stream.get(),
-                                                      FreeEventStream);
+  MHD_Response* r =
+      MHD_create_response_from_callback(MHD_SIZE_UNKNOWN, 4096, ReadEvents, stream.get(), FreeEventStream);
   if (r == nullptr) return MHD_NO;
   stream.release();
   MHD_add_response_header(r, "Content-Type", "text/event-stream");
@@ -164,12 +164,11 @@ std::string ControlServerOptions::Check() const {
 
 void ControlServer::Serve(Listener& listener, const std::string& name) {
   listener.http = MHD_start_daemon(
-      MHD_USE_THREAD_PER_CONNECTION | MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_POLL | MHD_USE_ERROR_LOG, 0,
-      nullptr, nullptr, &HandleConnection, &listener, MHD_OPTION_LISTEN_SOCKET, listener.fd,
-      MHD_OPTION_CONNECTION_LIMIT, options_.connection_limit, MHD_OPTION_CONNECTION_TIMEOUT,
-      static_cast<unsigned>(options_.idle_timeout.count()), MHD_OPTION_CONNECTION_MEMORY_LIMIT,
-      static_cast<std::size_t>(32 * 1024), MHD_OPTION_NOTIFY_COMPLETED, &RequestCompleted, nullptr,
-      MHD_OPTION_EXTERNAL_LOGGER, &LogServerError, nullptr, MHD_OPTION_END);
+      MHD_USE_THREAD_PER_CONNECTION | MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_POLL | MHD_USE_ERROR_LOG, 0, nullptr,
+      nullptr, &HandleConnection, &listener, MHD_OPTION_LISTEN_SOCKET, listener.fd, MHD_OPTION_CONNECTION_LIMIT,
+      options_.connection_limit, MHD_OPTION_CONNECTION_TIMEOUT, static_cast<unsigned>(options_.idle_timeout.count()),
+      MHD_OPTION_CONNECTION_MEMORY_LIMIT, static_cast<std::size_t>(32 * 1024), MHD_OPTION_NOTIFY_COMPLETED,
+      &RequestCompleted, nullptr, MHD_OPTION_EXTERNAL_LOGGER, &LogServerError, nullptr, MHD_OPTION_END);
   if (listener.http == nullptr) throw core::Error(name + ": the HTTP server did not start");
   listener.fd = -1;  // MHD_stop_daemon closes it
 }

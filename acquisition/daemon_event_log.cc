@@ -31,7 +31,7 @@ std::uint64_t DaemonEventLog::last_number() const {
 }
 
 std::vector<DaemonEvent> DaemonEventLog::Latest(std::size_t count,
-                                               std::initializer_list<std::string_view> types) const {
+                                                std::initializer_list<std::string_view> types) const {
   std::lock_guard lock(mutex_);
   std::vector<DaemonEvent> out;
   for (auto e = events_.rbegin(); e != events_.rend() && out.size() < count; ++e) {

@@ -219,7 +219,12 @@ int main(int argc, char** argv) {
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
   for (const char* scene : {"weave", "blocks", "grass"}) {
     benchmark::RegisterBenchmark((std::string("Material/") + scene).c_str(), mesocap::Material, std::string(scene))
-        ->Arg(1)->Arg(2)->Arg(4)->Arg(8)->Arg(16)->Arg(32)
+        ->Arg(1)
+        ->Arg(2)
+        ->Arg(4)
+        ->Arg(8)
+        ->Arg(16)
+        ->Arg(32)
         ->Unit(benchmark::kMillisecond);
   }
   benchmark::RegisterBenchmark("PaperSize", mesocap::PaperSize)->Unit(benchmark::kSecond)->Iterations(1);

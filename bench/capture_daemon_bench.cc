@@ -94,9 +94,12 @@ struct BenchOptions {
 
 std::string ModeName(Mode mode, const BenchOptions& o) {
   switch (mode) {
-    case Mode::kDirect: return "station alone";
-    case Mode::kDaemon: return "daemon";
-    case Mode::kPollingFlatOut: return "daemon, " + std::to_string(o.clients) + " clients flat out";
+    case Mode::kDirect:
+      return "station alone";
+    case Mode::kDaemon:
+      return "daemon";
+    case Mode::kPollingFlatOut:
+      return "daemon, " + std::to_string(o.clients) + " clients flat out";
     case Mode::kPollingAtRate: {
       char text[64];
       std::snprintf(text, sizeof text, "daemon, %d clients at %g Hz", o.clients, o.poll_hz);
@@ -258,11 +261,17 @@ std::string LoadAverage() {
 
 json RunJson(const RunResult& r) {
   if (!r.failure.empty()) return {{"failure", r.failure}};
-  return {{"wall_s", r.wall_s},         {"cpu_s", r.cpu_s},       {"frames", r.frames},
-          {"frames_per_s", r.frames / r.wall_s},                  {"dropped_frames", r.dropped},
-          {"retries", r.retries},       {"requests", r.latencies_ms.size()},
-          {"failed_requests", r.failed_requests},                 {"last_request_error", r.last_request_error},
-          {"session_equal", r.differences.empty()},               {"differences", r.differences}};
+  return {{"wall_s", r.wall_s},
+          {"cpu_s", r.cpu_s},
+          {"frames", r.frames},
+          {"frames_per_s", r.frames / r.wall_s},
+          {"dropped_frames", r.dropped},
+          {"retries", r.retries},
+          {"requests", r.latencies_ms.size()},
+          {"failed_requests", r.failed_requests},
+          {"last_request_error", r.last_request_error},
+          {"session_equal", r.differences.empty()},
+          {"differences", r.differences}};
 }
 
 // Prints the rig's table and returns its figures: per mode, over its
@@ -280,9 +289,10 @@ json Summarize(const std::string& rig, std::uint64_t frames, const std::vector<M
   }
   const double direct = direct_fps.empty() ? NAN : Median(direct_fps);
   std::printf("\n%s (frames a session: %llu)\n", rig.c_str(), static_cast<unsigned long long>(frames));
-  std::printf("| mode | sessions done | median s | frames/s median (min-max) | ratio to alone (paired) "
-              "| CPU cores busy | requests | latency ms p50 / p99 / max | failed requests | sessions equal |\n"
-              "|---|---|---|---|---|---|---|---|---|---|\n");
+  std::printf(
+      "| mode | sessions done | median s | frames/s median (min-max) | ratio to alone (paired) "
+      "| CPU cores busy | requests | latency ms p50 / p99 / max | failed requests | sessions equal |\n"
+      "|---|---|---|---|---|---|---|---|---|---|\n");
   json figures = json::array();
   for (std::size_t m = 0; m < results.size(); ++m) {
     std::vector<double> wall, rate, paired, busy, latencies;
@@ -322,8 +332,7 @@ json Summarize(const std::string& rig, std::uint64_t frames, const std::vector<M
       std::printf("%zu | %.2f / %.2f / %.2f | %llu | %d/%d |\n", latencies.size(), Percentile(latencies, 0.5),
                   Percentile(latencies, 0.99), latencies.back(), static_cast<unsigned long long>(failed), equal, done);
     }
-    mode.update({
-                 {"median_wall_s", Median(wall)},
+    mode.update({{"median_wall_s", Median(wall)},
                  {"median_frames_per_s", Median(rate)},
                  {"ratio_to_station_alone", ratio},
                  {"median_paired_ratio", paired_ratio},
@@ -333,9 +342,8 @@ json Summarize(const std::string& rig, std::uint64_t frames, const std::vector<M
                  {"failed_requests", failed},
                  {"sessions_equal", equal}});
     if (!latencies.empty()) {
-      mode["latency_ms"] = {{"p50", Percentile(latencies, 0.5)},
-                            {"p99", Percentile(latencies, 0.99)},
-                            {"max", latencies.back()}};
+      mode["latency_ms"] = {
+          {"p50", Percentile(latencies, 0.5)}, {"p99", Percentile(latencies, 0.99)}, {"max", latencies.back()}};
     }
     figures.push_back(mode);
   }
@@ -347,10 +355,10 @@ int Run(const BenchOptions& o) {
   curl_global_init(CURL_GLOBAL_DEFAULT);  // before any client thread: it is not thread-safe
   const unsigned cores = std::thread::hardware_concurrency();
   std::printf("machine: %s, %u cores; load average at start %s\n", CpuModel().c_str(), cores, LoadAverage().c_str());
-  std::printf("%d runs a mode, modes interleaved; %d clients; seed %llu; %d x %d rays a pixel; times are submission "
-              "(or OpenSession) to done\n\n",
-              o.runs, o.clients, static_cast<unsigned long long>(o.seed), o.samples_per_pixel_side,
-              o.samples_per_pixel_side);
+  std::printf(
+      "%d runs a mode, modes interleaved; %d clients; seed %llu; %d x %d rays a pixel; times are submission "
+      "(or OpenSession) to done\n\n",
+      o.runs, o.clients, static_cast<unsigned long long>(o.seed), o.samples_per_pixel_side, o.samples_per_pixel_side);
   json out = {{"machine", {{"cpu", CpuModel()}, {"cores", cores}, {"load_average_start", LoadAverage()}}},
               {"runs", o.runs},
               {"clients", o.clients},
@@ -418,10 +426,9 @@ int Run(const BenchOptions& o) {
           continue;
         }
         all_equal = all_equal && r.differences.empty();
-        std::printf("  %s run %d, %s: %.2f s, %llu frames, %.1f frames/s, %zu requests%s\n", rig.c_str(),
-                    run_index + 1, ModeName(mode, o).c_str(), r.wall_s, static_cast<unsigned long long>(r.frames),
-                    r.frames / r.wall_s, r.latencies_ms.size(),
-                    r.differences.empty() ? "" : (", SESSION DIFFERS:" + r.differences).c_str());
+        std::printf("  %s run %d, %s: %.2f s, %llu frames, %.1f frames/s, %zu requests%s\n", rig.c_str(), run_index + 1,
+                    ModeName(mode, o).c_str(), r.wall_s, static_cast<unsigned long long>(r.frames), r.frames / r.wall_s,
+                    r.latencies_ms.size(), r.differences.empty() ? "" : (", SESSION DIFFERS:" + r.differences).c_str());
         std::fflush(stdout);
       }
     }
@@ -443,8 +450,9 @@ int Run(const BenchOptions& o) {
 }  // namespace mesocap
 
 int main(int argc, char** argv) {
-  CLI::App app{"mesocap_capture_daemon_bench: frames/s through the capture daemon against the station alone, "
-               "and API latency while clients poll (run it in scripts/in-network-namespace.sh)"};
+  CLI::App app{
+      "mesocap_capture_daemon_bench: frames/s through the capture daemon against the station alone, "
+      "and API latency while clients poll (run it in scripts/in-network-namespace.sh)"};
   mesocap::BenchOptions o;
   app.add_option("--rig", o.rigs, "tiny, small or paper, whole or cut to one position (small-one-position); repeatable")
       ->capture_default_str();

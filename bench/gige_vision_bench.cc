@@ -88,8 +88,8 @@ void BM_ServedCameras(benchmark::State& state) {
     clients.back()->SetPixelFormat(mono ? drivers::PixelFormat::kMono : drivers::PixelFormat::kNative);
     clients.back()->SetTrigger(triggered ? drivers::TriggerMode::kSoftware : drivers::TriggerMode::kFreeRun);
   }
-  const auto period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-      std::chrono::duration<double>(1.0 / rate_hz));
+  const auto period =
+      std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(1.0 / rate_hz));
   const double seconds = 4.0;
   for (auto _ : state) {
     std::atomic<bool> stop{false};

@@ -26,7 +26,7 @@ namespace {
 // Runs the scan (its processing time is the iteration's time) and reports
 // its error up to theta_max_deg as counters.
 mesocap::mdf::MdfErrorRow ScanAndReport(benchmark::State& state, const mesocap::mdf::ScanSetup& setup,
-                                   double theta_max_deg) {
+                                        double theta_max_deg) {
   mesocap::mdf::ScanResult r;
   for (auto _ : state) {
     r = mesocap::mdf::RunSimulatedScan(setup);
@@ -51,8 +51,14 @@ void ErrorAgainstLocations(benchmark::State& state) {
   ScanAndReport(state, setup, 90);
   state.counters["locations"] = static_cast<double>(state.range(0));
 }
-BENCHMARK(ErrorAgainstLocations)->Arg(1)->Arg(2)->Arg(4)->Arg(8)->Iterations(1)->UseManualTime()->Unit(
-    benchmark::kMillisecond);
+BENCHMARK(ErrorAgainstLocations)
+    ->Arg(1)
+    ->Arg(2)
+    ->Arg(4)
+    ->Arg(8)
+    ->Iterations(1)
+    ->UseManualTime()
+    ->Unit(benchmark::kMillisecond);
 
 // Error against camera noise and resolution: all 8 locations,
 // the same camera; noise off / on (the rig's default: 20000 e- full well,

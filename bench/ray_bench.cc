@@ -36,10 +36,8 @@ std::vector<Ray> PrimaryRays(const mesocap::sim::MesostructureScene& scene, doub
   std::vector<Ray> rays;
   for (int k = 0; k < count; ++k) {
     const double phi = 2.0 * std::numbers::pi * unit(rng);
-    const Eigen::Vector3d omega(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi),
-                                std::cos(theta));
-    const Eigen::Vector3d origin(4.0 * scene.tile_size_mm() * unit(rng),
-                                 4.0 * scene.tile_size_mm() * unit(rng), 0.0);
+    const Eigen::Vector3d omega(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta));
+    const Eigen::Vector3d origin(4.0 * scene.tile_size_mm() * unit(rng), 4.0 * scene.tile_size_mm() * unit(rng), 0.0);
     rays.push_back({origin, -omega});
   }
   return rays;
@@ -48,8 +46,8 @@ std::vector<Ray> PrimaryRays(const mesocap::sim::MesostructureScene& scene, doub
 double MeanCells(const mesocap::sim::MesostructureScene& scene, const std::vector<Ray>& rays) {
   long cells = 0;
   for (const Ray& ray : rays) {
-    mesocap::sim::CellWalk walk(ray.origin, ray.dir, 0.0, std::numeric_limits<double>::infinity(),
-                                scene.tile_size_mm(), scene.d_max_mm());
+    mesocap::sim::CellWalk walk(ray.origin, ray.dir, 0.0, std::numeric_limits<double>::infinity(), scene.tile_size_mm(),
+                                scene.d_max_mm());
     mesocap::sim::CellSpan span;
     while (walk.Next(&span)) ++cells;
   }
@@ -88,8 +86,8 @@ int main(int argc, char** argv) {
     std::shared_ptr<const mesocap::sim::MesostructureScene> scene = mesocap::sim::MakeBuiltinScene(name);
     for (const double theta : {0.0, 45.0, 75.0}) {
       benchmark::RegisterBenchmark(
-          ("primary_rays/" + name + "/theta:" + std::to_string(static_cast<int>(theta))).c_str(),
-          PrimaryRaysPerSecond, scene, theta)
+          ("primary_rays/" + name + "/theta:" + std::to_string(static_cast<int>(theta))).c_str(), PrimaryRaysPerSecond,
+          scene, theta)
           ->Unit(benchmark::kMicrosecond);
     }
   }

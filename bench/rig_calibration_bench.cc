@@ -103,8 +103,8 @@ void RigCalibration(benchmark::State& state, const std::string& rig) {
     for (const Eigen::Vector3d& x : {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(8, 8, 0), Eigen::Vector3d(-8, 8, 0),
                                      Eigen::Vector3d(8, -8, 0), Eigen::Vector3d(-8, -8, 0)}) {
       const auto image = [&](const formats::CameraCalibration& cam) {
-        return calibration::ProjectInCamera(cam,
-                                            cam.pose.transform.rotation.transpose() * (x - cam.pose.transform.translation));
+        return calibration::ProjectInCamera(
+            cam, cam.pose.transform.rotation.transpose() * (x - cam.pose.transform.translation));
       };
       sample_px = std::max(sample_px, (image(e) - image(t)).norm());
     }

@@ -25,7 +25,6 @@
 namespace mesocap::btf {
 namespace {
 
-
 std::string Degrees(const core::SphericalAngles& a) {
   return "(theta " + std::to_string(core::DegreesFromRadians(a.theta)) + ", phi " +
          std::to_string(core::DegreesFromRadians(a.phi)) + ") deg";
@@ -63,8 +62,8 @@ core::Image ReadCapture(const BtfCaptureImage& image, const formats::CameraCalib
     if (!std::isfinite(v) || v < 0.0f) {
       const std::size_t p = i / 3;
       throw core::Error(image.file.string() + ": pixel (" + std::to_string(p % camera.width) + ", " +
-                  std::to_string(p / camera.width) + ") channel " + std::to_string(i % 3) + " is " +
-                  std::to_string(v) + "; expected a finite value >= 0 (linear signal)");
+                        std::to_string(p / camera.width) + ") channel " + std::to_string(i % 3) + " is " +
+                        std::to_string(v) + "; expected a finite value >= 0 (linear signal)");
     }
   }
   return values;
@@ -178,11 +177,11 @@ void AssembleOnGrid(const std::vector<BtfCaptureImage>& images, const formats::C
                                  &r->max_light_offset_deg, hint);
     if (r->measured[v][l]) {
       throw core::Error(image.file.string() + ": a second image of view " + std::to_string(v) + ", light " +
-                  std::to_string(l));
+                        std::to_string(l));
     }
     if (view_camera[v] >= 0 && (view_camera[v] != image.camera || view_turntable[v] != image.turntable_rad)) {
       throw core::Error(image.file.string() + ": view " + std::to_string(v) +
-                  " is also seen by another camera or turntable angle");
+                        " is also seen by another camera or turntable angle");
     }
     view_camera[v] = image.camera;
     view_turntable[v] = image.turntable_rad;
@@ -191,8 +190,8 @@ void AssembleOnGrid(const std::vector<BtfCaptureImage>& images, const formats::C
   }
   for (int v = 0; v < o.views.size(); ++v) {
     if (by_view[v].empty()) {
-      throw core::Error("BTF assembly: no image shows view " + std::to_string(v) + " " +
-                  Degrees(o.views.angles(v)) + " of the set '" + o.views.name() + "'");
+      throw core::Error("BTF assembly: no image shows view " + std::to_string(v) + " " + Degrees(o.views.angles(v)) +
+                        " of the set '" + o.views.name() + "'");
     }
   }
 
@@ -210,7 +209,7 @@ void AssembleOnGrid(const std::vector<BtfCaptureImage>& images, const formats::C
     for (const Placed& placed : by_view[v]) {
       const BtfCaptureImage& image = images[placed.image];
       const core::Image texture = RadiometricTexture(rectifier.Rectify(ReadCapture(image, calibration.cameras[cam])),
-                                               image, calibration, world_from_sample, o);
+                                                     image, calibration, world_from_sample, o);
       for (int j = 0; j < h; ++j) std::copy_n(texture.pixel(0, j), 3 * w, out.pixel(0, placed.light * h + j));
     }
     // Lights this view never saw: interpolated from the ones it did.
@@ -337,8 +336,8 @@ void AssembleResampled(const std::vector<BtfCaptureImage>& images, const formats
   for (int v = 0; v < o.views.size(); ++v) {
     r->pixels_per_texel[v] = captured_pixels_per_texel[captured_views.nominal.Nearest(o.views.direction(v))];
     const double theta = o.views.angles(v).theta;
-    r->extrapolated_views += theta > captured_views.last_ring_theta + tolerance ||
-                             theta < captured_views.first_ring_theta - tolerance;
+    r->extrapolated_views +=
+        theta > captured_views.last_ring_theta + tolerance || theta < captured_views.first_ring_theta - tolerance;
   }
   std::mutex sink_mutex;
   tbb::parallel_for(0, o.views.size(), [&](int v) {
@@ -369,11 +368,11 @@ void AssembleBtfViews(const std::vector<BtfCaptureImage>& images, const formats:
                       const BtfAssemblyOptions& o, const BtfViewSink& sink, BtfAssemblyReport* report) {
   if (const auto problem = o.Check(); !problem.empty()) throw core::Error("BTF assembly: " + problem);
   // One exposure and one gain per calibrated camera.
-  for (const auto& [per_camera, what] : {std::pair{&o.exposure_s, "exposures"},
-                                         std::pair{&o.signal_per_radiance_second, "gains"}}) {
+  for (const auto& [per_camera, what] :
+       {std::pair{&o.exposure_s, "exposures"}, std::pair{&o.signal_per_radiance_second, "gains"}}) {
     if (per_camera->size() != calibration.cameras.size()) {
       throw core::Error("BTF assembly: " + std::to_string(per_camera->size()) + " " + what + " for " +
-                  std::to_string(calibration.cameras.size()) + " calibrated cameras");
+                        std::to_string(calibration.cameras.size()) + " calibrated cameras");
     }
   }
   BtfAssemblyReport r;
@@ -405,29 +404,32 @@ void AssembleBtfViews(const std::vector<BtfCaptureImage>& images, const formats:
   for (const auto& row : r.measured)
     for (bool m : row) r.measured_pairs += m;
   if (r.filled_pairs > 0) {
-    spdlog::warn("BTF assembly: {} of {} (view, light) pairs were not captured by the rig and are interpolated "
-                 "from the captured ones",
-                 r.filled_pairs, r.filled_pairs + r.measured_pairs);
+    spdlog::warn(
+        "BTF assembly: {} of {} (view, light) pairs were not captured by the rig and are interpolated "
+        "from the captured ones",
+        r.filled_pairs, r.filled_pairs + r.measured_pairs);
   }
   if (r.extrapolated_views > 0 || r.extrapolated_lights > 0) {
-    spdlog::warn("BTF assembly: {} views and up to {} lights of the sets lie outside the captured polar range and "
-                 "are extrapolated (the nearest captured ring, constant in theta)",
-                 r.extrapolated_views, r.extrapolated_lights);
+    spdlog::warn(
+        "BTF assembly: {} views and up to {} lights of the sets lie outside the captured polar range and "
+        "are extrapolated (the nearest captured ring, constant in theta)",
+        r.extrapolated_views, r.extrapolated_lights);
   }
   if (r.min_pixels_per_texel < 1.0) {
-    spdlog::warn("BTF assembly: the texture grid is finer than the cameras resolve ({:.2f} pixels per texel at the "
-                 "most oblique view): detail below a pixel is interpolated, not measured; a coarser --texture-size "
-                 "keeps every texel resolved",
-                 r.min_pixels_per_texel);
+    spdlog::warn(
+        "BTF assembly: the texture grid is finer than the cameras resolve ({:.2f} pixels per texel at the "
+        "most oblique view): detail below a pixel is interpolated, not measured; a coarser --texture-size "
+        "keeps every texel resolved",
+        r.min_pixels_per_texel);
   }
   if (report) *report = std::move(r);
 }
 
 core::FullBtf AssembleBtf(const std::vector<BtfCaptureImage>& images, const formats::Calibration& calibration,
-                    const BtfAssemblyOptions& o, BtfAssemblyReport* report) {
+                          const BtfAssemblyOptions& o, BtfAssemblyReport* report) {
   core::FullBtf btf = core::MakeFullBtf(o.texels.width, o.texels.height, o.views, o.lights);
-  AssembleBtfViews(images, calibration, o, [&](int v, core::Image&& values) { btf.view_images[v] = std::move(values); },
-                   report);
+  AssembleBtfViews(
+      images, calibration, o, [&](int v, core::Image&& values) { btf.view_images[v] = std::move(values); }, report);
   return btf;
 }
 

@@ -6,10 +6,9 @@
 // Radiometry: the cameras record linear values (fraction of full scale; the
 // 16-bit files hold code / (2^bits - 1), no gamma), value = L t G with L the
 // radiance, t the exposure and G the camera's gain (signal per radiance
-// second; each camera's own, from its calibration's radiometry). A lamp of radiant intensity I at distance r and angle theta_l
-// from the sample normal gives the irradiance E = I cos(theta_l) / r^2 at a
-// texel; T = L / E, per texel (r and theta_l vary across the sample). That is
-// mesocap's T (sim/ground_truth.h: T = f_r (n.l) / cos theta_l; a flat
+// second; each camera's own, from its calibration's radiometry). A lamp of radiant intensity I at distance r and angle
+// theta_l from the sample normal gives the irradiance E = I cos(theta_l) / r^2 at a texel; T = L / E, per texel (r and
+// theta_l vary across the sample). That is mesocap's T (sim/ground_truth.h: T = f_r (n.l) / cos theta_l; a flat
 // Lambertian sample has T = albedo / pi). Conditioning: 1 / cos theta_l grows
 // at grazing lamps, amplifying noise; a lamp at or below the sample plane is
 // an error.
@@ -41,15 +40,15 @@
 #include "core/error.h"
 #include "core/image.h"
 #include "formats/calibration.h"
-#include "formats/captured_session.h"
 #include "formats/capture_session.h"
+#include "formats/captured_session.h"
 
 namespace mesocap::btf {
 
 struct BtfCaptureImage {
   std::filesystem::path file;
   std::optional<core::FileChecksum> checksum;  // checked before the image is decoded, when known
-  int camera = 0;  // index into Calibration::cameras
+  int camera = 0;                              // index into Calibration::cameras
   double turntable_rad = 0.0;
   double arc_rad = 0.0;
   int lamp = 0;  // index into Calibration::lamps
@@ -57,11 +56,11 @@ struct BtfCaptureImage {
 
 struct BtfAssemblyOptions {
   calibration::TexelGrid texels{64, 64, 0.0};  // of the rectified images; the sample size must be set
-  core::SamplingSet views;            // the session's direction sets
+  core::SamplingSet views;                     // the session's direction sets
   core::SamplingSet lights;
   std::vector<double> exposure_s;                  // per calibration camera, > 0
   std::vector<double> signal_per_radiance_second;  // per calibration camera: its gain G, > 0
-  int max_samples_per_side = 8;             // rectification's prefilter limit
+  int max_samples_per_side = 8;                    // rectification's prefilter limit
   // Without resampling: how far an image's direction (from the sample
   // centre) may be from the nearest of the sets. With it: within this, a
   // target pair counts as measured rather than interpolated.
@@ -88,7 +87,7 @@ struct BtfAssemblyReport {
   int extrapolated_views = 0;
   int extrapolated_lights = 0;
   std::vector<std::vector<bool>> measured;  // [view][light]
-  double max_view_offset_deg = 0.0;   // image direction to its set direction
+  double max_view_offset_deg = 0.0;         // image direction to its set direction
   double max_light_offset_deg = 0.0;
   int max_samples_per_side = 1;  // the rectification prefilter's largest n
   // The narrowest texel footprint in pixels over all views
@@ -125,6 +124,6 @@ void AssembleBtfViews(const std::vector<BtfCaptureImage>& images, const formats:
                       const BtfAssemblyOptions& options, const BtfViewSink& sink, BtfAssemblyReport* report = nullptr);
 // The same, into memory.
 core::FullBtf AssembleBtf(const std::vector<BtfCaptureImage>& images, const formats::Calibration& calibration,
-                    const BtfAssemblyOptions& options, BtfAssemblyReport* report = nullptr);
+                          const BtfAssemblyOptions& options, BtfAssemblyReport* report = nullptr);
 
 }  // namespace mesocap::btf

@@ -171,8 +171,7 @@ void TryRepresentation(core::FullBtfReader& btf, const core::FullBtf* whole, std
   if (c.color != core::BtfFactorColor::kRgb) {
     // Under an error budget the rank only grows from the spectrum's while
     // the measured RGB error is over the budget: at least these bytes.
-    const BtfRepresentationCandidate* leader =
-        choice.best_index >= 0 ? &choice.candidates[choice.best_index] : nullptr;
+    const BtfRepresentationCandidate* leader = choice.best_index >= 0 ? &choice.candidates[choice.best_index] : nullptr;
     if (choice.choosing && !choice.byte_budget && leader && leader->meets_budget &&
         c.factor_bytes >= leader->factor_bytes) {
       c.note = "not built: its spectrum's rank " + std::to_string(c.rank) + " (" + Percent(c.relative_rms_error) +

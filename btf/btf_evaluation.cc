@@ -25,12 +25,15 @@ std::vector<std::pair<std::string, PairKindErrors>> PairKindFigures(const BtfErr
                                                                     const BtfPairRecord& pairs) {
   const core::SamplingSet& views = errors.views();
   const core::SamplingSet& lights = errors.lights();
-  const auto within_60 = [&](int v, int l) { return ThetaDeg(views, v) <= 60.0 + 1e-9 && ThetaDeg(lights, l) <= 60.0 + 1e-9; };
+  const auto within_60 = [&](int v, int l) {
+    return ThetaDeg(views, v) <= 60.0 + 1e-9 && ThetaDeg(lights, l) <= 60.0 + 1e-9;
+  };
   const std::vector<std::pair<std::string, std::function<bool(int, int)>>> kinds = {
       {"captured", [&](int v, int l) { return pairs.resolved(v) && pairs.captured[v][l]; }},
       {"interpolated", [&](int v, int l) { return pairs.resolved(v) && !pairs.captured[v][l]; }},
       {"unresolved", [&](int v, int) { return !pairs.resolved(v); }},
-      {"captured_within_60deg", [&](int v, int l) { return pairs.resolved(v) && pairs.captured[v][l] && within_60(v, l); }}};
+      {"captured_within_60deg",
+       [&](int v, int l) { return pairs.resolved(v) && pairs.captured[v][l] && within_60(v, l); }}};
   std::vector<std::pair<std::string, PairKindErrors>> out;
   for (const auto& [kind, include] : kinds) {
     PairKindErrors k;
@@ -49,8 +52,8 @@ void AddPairRecord(const BtfPairRecord& record, nlohmann::json* object) {
   (*object)["pixels_per_texel"] = record.pixels_per_texel;
 }
 
-std::optional<BtfPairRecord> ReadPairRecord(const nlohmann::json& object, const std::filesystem::path& file,
-                                            int views, int lights) {
+std::optional<BtfPairRecord> ReadPairRecord(const nlohmann::json& object, const std::filesystem::path& file, int views,
+                                            int lights) {
   if (!object.is_object() || !object.contains("captured")) return std::nullopt;
   const auto bad = [&](const std::string& field, const std::string& expected) {
     throw core::FormatError(file, "btf_assembly." + field, "expected " + expected);
@@ -123,8 +126,8 @@ void BtfErrorAccumulator::Add(int view, const core::Image& truth, const core::Im
 BtfErrorFigures BtfErrorAccumulator::Figures(const Sums& s) const {
   BtfErrorFigures f;
   f.values = s.values;
-  f.relative_rms = s.truth > 0.0 ? std::sqrt(s.error / s.truth)
-                                 : (s.error > 0.0 ? std::numeric_limits<double>::infinity() : 0.0);
+  f.relative_rms =
+      s.truth > 0.0 ? std::sqrt(s.error / s.truth) : (s.error > 0.0 ? std::numeric_limits<double>::infinity() : 0.0);
   const double mse = s.values > 0 ? s.error / s.values : 0.0;
   f.psnr_db = mse > 0.0 ? 10.0 * std::log10(peak_ * peak_ / mse) : std::numeric_limits<double>::infinity();
   return f;
@@ -187,6 +190,5 @@ nlohmann::json ToJson(const BtfErrorAccumulator& errors, std::optional<int> rank
   out["unresolved"]["views"] = unresolved_views;
   return out;
 }
-
 
 }  // namespace mesocap::btf

@@ -49,8 +49,8 @@ void AddPairRecord(const BtfPairRecord& record, nlohmann::json* object);
 // The record in `object` (an error report's "btf_assembly"), or nothing when
 // it holds none; throws FormatError naming `file` and the field when the
 // record is there but malformed or sized for other direction sets.
-std::optional<BtfPairRecord> ReadPairRecord(const nlohmann::json& object, const std::filesystem::path& file,
-                                            int views, int lights);
+std::optional<BtfPairRecord> ReadPairRecord(const nlohmann::json& object, const std::filesystem::path& file, int views,
+                                            int lights);
 
 class BtfErrorAccumulator {
  public:

@@ -1,9 +1,9 @@
 #include "btf/btf_rectification.h"
 
+#include <Eigen/SVD>
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <Eigen/SVD>
 #include <limits>
 
 #include "core/error.h"
@@ -60,7 +60,7 @@ ReferencePlaneRectifier::ReferencePlaneRectifier(const formats::CameraCalibratio
           const int x0 = static_cast<int>(fx), y0 = static_cast<int>(fy);
           if (!(uv.allFinite()) || x0 < 0 || y0 < 0 || x0 + 1 >= image_width_ || y0 + 1 >= image_height_) {
             throw core::Error("rectification: texel (" + std::to_string(i) + ", " + std::to_string(j) +
-                        ") of the sample is outside the image of camera " + camera.id);
+                              ") of the sample is outside the image of camera " + camera.id);
           }
           // The outer taps clamp to the image's edge (the sample is well
           // inside the image on any usable rig).

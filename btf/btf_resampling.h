@@ -34,7 +34,7 @@
 namespace mesocap::btf {
 
 struct CapturedDirections {
-  core::SamplingSet nominal;                  // capture i at index i
+  core::SamplingSet nominal;            // capture i at index i
   std::vector<Eigen::Vector3d> offset;  // d_i(0) - n_i, sample frame
   double first_ring_theta = 0.0;        // radians, the captured range
   double last_ring_theta = 0.0;

@@ -1,10 +1,10 @@
 #include "calibration/board_adjustment.h"
 
-#include <algorithm>
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
-#include <cmath>
 #include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
 
 #include "core/error.h"
 
@@ -99,8 +99,8 @@ struct TurntableCornerResidual {
   double angle_rad = 0;
 
   template <typename T>
-  bool operator()(const T* scaled_k, const T* camera_q, const T* camera_c, const T* holder_angles,
-                  const T* holder_t, T* residual) const {
+  bool operator()(const T* scaled_k, const T* camera_q, const T* camera_c, const T* holder_angles, const T* holder_t,
+                  T* residual) const {
     const T point[3] = {T(board_point.x()), T(board_point.y()), T(board_point.z())};
     T on_table[3];
     HolderToTurntable(holder_angles, holder_t, point, on_table);
@@ -115,8 +115,9 @@ struct TurntableCornerResidual {
 void DeriveBoardPoses(Unknowns* u) {
   if (!u->motion) return;
   for (std::size_t i = 0; i < u->boards.size(); ++i) {
-    const Pose turn = FromMatrix(Eigen::AngleAxisd(u->motion->angle_rad[i], Eigen::Vector3d::UnitZ()).toRotationMatrix(),
-                                 Eigen::Vector3d::Zero());
+    const Pose turn =
+        FromMatrix(Eigen::AngleAxisd(u->motion->angle_rad[i], Eigen::Vector3d::UnitZ()).toRotationMatrix(),
+                   Eigen::Vector3d::Zero());
     u->boards[i] = Compose(turn, HolderPose(*u, static_cast<std::size_t>(u->motion->holder[i])));
   }
 }
@@ -126,7 +127,14 @@ void DeriveBoardPoses(Unknowns* u) {
 // one pixel: 1 / (F r^3), 1 / (F r^5), 1 / (F r^7), 1 / (F r^2).
 IntrinsicUnits UnitsOf(const std::array<double, kIntrinsicCount>& k, double corner_radius_px) {
   const double f = k[0], r = std::max(corner_radius_px / f, 1e-3);
-  return {f, f, f, f, 1 / (f * std::pow(r, 3)), 1 / (f * std::pow(r, 5)), 1 / (f * r * r), 1 / (f * r * r),
+  return {f,
+          f,
+          f,
+          f,
+          1 / (f * std::pow(r, 3)),
+          1 / (f * std::pow(r, 5)),
+          1 / (f * r * r),
+          1 / (f * r * r),
           1 / (f * std::pow(r, 7))};
 }
 
@@ -157,7 +165,8 @@ Pose FromMatrix(const Eigen::Matrix3d& rotation, const Eigen::Vector3d& translat
 }
 
 Pose Compose(const Pose& a, const Pose& b) {  // a * b
-  const Eigen::Vector3d t = Rotation(a) * Eigen::Vector3d(b.t[0], b.t[1], b.t[2]) + Eigen::Vector3d(a.t[0], a.t[1], a.t[2]);
+  const Eigen::Vector3d t =
+      Rotation(a) * Eigen::Vector3d(b.t[0], b.t[1], b.t[2]) + Eigen::Vector3d(a.t[0], a.t[1], a.t[2]);
   return FromMatrix(Rotation(a) * Rotation(b), t);
 }
 
@@ -208,8 +217,7 @@ BoardProblem::BoardProblem(Unknowns* unknowns, const std::vector<Observation>& o
     if (scaled_.motion) {
       const auto h = static_cast<std::size_t>(scaled_.motion->holder[i]);
       auto* cost = new ceres::AutoDiffCostFunction<TurntableCornerResidual, 2, kIntrinsicCount, 4, 3, 3, 3>(
-          new TurntableCornerResidual{o.pixel, o.board_point / kLengthUnitMm, units_[c],
-                                      scaled_.motion->angle_rad[i]});
+          new TurntableCornerResidual{o.pixel, o.board_point / kLengthUnitMm, units_[c], scaled_.motion->angle_rad[i]});
       problem_->AddResidualBlock(cost, loss, scaled_.intrinsics[c].data(), camera.q.data(), camera.t.data(),
                                  scaled_.holder_angles[h].data(), scaled_.holder_t[h].data());
     } else {
@@ -224,8 +232,9 @@ BoardProblem::BoardProblem(Unknowns* unknowns, const std::vector<Observation>& o
   for (std::size_t c = 0; c < scaled_.cameras.size(); ++c) {
     Pose& camera = scaled_.cameras[c];
     if (!problem_->HasParameterBlock(camera.q.data())) continue;
-    problem_->AddResidualBlock(new ceres::AutoDiffCostFunction<DistortionPrior, 5, kIntrinsicCount>(new DistortionPrior),
-                               nullptr, scaled_.intrinsics[c].data());
+    problem_->AddResidualBlock(
+        new ceres::AutoDiffCostFunction<DistortionPrior, 5, kIntrinsicCount>(new DistortionPrior), nullptr,
+        scaled_.intrinsics[c].data());
     problem_->SetManifold(camera.q.data(), &quaternion_);
     if (c == 0 && !scaled_.motion) {  // the reference frame: the gauge
       problem_->SetParameterBlockConstant(camera.q.data());
@@ -406,7 +415,8 @@ void InitTurntable(Unknowns* u, const TurntableMotion& motion) {
   const Pose& board0 = u->boards[first];
   const Eigen::Vector3d board_origin(board0.t[0], board0.t[1], board0.t[2]);
   const Eigen::Vector3d origin = point + ((board_origin - point).dot(z) - motion.board_height_mm) * z;
-  const Eigen::Vector3d board_x = Eigen::AngleAxisd(-motion.angle_rad[first], z) * (Rotation(board0) * Eigen::Vector3d::UnitX());
+  const Eigen::Vector3d board_x =
+      Eigen::AngleAxisd(-motion.angle_rad[first], z) * (Rotation(board0) * Eigen::Vector3d::UnitX());
   const Eigen::Vector3d x = (board_x - board_x.dot(z) * z).normalized();
   Eigen::Matrix3d world_axes;
   world_axes << x, z.cross(x), z;

@@ -6,10 +6,10 @@
 // Used by calibration/camera_calibration.cc.
 #pragma once
 
-#include <array>
 #include <ceres/manifold.h>
 #include <ceres/problem.h>
 #include <Eigen/Core>
+#include <array>
 #include <memory>
 #include <opencv2/core.hpp>
 #include <vector>

@@ -74,9 +74,9 @@ BoardDetection BoardCornerDetector::Detect(const core::Image& image) const {
   } else {
     const cv::Ptr<cv::aruco::Dictionary> dictionary = cv::aruco::getPredefinedDictionary(
         static_cast<cv::aruco::PREDEFINED_DICTIONARY_NAME>(ArucoDictionaryId(board_.dictionary)));
-    const cv::Ptr<cv::aruco::CharucoBoard> charuco = cv::aruco::CharucoBoard::create(
-        board_.cols, board_.rows, static_cast<float>(board_.square_mm), static_cast<float>(board_.marker_mm),
-        dictionary);
+    const cv::Ptr<cv::aruco::CharucoBoard> charuco =
+        cv::aruco::CharucoBoard::create(board_.cols, board_.rows, static_cast<float>(board_.square_mm),
+                                        static_cast<float>(board_.marker_mm), dictionary);
     std::vector<std::vector<cv::Point2f>> marker_corners;
     std::vector<int> marker_ids;
     cv::aruco::detectMarkers(gray8, dictionary, marker_corners, marker_ids);
@@ -129,7 +129,8 @@ DetectionQuality BoardCornerDetector::Quality(const core::Image& image, const Bo
     // Slopes over one pixel, so that a sharp edge (which a pixel's area
     // spreads over one pixel) measures about 1 px whatever its direction.
     double steepest = 0;
-    for (std::size_t i = 4; i < profile.size(); ++i) steepest = std::max(steepest, std::abs(profile[i] - profile[i - 4]));
+    for (std::size_t i = 4; i < profile.size(); ++i)
+      steepest = std::max(steepest, std::abs(profile[i] - profile[i - 4]));
     const auto [lowest, highest] = std::minmax_element(profile.begin(), profile.end());
     const double contrast = *highest - *lowest;
     if (steepest > 0 && contrast > 0.05) widths.push_back(contrast / steepest);

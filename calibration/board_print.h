@@ -24,7 +24,7 @@ class BoardPrint {
 
  private:
   CalibrationBoard board_;
-  int marker_cells_ = 0;             // cells per marker side, its black border included
+  int marker_cells_ = 0;              // cells per marker side, its black border included
   std::vector<cv::Mat> marker_bits_;  // per white square in OpenCV's order: 1 = white cell
 };
 

@@ -24,8 +24,8 @@ struct CalibrationBoard {
   // ChArUco: squares per row and per column (OpenCV's squaresX, squaresY).
   int cols = 0, rows = 0;
   double square_mm = 0;
-  double marker_mm = 0;      // ChArUco only: a marker's side
-  std::string dictionary;    // ChArUco only: OpenCV's name, e.g. "DICT_5X5_100"
+  double marker_mm = 0;    // ChArUco only: a marker's side
+  std::string dictionary;  // ChArUco only: OpenCV's name, e.g. "DICT_5X5_100"
 
   // Empty when the board can be printed and detected: at least 2 x 2 inner
   // corners (3 x 3 squares for ChArUco), positive sizes, markers smaller than

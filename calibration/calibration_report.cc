@@ -47,15 +47,28 @@ nlohmann::json CameraEntries(const CalibrationReport& report) {
         {"corners_used", camera.corners_used},
         {"outlier_corners", camera.outlier_corners},
         {"rms_px", camera.rms_px},
-        {"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx}, {"cy", k.cy},
-        {"k1", d.k1}, {"k2", d.k2}, {"p1", d.p1}, {"p2", d.p2}, {"k3", d.k3},
+        {"fx", k.fx},
+        {"fy", k.fy},
+        {"cx", k.cx},
+        {"cy", k.cy},
+        {"k1", d.k1},
+        {"k2", d.k2},
+        {"p1", d.p1},
+        {"p2", d.p2},
+        {"k3", d.k3},
         {"std",
-         {{"fx", OrNull(k.uncertainty.fx)}, {"fy", OrNull(k.uncertainty.fy)}, {"cx", OrNull(k.uncertainty.cx)},
-          {"cy", OrNull(k.uncertainty.cy)}, {"k1", OrNull(d.uncertainty.k1)}, {"k2", OrNull(d.uncertainty.k2)},
-          {"p1", OrNull(d.uncertainty.p1)}, {"p2", OrNull(d.uncertainty.p2)}, {"k3", OrNull(d.uncertainty.k3)}}},
+         {{"fx", OrNull(k.uncertainty.fx)},
+          {"fy", OrNull(k.uncertainty.fy)},
+          {"cx", OrNull(k.uncertainty.cx)},
+          {"cy", OrNull(k.uncertainty.cy)},
+          {"k1", OrNull(d.uncertainty.k1)},
+          {"k2", OrNull(d.uncertainty.k2)},
+          {"p1", OrNull(d.uncertainty.p1)},
+          {"p2", OrNull(d.uncertainty.p2)},
+          {"k3", OrNull(d.uncertainty.k3)}}},
         {"working_distance_mm", camera.working_distance_mm},
-        {"projection_uncertainty_px", k.uncertainty.fx ? nlohmann::json(camera.projection_uncertainty_px)
-                                                       : nlohmann::json(nullptr)},
+        {"projection_uncertainty_px",
+         k.uncertainty.fx ? nlohmann::json(camera.projection_uncertainty_px) : nlohmann::json(nullptr)},
         {"cross_validation_px", nullptr},
         {"cross_validation_mm", nullptr}};
     if (report.cross_validation) {
@@ -83,7 +96,7 @@ nlohmann::json RelativePoseEntries(const CalibrationReport& report) {
                      {"translation_mm", Vector(p.translation_mm)},
                      {"distance_mm", p.translation_mm.norm()},
                      {"std", p.has_std ? nlohmann::json{{"rotation_deg", Vector(p.rotation_std_deg)},
-                                                         {"translation_mm", Vector(p.translation_std_mm)}}
+                                                        {"translation_mm", Vector(p.translation_std_mm)}}
                                        : nlohmann::json(nullptr)}});
   }
   return poses;
@@ -176,8 +189,9 @@ nlohmann::json ToJson(const CalibrationReport& report) {
     for (const core::RigidTransform& h : report.cameras.holder_poses) holders.push_back(core::ToJson(h));
     json["turntable"] = {{"axis_point_mm", {0, 0, 0}},
                          {"axis_direction", {0, 0, 1}},
-                         {"frame", "world: z along the axis, origin on the reference plane, x along the board "
-                                   "on the first holder tilt"},
+                         {"frame",
+                          "world: z along the axis, origin on the reference plane, x along the board "
+                          "on the first holder tilt"},
                          {"holders", holders}};
   }
   nlohmann::json lamps = nlohmann::json::array();
@@ -208,8 +222,7 @@ void ListLeftOut(const std::vector<LeftOut>& left_out, const char* what, std::os
 
 std::string FormatCalibrationReport(const CalibrationReport& report) {
   std::ostringstream out;
-  out << "board " << report.board << "; residual sigma " << Line("%.3f", report.cameras.residual_sigma_px)
-      << " px\n";
+  out << "board " << report.board << "; residual sigma " << Line("%.3f", report.cameras.residual_sigma_px) << " px\n";
   out << Line("%-12s %6s %7s %9s %18s %18s %18s %18s %9s %9s %10s %10s\n", "camera", "photos", "corners", "rms px",
               "fx px", "fy px", "cx px", "cy px", "k1", "k2", "proj px", "xval px");
   const auto with_std = [](double value, const std::optional<double>& std) {
@@ -233,10 +246,11 @@ std::string FormatCalibrationReport(const CalibrationReport& report) {
                   p.rotation_deg.norm(), p.translation_mm.x(), p.translation_mm.y(), p.translation_mm.z());
       continue;
     }
-    out << Line("%s -> %s: rotation %.4f deg (std %.4f %.4f %.4f), translation %.3f %.3f %.3f mm (std %.3f %.3f %.3f)\n",
-                p.from.c_str(), p.to.c_str(), p.rotation_deg.norm(), p.rotation_std_deg.x(), p.rotation_std_deg.y(),
-                p.rotation_std_deg.z(), p.translation_mm.x(), p.translation_mm.y(), p.translation_mm.z(),
-                p.translation_std_mm.x(), p.translation_std_mm.y(), p.translation_std_mm.z());
+    out << Line(
+        "%s -> %s: rotation %.4f deg (std %.4f %.4f %.4f), translation %.3f %.3f %.3f mm (std %.3f %.3f %.3f)\n",
+        p.from.c_str(), p.to.c_str(), p.rotation_deg.norm(), p.rotation_std_deg.x(), p.rotation_std_deg.y(),
+        p.rotation_std_deg.z(), p.translation_mm.x(), p.translation_mm.y(), p.translation_mm.z(),
+        p.translation_std_mm.x(), p.translation_std_mm.y(), p.translation_std_mm.z());
   }
   for (const CalibratedCamera& camera : report.cameras.cameras) {
     for (const SetAsideImage& image : camera.outlier_images) {

@@ -1,15 +1,15 @@
 #include "calibration/camera_calibration.h"
 
-#include <algorithm>
-#include <array>
 #include <ceres/rotation.h>
-#include <cmath>
+#include <tbb/parallel_for.h>
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
+#include <algorithm>
+#include <array>
+#include <cmath>
 #include <map>
 #include <opencv2/calib3d.hpp>
 #include <queue>
-#include <tbb/parallel_for.h>
 
 #include "calibration/board_adjustment.h"
 
@@ -26,10 +26,10 @@ using board_adjustment::InitTurntable;
 using board_adjustment::Inverse;
 using board_adjustment::kCameraParameters;
 using board_adjustment::kIntrinsicCount;
+using board_adjustment::kRadToDeg;
 using board_adjustment::Observation;
 using board_adjustment::Pose;
 using board_adjustment::ProjectOpenCv;
-using board_adjustment::kRadToDeg;
 using board_adjustment::Residual;
 using board_adjustment::Rotation;
 using board_adjustment::SolveSummary;
@@ -99,10 +99,9 @@ double ProjectionSigma(const Unknowns& u, std::size_t c,
     std::array<double, kIntrinsicCount> k = u.intrinsics[c];
     for (std::size_t i = 0; i < kIntrinsicCount; ++i) k[i] += delta[static_cast<int>(i)];
     const Eigen::Vector3d turn = delta.segment<3>(kIntrinsicCount);
-    const Eigen::Matrix3d r =
-        (turn.norm() > 0 ? Eigen::AngleAxisd(turn.norm(), turn.normalized()).toRotationMatrix()
-                         : Eigen::Matrix3d::Identity()) *
-        rotation;
+    const Eigen::Matrix3d r = (turn.norm() > 0 ? Eigen::AngleAxisd(turn.norm(), turn.normalized()).toRotationMatrix()
+                                               : Eigen::Matrix3d::Identity()) *
+                              rotation;
     const Eigen::Vector3d p = r.transpose() * (world - centre - delta.tail<3>());
     double uv[2];
     ProjectOpenCv(k.data(), p.data(), uv);
@@ -111,7 +110,8 @@ double ProjectionSigma(const Unknowns& u, std::size_t c,
   Eigen::Matrix<double, 2, kCameraParameters> jacobian;
   for (int p = 0; p < kCameraParameters; ++p) {
     const double scale = p < kIntrinsicCount ? std::max(1.0, std::abs(u.intrinsics[c][static_cast<std::size_t>(p)]))
-                         : p < kIntrinsicCount + 3 ? 1.0 : 100.0;
+                         : p < kIntrinsicCount + 3 ? 1.0
+                                                   : 100.0;
     Eigen::Matrix<double, kCameraParameters, 1> delta = Eigen::Matrix<double, kCameraParameters, 1>::Zero();
     delta[p] = 1e-7 * scale;
     jacobian.col(p) = (project(delta) - project(-delta)) / (2e-7 * scale);
@@ -130,8 +130,8 @@ Eigen::Vector2d ProjectInCamera(const formats::CameraCalibration& camera, const 
 }
 
 Eigen::Vector3d UnprojectAtDepth(const formats::CameraCalibration& camera, const Eigen::Vector2d& pixel, double z) {
-  const cv::Matx33d matrix(camera.intrinsics.fx, 0, camera.intrinsics.cx, 0, camera.intrinsics.fy,
-                           camera.intrinsics.cy, 0, 0, 1);
+  const cv::Matx33d matrix(camera.intrinsics.fx, 0, camera.intrinsics.cx, 0, camera.intrinsics.fy, camera.intrinsics.cy,
+                           0, 0, 1);
   const cv::Vec<double, 5> distortion(camera.distortion.k1, camera.distortion.k2, camera.distortion.p1,
                                       camera.distortion.p2, camera.distortion.k3);
   std::vector<cv::Point2d> in{{pixel.x(), pixel.y()}}, out;
@@ -190,7 +190,7 @@ core::CheckResult TurntableMotion::Check(std::size_t instants) const {
 
 namespace {
 
-using Usable = std::vector<std::vector<bool>>;  // per camera, per instant
+using Usable = std::vector<std::vector<bool>>;                     // per camera, per instant
 using CameraFromBoard = std::vector<std::map<std::size_t, Pose>>;  // per camera: instant -> camera <- board
 
 void CheckCalibrationInputs(const std::vector<CameraViews>& cameras, const CameraCalibrationOptions& options) {
@@ -294,11 +294,11 @@ CameraFromBoard InitializeWithZhang(const CalibrationBoard& board, const std::ve
       cv::calibrateCamera(object_points, image_points, cv::Size(cameras[c].width, cameras[c].height), matrix,
                           distortion, rvecs, tvecs, cv::CALIB_FIX_K3);
     } catch (const cv::Exception& e) {
-      throw core::Error("camera " + core::Quoted(cameras[c].id) + ": Zhang's initial calibration failed: " +
-                        core::Cut(e.what()));
+      throw core::Error("camera " + core::Quoted(cameras[c].id) +
+                        ": Zhang's initial calibration failed: " + core::Cut(e.what()));
     }
-    unknowns->intrinsics[c] = {matrix.at<double>(0, 0), matrix.at<double>(1, 1), matrix.at<double>(0, 2),
-                               matrix.at<double>(1, 2), distortion.at<double>(0), distortion.at<double>(1),
+    unknowns->intrinsics[c] = {matrix.at<double>(0, 0),  matrix.at<double>(1, 1),  matrix.at<double>(0, 2),
+                               matrix.at<double>(1, 2),  distortion.at<double>(0), distortion.at<double>(1),
                                distortion.at<double>(2), distortion.at<double>(3), 0.0};
     for (std::size_t v = 0; v < views.size(); ++v) {
       camera_from_board[c][views[v]] = FromRvecTvec(rvecs[v], tvecs[v]);
@@ -310,8 +310,7 @@ CameraFromBoard InitializeWithZhang(const CalibrationBoard& board, const std::ve
 // Cameras' poses in the first camera's frame, through shared instants
 // (breadth first, each link through the instant where both see the most),
 // then each instant's board in that frame.
-void ChainCameraPoses(const std::vector<CameraViews>& cameras, CameraFromBoard& camera_from_board,
-                      Unknowns* unknowns) {
+void ChainCameraPoses(const std::vector<CameraViews>& cameras, CameraFromBoard& camera_from_board, Unknowns* unknowns) {
   const std::size_t instants = cameras[0].detections.size();
   std::vector<bool> placed(cameras.size(), false);
   placed[0] = true;

@@ -121,9 +121,9 @@ struct RelativePose {
 };
 
 struct CameraCalibrationResult {
-  std::vector<CalibratedCamera> cameras;  // in the order given; the first is the reference
+  std::vector<CalibratedCamera> cameras;     // in the order given; the first is the reference
   std::vector<RelativePose> relative_poses;  // each camera after the first, from the first
-  double residual_sigma_px = 0;  // measured, per coordinate
+  double residual_sigma_px = 0;              // measured, per coordinate
   std::vector<std::string> warnings;
   // With a TurntableMotion: turntable <- board on each holder.
   std::vector<core::RigidTransform> holder_poses;

@@ -1,7 +1,7 @@
 #include "calibration/cross_validation.h"
 
-#include <algorithm>
 #include <Eigen/SVD>
+#include <algorithm>
 #include <cmath>
 
 namespace mesocap::calibration {
@@ -29,8 +29,7 @@ std::vector<CameraViews> Half(const std::vector<CameraViews>& cameras, std::size
 std::optional<std::vector<CrossValidationDifference>> CrossValidate(const CalibrationBoard& board,
                                                                     const std::vector<CameraViews>& cameras,
                                                                     const CameraCalibrationOptions& options,
-                                                                    std::string* why,
-                                                                    const TurntableMotion* motion) {
+                                                                    std::string* why, const TurntableMotion* motion) {
   CameraCalibrationResult halves[2];
   for (std::size_t parity = 0; parity < 2; ++parity) {
     try {
@@ -80,14 +79,16 @@ std::optional<std::vector<CrossValidationDifference>> CrossValidate(const Calibr
       Eigen::Matrix3Xd rays_a(3, kGrid * kGrid), rays_b(3, kGrid * kGrid);
       for (int j = 0; j < kGrid; ++j) {
         for (int i = 0; i < kGrid; ++i) {
-          pixels.push_back(lo + Eigen::Vector2d((hi.x() - lo.x()) * i / (kGrid - 1), (hi.y() - lo.y()) * j / (kGrid - 1)));
+          pixels.push_back(lo +
+                           Eigen::Vector2d((hi.x() - lo.x()) * i / (kGrid - 1), (hi.y() - lo.y()) * j / (kGrid - 1)));
           rays_a.col(static_cast<int>(pixels.size()) - 1) = UnprojectAtDepth(a, pixels.back(), 1.0).normalized();
           rays_b.col(static_cast<int>(pixels.size()) - 1) = UnprojectAtDepth(b, pixels.back(), 1.0).normalized();
         }
       }
       // The rotation taking one half's rays onto the other's (Kabsch, by
       // Eigen's SVD of their correlation).
-      const Eigen::JacobiSVD<Eigen::Matrix3d> svd(rays_b * rays_a.transpose(), Eigen::ComputeFullU | Eigen::ComputeFullV);
+      const Eigen::JacobiSVD<Eigen::Matrix3d> svd(rays_b * rays_a.transpose(),
+                                                  Eigen::ComputeFullU | Eigen::ComputeFullV);
       Eigen::Matrix3d turn = svd.matrixU() * svd.matrixV().transpose();
       if (turn.determinant() < 0) {
         Eigen::Matrix3d flip = Eigen::Matrix3d::Identity();

@@ -58,8 +58,8 @@ ReferenceLine DetectLaserLine(const core::Image& frame, const PixelMask& mask, c
   if (frame.channels() != 1 || w != rays.width() || h != rays.height() ||
       mask.size() != static_cast<std::size_t>(w) * h) {
     throw core::Error("laser line: frame is " + std::to_string(w) + "x" + std::to_string(h) + "x" +
-                std::to_string(frame.channels()) + ", expected 1 channel of the camera's " +
-                std::to_string(rays.width()) + "x" + std::to_string(rays.height()) + " with a mask of that size");
+                      std::to_string(frame.channels()) + ", expected 1 channel of the camera's " +
+                      std::to_string(rays.width()) + "x" + std::to_string(rays.height()) + " with a mask of that size");
   }
   cv::Mat image(h, w, CV_32F, const_cast<float*>(frame.data()));
   cv::Mat blurred;
@@ -70,8 +70,8 @@ ReferenceLine DetectLaserLine(const core::Image& frame, const PixelMask& mask, c
   }
   // Scanlines run along the image of the scan direction.
   const Eigen::Vector2d a = rays.Project(Eigen::Vector3d(0, 0, height));
-  const Eigen::Vector2d b = rays.Project(Eigen::Vector3d(scan_direction.x(), scan_direction.y(), 0) * 5.0 +
-                                         Eigen::Vector3d(0, 0, height));
+  const Eigen::Vector2d b =
+      rays.Project(Eigen::Vector3d(scan_direction.x(), scan_direction.y(), 0) * 5.0 + Eigen::Vector3d(0, 0, height));
   const bool along_rows = !(a.allFinite() && b.allFinite()) || std::abs(b.x() - a.x()) >= std::abs(b.y() - a.y());
   const int lines = along_rows ? h : w;
   const int length = along_rows ? w : h;
@@ -138,7 +138,8 @@ ReferenceLine DetectLaserLine(const core::Image& frame, const PixelMask& mask, c
   // Least-squares line: var(offset) = s^2 / n, var(angle) = s^2 / sum t^2,
   // with s^2 the residual variance (n - 2 degrees of freedom), both scaled
   // by the scanlines one independent sample spans after the pre-filter.
-  const double residual_variance = sum_squares / std::max(1.0, count - 2) * CorrelatedScanlines(options.gaussian_sigma_px);
+  const double residual_variance =
+      sum_squares / std::max(1.0, count - 2) * CorrelatedScanlines(options.gaussian_sigma_px);
   result.offset_sigma_mm = std::sqrt(residual_variance / count);
   result.direction_sigma_rad = spread > 0 ? std::sqrt(residual_variance / spread) : 0.0;
   return result;

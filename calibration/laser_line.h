@@ -18,9 +18,9 @@
 namespace mesocap::calibration {
 
 struct LaserLineOptions {
-  double gaussian_sigma_px = 1.0;  // pre-filter (noise reduction)
-  float min_peak = 0.05f;          // candidate threshold, fraction of full scale
-  int min_candidates = 8;          // fewer: no line in this frame
+  double gaussian_sigma_px = 1.0;         // pre-filter (noise reduction)
+  float min_peak = 0.05f;                 // candidate threshold, fraction of full scale
+  int min_candidates = 8;                 // fewer: no line in this frame
   double min_inlier_tolerance_mm = 0.02;  // floor of the outlier distance
 
   core::CheckResult Check() const;
@@ -30,7 +30,7 @@ struct LaserLineOptions {
 struct ReferenceLine {
   bool valid = false;
   double height = 0.0;
-  Eigen::Vector2d point = Eigen::Vector2d::Zero();      // on the line, world x y
+  Eigen::Vector2d point = Eigen::Vector2d::Zero();       // on the line, world x y
   Eigen::Vector2d direction = Eigen::Vector2d::UnitX();  // unit
   int candidates = 0;
   int inliers = 0;

@@ -130,7 +130,6 @@ std::size_t CountTilts(const std::vector<const LaserPlaneObservation*>& seen, co
   return tilts.size();
 }
 
-
 // The planes measured of each mount, in the order given.
 std::map<int, std::vector<const LaserPlaneObservation*>> LaserPlanesOfEachMount(
     const formats::Calibration& geometry, const std::vector<LaserPlaneObservation>& planes) {
@@ -304,9 +303,9 @@ std::optional<MountSigmas> MountCovarianceSigmas(const MountFrame& frame, const 
 // is larger.
 void WidenMountSigmasByCameraJackknife(const std::vector<PlaneResidual>& residuals,
                                        const std::vector<const LaserPlaneObservation*>& seen,
-                                       const std::vector<bool>& inlier, const MountFrame& frame,
-                                       const MountUnknowns& u, const std::string& id,
-                                       const formats::LaserMountCalibration& out, MountSigmas* sigmas) {
+                                       const std::vector<bool>& inlier, const MountFrame& frame, const MountUnknowns& u,
+                                       const std::string& id, const formats::LaserMountCalibration& out,
+                                       MountSigmas* sigmas) {
   std::set<int> cameras;
   for (std::size_t i = 0; i < seen.size(); ++i) {
     if (inlier[i]) cameras.insert(seen[i]->camera);

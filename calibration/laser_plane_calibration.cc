@@ -62,16 +62,16 @@ LaserPlaneFit FitPlaneThroughLines(const ReferenceLine& lower, const ReferenceLi
   fit.normal_sigma_rad = std::sqrt(normal_variance);
   const Eigen::Vector3d ray = (fit.anchor - camera_centre).normalized();
   const double across = std::abs(ray.dot(fit.plane.normal));
-  fit.height_sigma_mm = across > 0 ? fit.position_sigma_mm * std::abs(ray.z()) / across
-                                   : std::numeric_limits<double>::infinity();
+  fit.height_sigma_mm =
+      across > 0 ? fit.position_sigma_mm * std::abs(ray.z()) / across : std::numeric_limits<double>::infinity();
   return fit;
 }
 
 double AngleToReferencePlane(const core::Plane& plane) { return std::acos(std::min(1.0, std::abs(plane.normal.z()))); }
 
 LaserPlaneFit CalibrateLaserPlane(const core::Image& lower, double lower_height_mm, const core::Image& upper,
-                                double upper_height_mm, const CameraRays& rays, const Eigen::Vector2d& scan_direction,
-                                double outer_mm, const LaserLineOptions& options, const std::string& what) {
+                                  double upper_height_mm, const CameraRays& rays, const Eigen::Vector2d& scan_direction,
+                                  double outer_mm, const LaserLineOptions& options, const std::string& what) {
   auto detect = [&](const core::Image& frame, double height) {
     PixelMask plate(static_cast<std::size_t>(rays.width()) * rays.height(), 0);
     for (int y = 0; y < rays.height(); ++y) {

@@ -25,8 +25,8 @@ core::Plane PlaneThroughLines(const ReferenceLine& lower, const ReferenceLine& u
 struct LaserPlaneFit {
   core::Plane plane;
   Eigen::Vector3d anchor = Eigen::Vector3d::Zero();  // on the plane, between the two lines' centroids
-  double position_sigma_mm = 0.0;  // of the plane along its normal at `anchor`
-  double normal_sigma_rad = 0.0;   // of the normal's direction
+  double position_sigma_mm = 0.0;                    // of the plane along its normal at `anchor`
+  double normal_sigma_rad = 0.0;                     // of the normal's direction
   // Of a height triangulated at `anchor` by the camera that saw the plates:
   // the position error along that camera's ray, projected on z. Grows as
   // the ray runs parallel to the plane (grazing), infinite on it.
@@ -48,7 +48,7 @@ double AngleToReferencePlane(const core::Plane& plane);
 // the whole plate within outer_mm of the turntable axis. Throws Error when
 // the stripe is not found in either frame (naming `what`).
 LaserPlaneFit CalibrateLaserPlane(const core::Image& lower, double lower_height_mm, const core::Image& upper,
-                                double upper_height_mm, const CameraRays& rays, const Eigen::Vector2d& scan_direction,
-                                double outer_mm, const LaserLineOptions& options, const std::string& what);
+                                  double upper_height_mm, const CameraRays& rays, const Eigen::Vector2d& scan_direction,
+                                  double outer_mm, const LaserLineOptions& options, const std::string& what);
 
 }  // namespace mesocap::calibration

@@ -206,7 +206,6 @@ std::vector<ReflectedRay> ReflectedRays(const formats::Calibration& geometry,
   return rays;
 }
 
-
 // The highlights whose pixels all meet the sphere where it is described,
 // centred on `cup`; the others are reported in `left_out`. `rays_of` keeps
 // the rays of the cameras the highlights point to; `ray_count` counts each
@@ -298,9 +297,8 @@ void NoteWhetherArcAxisIsObserved(const std::vector<ReflectedRay>& rays, LightAr
 // The lamps, the sphere's cup and, where observed, the arc's axis fitted to
 // the rays' angles. Twice: the rays are first order in the cup's move, so
 // they are recomputed where the first fit put the cup and the fit repeated.
-void FitLightArcTwice(const formats::Calibration& geometry, const std::vector<UsableHighlight>& usable,
-                      double radius, double min_cos, bool axis_estimated, std::vector<ReflectedRay>* rays,
-                      LightArcFit* fit) {
+void FitLightArcTwice(const formats::Calibration& geometry, const std::vector<UsableHighlight>& usable, double radius,
+                      double min_cos, bool axis_estimated, std::vector<ReflectedRay>* rays, LightArcFit* fit) {
   const formats::LightArcCalibration& nominal = geometry.light_arc;
   for (int pass = 0; pass < 2; ++pass) {
     if (pass > 0) {
@@ -308,10 +306,10 @@ void FitLightArcTwice(const formats::Calibration& geometry, const std::vector<Us
     }
     fit->problem = std::make_unique<ceres::Problem>();
     for (const ReflectedRay& r : *rays) {
-      fit->problem->AddResidualBlock(
-          new ceres::AutoDiffCostFunction<RayAngle, 2, 3, 2, 3, 3>(
-              new RayAngle{r, nominal.axis_point_mm, fit->b1, fit->b2, fit->distance[r.lamp]}),
-          nullptr, fit->axis.data(), fit->offset.data(), fit->lamp[r.lamp].data(), fit->cup.data());
+      fit->problem->AddResidualBlock(new ceres::AutoDiffCostFunction<RayAngle, 2, 3, 2, 3, 3>(new RayAngle{
+                                         r, nominal.axis_point_mm, fit->b1, fit->b2, fit->distance[r.lamp]}),
+                                     nullptr, fit->axis.data(), fit->offset.data(), fit->lamp[r.lamp].data(),
+                                     fit->cup.data());
     }
     fit->problem->SetManifold(fit->axis.data(), new ceres::SphereManifold<3>());
     fit->tangent_parameters = 3 * static_cast<int>(geometry.lamps.size()) + 3;

@@ -104,7 +104,6 @@ Eigen::Matrix3d LookAtOrigin(const Eigen::Vector3d& centre) {
 
 }  // namespace
 
-
 formats::Calibration NominalCalibration(const formats::RigDescription& rig) {
   formats::Calibration c;
   for (const auto& cam : rig.cameras) {

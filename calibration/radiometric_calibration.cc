@@ -36,8 +36,8 @@ std::vector<Product> MeasureProducts(const formats::Calibration& geometry, const
                       std::to_string(image.image.width()) + " x " + std::to_string(image.image.height()) + " with " +
                       std::to_string(image.image.channels()) + " channels");
   }
-  const Eigen::Vector3d lamp = LightArcPointToWorld(geometry.light_arc, image.arc_rad,
-                                                    geometry.lamps.at(image.lamp).position_mm);
+  const Eigen::Vector3d lamp =
+      LightArcPointToWorld(geometry.light_arc, image.arc_rad, geometry.lamps.at(image.lamp).position_mm);
   const double radius = 0.5 * o.sample_size_mm * o.square_fraction;
   Eigen::Vector3d sum = Eigen::Vector3d::Zero(), sum2 = Eigen::Vector3d::Zero();
   int pixels = 0, saturated = 0, dark = 0;

@@ -37,7 +37,7 @@ struct WhiteReferenceImage {
   int camera = 0;  // index into the calibration's cameras
   int lamp = 0;    // index into the calibration's lamps
   double arc_rad = 0.0;
-  std::string name;  // for messages: the file it came from
+  std::string name;   // for messages: the file it came from
   core::Image image;  // linear signal, fraction of full scale, RGB
 };
 

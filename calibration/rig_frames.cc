@@ -33,15 +33,15 @@ Eigen::Vector3d LightArcDirectionToWorld(const formats::LightArcCalibration& arc
 LaserMountPose MountInWorld(const formats::Calibration& calibration, int mount, double arc_rad, double tilt_rad) {
   if (mount < 0 || mount >= static_cast<int>(calibration.laser_mounts.size())) {
     throw core::Error("calibration has no laser mount " + std::to_string(mount) + " (it has " +
-                std::to_string(calibration.laser_mounts.size()) + ")");
+                      std::to_string(calibration.laser_mounts.size()) + ")");
   }
   const formats::LaserMountCalibration& m = calibration.laser_mounts[mount];
   LaserMountPose pose;
   pose.source = LightArcPointToWorld(calibration.light_arc, arc_rad, m.source_mm);
   pose.tilt_axis = LightArcDirectionToWorld(calibration.light_arc, arc_rad, m.tilt_axis.normalized());
-  pose.normal = LightArcDirectionToWorld(calibration.light_arc, arc_rad,
-                                         Eigen::AngleAxisd(tilt_rad, m.tilt_axis.normalized()) *
-                                             m.plane_normal_at_zero_tilt.normalized());
+  pose.normal = LightArcDirectionToWorld(
+      calibration.light_arc, arc_rad,
+      Eigen::AngleAxisd(tilt_rad, m.tilt_axis.normalized()) * m.plane_normal_at_zero_tilt.normalized());
   return pose;
 }
 

@@ -28,9 +28,7 @@ std::string TemporarySuffix() {
   return ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(counter++);
 }
 
-fs::path ParentOrDot(const fs::path& p) {
-  return p.has_parent_path() ? p.parent_path() : fs::path(".");
-}
+fs::path ParentOrDot(const fs::path& p) { return p.has_parent_path() ? p.parent_path() : fs::path("."); }
 
 // "out/" names the folder "out".
 fs::path WithoutTrailingSlash(fs::path p) { return p.filename().empty() ? p.parent_path() : p; }
@@ -84,8 +82,10 @@ void ExpectReplaceable(const fs::path& target_in, const OutputReplacement& r) {
     const bool holds = Holds(target, input), inside = Holds(input, target);
     if (holds || inside) {
       throw Error(target.string() + ": is " +
-                  (holds && inside ? "" : holds ? "a folder holding " : "part of ") + "this command's input " +
-                  input.string() + "; choose another output");
+                  (holds && inside ? ""
+                   : holds         ? "a folder holding "
+                                   : "part of ") +
+                  "this command's input " + input.string() + "; choose another output");
     }
   }
   if (!r.allowed) {
@@ -174,8 +174,7 @@ void SyncPath(const fs::path& path) {
 
 AtomicFile::AtomicFile(fs::path target) : target_(std::move(target)) {
   // ".name.tmp-PID-N.ext": hidden, same folder (so rename is atomic), same extension.
-  temp_ = ParentOrDot(target_) /
-          ("." + target_.stem().string() + TemporarySuffix() + target_.extension().string());
+  temp_ = ParentOrDot(target_) / ("." + target_.stem().string() + TemporarySuffix() + target_.extension().string());
 }
 
 AtomicFile::~AtomicFile() {

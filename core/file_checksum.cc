@@ -31,9 +31,7 @@ FileChecksum ComputeFileChecksum(const fs::path& file) {
   return sum;
 }
 
-FileChecksum ComputeChecksum(std::string_view bytes) {
-  return {bytes.size(), XXH3_64bits(bytes.data(), bytes.size())};
-}
+FileChecksum ComputeChecksum(std::string_view bytes) { return {bytes.size(), XXH3_64bits(bytes.data(), bytes.size())}; }
 
 std::string ChecksumText(std::uint64_t xxh3) {
   static constexpr char kDigits[] = "0123456789abcdef";

@@ -41,9 +41,7 @@ class Image {
   const float* pixel(int x, int y) const { return data_.data() + Index(x, y, 0); }
 
  private:
-  std::size_t Index(int x, int y, int c) const {
-    return (static_cast<std::size_t>(y) * width_ + x) * channels_ + c;
-  }
+  std::size_t Index(int x, int y, int c) const { return (static_cast<std::size_t>(y) * width_ + x) * channels_ + c; }
 
   int width_ = 0;
   int height_ = 0;

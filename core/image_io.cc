@@ -34,10 +34,14 @@ Container ContainerOf(const fs::path& file) {
 
 OIIO::TypeDesc TypeOf(PixelEncoding e) {
   switch (e) {
-    case PixelEncoding::kFloat32: return OIIO::TypeDesc::FLOAT;
-    case PixelEncoding::kHalf: return OIIO::TypeDesc::HALF;
-    case PixelEncoding::kUInt8: return OIIO::TypeDesc::UINT8;
-    case PixelEncoding::kUInt16: return OIIO::TypeDesc::UINT16;
+    case PixelEncoding::kFloat32:
+      return OIIO::TypeDesc::FLOAT;
+    case PixelEncoding::kHalf:
+      return OIIO::TypeDesc::HALF;
+    case PixelEncoding::kUInt8:
+      return OIIO::TypeDesc::UINT8;
+    case PixelEncoding::kUInt16:
+      return OIIO::TypeDesc::UINT16;
   }
   return OIIO::TypeDesc::FLOAT;
 }
@@ -47,15 +51,17 @@ PixelEncoding EncodingOf(const fs::path& file, OIIO::TypeDesc t) {
   if (t == OIIO::TypeDesc::HALF) return PixelEncoding::kHalf;
   if (t == OIIO::TypeDesc::UINT8) return PixelEncoding::kUInt8;
   if (t == OIIO::TypeDesc::UINT16) return PixelEncoding::kUInt16;
-  throw FormatError(file, "pixel type",
-                    std::string("expected float, half, uint8 or uint16, got ") + t.c_str());
+  throw FormatError(file, "pixel type", std::string("expected float, half, uint8 or uint16, got ") + t.c_str());
 }
 
 bool Supports(Container c, PixelEncoding e) {
   switch (c) {
-    case Container::kExr: return e == PixelEncoding::kFloat32 || e == PixelEncoding::kHalf;
-    case Container::kPng: return e == PixelEncoding::kUInt8 || e == PixelEncoding::kUInt16;
-    case Container::kTiff: return e != PixelEncoding::kHalf;
+    case Container::kExr:
+      return e == PixelEncoding::kFloat32 || e == PixelEncoding::kHalf;
+    case Container::kPng:
+      return e == PixelEncoding::kUInt8 || e == PixelEncoding::kUInt16;
+    case Container::kTiff:
+      return e != PixelEncoding::kHalf;
   }
   return false;
 }
@@ -90,8 +96,9 @@ std::unique_ptr<OIIO::ImageInput> OpenInput(const fs::path& file) {
 
 ImageHeader HeaderOf(const fs::path& file, const OIIO::ImageSpec& spec) {
   if (spec.width <= 0 || spec.height <= 0 || spec.depth != 1) {
-    throw FormatError(file, "size", "expected a positive 2D size, got " + std::to_string(spec.width) +
-                                        "x" + std::to_string(spec.height));
+    throw FormatError(
+        file, "size",
+        "expected a positive 2D size, got " + std::to_string(spec.width) + "x" + std::to_string(spec.height));
   }
   if (spec.nchannels < 1 || spec.nchannels > 4) {
     throw FormatError(file, "channels", "expected 1 to 4, got " + std::to_string(spec.nchannels));
@@ -126,10 +133,14 @@ std::string ImageLibraryMessage(const std::string& error) { return Cut(error.sub
 
 const char* ToString(PixelEncoding e) {
   switch (e) {
-    case PixelEncoding::kFloat32: return "float32";
-    case PixelEncoding::kHalf: return "half";
-    case PixelEncoding::kUInt8: return "uint8";
-    case PixelEncoding::kUInt16: return "uint16";
+    case PixelEncoding::kFloat32:
+      return "float32";
+    case PixelEncoding::kHalf:
+      return "half";
+    case PixelEncoding::kUInt8:
+      return "uint8";
+    case PixelEncoding::kUInt16:
+      return "uint16";
   }
   return "?";
 }
@@ -145,9 +156,10 @@ Image ReadImage(const fs::path& file, const ImageReadOptions& options) {
   const auto values = static_cast<std::size_t>(header.width) * static_cast<std::size_t>(header.height) *
                       static_cast<std::size_t>(header.channels);
   if (values > options.max_values) {
-    throw FormatError(file, "size", std::to_string(header.width) + "x" + std::to_string(header.height) + "x" +
-                                        std::to_string(header.channels) + " values exceed the limit of " +
-                                        std::to_string(options.max_values));
+    throw FormatError(file, "size",
+                      std::to_string(header.width) + "x" + std::to_string(header.height) + "x" +
+                          std::to_string(header.channels) + " values exceed the limit of " +
+                          std::to_string(options.max_values));
   }
   Image image(header.width, header.height, header.channels);
   const bool ok = in->read_image(0, 0, 0, header.channels, OIIO::TypeDesc::FLOAT, image.data());
@@ -170,13 +182,14 @@ ImageRowReader::~ImageRowReader() = default;
 
 void ImageRowReader::Read(int first_row, int rows, float* out) {
   if (first_row < 0 || rows < 0 || first_row > header_.height - rows) {
-    throw FormatError(file_, "rows", "rows " + std::to_string(first_row) + ".." + std::to_string(first_row + rows) +
-                                         " outside the image's " + std::to_string(header_.height));
+    throw FormatError(file_, "rows",
+                      "rows " + std::to_string(first_row) + ".." + std::to_string(first_row + rows) +
+                          " outside the image's " + std::to_string(header_.height));
   }
   if (rows == 0) return;
   OIIO::ImageInput& in = *input_->in;
-  const bool ok = in.read_scanlines(0, 0, first_row, first_row + rows, 0, 0, header_.channels,
-                                    OIIO::TypeDesc::FLOAT, out);
+  const bool ok =
+      in.read_scanlines(0, 0, first_row, first_row + rows, 0, 0, header_.channels, OIIO::TypeDesc::FLOAT, out);
   if (!ok || in.has_error()) ThrowReadFailure(file_, in);
 }
 
@@ -184,8 +197,8 @@ void WriteImage(const fs::path& file, const Image& image, PixelEncoding encoding
   if (image.empty()) throw Error(file.string() + ": refusing to write an empty image");
   const Container container = ContainerOf(file);
   if (!Supports(container, encoding)) {
-    throw Error(file.string() + ": the " + file.extension().string() + " format cannot store " +
-                ToString(encoding) + " pixels");
+    throw Error(file.string() + ": the " + file.extension().string() + " format cannot store " + ToString(encoding) +
+                " pixels");
   }
   auto out = OIIO::ImageOutput::create(file.string());
   if (!out) throw Error(file.string() + ": no image writer: " + ImageLibraryMessage(OIIO::geterror()));

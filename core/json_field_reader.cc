@@ -35,8 +35,8 @@ nlohmann::json ReadJsonFile(const fs::path& file, std::uintmax_t max_bytes, int 
   const auto size = fs::file_size(file, ec);
   if (ec) throw FormatError(file, "", "cannot read size: " + ec.message());
   if (size > max_bytes) {
-    throw FormatError(file, "", "file is " + std::to_string(size) + " bytes; at most " +
-                                    std::to_string(max_bytes) + " expected");
+    throw FormatError(file, "",
+                      "file is " + std::to_string(size) + " bytes; at most " + std::to_string(max_bytes) + " expected");
   }
   std::ifstream in(file, std::ios::binary);
   if (!in) throw FormatError(file, "", "cannot open for reading");
@@ -62,8 +62,7 @@ nlohmann::json ReadJsonFile(const fs::path& file, std::uintmax_t max_bytes, int 
   return document;
 }
 
-void RejectDeepNesting(const nlohmann::json& document, const fs::path& file, int max_depth,
-                       const std::string& where) {
+void RejectDeepNesting(const nlohmann::json& document, const fs::path& file, int max_depth, const std::string& where) {
   // Iterative on purpose: the point is to survive documents that would
   // overflow the stack of a recursive walk.
   std::vector<std::pair<const nlohmann::json*, int>> pending = {{&document, 1}};
@@ -116,16 +115,13 @@ double JsonFieldReader::Number(std::string_view key, double min, double max) con
   return x;
 }
 
-double JsonFieldReader::NumberOr(std::string_view key, double fallback, double min,
-                                 double max) const {
+double JsonFieldReader::NumberOr(std::string_view key, double fallback, double min, double max) const {
   return Has(key) ? Number(key, min, max) : fallback;
 }
 
-std::int64_t JsonFieldReader::Integer(std::string_view key, std::int64_t min,
-                                      std::int64_t max) const {
+std::int64_t JsonFieldReader::Integer(std::string_view key, std::int64_t min, std::int64_t max) const {
   const auto& v = Member(key);
-  const std::string expected =
-      "an integer in [" + std::to_string(min) + ", " + std::to_string(max) + "]";
+  const std::string expected = "an integer in [" + std::to_string(min) + ", " + std::to_string(max) + "]";
   if (!v.is_number_integer()) Fail(key, "expected " + expected + ", got " + Describe(v));
   // Unsigned values beyond int64 are out of range too.
   if (v.is_number_unsigned() && v.get<std::uint64_t>() > static_cast<std::uint64_t>(max)) {
@@ -152,8 +148,7 @@ std::string JsonFieldReader::StringOr(std::string_view key, std::string fallback
   return Has(key) ? String(key) : fallback;
 }
 
-std::string JsonFieldReader::Choice(std::string_view key,
-                                    const std::vector<std::string>& allowed) const {
+std::string JsonFieldReader::Choice(std::string_view key, const std::vector<std::string>& allowed) const {
   const std::string s = String(key);
   for (const auto& a : allowed) {
     if (s == a) return s;
@@ -163,8 +158,7 @@ std::string JsonFieldReader::Choice(std::string_view key,
   Fail(key, "expected one of " + list + ", got " + Quoted(s));
 }
 
-std::vector<double> JsonFieldReader::Numbers(std::string_view key, std::size_t count, double min,
-                                             double max) const {
+std::vector<double> JsonFieldReader::Numbers(std::string_view key, std::size_t count, double min, double max) const {
   const auto& v = Member(key);
   if (!v.is_array() || v.size() != count) {
     Fail(key, "expected a list of " + std::to_string(count) + " numbers, got " + Describe(v));
@@ -174,7 +168,8 @@ std::vector<double> JsonFieldReader::Numbers(std::string_view key, std::size_t c
   for (std::size_t i = 0; i < count; ++i) {
     const auto& e = v[i];
     if (!e.is_number() || !std::isfinite(e.get<double>()) || e.get<double>() < min || e.get<double>() > max) {
-      Fail(std::string(key) + "[" + std::to_string(i) + "]", "expected " + RangeText(min, max) + ", got " + Describe(e));
+      Fail(std::string(key) + "[" + std::to_string(i) + "]",
+           "expected " + RangeText(min, max) + ", got " + Describe(e));
     }
     out.push_back(e.get<double>());
   }
@@ -197,13 +192,11 @@ JsonFieldReader JsonFieldReader::Object(std::string_view key) const {
   return JsonFieldReader(v, file_, FieldPath(key));
 }
 
-std::vector<JsonFieldReader> JsonFieldReader::Objects(std::string_view key,
-                                                      std::size_t max_count) const {
+std::vector<JsonFieldReader> JsonFieldReader::Objects(std::string_view key, std::size_t max_count) const {
   const auto& v = Member(key);
   if (!v.is_array()) Fail(key, "expected a list, got " + Describe(v));
   if (v.size() > max_count) {
-    Fail(key, "expected at most " + std::to_string(max_count) + " entries, got " +
-                  std::to_string(v.size()));
+    Fail(key, "expected at most " + std::to_string(max_count) + " entries, got " + std::to_string(v.size()));
   }
   std::vector<JsonFieldReader> out;
   out.reserve(v.size());
@@ -236,9 +229,9 @@ int JsonFieldReader::ExpectFormat(std::string_view format, int oldest, int newes
   if (f != format) Fail("format", "expected \"" + std::string(format) + "\", got " + Quoted(f));
   const auto v = Integer("version", 0, 1 << 30);
   if (v < oldest || v > newest) {
-    const std::string readable = oldest == newest ? "version " + std::to_string(newest)
-                                                  : "versions " + std::to_string(oldest) + " to " +
-                                                        std::to_string(newest);
+    const std::string readable = oldest == newest
+                                     ? "version " + std::to_string(newest)
+                                     : "versions " + std::to_string(oldest) + " to " + std::to_string(newest);
     Fail("version", "this build reads " + readable + ", the file is version " + std::to_string(v));
   }
   return static_cast<int>(v);

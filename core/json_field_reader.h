@@ -19,14 +19,14 @@ namespace mesocap::core {
 // a hostile "[[[[..." neither exhausts memory nor later overflows the stack of
 // a recursive walk), numbers beyond a double, and syntax errors, with the
 // byte offset of the error.
-nlohmann::json ReadJsonFile(const std::filesystem::path& file,
-                            std::uintmax_t max_bytes = 64ull << 20, int max_depth = 64);
+nlohmann::json ReadJsonFile(const std::filesystem::path& file, std::uintmax_t max_bytes = 64ull << 20,
+                            int max_depth = 64);
 
 // Throws FormatError when `document` nests arrays and objects deeper than
 // `max_depth` (the root counts as 1); `where` is the document's field path.
 // For documents parsed from text other than a file (journal lines).
-void RejectDeepNesting(const nlohmann::json& document, const std::filesystem::path& file,
-                       int max_depth, const std::string& where = "");
+void RejectDeepNesting(const nlohmann::json& document, const std::filesystem::path& file, int max_depth,
+                       const std::string& where = "");
 
 // A JSON value as text for a message: at most 40 characters, cut as
 // core::Cut() does.
@@ -43,8 +43,7 @@ class JsonFieldReader {
 
   // Finite numbers inside [min, max].
   double Number(std::string_view key, double min = -1e300, double max = 1e300) const;
-  double NumberOr(std::string_view key, double fallback, double min = -1e300,
-                  double max = 1e300) const;
+  double NumberOr(std::string_view key, double fallback, double min = -1e300, double max = 1e300) const;
   std::int64_t Integer(std::string_view key, std::int64_t min, std::int64_t max) const;
   bool Boolean(std::string_view key) const;
   std::string String(std::string_view key) const;
@@ -53,8 +52,7 @@ class JsonFieldReader {
   std::string Choice(std::string_view key, const std::vector<std::string>& allowed) const;
 
   // A list of exactly `count` finite numbers, each inside [min, max].
-  std::vector<double> Numbers(std::string_view key, std::size_t count, double min = -1e300,
-                              double max = 1e300) const;
+  std::vector<double> Numbers(std::string_view key, std::size_t count, double min = -1e300, double max = 1e300) const;
   Eigen::Vector3d Vector3(std::string_view key, double min = -1e300, double max = 1e300) const;
   Eigen::Vector2d Vector2(std::string_view key, double min = -1e300, double max = 1e300) const;
 

@@ -23,8 +23,8 @@ Plane PlaneFromJson(const nlohmann::json& value, const std::filesystem::path& fi
   Plane plane;
   if (value.is_null()) return plane;
   if (!value.is_object()) {
-    throw FormatError(file, field, "expected null or {\"normal\": [3 numbers], \"offset_mm\": number}, got " +
-                                       JsonExcerpt(value));
+    throw FormatError(file, field,
+                      "expected null or {\"normal\": [3 numbers], \"offset_mm\": number}, got " + JsonExcerpt(value));
   }
   const JsonFieldReader fields(value, file, field);
   fields.RejectUnknownMembers({"normal", "offset_mm"});

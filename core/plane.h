@@ -7,8 +7,8 @@
 #include <cmath>
 #include <filesystem>
 #include <limits>
-#include <string>
 #include <nlohmann/json.hpp>
+#include <string>
 
 namespace mesocap::core {
 

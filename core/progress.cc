@@ -58,11 +58,10 @@ void Progress::Finish() {
 
 void Progress::Print(bool final) {
   if (style_ == Style::kSilent || out_ == nullptr) return;
-  const double elapsed =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
   if (style_ == Style::kJsonLines) {
-    const nlohmann::json line = {{"task", task_}, {"done", done_}, {"total", total_},
-                                 {"elapsed_s", std::round(elapsed * 1000) / 1000}};
+    const nlohmann::json line = {
+        {"task", task_}, {"done", done_}, {"total", total_}, {"elapsed_s", std::round(elapsed * 1000) / 1000}};
     std::fprintf(out_, "%s\n", line.dump().c_str());
   } else {
     const double fraction = total_ > 0 ? static_cast<double>(done_) / total_ : 1.0;
@@ -70,8 +69,8 @@ void Progress::Print(bool final) {
     std::string bar(filled, '#');
     bar.resize(kBarWidth, '.');
     std::fprintf(out_, "\r%s [%s] %llu/%llu %5.1f%% %.1fs%s", task_.c_str(), bar.c_str(),
-                 static_cast<unsigned long long>(done_), static_cast<unsigned long long>(total_),
-                 100.0 * fraction, elapsed, final ? "\n" : "");
+                 static_cast<unsigned long long>(done_), static_cast<unsigned long long>(total_), 100.0 * fraction,
+                 elapsed, final ? "\n" : "");
   }
   std::fflush(out_);
 }

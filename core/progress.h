@@ -18,8 +18,7 @@ class Progress {
   // kAuto picks kBar when `out` is a terminal and kJsonLines otherwise, and
   // kSilent under -q (quiet means no progress either). `out` null: where
   // mesocap's messages go (core::MessageStream()).
-  Progress(std::string task, std::uint64_t total, Style style = Style::kAuto,
-           std::FILE* out = nullptr);
+  Progress(std::string task, std::uint64_t total, Style style = Style::kAuto, std::FILE* out = nullptr);
   ~Progress();
   Progress(const Progress&) = delete;
   Progress& operator=(const Progress&) = delete;

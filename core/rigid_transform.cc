@@ -24,8 +24,8 @@ RigidTransform RigidTransform::Inverse() const {
 
 RigidTransform RigidTransform::Compose(const RigidTransform& other) const {
   if (other.parent_frame != child_frame) {
-    throw Error("cannot compose transform " + parent_frame + "<-" + child_frame + " with " +
-                other.parent_frame + "<-" + other.child_frame + ": frames do not meet");
+    throw Error("cannot compose transform " + parent_frame + "<-" + child_frame + " with " + other.parent_frame + "<-" +
+                other.child_frame + ": frames do not meet");
   }
   RigidTransform out;
   out.parent_frame = parent_frame;
@@ -36,8 +36,7 @@ RigidTransform RigidTransform::Compose(const RigidTransform& other) const {
 }
 
 bool IsValidFrameName(const std::string& name) {
-  static const std::array<const char*, 5> kPlain = {"world", "turntable", "sample", "laser",
-                                                    "light_arc"};
+  static const std::array<const char*, 5> kPlain = {"world", "turntable", "sample", "laser", "light_arc"};
   for (const char* p : kPlain) {
     if (name == p) return true;
   }
@@ -64,8 +63,10 @@ RigidTransform ReadRigidTransform(const JsonFieldReader& fields) {
   t.child_frame = fields.String("child");
   for (const char* key : {"parent", "child"}) {
     if (!IsValidFrameName(fields.String(key))) {
-      fields.Fail(key, "expected a frame name (world, turntable, sample, laser, light_arc, "
-                       "camera:<id>, lamp:<id>, laser:<id>), got " + Quoted(fields.String(key)));
+      fields.Fail(key,
+                  "expected a frame name (world, turntable, sample, laser, light_arc, "
+                  "camera:<id>, lamp:<id>, laser:<id>), got " +
+                      Quoted(fields.String(key)));
     }
   }
   const auto r = fields.Numbers("rotation", 9);

@@ -18,9 +18,7 @@ struct RigidTransform {
   Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
   Eigen::Vector3d translation = Eigen::Vector3d::Zero();  // mm
 
-  Eigen::Vector3d Apply(const Eigen::Vector3d& x_child) const {
-    return rotation * x_child + translation;
-  }
+  Eigen::Vector3d Apply(const Eigen::Vector3d& x_child) const { return rotation * x_child + translation; }
   RigidTransform Inverse() const;
   // (this * other) maps other.child -> this.parent; throws Error if
   // other.parent_frame != this->child_frame.

@@ -101,12 +101,10 @@ SamplingSet SamplingSet::Named(const std::string& name) {
 }
 
 SamplingSet SamplingSet::RegularGrid(int azimuth_count, int polar_count) {
-  if (azimuth_count < 1 || polar_count < 1 ||
-      std::int64_t{azimuth_count} * polar_count > kMaxGridDirections) {
-    throw Error("regular grid of " + std::to_string(azimuth_count) + " azimuths x " +
-                std::to_string(polar_count) +
-                " polar angles: expected at least 1 of each and at most " +
-                std::to_string(kMaxGridDirections) + " directions");
+  if (azimuth_count < 1 || polar_count < 1 || std::int64_t{azimuth_count} * polar_count > kMaxGridDirections) {
+    throw Error("regular grid of " + std::to_string(azimuth_count) + " azimuths x " + std::to_string(polar_count) +
+                " polar angles: expected at least 1 of each and at most " + std::to_string(kMaxGridDirections) +
+                " directions");
   }
   std::vector<SphericalAngles> angles;
   angles.reserve(static_cast<std::size_t>(azimuth_count) * polar_count);
@@ -115,8 +113,7 @@ SamplingSet SamplingSet::RegularGrid(int azimuth_count, int polar_count) {
       angles.push_back({(j + 0.5) * (kPi / 2) / polar_count, kTwoPi * k / azimuth_count});
     }
   }
-  return FromAngles("grid" + std::to_string(azimuth_count) + "x" + std::to_string(polar_count),
-                    angles);
+  return FromAngles("grid" + std::to_string(azimuth_count) + "x" + std::to_string(polar_count), angles);
 }
 
 SamplingSet SamplingSet::FromAngles(std::string name, const std::vector<SphericalAngles>& angles) {
@@ -148,8 +145,7 @@ void SamplingSet::Build() {
   const int n = size();
   std::vector<int> by_theta(n);
   std::iota(by_theta.begin(), by_theta.end(), 0);
-  std::stable_sort(by_theta.begin(), by_theta.end(),
-                   [&](int a, int b) { return angles_[a].theta < angles_[b].theta; });
+  std::stable_sort(by_theta.begin(), by_theta.end(), [&](int a, int b) { return angles_[a].theta < angles_[b].theta; });
 
   // A ring takes every theta within the tolerance of its smallest one, and its
   // members take that theta, so a ring has one theta exactly.
@@ -177,8 +173,8 @@ void SamplingSet::Build() {
       const int a = ring.members[k];
       const int b = ring.members[(k + 1) % count];
       if (AngleBetween(directions_[a], directions_[b]) < kRingTolerance) {
-        throw Error("directions " + std::to_string(std::min(a, b)) + " and " +
-                    std::to_string(std::max(a, b)) + " coincide (closer than 1e-9 rad)");
+        throw Error("directions " + std::to_string(std::min(a, b)) + " and " + std::to_string(std::max(a, b)) +
+                    " coincide (closer than 1e-9 rad)");
       }
     }
   }
@@ -187,8 +183,7 @@ void SamplingSet::Build() {
   for (std::size_t r = 0; r < rings_.size(); ++r) {
     const double lo = r == 0 ? 0.0 : 0.5 * (rings_[r - 1].theta + rings_[r].theta);
     const double hi = r + 1 == rings_.size() ? kPi / 2 : 0.5 * (rings_[r].theta + rings_[r + 1].theta);
-    const double share =
-        kTwoPi * (std::cos(lo) - std::cos(hi)) / static_cast<double>(rings_[r].members.size());
+    const double share = kTwoPi * (std::cos(lo) - std::cos(hi)) / static_cast<double>(rings_[r].members.size());
     for (int m : rings_[r].members) weights_[m] = share;
   }
 }
@@ -233,8 +228,7 @@ int SamplingSet::Nearest(const Eigen::Vector3d& d) const {
   // |theta - ring theta| bounds from below the angle to any member of a ring:
   // visit rings outwards from theta and stop once that bound passes the best.
   int above = static_cast<int>(
-      std::lower_bound(rings_.begin(), rings_.end(), a.theta,
-                       [](const Ring& r, double t) { return r.theta < t; }) -
+      std::lower_bound(rings_.begin(), rings_.end(), a.theta, [](const Ring& r, double t) { return r.theta < t; }) -
       rings_.begin());
   int below = above - 1;
   constexpr double kInf = std::numeric_limits<double>::infinity();
@@ -267,8 +261,8 @@ SamplingSet::Blend SamplingSet::Interpolate(const Eigen::Vector3d& d) const {
   };
 
   // The first ring with theta above d's; the one before it is at or below.
-  const auto upper = std::upper_bound(rings_.begin(), rings_.end(), a.theta,
-                                      [](double t, const Ring& r) { return t < r.theta; });
+  const auto upper =
+      std::upper_bound(rings_.begin(), rings_.end(), a.theta, [](double t, const Ring& r) { return t < r.theta; });
   if (upper == rings_.begin()) {
     add_ring(rings_.front(), 1.0);  // above the first ring: clamp
   } else if (upper == rings_.end()) {
@@ -302,17 +296,16 @@ SamplingSet ReadSamplingSet(const JsonFieldReader& fields) {
     fields.Fail("directions_deg", "expected a list of [theta, phi] pairs in degrees, got " + JsonExcerpt(list));
   }
   if (list.empty() || list.size() > kMaxFileDirections) {
-    fields.Fail("directions_deg", "expected 1 to " + std::to_string(kMaxFileDirections) +
-                                      " directions, got " + std::to_string(list.size()));
+    fields.Fail("directions_deg", "expected 1 to " + std::to_string(kMaxFileDirections) + " directions, got " +
+                                      std::to_string(list.size()));
   }
   std::vector<SphericalAngles> angles;
   angles.reserve(list.size());
   for (std::size_t i = 0; i < list.size(); ++i) {
     const std::string key = "directions_deg[" + std::to_string(i) + "]";
     const nlohmann::json& entry = list[i];
-    const bool pair = entry.is_array() && entry.size() == 2 && entry[0].is_number() &&
-                      entry[1].is_number() && std::isfinite(entry[0].get<double>()) &&
-                      std::isfinite(entry[1].get<double>());
+    const bool pair = entry.is_array() && entry.size() == 2 && entry[0].is_number() && entry[1].is_number() &&
+                      std::isfinite(entry[0].get<double>()) && std::isfinite(entry[1].get<double>());
     if (!pair) {
       fields.Fail(key, "expected a pair of finite numbers [theta, phi] in degrees, got " + JsonExcerpt(entry));
     }

@@ -51,7 +51,7 @@ struct CameraInfo {
 };
 
 struct Frame {
-  core::Image image;                 // values in [0, 1] of the digital range
+  core::Image image;           // values in [0, 1] of the digital range
   std::uint64_t sequence = 0;  // per camera, increasing; a gap means a dropped frame
   double timestamp_s = 0.0;    // camera clock
   CameraSettings settings;     // in force when the frame was exposed

@@ -45,8 +45,8 @@ std::string DescribeLamps(const LampBank& lamps) {
 
 std::string DescribeLaser(const LaserUnit& laser) {
   std::ostringstream s;
-  s << (laser.IsEnabled() ? "on" : "off") << ", mount " << laser.mount() << " of " << laser.mount_count()
-    << ", tilt " << core::DegreesFromRadians(laser.Tilt()) << " deg";
+  s << (laser.IsEnabled() ? "on" : "off") << ", mount " << laser.mount() << " of " << laser.mount_count() << ", tilt "
+    << core::DegreesFromRadians(laser.Tilt()) << " deg";
   return s.str();
 }
 
@@ -56,8 +56,10 @@ std::vector<DeviceState> ReadDeviceStates(Rig& rig) {
     const std::string id = i < rig.description.cameras.size() ? rig.description.cameras[i].id : std::to_string(i);
     states.push_back(ReadDeviceState("camera " + id, "camera", [&] { return DescribeCamera(*rig.cameras[i]); }));
   }
-  if (rig.turntable) states.push_back(ReadDeviceState("turntable", "stage", [&] { return DescribeStage(*rig.turntable); }));
-  if (rig.light_arc) states.push_back(ReadDeviceState("light arc", "stage", [&] { return DescribeStage(*rig.light_arc); }));
+  if (rig.turntable)
+    states.push_back(ReadDeviceState("turntable", "stage", [&] { return DescribeStage(*rig.turntable); }));
+  if (rig.light_arc)
+    states.push_back(ReadDeviceState("light arc", "stage", [&] { return DescribeStage(*rig.light_arc); }));
   if (rig.lamps) states.push_back(ReadDeviceState("lamps", "lamps", [&] { return DescribeLamps(*rig.lamps); }));
   if (rig.laser) states.push_back(ReadDeviceState("laser unit", "laser", [&] { return DescribeLaser(*rig.laser); }));
   return states;

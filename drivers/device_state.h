@@ -16,7 +16,7 @@ struct DeviceState {
   std::string device;  // "camera cam0", "turntable", "light arc", "lamps", "laser unit"
   std::string kind;    // "camera", "stage", "lamps", "laser"
   bool ok = false;
-  std::string state;   // what it read (ok), or the error (not ok)
+  std::string state;  // what it read (ok), or the error (not ok)
 };
 
 // "1280 x 960, 12 bits, 3 channels" and the like. Each throws the device's

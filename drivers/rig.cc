@@ -16,8 +16,8 @@ RigBackend& Find(const std::map<std::string, RigBackend*>& backends, const std::
   if (it == backends.end() || it->second == nullptr) {
     std::string known;
     for (const auto& [n, b] : backends) known += (known.empty() ? "" : ", ") + n;
-    throw core::Error(device + ": backend " + core::Quoted(name) + " is not available in this program (available: " +
-                (known.empty() ? "none" : known) + ")");
+    throw core::Error(device + ": backend " + core::Quoted(name) +
+                      " is not available in this program (available: " + (known.empty() ? "none" : known) + ")");
   }
   return *it->second;
 }

@@ -27,7 +27,7 @@ constexpr int kOldestCalibrationVersion = 1;
 constexpr int kCalibrationMaxDepth = 32;
 
 // Bounds that catch garbage such as 1e308 while leaving room for any real rig.
-constexpr double kMaxLengthMm = 1e6;        // 1 km
+constexpr double kMaxLengthMm = 1e6;  // 1 km
 constexpr double kMaxDirectionComponent = 1e6;
 constexpr double kMinDirectionLength = 1e-6;
 constexpr double kUnitTolerance = 1e-12;
@@ -83,8 +83,7 @@ struct Parameter {
 // The standard deviations given in the object's optional "std" member.
 using Deviations = std::map<std::string, std::vector<double>, std::less<>>;
 
-Deviations ReadDeviations(const core::JsonFieldReader& object,
-                          std::initializer_list<Parameter> parameters) {
+Deviations ReadDeviations(const core::JsonFieldReader& object, std::initializer_list<Parameter> parameters) {
   Deviations out;
   if (!object.Has("std")) return out;
   const core::JsonFieldReader std_fields = object.Object("std");
@@ -98,9 +97,8 @@ Deviations ReadDeviations(const core::JsonFieldReader& object,
       for (const auto& p : parameters) list += (list.empty() ? "" : ", ") + std::string(p.key);
       std_fields.Fail(key, "not a parameter of this object; expected one of " + list);
     }
-    out[key] = match->count == 1
-                   ? std::vector<double>{std_fields.Number(key, 0, match->max_std)}
-                   : std_fields.Numbers(key, match->count, 0, match->max_std);
+    out[key] = match->count == 1 ? std::vector<double>{std_fields.Number(key, 0, match->max_std)}
+                                 : std_fields.Numbers(key, match->count, 0, match->max_std);
   }
   return out;
 }
@@ -111,22 +109,19 @@ std::optional<double> Deviation1(const Deviations& d, std::string_view key, doub
   return it->second[0] * scale;
 }
 
-std::optional<Eigen::Vector3d> Deviation3(const Deviations& d, std::string_view key,
-                                          double scale = 1) {
+std::optional<Eigen::Vector3d> Deviation3(const Deviations& d, std::string_view key, double scale = 1) {
   const auto it = d.find(key);
   if (it == d.end()) return std::nullopt;
   return Eigen::Vector3d(it->second[0], it->second[1], it->second[2]) * scale;
 }
 
-std::optional<Eigen::Vector2d> Deviation2(const Deviations& d, std::string_view key,
-                                          double scale = 1) {
+std::optional<Eigen::Vector2d> Deviation2(const Deviations& d, std::string_view key, double scale = 1) {
   const auto it = d.find(key);
   if (it == d.end()) return std::nullopt;
   return Eigen::Vector2d(it->second[0], it->second[1]) * scale;
 }
 
-CalibratedPose ReadPose(const core::JsonFieldReader& fields, const std::string& parent,
-                        const std::string& child) {
+CalibratedPose ReadPose(const core::JsonFieldReader& fields, const std::string& parent, const std::string& child) {
   fields.RejectUnknownMembers({"parent", "child", "rotation", "translation_mm", "std"});
   CalibratedPose pose;
   pose.transform = core::ReadRigidTransform(fields);
@@ -137,8 +132,7 @@ CalibratedPose ReadPose(const core::JsonFieldReader& fields, const std::string& 
     fields.Fail("child", "expected " + core::Quoted(child) + ", got " + core::Quoted(pose.transform.child_frame));
   }
   Position(fields, "translation_mm");  // bounds only; ReadRigidTransform read the values
-  const auto d = ReadDeviations(
-      fields, {{"rotation_deg", 3, kMaxAngleDeg}, {"translation_mm", 3, kMaxLengthMm}});
+  const auto d = ReadDeviations(fields, {{"rotation_deg", 3, kMaxAngleDeg}, {"translation_mm", 3, kMaxLengthMm}});
   pose.uncertainty.rotation_rad = Deviation3(d, "rotation_deg", core::RadiansFromDegrees(1.0));
   pose.uncertainty.translation_mm = Deviation3(d, "translation_mm");
   return pose;
@@ -151,12 +145,9 @@ Intrinsics ReadIntrinsics(const core::JsonFieldReader& fields) {
   k.fy = PositiveNumber(fields, "fy", kMaxPixels);
   k.cx = fields.Number("cx", -kMaxPixels, kMaxPixels);
   k.cy = fields.Number("cy", -kMaxPixels, kMaxPixels);
-  const auto d = ReadDeviations(fields, {{"fx", 1, kMaxPixels},
-                                         {"fy", 1, kMaxPixels},
-                                         {"cx", 1, kMaxPixels},
-                                         {"cy", 1, kMaxPixels}});
-  k.uncertainty = {Deviation1(d, "fx"), Deviation1(d, "fy"), Deviation1(d, "cx"),
-                   Deviation1(d, "cy")};
+  const auto d = ReadDeviations(
+      fields, {{"fx", 1, kMaxPixels}, {"fy", 1, kMaxPixels}, {"cx", 1, kMaxPixels}, {"cy", 1, kMaxPixels}});
+  k.uncertainty = {Deviation1(d, "fx"), Deviation1(d, "fy"), Deviation1(d, "cx"), Deviation1(d, "cy")};
   return k;
 }
 
@@ -173,8 +164,8 @@ Distortion ReadDistortion(const core::JsonFieldReader& fields) {
                                          {"p1", 1, kMaxDistortion},
                                          {"p2", 1, kMaxDistortion},
                                          {"k3", 1, kMaxDistortion}});
-  k.uncertainty = {Deviation1(d, "k1"), Deviation1(d, "k2"), Deviation1(d, "p1"),
-                   Deviation1(d, "p2"), Deviation1(d, "k3")};
+  k.uncertainty = {Deviation1(d, "k1"), Deviation1(d, "k2"), Deviation1(d, "p1"), Deviation1(d, "p2"),
+                   Deviation1(d, "k3")};
   return k;
 }
 
@@ -217,8 +208,8 @@ TurntableCalibration ReadTurntable(const core::JsonFieldReader& fields) {
   t.axis_point_mm = Position(fields, "axis_point_mm");
   t.axis_direction = Direction(fields, "axis_direction");
   t.sample_pose = ReadPose(fields.Object("sample_pose"), "turntable", "sample");
-  const auto d = ReadDeviations(fields, {{"axis_point_mm", 3, kMaxLengthMm},
-                                         {"axis_direction", 3, kMaxDirectionComponent}});
+  const auto d =
+      ReadDeviations(fields, {{"axis_point_mm", 3, kMaxLengthMm}, {"axis_direction", 3, kMaxDirectionComponent}});
   t.uncertainty = {Deviation3(d, "axis_point_mm"), Deviation3(d, "axis_direction")};
   return t;
 }
@@ -228,8 +219,8 @@ LightArcCalibration ReadLightArc(const core::JsonFieldReader& fields) {
   LightArcCalibration a;
   a.axis_point_mm = Position(fields, "axis_point_mm");
   a.axis_direction = Direction(fields, "axis_direction");
-  const auto d = ReadDeviations(fields, {{"axis_point_mm", 3, kMaxLengthMm},
-                                         {"axis_direction", 3, kMaxDirectionComponent}});
+  const auto d =
+      ReadDeviations(fields, {{"axis_point_mm", 3, kMaxLengthMm}, {"axis_direction", 3, kMaxDirectionComponent}});
   a.uncertainty = {Deviation3(d, "axis_point_mm"), Deviation3(d, "axis_direction")};
   return a;
 }
@@ -241,34 +232,31 @@ LampCalibration ReadLamp(const core::JsonFieldReader& fields) {
   l.position_mm = Position(fields, "position_mm");
   const auto i = fields.Numbers("intensity", 3, 0, kMaxIntensity);
   l.intensity = {i[0], i[1], i[2]};
-  const auto d = ReadDeviations(
-      fields, {{"position_mm", 3, kMaxLengthMm}, {"intensity", 3, kMaxIntensity}});
+  const auto d = ReadDeviations(fields, {{"position_mm", 3, kMaxLengthMm}, {"intensity", 3, kMaxIntensity}});
   l.uncertainty = {Deviation3(d, "position_mm"), Deviation3(d, "intensity")};
   return l;
 }
 
 LaserMountCalibration ReadLaserMount(const core::JsonFieldReader& fields) {
-  fields.RejectUnknownMembers({"id", "source_mm", "plane_normal_at_zero_tilt", "tilt_axis",
-                                "tilt_range_deg", "std"});
+  fields.RejectUnknownMembers({"id", "source_mm", "plane_normal_at_zero_tilt", "tilt_axis", "tilt_range_deg", "std"});
   LaserMountCalibration m;
   m.id = Id(fields);
   m.source_mm = Position(fields, "source_mm");
   m.plane_normal_at_zero_tilt = Direction(fields, "plane_normal_at_zero_tilt");
   m.tilt_axis = Direction(fields, "tilt_axis");
   if (std::abs(m.plane_normal_at_zero_tilt.dot(m.tilt_axis)) >= kInPlaneTolerance) {
-    fields.Fail("tilt_axis", "expected a direction in the laser plane (perpendicular to "
-                             "plane_normal_at_zero_tilt)");
+    fields.Fail("tilt_axis",
+                "expected a direction in the laser plane (perpendicular to "
+                "plane_normal_at_zero_tilt)");
   }
   const auto range = fields.Numbers("tilt_range_deg", 2, -kMaxAngleDeg, kMaxAngleDeg);
   if (range[0] >= range[1]) fields.Fail("tilt_range_deg", "expected [min, max] with min < max");
-  m.tilt_range_rad =
-      Eigen::Vector2d(core::RadiansFromDegrees(range[0]), core::RadiansFromDegrees(range[1]));
+  m.tilt_range_rad = Eigen::Vector2d(core::RadiansFromDegrees(range[0]), core::RadiansFromDegrees(range[1]));
   const auto d = ReadDeviations(fields, {{"source_mm", 3, kMaxLengthMm},
                                          {"plane_normal_at_zero_tilt", 3, kMaxDirectionComponent},
                                          {"tilt_axis", 3, kMaxDirectionComponent},
                                          {"tilt_range_deg", 2, kMaxAngleDeg}});
-  m.uncertainty = {Deviation3(d, "source_mm"), Deviation3(d, "plane_normal_at_zero_tilt"),
-                   Deviation3(d, "tilt_axis"),
+  m.uncertainty = {Deviation3(d, "source_mm"), Deviation3(d, "plane_normal_at_zero_tilt"), Deviation3(d, "tilt_axis"),
                    Deviation2(d, "tilt_range_deg", core::RadiansFromDegrees(1.0))};
   return m;
 }
@@ -290,8 +278,8 @@ std::vector<Part> ReadParts(const core::JsonFieldReader& root, std::string_view 
 Calibration ParseCalibration(const json& document, const fs::path& file) {
   const core::JsonFieldReader root(document, file);
   const int version = root.ExpectFormat(kCalibrationFormat, kOldestCalibrationVersion, kCalibrationVersion);
-  root.RejectUnknownMembers({"format", "version", "units", "cameras", "turntable", "light_arc",
-                              "lamps", "laser_mounts"});
+  root.RejectUnknownMembers(
+      {"format", "version", "units", "cameras", "turntable", "light_arc", "lamps", "laser_mounts"});
   const core::JsonFieldReader units = root.Object("units");
   units.RejectUnknownMembers({"length", "angle"});
   units.Choice("length", {"mm"});
@@ -402,9 +390,7 @@ json TurntableJson(const TurntableCalibration& t) {
 }
 
 json LampJson(const LampCalibration& l) {
-  json j = {{"id", l.id},
-            {"position_mm", NumberList(l.position_mm)},
-            {"intensity", NumberList(l.intensity)}};
+  json j = {{"id", l.id}, {"position_mm", NumberList(l.position_mm)}, {"intensity", NumberList(l.intensity)}};
   json d = json::object();
   PutDeviation(d, "position_mm", l.uncertainty.position_mm);
   PutDeviation(d, "intensity", l.uncertainty.intensity);
@@ -439,8 +425,8 @@ json ListJson(const std::vector<Part>& parts, ToPartJson to_json) {
 bool IsValidId(std::string_view id) {
   if (id.empty() || id.size() > 128) return false;
   for (const char ch : id) {
-    const bool ok = (ch >= 'a' && ch <= 'z') || (ch >= 'A' && ch <= 'Z') ||
-                    (ch >= '0' && ch <= '9') || ch == '.' || ch == '_' || ch == '-';
+    const bool ok = (ch >= 'a' && ch <= 'z') || (ch >= 'A' && ch <= 'Z') || (ch >= '0' && ch <= '9') || ch == '.' ||
+                    ch == '_' || ch == '-';
     if (!ok) return false;
   }
   return true;

@@ -71,22 +71,22 @@ struct CameraCalibration {
   int width = 0, height = 0;  // image size in pixels
   Intrinsics intrinsics;
   Distortion distortion;
-  CalibratedPose pose;  // world <- camera:<id>
+  CalibratedPose pose;                         // world <- camera:<id>
   std::optional<CameraRadiometry> radiometry;  // absent where not calibrated
 };
 
 struct TurntableCalibration {
-  Eigen::Vector3d axis_point_mm = Eigen::Vector3d::Zero();      // world
-  Eigen::Vector3d axis_direction = Eigen::Vector3d::UnitZ();    // world, unit
-  CalibratedPose sample_pose;  // turntable <- sample
+  Eigen::Vector3d axis_point_mm = Eigen::Vector3d::Zero();    // world
+  Eigen::Vector3d axis_direction = Eigen::Vector3d::UnitZ();  // world, unit
+  CalibratedPose sample_pose;                                 // turntable <- sample
   struct Uncertainty {
     std::optional<Eigen::Vector3d> axis_point_mm, axis_direction;
   } uncertainty;
 };
 
 struct LightArcCalibration {
-  Eigen::Vector3d axis_point_mm = Eigen::Vector3d::Zero();      // world
-  Eigen::Vector3d axis_direction = Eigen::Vector3d::UnitZ();    // world, unit
+  Eigen::Vector3d axis_point_mm = Eigen::Vector3d::Zero();    // world
+  Eigen::Vector3d axis_direction = Eigen::Vector3d::UnitZ();  // world, unit
   struct Uncertainty {
     std::optional<Eigen::Vector3d> axis_point_mm, axis_direction;
   } uncertainty;

@@ -77,8 +77,9 @@ JournalRecord ParseRecord(const json& document, const fs::path& file, const std:
     JournalFile jf;
     jf.path = f.String("path");
     if (!IsSessionPath(jf.path)) {
-      f.Fail("path", "expected a relative path inside the session folder (no \"..\", no "
-                     "leading '/', no empty parts)");
+      f.Fail("path",
+             "expected a relative path inside the session folder (no \"..\", no "
+             "leading '/', no empty parts)");
     }
     if (!paths.insert(jf.path).second) f.Fail("path", "listed twice in this record");
     if (hashes == Hashes::kRequired || (hashes == Hashes::kEither && f.Has("xxh3_64"))) {
@@ -101,12 +102,13 @@ struct JournalState {
 };
 
 // Throws FormatError when `r` cannot be the next record.
-void CheckOrder(const JournalRecord& r, const JournalState& state, const fs::path& file,
-                const std::string& where) {
+void CheckOrder(const JournalRecord& r, const JournalState& state, const fs::path& file, const std::string& where) {
   if (r.seq != state.next_seq) {
     throw core::FormatError(file, where + ".seq",
-                      "expected " + std::to_string(state.next_seq) + " (records are numbered "
-                      "0, 1, 2, ... in order), got " + std::to_string(r.seq));
+                            "expected " + std::to_string(state.next_seq) +
+                                " (records are numbered "
+                                "0, 1, 2, ... in order), got " +
+                                std::to_string(r.seq));
   }
   const auto last = state.last_seq->find(r.step);
   if (last != state.last_seq->end() && r.replaces != last->second) {
@@ -115,8 +117,7 @@ void CheckOrder(const JournalRecord& r, const JournalState& state, const fs::pat
                                 "); a record that does it again says \"replaces\": " + std::to_string(last->second));
   }
   if (last == state.last_seq->end() && r.replaces) {
-    throw core::FormatError(file, where + ".replaces",
-                            "step \"" + r.step + "\" has no earlier record to replace");
+    throw core::FormatError(file, where + ".replaces", "step \"" + r.step + "\" has no earlier record to replace");
   }
   if (state.plan && !state.plan->count(r.step)) {
     throw core::FormatError(file, where + ".step", "step \"" + r.step + "\" is not in the plan");
@@ -174,8 +175,9 @@ JournalContents ReadCaptureJournal(const fs::path& file, const SessionManifest* 
   const std::uint64_t size = fs::file_size(file, ec);
   if (ec) throw core::FormatError(file, "", "cannot read size: " + ec.message());
   if (size > kMaxJournalBytes) {
-    throw core::FormatError(file, "", "file is " + std::to_string(size) + " bytes; at most " +
-                                    std::to_string(kMaxJournalBytes) + " expected");
+    throw core::FormatError(
+        file, "",
+        "file is " + std::to_string(size) + " bytes; at most " + std::to_string(kMaxJournalBytes) + " expected");
   }
   const std::set<std::string> plan = manifest ? PlanIds(*manifest) : std::set<std::string>();
   std::map<std::string, std::uint64_t> last_seq;
@@ -209,8 +211,7 @@ JournalContents ReadCaptureJournal(const fs::path& file, const SessionManifest* 
   return contents;
 }
 
-CaptureJournal::CaptureJournal(fs::path file, const SessionManifest* manifest)
-    : file_(std::move(file)) {
+CaptureJournal::CaptureJournal(fs::path file, const SessionManifest* manifest) : file_(std::move(file)) {
   bool created = true;
   fd_ = ::open(file_.c_str(), O_RDWR | O_APPEND | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
   if (fd_ < 0 && errno == EEXIST) {
@@ -295,9 +296,9 @@ void CaptureJournal::Append(const JournalRecord& given) {
     const auto bytes = regular ? fs::file_size(path, ec) : 0;
     if (!regular || ec || bytes != f.bytes) {
       throw core::Error(file_.string() + ": step \"" + record.step + "\": file " + f.path +
-                  (regular ? " has " + std::to_string(bytes) + " bytes, the record says " +
-                                 std::to_string(f.bytes)
-                           : " is missing or not a regular file"));
+                        (regular
+                             ? " has " + std::to_string(bytes) + " bytes, the record says " + std::to_string(f.bytes)
+                             : " is missing or not a regular file"));
     }
     core::SyncPath(path);
     folders.insert(path.parent_path());
@@ -313,11 +314,10 @@ void CaptureJournal::Append(const JournalRecord& given) {
   // Never write what the reader would refuse.
   if (line.size() > kMaxJournalLineBytes) {
     throw core::Error(file_.string() + ": step \"" + record.step + "\": record is longer than " +
-                std::to_string(kMaxJournalLineBytes) + " bytes");
+                      std::to_string(kMaxJournalLineBytes) + " bytes");
   }
   if (size_ + line.size() > kMaxJournalBytes) {
-    throw core::Error(file_.string() + ": journal would exceed " + std::to_string(kMaxJournalBytes) +
-                " bytes");
+    throw core::Error(file_.string() + ": journal would exceed " + std::to_string(kMaxJournalBytes) + " bytes");
   }
 
   std::size_t written = 0;
@@ -336,7 +336,7 @@ void CaptureJournal::Append(const JournalRecord& given) {
   if (::fsync(fd_) != 0) {
     broken_ = true;
     throw core::Error(file_.string() + ": fsync failed; step \"" + record.step +
-                "\" is not recorded as done: " + SystemError());
+                      "\" is not recorded as done: " + SystemError());
   }
   size_ += line.size();
   records_.push_back(record);

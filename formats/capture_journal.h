@@ -55,8 +55,7 @@ struct JournalContents {
 // JSON) is dropped and counted; anything else wrong, in any line, throws
 // FormatError naming the file and "line N". With a manifest, every step must
 // be in its plan, and a version 2 session's files must carry their hash.
-JournalContents ReadCaptureJournal(const std::filesystem::path& file,
-                                   const SessionManifest* manifest = nullptr);
+JournalContents ReadCaptureJournal(const std::filesystem::path& file, const SessionManifest* manifest = nullptr);
 
 // The latest record of each step (what counts), by step id.
 std::map<std::string, const JournalRecord*> LatestRecords(const std::vector<JournalRecord>& records);

@@ -162,8 +162,8 @@ LaserCalibrationStep ReadLaserCalibrationStep(const PlannedStep& step, std::size
 BtfImageStep ReadBtfImageStep(const PlannedStep& step, std::size_t index, const RigDescription& rig,
                               const fs::path& manifest_file) {
   const core::JsonFieldReader fields = StepFields(step, StepKind::kBtfImage, index, manifest_file);
-  fields.RejectUnknownMembers({"turntable_index", "turntable_deg", "arc_index", "arc_deg", "lamp",
-                               "lamp_elevation_deg", "files", "recording"});
+  fields.RejectUnknownMembers(
+      {"turntable_index", "turntable_deg", "arc_index", "arc_deg", "lamp", "lamp_elevation_deg", "files", "recording"});
   BtfImageStep out;
   out.turntable_index = Index(fields, "turntable_index", rig.turntable.angles_rad.size());
   out.turntable_rad = Radians(fields, "turntable_deg");
@@ -191,9 +191,9 @@ LaserSweepStep ReadLaserSweepStep(const PlannedStep& step, std::size_t index, co
   for (const std::string_view key : {"tilt_deg", "offset_mm"}) {
     const nlohmann::json& list = fields.Raw(key);
     if (!list.is_array() || list.size() != frames) {
-      fields.Fail(key, "expected one number per frame of the rig's sweep (laser.frames_per_sweep = " +
-                           std::to_string(frames) + "), got " +
-                           (list.is_array() ? std::to_string(list.size()) + " entries" : core::JsonExcerpt(list)));
+      fields.Fail(
+          key, "expected one number per frame of the rig's sweep (laser.frames_per_sweep = " + std::to_string(frames) +
+                   "), got " + (list.is_array() ? std::to_string(list.size()) + " entries" : core::JsonExcerpt(list)));
     }
   }
   for (const double t : fields.Numbers("tilt_deg", frames, -kMaxTiltDeg, kMaxTiltDeg)) {

@@ -50,8 +50,7 @@ bool HasControlCharacter(std::string_view text) {
 std::string ShortText(const core::JsonFieldReader& fields, std::string_view key) {
   const std::string s = fields.String(key);
   if (s.empty() || s.size() > kMaxShortText || HasControlCharacter(s)) {
-    fields.Fail(key, "expected 1 to " + std::to_string(kMaxShortText) +
-                         " characters without control characters");
+    fields.Fail(key, "expected 1 to " + std::to_string(kMaxShortText) + " characters without control characters");
   }
   return s;
 }
@@ -87,8 +86,7 @@ SessionManifest ParseSessionManifest(const json& document, const fs::path& file)
   const core::JsonFieldReader root(document, file);
   SessionManifest m;
   m.version = root.ExpectFormat(kSessionFormat, kOldestSessionVersion, kSessionVersion);
-  root.RejectUnknownMembers({"format", "version", "software_version", "created_utc", "rig",
-                              "calibration", "plan"});
+  root.RejectUnknownMembers({"format", "version", "software_version", "created_utc", "rig", "calibration", "plan"});
   m.software_version = ShortText(root, "software_version");
   m.created_utc = root.String("created_utc");
   if (!IsUtcTimestamp(m.created_utc)) {
@@ -132,21 +130,17 @@ int DaysInMonth(int year, int month) {
 
 }  // namespace
 
-const char* StepKindName(StepKind kind) {
-  return StepKindNames().at(static_cast<std::size_t>(kind)).c_str();
-}
+const char* StepKindName(StepKind kind) { return StepKindNames().at(static_cast<std::size_t>(kind)).c_str(); }
 
 std::string UtcTimestamp(std::chrono::system_clock::time_point time) {
   const auto seconds = std::chrono::floor<std::chrono::seconds>(time);
-  const auto millis =
-      std::chrono::duration_cast<std::chrono::milliseconds>(time - seconds).count();
+  const auto millis = std::chrono::duration_cast<std::chrono::milliseconds>(time - seconds).count();
   const std::time_t t = std::chrono::system_clock::to_time_t(seconds);
   std::tm utc{};
   gmtime_r(&t, &utc);
   char text[64];
-  std::snprintf(text, sizeof text, "%04d-%02d-%02dT%02d:%02d:%02d.%03dZ", utc.tm_year + 1900,
-                utc.tm_mon + 1, utc.tm_mday, utc.tm_hour, utc.tm_min, utc.tm_sec,
-                static_cast<int>(millis));
+  std::snprintf(text, sizeof text, "%04d-%02d-%02dT%02d:%02d:%02d.%03dZ", utc.tm_year + 1900, utc.tm_mon + 1,
+                utc.tm_mday, utc.tm_hour, utc.tm_min, utc.tm_sec, static_cast<int>(millis));
   return text;
 }
 
@@ -192,8 +186,7 @@ json ToJson(const SessionManifest& m) {
   json steps = json::array();
   for (const auto& step : m.plan) {
     if (!step.params.is_object() || step.params.contains("id") || step.params.contains("kind")) {
-      throw core::Error("plan step \"" + step.id +
-                  "\": params must be a JSON object without \"id\" or \"kind\"");
+      throw core::Error("plan step \"" + step.id + "\": params must be a JSON object without \"id\" or \"kind\"");
     }
     json s = step.params;
     s["id"] = step.id;
@@ -254,8 +247,7 @@ void CreateCaptureSession(const fs::path& dir, SessionManifest manifest) {
 
 SessionManifest ReadSessionManifest(const fs::path& dir) {
   const fs::path file = dir / kSessionManifestName;
-  return ParseSessionManifest(core::ReadJsonFile(file, kMaxSessionManifestBytes, kSessionMaxDepth),
-                              file);
+  return ParseSessionManifest(core::ReadJsonFile(file, kMaxSessionManifestBytes, kSessionMaxDepth), file);
 }
 
 }  // namespace mesocap::formats

@@ -42,7 +42,7 @@ struct PlannedStep {
 };
 
 struct SessionManifest {
-  int version = 2;  // of the manifest read; version 1 records no checksums
+  int version = 2;               // of the manifest read; version 1 records no checksums
   std::string software_version;  // CreateCaptureSession fills an empty one with Version()
   std::string created_utc;       // UtcTimestamp(); CreateCaptureSession fills an empty one
   // The rig as configured for this session, kept as given; must hold a

@@ -19,10 +19,14 @@ namespace {
 
 OIIO::TypeDesc TypeOf(core::PixelEncoding e) {
   switch (e) {
-    case core::PixelEncoding::kUInt8: return OIIO::TypeDesc::UINT8;
-    case core::PixelEncoding::kUInt16: return OIIO::TypeDesc::UINT16;
-    case core::PixelEncoding::kFloat32: return OIIO::TypeDesc::FLOAT;
-    case core::PixelEncoding::kHalf: break;
+    case core::PixelEncoding::kUInt8:
+      return OIIO::TypeDesc::UINT8;
+    case core::PixelEncoding::kUInt16:
+      return OIIO::TypeDesc::UINT16;
+    case core::PixelEncoding::kFloat32:
+      return OIIO::TypeDesc::FLOAT;
+    case core::PixelEncoding::kHalf:
+      break;
   }
   return OIIO::TypeDesc::UNKNOWN;
 }
@@ -40,9 +44,7 @@ void LimitDeclaredImageSize() {
   std::call_once(once, [] { OIIO::attribute("limits:imagesize_MB", 8192); });
 }
 
-std::string FrameField(int frame, const char* field) {
-  return "frame " + std::to_string(frame) + ": " + field;
-}
+std::string FrameField(int frame, const char* field) { return "frame " + std::to_string(frame) + ": " + field; }
 
 }  // namespace
 
@@ -65,7 +67,8 @@ FrameSequenceWriter::FrameSequenceWriter(fs::path file, int width, int height, i
   header_ = {width, height, channels, encoding, 0};
   output_ = std::make_unique<Output>();
   output_->out = OIIO::ImageOutput::create(file_.string());
-  if (!output_->out) throw core::Error(file_.string() + ": no TIFF writer: " + core::ImageLibraryMessage(OIIO::geterror()));
+  if (!output_->out)
+    throw core::Error(file_.string() + ": no TIFF writer: " + core::ImageLibraryMessage(OIIO::geterror()));
   if (!output_->out->supports("appendsubimage")) {
     throw core::Error(file_.string() + ": the TIFF writer cannot append subimages");
   }
@@ -135,7 +138,8 @@ FrameSequenceReader::FrameSequenceReader(fs::path file, int max_frames, std::siz
   if (!fs::is_regular_file(file_, ec)) throw core::FormatError(file_, "", "not found or not a regular file");
   if (!IsTiff(file_)) throw core::FormatError(file_, "", "a frame sequence is a .tif or .tiff file");
   input_->in = OIIO::ImageInput::open(file_.string());
-  if (!input_->in) throw core::FormatError(file_, "", "not a readable TIFF: " + core::ImageLibraryMessage(OIIO::geterror()));
+  if (!input_->in)
+    throw core::FormatError(file_, "", "not a readable TIFF: " + core::ImageLibraryMessage(OIIO::geterror()));
   auto& in = *input_->in;
   // Every frame's header up front (headers only, no pixels): the sequence is
   // uniform or it is rejected before anyone reads it.
@@ -166,8 +170,8 @@ FrameSequenceReader::FrameSequenceReader(fs::path file, int max_frames, std::siz
       header_.channels = spec.nchannels;
       const std::size_t values = static_cast<std::size_t>(spec.width) * spec.height * spec.nchannels;
       if (values > max_values) {
-        throw core::FormatError(file_, FrameField(f, "size"), "exceeds the limit of " + std::to_string(max_values) +
-                                                            " values per frame");
+        throw core::FormatError(file_, FrameField(f, "size"),
+                                "exceeds the limit of " + std::to_string(max_values) + " values per frame");
       }
     } else {
       if (spec.width != header_.width) throw core::FormatError(file_, FrameField(f, "width"), "differs from frame 0");
@@ -187,7 +191,8 @@ FrameSequenceReader::FrameSequenceReader(fs::path file, int max_frames, std::siz
   // frame and with a pending error message (geterror() clears it); go back
   // to the first frame.
   (void)in.geterror();
-  if (!in.seek_subimage(0, 0)) throw core::FormatError(file_, FrameField(0, "header"), "cannot seek: " + core::ImageLibraryMessage(in.geterror()));
+  if (!in.seek_subimage(0, 0))
+    throw core::FormatError(file_, FrameField(0, "header"), "cannot seek: " + core::ImageLibraryMessage(in.geterror()));
 }
 
 FrameSequenceReader::~FrameSequenceReader() {

@@ -23,7 +23,7 @@ namespace mesocap::formats {
 // beyond them it is refused as implausible before anything is allocated.
 inline constexpr int kMaxDirections = 10000;                  // per sampling set (view_<v:04d> names)
 inline constexpr double kMaxPartBytes = 64.0 * (1ull << 30);  // float data one part implies
-inline constexpr int kMaxTexelSamplesPerSide = 64;             // provenance.texel_samples_per_side
+inline constexpr int kMaxTexelSamplesPerSide = 64;            // provenance.texel_samples_per_side
 
 struct MaterialProvenance {
   std::string software_version;  // mesocap version that made the data

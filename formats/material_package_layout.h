@@ -40,9 +40,7 @@ inline std::string NumberText(double x) {
 }
 
 // Images pack a direction set along their height (Sec. 5's 3D textures).
-inline int PackedHeight(const MaterialDescription& d, const core::SamplingSet& set) {
-  return d.height * set.size();
-}
+inline int PackedHeight(const MaterialDescription& d, const core::SamplingSet& set) { return d.height * set.size(); }
 
 // Index of the first value outside [0, 1] (NaN included), or size() if none.
 inline std::size_t FirstOutsideUnitInterval(const core::Image& image) {

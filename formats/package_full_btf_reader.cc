@@ -6,7 +6,6 @@
 namespace mesocap::formats {
 namespace fs = std::filesystem;
 
-
 PackageFullBtfReader::PackageFullBtfReader(const fs::path& dir, const MaterialManifest& manifest)
     : PackageFullBtfReader(dir, manifest.description) {
   if (!manifest.full_btf) ThrowMissingPart(dir, "btf.full", "full BTF");
@@ -15,7 +14,7 @@ PackageFullBtfReader::PackageFullBtfReader(const fs::path& dir, const MaterialMa
 
 PackageFullBtfReader::PackageFullBtfReader(const fs::path& dir, const MaterialDescription& description)
     : core::FullBtfReader(description.width, description.height, description.view_directions,
-                    description.light_directions),
+                          description.light_directions),
       dir_(dir),
       checked_(description.view_directions.size(), 0),
       open_(description.view_directions.size()),

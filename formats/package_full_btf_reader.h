@@ -37,7 +37,7 @@ class PackageFullBtfReader : public core::FullBtfReader {
   std::unique_ptr<core::ImageRowReader> Open(int view) const;
 
   std::filesystem::path dir_;
-  MaterialManifest checks_;  // its checksums; none for a package being written (nothing to check yet)
+  MaterialManifest checks_;    // its checksums; none for a package being written (nothing to check yet)
   std::vector<char> checked_;  // per view: its checksum matched; guarded by view_mutex_
   std::vector<std::unique_ptr<core::ImageRowReader>> open_;  // per view; null until first read
   std::vector<std::mutex> view_mutex_;                       // guards open_[view] and its reads

@@ -21,8 +21,7 @@ constexpr double kMaxPrincipalPointPx = 1e6;
 constexpr double kMaxLampIntensity = 1e12;  // as in a calibration
 constexpr double kMaxCalibrationHeightMm = 1e4;
 
-std::vector<double> AnglesDeg(const core::JsonFieldReader& f, std::string_view key, double min_deg,
-                              double max_deg) {
+std::vector<double> AnglesDeg(const core::JsonFieldReader& f, std::string_view key, double min_deg, double max_deg) {
   const auto& raw = f.Raw(key);
   if (!raw.is_array() || raw.empty() || raw.size() > kMaxAngles) {
     f.Fail(key, "expected a list of 1 to " + std::to_string(kMaxAngles) + " angles in degrees");
@@ -45,9 +44,8 @@ TicDescription ParseTic(const core::JsonFieldReader& f) {
   t.serial = f.String("serial");
   if (t.serial.empty() || t.serial.size() > 64) f.Fail("serial", "expected the Tic's serial number");
   t.product = f.Has("product") ? f.Choice("product", {"T825", "T834", "T500", "N825", "T249", "36v4"}) : "T825";
-  t.full_steps_per_revolution = static_cast<int>(f.Has("full_steps_per_revolution")
-                                                     ? f.Integer("full_steps_per_revolution", 1, 100000)
-                                                     : 200);
+  t.full_steps_per_revolution =
+      static_cast<int>(f.Has("full_steps_per_revolution") ? f.Integer("full_steps_per_revolution", 1, 100000) : 200);
   t.microsteps = static_cast<int>(f.Has("microsteps") ? f.Integer("microsteps", 1, 256) : 8);
   if ((t.microsteps & (t.microsteps - 1)) != 0) f.Fail("microsteps", "expected a power of two, 1 to 256");
   t.gear_ratio = f.NumberOr("gear_ratio", 1.0, 1e-3, 1e5);
@@ -76,8 +74,8 @@ StepDirDescription ParseStepDir(const core::JsonFieldReader& f) {
   s.step = ParseGpioLine(f.Object("step"));
   s.direction = ParseGpioLine(f.Object("direction"));
   s.limit_switch = ParseGpioLine(f.Object("limit_switch"));
-  s.full_steps_per_revolution = static_cast<int>(
-      f.Has("full_steps_per_revolution") ? f.Integer("full_steps_per_revolution", 1, 100000) : 200);
+  s.full_steps_per_revolution =
+      static_cast<int>(f.Has("full_steps_per_revolution") ? f.Integer("full_steps_per_revolution", 1, 100000) : 200);
   s.microsteps = static_cast<int>(f.Has("microsteps") ? f.Integer("microsteps", 1, 256) : 16);
   s.gear_ratio = f.NumberOr("gear_ratio", 1.0, 1e-3, 1e5);
   s.home_forward = f.Has("homing") && f.Choice("homing", {"forward", "reverse"}) == "forward";
@@ -100,8 +98,8 @@ StageDescription ParseStage(const core::JsonFieldReader& f) {
 }
 
 CameraDescription ParseCamera(const core::JsonFieldReader& f) {
-  f.RejectUnknownMembers({"id", "backend", "device", "azimuth_deg", "elevation_deg", "distance_mm", "image_size", "focal_px",
-                          "principal_point_px", "distortion", "bit_depth", "full_well_electrons",
+  f.RejectUnknownMembers({"id", "backend", "device", "azimuth_deg", "elevation_deg", "distance_mm", "image_size",
+                          "focal_px", "principal_point_px", "distortion", "bit_depth", "full_well_electrons",
                           "read_noise_electrons", "exposure_us"});
   CameraDescription c;
   c.id = f.String("id");
@@ -126,8 +124,8 @@ CameraDescription ParseCamera(const core::JsonFieldReader& f) {
   c.width = static_cast<int>(size[0]);
   c.height = static_cast<int>(size[1]);
   c.focal_px = f.Number("focal_px", 1.0, 1e6);
-  c.principal_point_px = f.Has("principal_point_px") ? f.Vector2("principal_point_px")
-                                                     : Eigen::Vector2d(c.width / 2.0, c.height / 2.0);
+  c.principal_point_px =
+      f.Has("principal_point_px") ? f.Vector2("principal_point_px") : Eigen::Vector2d(c.width / 2.0, c.height / 2.0);
   if (c.principal_point_px.cwiseAbs().maxCoeff() > kMaxPrincipalPointPx) {
     f.Fail("principal_point_px", "expected two numbers in [-1e+06, 1e+06] pixels");
   }
@@ -154,7 +152,8 @@ void ParseCalibrationTargets(const core::JsonFieldReader& root, RigDescription* 
     b.board = board.String("board");
     b.height_mm = board.Number("height_mm", 0.0, 1e4);
     b.holder_tilts_rad = AnglesDeg(board, "holder_tilts_deg", -80.0, 80.0);
-    if (b.holder_tilts_rad[0] != 0.0) board.Fail("holder_tilts_deg[0]", "expected 0: the first tilt sets the sample frame");
+    if (b.holder_tilts_rad[0] != 0.0)
+      board.Fail("holder_tilts_deg[0]", "expected 0: the first tilt sets the sample frame");
     b.turntable_angles_rad = AnglesDeg(board, "turntable_angles_deg", 0.0, 360.0);
     rig->calibration_board = b;
   }
@@ -234,8 +233,8 @@ LaserDescription ParseLaser(const core::JsonFieldReader& laser) {
     const auto tilt = laser.Object("tilt");
     l.tilt_backend = tilt.Choice("backend", {"tic", "gpiod"});
     if (l.tilt_backend == "tic") {
-      tilt.RejectUnknownMembers({"backend", "serial", "product", "full_steps_per_revolution", "microsteps",
-                                 "gear_ratio", "homing"});
+      tilt.RejectUnknownMembers(
+          {"backend", "serial", "product", "full_steps_per_revolution", "microsteps", "gear_ratio", "homing"});
       l.tilt_tic = ParseTic(tilt);
     } else {
       tilt.RejectUnknownMembers({"backend", "step", "direction", "limit_switch", "full_steps_per_revolution",

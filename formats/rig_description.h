@@ -78,8 +78,8 @@ struct StepDirDescription {
 };
 
 struct StageDescription {
-  std::string backend;  // "sim" or "tic"
-  TicDescription tic;   // for "tic"
+  std::string backend;             // "sim" or "tic"
+  TicDescription tic;              // for "tic"
   std::vector<double> angles_rad;  // where captures are taken
   double speed_rad_per_s = 0.5;
 };
@@ -91,8 +91,8 @@ struct LampBankDescription {
   std::vector<GpioLineDescription> lines;
   std::vector<GpioLineDescription> sense_lines;  // empty, or one per lamp
   double settle_ms = 200.0;
-  double distance_mm = 0.0;            // from the origin
-  std::vector<double> elevations_rad;  // one lamp per elevation
+  double distance_mm = 0.0;                             // from the origin
+  std::vector<double> elevations_rad;                   // one lamp per elevation
   Eigen::Vector3d intensity = Eigen::Vector3d::Ones();  // radiant intensity, relative RGB
   // The light-emitting part of each lamp, a sphere of uniform radiance: its
   // irradiance is a point lamp's, but its mirror image on the calibration's
@@ -114,7 +114,7 @@ struct LaserDescription {
   std::string tilt_backend;
   TicDescription tilt_tic;
   StepDirDescription tilt_stepper;
-  double distance_mm = 0.0;            // from the origin to the emitter
+  double distance_mm = 0.0;  // from the origin to the emitter
   std::vector<double> mount_elevations_rad;
   std::vector<LaserLocation> locations;  // the sweeps taken for every turntable angle
   // The sweep, as the stripe's offset on the turntable plane from the origin
@@ -123,8 +123,8 @@ struct LaserDescription {
   double sweep_min_mm = 0.0;
   double sweep_max_mm = 0.0;
   int frames_per_sweep = 0;
-  double stripe_sigma_mm = 0.0;        // Gaussian profile of the stripe, across it
-  double power = 1.0;                  // peak stripe irradiance, relative to lamps
+  double stripe_sigma_mm = 0.0;                    // Gaussian profile of the stripe, across it
+  double power = 1.0;                              // peak stripe irradiance, relative to lamps
   std::array<double, 2> calibration_heights_mm{};  // Sec. 3.2: two planes of different height
   // What a capture keeps of a sweep: its frames, or only the space-time
   // analysis made while they arrive ("sweep_storage": "analysis"; a
@@ -154,7 +154,7 @@ inline constexpr double kMinBackingClearanceMm = 1.0;
 struct CalibrationBoardDescription {
   std::string board;  // a board spec, calibration/calibration_board.h
   double height_mm = 0.0;
-  std::vector<double> holder_tilts_rad;      // about the turntable's x axis, the first one 0
+  std::vector<double> holder_tilts_rad;  // about the turntable's x axis, the first one 0
   std::vector<double> turntable_angles_rad;
 };
 
@@ -200,13 +200,11 @@ struct RigDescription {
   std::optional<CalibrationBoardDescription> calibration_board;
   std::optional<WhiteReferenceDescription> white_reference;
   std::optional<MirrorSphereDescription> mirror_sphere;
-  nlohmann::json json;  // the file as read, kept for the session manifest's rig snapshot
+  nlohmann::json json;         // the file as read, kept for the session manifest's rig snapshot
   std::filesystem::path file;  // where it was read from, for messages
 
   int view_count() const { return static_cast<int>(turntable.angles_rad.size() * cameras.size()); }
-  int light_count() const {
-    return static_cast<int>(light_arc.angles_rad.size() * lamps.elevations_rad.size());
-  }
+  int light_count() const { return static_cast<int>(light_arc.angles_rad.size() * lamps.elevations_rad.size()); }
   // The cameras' ids, in the description's order.
   std::vector<std::string> camera_ids() const {
     std::vector<std::string> ids;

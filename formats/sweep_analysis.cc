@@ -39,12 +39,12 @@ void WriteSweepAnalysis(const std::filesystem::path& file, const SweepAnalysis& 
   nlohmann::json planes = nlohmann::json::array();
   for (const core::Plane& plane : analysis.planes) planes.push_back(ToJson(plane));
   core::WriteJsonFileAtomically(file, {{"format", "mesocap.sweep_analysis"},
-                                 {"version", 2},
-                                 {"width", analysis.width},
-                                 {"height", analysis.height},
-                                 {"frame_count", analysis.frame_count},
-                                 {"image", ImageFile(file).filename().string()},
-                                 {"planes", planes}});
+                                       {"version", 2},
+                                       {"width", analysis.width},
+                                       {"height", analysis.height},
+                                       {"frame_count", analysis.frame_count},
+                                       {"image", ImageFile(file).filename().string()},
+                                       {"planes", planes}});
 }
 
 SweepAnalysis ReadSweepAnalysis(const std::filesystem::path& file) {
@@ -62,8 +62,10 @@ SweepAnalysis ReadSweepAnalysis(const std::filesystem::path& file) {
   }
   const nlohmann::json& planes = root.Raw("planes");
   if (!planes.is_array() || planes.size() != static_cast<std::size_t>(analysis.frame_count)) {
-    root.Fail("planes", "expected one plane or null per frame (frame_count = " + std::to_string(analysis.frame_count) +
-                            "), got " + (planes.is_array() ? std::to_string(planes.size()) + " entries" : core::JsonExcerpt(planes)));
+    root.Fail("planes",
+              "expected one plane or null per frame (frame_count = " + std::to_string(analysis.frame_count) +
+                  "), got " +
+                  (planes.is_array() ? std::to_string(planes.size()) + " entries" : core::JsonExcerpt(planes)));
   }
   for (std::size_t i = 0; i < doc["planes"].size(); ++i) {
     analysis.planes.push_back(core::PlaneFromJson(doc["planes"][i], file, "planes[" + std::to_string(i) + "]"));
@@ -87,8 +89,8 @@ SweepAnalysis ReadSweepAnalysis(const std::filesystem::path& file) {
   };
   auto fraction = [&](float v, const char* field) {
     if (!(v >= 0 && v <= 1)) {
-      throw core::FormatError(ImageFile(file), field, "expected a fraction of full scale in [0, 1], got " +
-                                                          std::to_string(v));
+      throw core::FormatError(ImageFile(file), field,
+                              "expected a fraction of full scale in [0, 1], got " + std::to_string(v));
     }
     return v;
   };

@@ -116,7 +116,9 @@ void AddSessions(Corpus& corpus) {
       const std::string data = "data/" + step.id + ".bin";
       fs::create_directories(journaled / "data");
       WriteFileBytes(journaled / data, step.id);
-      journal.Append({journal.next_seq(), step.id, formats::UtcTimestamp(std::chrono::system_clock::now()),
+      journal.Append({journal.next_seq(),
+                      step.id,
+                      formats::UtcTimestamp(std::chrono::system_clock::now()),
                       {{data, step.id.size()}}});
       formats::ReadCaptureJournal(journal_file, &manifest);
       corpus.AddFile("capture_journal", std::to_string(journal.next_seq()) + "_records.jsonl", journal_file);
@@ -188,8 +190,8 @@ void AddImages(Corpus& corpus) {
                 {1, ".png", core::PixelEncoding::kUInt8, 3},   {1, ".png", core::PixelEncoding::kUInt16, 4},
                 {2, ".tif", core::PixelEncoding::kUInt16, 1},  {2, ".tif", core::PixelEncoding::kFloat32, 3}};
   for (const auto& image : images) {
-    const std::string name = std::string(core::ToString(image.encoding)) + "_" + std::to_string(image.channels) +
-                             image.extension;
+    const std::string name =
+        std::string(core::ToString(image.encoding)) + "_" + std::to_string(image.channels) + image.extension;
     core::WriteImage(dir / name, TinyImage(5, 3, image.channels), image.encoding);
     core::ReadImage(dir / name);
     corpus.AddFile("image", name, dir / name, image.variant);
@@ -202,9 +204,8 @@ void AddObjMeshAndSamplingSets(Corpus& corpus) {
   formats::ReadObjMesh(dir / "cube.obj");
   corpus.AddFile("obj_mesh", "cube.obj", dir / "cube.obj");
 
-  const core::SamplingSet sets[] = {
-      core::SamplingSet::Named("paper12x5"), bonn::NamedSamplingSet("ubo2003"),
-      core::SamplingSet::FromAngles("three", {{0.0, 0.0}, {0.5, 1.0}, {1.2, 5.0}})};
+  const core::SamplingSet sets[] = {core::SamplingSet::Named("paper12x5"), bonn::NamedSamplingSet("ubo2003"),
+                                    core::SamplingSet::FromAngles("three", {{0.0, 0.0}, {0.5, 1.0}, {1.2, 5.0}})};
   for (const core::SamplingSet& set : sets) {
     const fs::path file = dir / (set.name() + ".json");
     WriteFileBytes(file, ToJson(set).dump());
@@ -266,8 +267,7 @@ void AddBonnForms(Corpus& corpus) {
   // The UBO2003 fuzzer takes a folder's file names, one a line.
   const fs::path folder = corpus.Scratch("ubo2003");
   for (int v = 0; v < btf.view_count(); ++v) {
-    bonn::WriteUbo2003View(folder, btf.views, btf.lights, v, btf.view_images[v], bonn::Ubo2003Encoding::kSrgb8Png,
-                           1.0);
+    bonn::WriteUbo2003View(folder, btf.views, btf.lights, v, btf.view_images[v], bonn::Ubo2003Encoding::kSrgb8Png, 1.0);
   }
   bonn::ReadUbo2003View(bonn::ScanUbo2003Folder(folder), 0, 1.0);
   std::string names;

@@ -67,7 +67,7 @@ SweepPoints TriangulateSweep(const formats::SweepAnalysis& analysis, const calib
 namespace {
 
 struct Vertex {
-  double u, v, d;  // texel coordinates (texel i centred at u = i), distance
+  double u, v, d;           // texel coordinates (texel i centred at u = i), distance
   double fill_penalty = 0;  // texels added to the vertex's distance in the nearest-vertex fill
 };
 
@@ -234,8 +234,8 @@ class PixelSurfaces {
     return std::abs(a.d - b.d) <= StepLimit(std::hypot(a.u - b.u, a.v - b.v));
   }
   bool Continuous(const Vertex& a, const Vertex& b, const Vertex& c) const {
-    const double extent = std::max({std::hypot(a.u - b.u, a.v - b.v), std::hypot(b.u - c.u, b.v - c.v),
-                                    std::hypot(c.u - a.u, c.v - a.v)});
+    const double extent = std::max(
+        {std::hypot(a.u - b.u, a.v - b.v), std::hypot(b.u - c.u, b.v - c.v), std::hypot(c.u - a.u, c.v - a.v)});
     const double spread = std::max({a.d, b.d, c.d}) - std::min({a.d, b.d, c.d});
     return spread <= StepLimit(extent);
   }
@@ -266,8 +266,7 @@ class PixelSurfaces {
         const int unknown = !valid_[p00] + !valid_[p10] + !valid_[p01] + !valid_[p11];
         if (unknown > 1) continue;
         const bool fallback = unknown == 1;
-        std::array<std::array<std::size_t, 3>, 2> triangles = {std::array{p00, p10, p11},
-                                                               std::array{p00, p11, p01}};
+        std::array<std::array<std::size_t, 3>, 2> triangles = {std::array{p00, p10, p11}, std::array{p00, p11, p01}};
         if (fallback) {
           int corner = 0;
           for (const std::size_t p : {p00, p10, p11, p01}) {
@@ -332,8 +331,7 @@ DisplacementImage ResampleToTexture(const SweepPoints& points, int pixel_width, 
   DisplacementImage out;
   out.width = grid.width;
   out.height = grid.height;
-  out.distance_mm.assign(static_cast<std::size_t>(grid.width) * grid.height,
-                         std::numeric_limits<float>::quiet_NaN());
+  out.distance_mm.assign(static_cast<std::size_t>(grid.width) * grid.height, std::numeric_limits<float>::quiet_NaN());
   PixelSurfaces surfaces(pixel_width, pixel_height, view, grid, options);
   surfaces.ProjectFirstPoints(points.first);
   if (!points.second.empty()) surfaces.AddEdgeStraddlingPixels(points.second);

@@ -1,6 +1,6 @@
 #include "mdf/laser_sweep.h"
-#include "mdf/frame_plane.h"
 #include "formats/sweep_analysis.h"
+#include "mdf/frame_plane.h"
 
 #include <Eigen/Geometry>
 #include <cmath>
@@ -53,8 +53,8 @@ void LaserSweepProcessor::AddFrame(int index, const core::Image& frame) {
 formats::SweepAnalysis LaserSweepProcessor::Finish() const {
   formats::SweepAnalysis result = analyzer_.Result();
   for (std::size_t i = 0; i < lines_.size(); ++i) {
-    result.planes[i] = FramePlane(lines_[i], geometry_.calibrated_plane, geometry_.tilt_axis,
-                                  geometry_.delta_tilt_rad[i]);
+    result.planes[i] =
+        FramePlane(lines_[i], geometry_.calibrated_plane, geometry_.tilt_axis, geometry_.delta_tilt_rad[i]);
   }
   return result;
 }

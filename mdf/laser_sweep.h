@@ -27,7 +27,7 @@ calibration::PixelMask ReferenceRegion(const calibration::CameraRays& rays,
 
 struct SweepGeometry {
   calibration::PixelMask reference_region;
-  core::Plane calibrated_plane;  // the location's plane at the calibration tilt
+  core::Plane calibrated_plane;                          // the location's plane at the calibration tilt
   Eigen::Vector3d tilt_axis = Eigen::Vector3d::UnitY();  // world, unit
   // Per frame: its commanded tilt minus the calibration tilt (radians).
   std::vector<double> delta_tilt_rad;

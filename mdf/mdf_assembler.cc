@@ -20,10 +20,9 @@ void MdfAssembler::AddSweep(int view, const formats::SweepAnalysis& analysis, co
   if (view < 0 || view >= views_.size())
     throw core::Error("MDF assembly: view " + std::to_string(view) + " out of range");
   const SweepPoints points = TriangulateSweep(analysis, rays, world_from_sample, triangulation_);
-  AddDisplacementImage(view,
-                       ResampleToTexture(points, analysis.width, analysis.height, views_.direction(view), grid_,
-                                         triangulation_),
-                       weight);
+  AddDisplacementImage(
+      view, ResampleToTexture(points, analysis.width, analysis.height, views_.direction(view), grid_, triangulation_),
+      weight);
 }
 
 void MdfAssembler::AddDisplacementImage(int view, DisplacementImage image, double weight) {

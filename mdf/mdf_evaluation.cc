@@ -23,11 +23,10 @@ double Quantile(std::vector<double>& values, double q) {
 }
 
 void CheckComparable(const core::Mdf& truth, const core::Mdf& estimate) {
-  if (truth.width != estimate.width || truth.height != estimate.height ||
-      truth.view_count() != estimate.view_count()) {
+  if (truth.width != estimate.width || truth.height != estimate.height || truth.view_count() != estimate.view_count()) {
     throw core::Error("eval mdf: truth is " + std::to_string(truth.width) + "x" + std::to_string(truth.height) + " x " +
-                std::to_string(truth.view_count()) + " views, estimate " + std::to_string(estimate.width) + "x" +
-                std::to_string(estimate.height) + " x " + std::to_string(estimate.view_count()));
+                      std::to_string(truth.view_count()) + " views, estimate " + std::to_string(estimate.width) + "x" +
+                      std::to_string(estimate.height) + " x " + std::to_string(estimate.view_count()));
   }
   for (int v = 0; v < truth.view_count(); ++v) {
     if (truth.views.direction(v).dot(estimate.views.direction(v)) < std::cos(1e-6)) {
@@ -135,7 +134,8 @@ nlohmann::json ToJson(const MdfErrorTable& table) {
 
 std::string FormatMdfErrorTable(const MdfErrorTable& table) {
   std::string out =
-      "theta (deg)   median mm   p95 mm  median tx   p95 tx  coverage  false no-hit  false hit  no-hit cov   compared\n";
+      "theta (deg)   median mm   p95 mm  median tx   p95 tx  coverage  false no-hit  false hit  no-hit cov   "
+      "compared\n";
   // A figure with nothing to count (NaN) prints as "-"; the notes below say why.
   auto cell = [](double value, int width, int precision) {
     char buffer[64];

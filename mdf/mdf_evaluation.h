@@ -26,7 +26,7 @@ struct MdfErrorRow {
   double no_hit_coverage = 0;    // true no-hits measured as no hit; NaN when the truth has none
   long long true_hits = 0;       // texel-directions with a hit in the truth
   long long true_no_hits = 0;
-  long long compared = 0;        // with a distance in both
+  long long compared = 0;  // with a distance in both
 };
 
 struct MdfErrorTable {

@@ -29,15 +29,15 @@ formats::SweepAnalysis AnalyseFrames(const fs::path& file, const calibration::Ca
   const formats::FrameSequenceHeader& header = reader.header();
   if (header.width != rays.width() || header.height != rays.height()) {
     throw core::FormatError(file, "frame size",
-                      std::to_string(rays.width()) + "x" + std::to_string(rays.height()) +
-                          " (the camera's calibration), found " + std::to_string(header.width) + "x" +
-                          std::to_string(header.height));
+                            std::to_string(rays.width()) + "x" + std::to_string(rays.height()) +
+                                " (the camera's calibration), found " + std::to_string(header.width) + "x" +
+                                std::to_string(header.height));
   }
   if (header.channels != 1) throw core::FormatError(file, "channels", "1 (grey laser frames)");
   if (header.frame_count != static_cast<int>(geometry.delta_tilt_rad.size())) {
     throw core::FormatError(file, "frame count",
-                      std::to_string(geometry.delta_tilt_rad.size()) + " (the plan's tilts), found " +
-                          std::to_string(header.frame_count));
+                            std::to_string(geometry.delta_tilt_rad.size()) + " (the plan's tilts), found " +
+                                std::to_string(header.frame_count));
   }
   LaserSweepProcessor processor(rays, geometry, options.geometry.line, options.space_time);
   core::Image frame;
@@ -53,14 +53,14 @@ formats::SweepAnalysis ReadStoredAnalysis(const fs::path& file, const calibratio
   formats::SweepAnalysis analysis = formats::ReadSweepAnalysis(file);
   if (analysis.width != rays.width() || analysis.height != rays.height()) {
     throw core::FormatError(file, "width, height",
-                      std::to_string(rays.width()) + "x" + std::to_string(rays.height()) +
-                          " (the camera's calibration), found " + std::to_string(analysis.width) + "x" +
-                          std::to_string(analysis.height));
+                            std::to_string(rays.width()) + "x" + std::to_string(rays.height()) +
+                                " (the camera's calibration), found " + std::to_string(analysis.width) + "x" +
+                                std::to_string(analysis.height));
   }
   if (analysis.frame_count != static_cast<int>(frame_count)) {
-    throw core::FormatError(file, "frame_count",
-                      std::to_string(frame_count) + " (the plan's tilts), found " +
-                          std::to_string(analysis.frame_count));
+    throw core::FormatError(
+        file, "frame_count",
+        std::to_string(frame_count) + " (the plan's tilts), found " + std::to_string(analysis.frame_count));
   }
   for (std::size_t p = 0; p < analysis.peak_time.size(); ++p) {
     if (!(analysis.peak_value[p] >= space_time.threshold))
@@ -95,14 +95,14 @@ MdfProcessingResult ProcessMdfSession(const formats::CapturedSession& session, c
                       "capture session");
   }
   SessionSweepGeometry geometry(
-      manifest_file, manifest, [&session](const std::string& path) { return session.IntactFile(path); }, rig, calibration,
-      options.geometry);
+      manifest_file, manifest, [&session](const std::string& path) { return session.IntactFile(path); }, rig,
+      calibration, options.geometry);
 
   std::vector<bool> use_location(rig.laser.locations.size(), options.locations.empty());
   for (int li : options.locations) {
     if (li < 0 || li >= static_cast<int>(use_location.size())) {
       throw core::Error("process mdf: laser location " + std::to_string(li) + " is not in the rig (it has " +
-                  std::to_string(use_location.size()) + ")");
+                        std::to_string(use_location.size()) + ")");
     }
     use_location[li] = true;
   }
@@ -138,8 +138,9 @@ MdfProcessingResult ProcessMdfSession(const formats::CapturedSession& session, c
       const auto file_entry = std::find_if(step.files.begin(), step.files.end(),
                                            [&](const formats::CameraFile& f) { return f.camera == id; });
       if (file_entry == step.files.end()) {
-        throw core::FormatError(manifest_file, "plan", "a laser sweep file of camera " + id + " for location " +
-                                                     std::to_string(step.location));
+        throw core::FormatError(
+            manifest_file, "plan",
+            "a laser sweep file of camera " + id + " for location " + std::to_string(step.location));
       }
       const fs::path file = session.IntactFile(file_entry->path);
       // A stored analysis needs no reference region: only the plane, for the weight.

@@ -36,11 +36,11 @@ struct MdfProcessingOptions {
 
 struct MdfProcessingResult {
   core::Mdf mdf;
-  core::Image confidence;      // per texel and view, MDF layout (MdfAssembler)
+  core::Image confidence;  // per texel and view, MDF layout (MdfAssembler)
   double sample_size_mm = 0;
   core::SamplingSet light_directions;  // the session rig's, for the package's description
-  double deepest_mm = 0;  // deepest measured point below the reference plane
-  int sweeps = 0;         // camera sequences analysed
+  double deepest_mm = 0;               // deepest measured point below the reference plane
+  int sweeps = 0;                      // camera sequences analysed
   // Laser planes fitted from their plates (per location and camera), and the
   // largest one-sigma height error one of them gives at the sample centre.
   int laser_planes = 0;

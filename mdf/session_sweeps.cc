@@ -1,8 +1,8 @@
 #include "mdf/session_sweeps.h"
 
+#include <spdlog/spdlog.h>
 #include <algorithm>
 #include <cmath>
-#include <spdlog/spdlog.h>
 
 #include "calibration/laser_plane_calibration.h"
 #include "calibration/rig_frames.h"
@@ -54,12 +54,14 @@ SessionSweepGeometry::SessionSweepGeometry(formats::RigDescription rig, const fo
       if (c.id == camera.id) match = &c;
     }
     if (!match) {
-      throw core::Error("calibration has no camera " + core::Quoted(camera.id) + " of the session's rig " + core::Quoted(rig_.name));
+      throw core::Error("calibration has no camera " + core::Quoted(camera.id) + " of the session's rig " +
+                        core::Quoted(rig_.name));
     }
     if (match->width != camera.width || match->height != camera.height) {
       throw core::Error("calibration camera \"" + match->id + "\" is " + std::to_string(match->width) + "x" +
-                  std::to_string(match->height) + " but the session's rig records " + std::to_string(camera.width) +
-                  "x" + std::to_string(camera.height) + " (a calibration of another rig?)");
+                        std::to_string(match->height) + " but the session's rig records " +
+                        std::to_string(camera.width) + "x" + std::to_string(camera.height) +
+                        " (a calibration of another rig?)");
     }
     rays_.emplace_back(*match);
   }
@@ -106,8 +108,9 @@ const core::Plane& SessionSweepGeometry::CalibratedPlane(int location, int camer
   if (known != planes_.end()) return known->second.plane;
   const auto it = plates_.find(location);
   if (it == plates_.end() || it->second.heights.size() != 2) {
-    throw core::FormatError(manifest_file_, "plan",
-                      "two laser_calibration steps (two plate heights) for laser location " + std::to_string(location));
+    throw core::FormatError(
+        manifest_file_, "plan",
+        "two laser_calibration steps (two plate heights) for laser location " + std::to_string(location));
   }
   const auto& loc = rig_.laser.locations.at(location);
   const calibration::LaserMountPose pose =
@@ -121,10 +124,11 @@ const core::Plane& SessionSweepGeometry::CalibratedPlane(int location, int camer
       frames[0], heights[0].height_mm, frames[1], heights[1].height_mm, rays_[camera],
       pose.normal.head<2>().normalized(), options_.reference_extent * rig_.sample_size_mm, options_.line,
       "laser location " + std::to_string(location) + ", camera " + rig_.cameras[camera].id);
-  spdlog::debug("laser location {}, camera {}: plane at {:.3f} deg to the reference plane, position sigma {:.4f} mm, "
-                "normal sigma {:.4f} deg, height sigma {:.4f} mm",
-                location, rig_.cameras[camera].id, core::DegreesFromRadians(calibration::AngleToReferencePlane(fit.plane)),
-                fit.position_sigma_mm, core::DegreesFromRadians(fit.normal_sigma_rad), fit.height_sigma_mm);
+  spdlog::debug(
+      "laser location {}, camera {}: plane at {:.3f} deg to the reference plane, position sigma {:.4f} mm, "
+      "normal sigma {:.4f} deg, height sigma {:.4f} mm",
+      location, rig_.cameras[camera].id, core::DegreesFromRadians(calibration::AngleToReferencePlane(fit.plane)),
+      fit.position_sigma_mm, core::DegreesFromRadians(fit.normal_sigma_rad), fit.height_sigma_mm);
   return planes_.emplace(std::make_pair(location, camera), std::move(fit)).first->second.plane;
 }
 

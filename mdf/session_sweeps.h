@@ -118,9 +118,9 @@ class SessionSweepGeometry {
   formats::RigDescription rig_;
   formats::Calibration calibration_;
   SweepGeometryOptions options_;
-  std::vector<calibration::CameraRays> rays_;  // per rig camera
-  std::map<int, Plates> plates_;  // per location
-  std::map<std::pair<int, int>, calibration::LaserPlaneFit> planes_;  // (location, camera)
+  std::vector<calibration::CameraRays> rays_;                            // per rig camera
+  std::map<int, Plates> plates_;                                         // per location
+  std::map<std::pair<int, int>, calibration::LaserPlaneFit> planes_;     // (location, camera)
   std::map<std::pair<long long, int>, calibration::PixelMask> regions_;  // (turntable micro-degrees, camera)
 };
 

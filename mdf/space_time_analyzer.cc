@@ -54,12 +54,13 @@ SpaceTimeAnalyzer::SpaceTimeAnalyzer(int width, int height, int frame_count, Spa
 void SpaceTimeAnalyzer::AddFrame(int index, const core::Image& frame) {
   if (frame.width() != width_ || frame.height() != height_ || frame.channels() != 1) {
     throw core::Error("space-time analysis: frame " + std::to_string(index) + " is " + std::to_string(frame.width()) +
-                "x" + std::to_string(frame.height()) + "x" + std::to_string(frame.channels()) + ", expected " +
-                std::to_string(width_) + "x" + std::to_string(height_) + "x1");
+                      "x" + std::to_string(frame.height()) + "x" + std::to_string(frame.channels()) + ", expected " +
+                      std::to_string(width_) + "x" + std::to_string(height_) + "x1");
   }
   if (index <= last_index_ || index >= frame_count_) {
     throw core::Error("space-time analysis: frame index " + std::to_string(index) + " after " +
-                std::to_string(last_index_) + " (frames must increase, below " + std::to_string(frame_count_) + ")");
+                      std::to_string(last_index_) + " (frames must increase, below " + std::to_string(frame_count_) +
+                      ")");
   }
   const float* values = frame.data();
   const float saturation = options_.saturation;
@@ -198,8 +199,7 @@ formats::SweepAnalysis SpaceTimeAnalyzer::Result() const {
     if (best_[p] >= options_.saturation && saturated_first_[p] >= 0) {
       result.peak_time[p] = static_cast<float>(0.5 * (saturated_first_[p] + saturated_last_[p]));
     } else {
-      result.peak_time[p] =
-          vertex(before_index_[p], before_[p], best_index_[p], best_[p], after_index_[p], after_[p]);
+      result.peak_time[p] = vertex(before_index_[p], before_[p], best_index_[p], best_[p], after_index_[p], after_[p]);
     }
   }
   return result;

@@ -69,11 +69,9 @@ calibration::CalibrationReport RunCalibrateCameras(const CalibrateCamerasOptions
   {
     std::vector<std::filesystem::path> inputs(options.image_folders.begin(), options.image_folders.end());
     core::RemoveStaleTemporariesOf(options.out);
-    core::ExpectReplaceable(options.out, {options.replace, "a file",
-                                          [](const std::filesystem::path& p) {
-                                            return std::filesystem::is_regular_file(p);
-                                          },
-                                          inputs});
+    core::ExpectReplaceable(
+        options.out, {options.replace, "a file",
+                      [](const std::filesystem::path& p) { return std::filesystem::is_regular_file(p); }, inputs});
   }
 
   // The instants: every photo name in any folder.

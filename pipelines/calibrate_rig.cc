@@ -41,8 +41,7 @@ std::vector<calibration::WhiteReferenceImage> ReadWhiteReferenceImages(const for
   const auto& plan = session.manifest().plan;
   for (std::size_t s = 0; s < plan.size(); ++s) {
     if (plan[s].kind != formats::StepKind::kWhiteReference) continue;
-    const formats::WhiteReferenceStep step =
-        formats::ReadWhiteReferenceStep(plan[s], s, rig, session.manifest_file());
+    const formats::WhiteReferenceStep step = formats::ReadWhiteReferenceStep(plan[s], s, rig, session.manifest_file());
     for (std::size_t c = 0; c < rig.cameras.size(); ++c) {
       core::ImageReadOptions read;
       read.expected_width = rig.cameras[c].width;
@@ -180,7 +179,8 @@ std::vector<formats::BoardImageStep> ReadBoardImageSteps(const formats::Captured
     }
   }
   if (steps.empty()) {
-    throw core::Error(session_folder.string() + ": the session has no board images (record one with mesocap "
+    throw core::Error(session_folder.string() +
+                      ": the session has no board images (record one with mesocap "
                       "simulate --plan calibration)");
   }
   return steps;
@@ -236,8 +236,8 @@ calibration::CalibrationReport CalibrateCamerasAndTurntable(const calibration::C
   report.board = board.Spec();
   report.cameras = calibration::CalibrateCameras(board, cameras, options.calibration, &motion);
   if (options.cross_validate) {
-    report.cross_validation = calibration::CrossValidate(board, cameras, options.calibration,
-                                                         &report.cross_validation_skipped, &motion);
+    report.cross_validation =
+        calibration::CrossValidate(board, cameras, options.calibration, &report.cross_validation_skipped, &motion);
   } else {
     report.cross_validation_skipped = "not asked for";
   }
@@ -292,8 +292,7 @@ void CalibrateLaserMountsFromPlates(const formats::CapturedSession& session, con
   } else {
     try {
       report->laser_mounts = calibration::CalibrateLaserMounts(*out, laser_planes, options.laser_mounts);
-      report->laser_plates_left_out.insert(report->laser_plates_left_out.end(),
-                                           report->laser_mounts->left_out.begin(),
+      report->laser_plates_left_out.insert(report->laser_plates_left_out.end(), report->laser_mounts->left_out.begin(),
                                            report->laser_mounts->left_out.end());
       if (report->laser_mounts->too_uncertain.empty()) {
         out->laser_mounts = report->laser_mounts->mounts;
@@ -365,9 +364,11 @@ void LogWhatWasCalibrated(const calibration::CalibrationReport& report, std::siz
 calibration::CalibrationReport RunCalibrateRig(const CalibrateRigOptions& options) {
   if (const core::CheckResult problem = options.Check(); !problem.empty()) throw core::Error(problem);
   core::RemoveStaleTemporariesOf(options.out);
-  core::ExpectReplaceable(options.out, {options.replace, "a file",
-                                        [](const std::filesystem::path& p) { return std::filesystem::is_regular_file(p); },
-                                        {options.session}});
+  core::ExpectReplaceable(options.out,
+                          {options.replace,
+                           "a file",
+                           [](const std::filesystem::path& p) { return std::filesystem::is_regular_file(p); },
+                           {options.session}});
   formats::SessionOpenOptions open;
   open.command = "calibrate";
   const formats::CapturedSession session(options.session, open);

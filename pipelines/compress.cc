@@ -2,11 +2,11 @@
 
 #include <spdlog/spdlog.h>
 
+#include "core/atomic_file.h"
 #include "formats/material_manifest.h"
 #include "formats/material_package_reader.h"
 #include "formats/material_package_writer.h"
 #include "formats/package_full_btf_reader.h"
-#include "core/atomic_file.h"
 
 namespace mesocap::pipelines {
 
@@ -29,15 +29,14 @@ btf::BtfCompressionReport RunCompress(const CompressOptions& o) {
   btf::BtfCompressionReport report;
   const core::FactoredBtf factored = btf::CompressBtf(btf, o.compression, &report);
   if (!report.representation_reason.empty()) spdlog::info("{}", report.representation_reason);
-  spdlog::info("{} {}, rank {}: {}; measured relative RMS error {:.3g}, {} bytes ({:.2f} s)",
-               ToString(factored.layout), ToString(factored.color), report.rank, report.reason,
-               report.measured_relative_rms_error, report.factor_bytes, report.seconds);
+  spdlog::info("{} {}, rank {}: {}; measured relative RMS error {:.3g}, {} bytes ({:.2f} s)", ToString(factored.layout),
+               ToString(factored.color), report.rank, report.reason, report.measured_relative_rms_error,
+               report.factor_bytes, report.seconds);
 
   formats::MaterialDescription description = manifest.description;
   description.provenance.software_version.clear();
   description.provenance.created_utc.clear();
-  description.provenance.source =
-      "compress of " + o.in.string() + " (" + manifest.description.provenance.source + ")";
+  description.provenance.source = "compress of " + o.in.string() + " (" + manifest.description.provenance.source + ")";
   formats::MaterialPackageWriter writer(o.out, description, o.replace, {o.in});
   if (manifest.mdf) writer.WriteMdf(formats::ReadMdf(o.in, manifest), manifest.mdf->forms);
   writer.WriteFactoredBtf(factored);

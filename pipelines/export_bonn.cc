@@ -35,8 +35,8 @@ core::FullBtf FullBtfOfPackage(const fs::path& package, const formats::MaterialM
 // Only what this command writes is replaced, never the package it reads.
 core::OutputReplacement ExportReplacement(const ExportBonnOptions& o) {
   if (o.form == bonn::BonnForm::kUbo2003) {
-    return {o.replace, "a UBO2003 image folder (only tl..._pl..._tv..._pv... images)", bonn::IsUbo2003ExportFolder,
-            {o.in}};
+    return {
+        o.replace, "a UBO2003 image folder (only tl..._pl..._tv..._pv... images)", bonn::IsUbo2003ExportFolder, {o.in}};
   }
   return {o.replace, "a Bonn BTF file (FMF or DFMF)", bonn::IsBonnBtfFile, {o.in}};
 }
@@ -51,15 +51,16 @@ void ExportUbo2003(const ExportBonnOptions& o, const formats::MaterialManifest& 
   for (int v = 0; v < d.view_directions.size(); ++v) {
     const core::Image view =
         factored ? btf::ReconstructBtfView(*factored, v) : formats::ReadFullBtfView(o.in, manifest, v);
-    report->clipped_values += bonn::WriteUbo2003View(folder.temp_path(), d.view_directions, d.light_directions, v,
-                                                     view, o.encoding, o.scale);
+    report->clipped_values +=
+        bonn::WriteUbo2003View(folder.temp_path(), d.view_directions, d.light_directions, v, view, o.encoding, o.scale);
   }
   folder.Commit();
   report->files = static_cast<long long>(d.view_directions.size()) * d.light_directions.size();
   if (report->clipped_values > 0) {
-    spdlog::warn("{} of {} values fell outside [0, 1] after scaling by {} and were clipped to 8 bits; "
-                 "choose --scale so the brightest value maps to at most 1, or write EXR",
-                 report->clipped_values, report->files * d.width * d.height * 3, o.scale);
+    spdlog::warn(
+        "{} of {} values fell outside [0, 1] after scaling by {} and were clipped to 8 bits; "
+        "choose --scale so the brightest value maps to at most 1, or write EXR",
+        report->clipped_values, report->files * d.width * d.height * 3, o.scale);
   }
 }
 
@@ -90,9 +91,10 @@ void ExportBonnFile(const ExportBonnOptions& o, const formats::MaterialManifest&
   }
   FillBonnMeta(manifest.description, &file);
   if (file.view_count() != file.light_count()) {
-    spdlog::warn("{}: {} views and {} lights; the Free BTF Library (btf.hh, which btf-extractor uses) reads only "
-                 "files with as many views as lights, btflib reads this one",
-                 o.out.string(), file.view_count(), file.light_count());
+    spdlog::warn(
+        "{}: {} views and {} lights; the Free BTF Library (btf.hh, which btf-extractor uses) reads only "
+        "files with as many views as lights, btflib reads this one",
+        o.out.string(), file.view_count(), file.light_count());
   }
   report->rank = 0;
   for (const auto& f : file.factors) report->rank = std::max(report->rank, f.rank());
@@ -107,7 +109,8 @@ core::CheckResult ExportBonnOptions::Check() const {
   if (out.empty()) return "out: give the folder (ubo2003) or file (fmf, dfmf) to write";
   if (!(scale >= bonn::kMinUbo2003Scale && scale <= bonn::kMaxUbo2003Scale)) {
     std::ostringstream problem;
-    problem << "scale (--scale) " << scale << " must be in [" << bonn::kMinUbo2003Scale << ", " << bonn::kMaxUbo2003Scale << "]";
+    problem << "scale (--scale) " << scale << " must be in [" << bonn::kMinUbo2003Scale << ", "
+            << bonn::kMaxUbo2003Scale << "]";
     return problem.str();
   }
   if (scalar == bonn::BonnScalar::kDouble) return "mesocap writes half or float factors";

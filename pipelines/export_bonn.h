@@ -36,10 +36,10 @@ struct ExportBonnOptions {
 };
 
 struct ExportBonnReport {
-  std::string source;  // what was exported: "full BTF", "per_texel factored BTF", ...
-  int rank = 0;        // components written (fmf, dfmf)
+  std::string source;                                    // what was exported: "full BTF", "per_texel factored BTF", ...
+  int rank = 0;                                          // components written (fmf, dfmf)
   std::optional<btf::BtfCompressionReport> compression;  // when factored here
-  long long clipped_values = 0;                           // ubo2003 8-bit: values outside [0, 1] after scaling
+  long long clipped_values = 0;                          // ubo2003 8-bit: values outside [0, 1] after scaling
   long long files = 0;
   double seconds = 0.0;
 };

@@ -3,14 +3,14 @@
 #include <spdlog/spdlog.h>
 
 #include "calibration/nominal_geometry.h"
+#include "core/atomic_file.h"
 #include "core/image.h"
+#include "formats/material_manifest.h"
+#include "formats/material_package_writer.h"
 #include "interop/bonn/ubo_sampling_sets.h"
 #include "sim/ground_truth.h"
 #include "sim/shipped_rigs.h"
 #include "sim/true_calibration.h"
-#include "formats/material_manifest.h"
-#include "formats/material_package_writer.h"
-#include "core/atomic_file.h"
 
 namespace mesocap::pipelines {
 namespace {

@@ -13,7 +13,7 @@ namespace mesocap::pipelines {
 
 struct GroundTruthOptions {
   sim::SceneSource scene;
-  std::string rig = "tiny";  // a shipped rig (sim/shipped_rigs.h) or a rig description file
+  std::string rig = "tiny";   // a shipped rig (sim/shipped_rigs.h) or a rig description file
   std::filesystem::path out;  // the material package folder to write
   int texture_size = 64;      // texels per side
   // The BTF and ambient term are texel-area means over n x n samples

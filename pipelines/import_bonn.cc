@@ -7,12 +7,12 @@
 #include <sstream>
 
 #include "btf/ambient_term.h"
+#include "core/atomic_file.h"
 #include "core/mdf.h"
 #include "formats/material_manifest.h"
 #include "formats/material_package_writer.h"
 #include "interop/bonn/bonn_btf_file.h"
 #include "interop/bonn/bonn_ubo2003.h"
-#include "core/atomic_file.h"
 
 namespace mesocap::pipelines {
 namespace {
@@ -45,7 +45,8 @@ void ImportUbo2003(const ImportBonnOptions& o, const std::string& name, ImportBo
   report->form = bonn::BonnForm::kUbo2003;
   const BonnImportParts parts = o.parts.value_or(BonnImportParts::kFull);
   if (parts != BonnImportParts::kFull) {
-    throw core::Error("import bonn: " + o.in.string() + " is an image folder, which holds a full BTF only; import it "
+    throw core::Error("import bonn: " + o.in.string() +
+                      " is an image folder, which holds a full BTF only; import it "
                       "with --btf full and factor it with `mesocap compress`");
   }
   if (!(o.width_mm > 0.0)) {
@@ -79,9 +80,9 @@ void ImportBonnFile(const ImportBonnOptions& o, const std::string& name, ImportB
   double width_mm = o.width_mm;
   if (!(width_mm > 0.0)) {
     if (!(btf.pixels_per_mm > 0.0f)) {
-      throw core::FormatError(o.in, "meta.pixels_per_mm",
-                              "is " + std::to_string(btf.pixels_per_mm) +
-                                  ", so the physical size is unknown; give --size-mm");
+      throw core::FormatError(
+          o.in, "meta.pixels_per_mm",
+          "is " + std::to_string(btf.pixels_per_mm) + ", so the physical size is unknown; give --size-mm");
     }
     width_mm = btf.width / static_cast<double>(btf.pixels_per_mm);
   }
@@ -96,10 +97,9 @@ void ImportBonnFile(const ImportBonnOptions& o, const std::string& name, ImportB
   } catch (const core::Error& e) {
     throw core::FormatError(o.in, "color_model", e.what());
   }
-  const formats::MaterialDescription d =
-      DescriptionFor(name, btf.width, btf.height, width_mm, o.d_max_mm, bonn::BonnViewSet(btf, o.in),
-                     bonn::BonnLightSet(btf, o.in),
-                     std::string("import bonn ") + ToString(report->form) + " " + o.in.string());
+  const formats::MaterialDescription d = DescriptionFor(
+      name, btf.width, btf.height, width_mm, o.d_max_mm, bonn::BonnViewSet(btf, o.in), bonn::BonnLightSet(btf, o.in),
+      std::string("import bonn ") + ToString(report->form) + " " + o.in.string());
   formats::MaterialPackageWriter writer(o.out, d, o.replace, {o.in});
   formats::AmbientTerm ambient = btf::MakeAmbientTerm(d.width, d.height, d.view_directions);
   for (int v = 0; v < d.view_directions.size(); ++v) {
@@ -138,7 +138,8 @@ core::CheckResult ImportBonnOptions::Check() const {
     problem << "width_mm (--size-mm) " << width_mm << " must be 0 (from the file) or in [" << kMinBonnLengthMm << ", "
             << kMaxBonnWidthMm << "] mm";
   } else if (!(scale >= bonn::kMinUbo2003Scale && scale <= bonn::kMaxUbo2003Scale)) {
-    problem << "scale (--scale) " << scale << " must be in [" << bonn::kMinUbo2003Scale << ", " << bonn::kMaxUbo2003Scale << "]";
+    problem << "scale (--scale) " << scale << " must be in [" << bonn::kMinUbo2003Scale << ", "
+            << bonn::kMaxUbo2003Scale << "]";
   }
   return problem.str();
   return {};

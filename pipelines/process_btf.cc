@@ -10,6 +10,7 @@
 #include "btf/btf_assembly.h"
 #include "btf/btf_evaluation.h"
 #include "calibration/nominal_geometry.h"
+#include "core/atomic_file.h"
 #include "core/image.h"
 #include "formats/calibration.h"
 #include "formats/captured_session.h"
@@ -17,7 +18,6 @@
 #include "formats/material_package.h"
 #include "formats/material_package_writer.h"
 #include "formats/rig_description.h"
-#include "core/atomic_file.h"
 
 namespace mesocap::pipelines {
 namespace {
@@ -28,15 +28,15 @@ namespace fs = std::filesystem;
 // the pair record `eval btf` splits its figures by.
 nlohmann::json ToJson(const btf::BtfAssemblyReport& assembly) {
   nlohmann::json out = {{"images", assembly.images},
-          {"measured_pairs", assembly.measured_pairs},
-          {"interpolated_pairs", assembly.filled_pairs},
-          {"resampled", assembly.resampled},
-          {"extrapolated_views", assembly.extrapolated_views},
-          {"extrapolated_lights", assembly.extrapolated_lights},
-          {"max_view_offset_deg", assembly.max_view_offset_deg},
-          {"max_light_offset_deg", assembly.max_light_offset_deg},
-          {"max_samples_per_side", assembly.max_samples_per_side},
-          {"min_pixels_per_texel", assembly.min_pixels_per_texel}};
+                        {"measured_pairs", assembly.measured_pairs},
+                        {"interpolated_pairs", assembly.filled_pairs},
+                        {"resampled", assembly.resampled},
+                        {"extrapolated_views", assembly.extrapolated_views},
+                        {"extrapolated_lights", assembly.extrapolated_lights},
+                        {"max_view_offset_deg", assembly.max_view_offset_deg},
+                        {"max_light_offset_deg", assembly.max_light_offset_deg},
+                        {"max_samples_per_side", assembly.max_samples_per_side},
+                        {"min_pixels_per_texel", assembly.min_pixels_per_texel}};
   btf::AddPairRecord({assembly.measured, assembly.pixels_per_texel}, &out);
   return out;
 }

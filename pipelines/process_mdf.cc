@@ -5,11 +5,11 @@
 
 #include <spdlog/spdlog.h>
 
+#include "core/atomic_file.h"
 #include "formats/calibration.h"
 #include "formats/captured_session.h"
 #include "formats/material_manifest.h"
 #include "formats/material_package_writer.h"
-#include "core/atomic_file.h"
 
 namespace mesocap::pipelines {
 

@@ -28,7 +28,7 @@ struct ProcessMdfOptions {
 };
 
 struct ProcessMdfReport {
-  int sweeps = 0;          // camera sequences analysed
+  int sweeps = 0;  // camera sequences analysed
   int texels_per_side = 0;
   int views = 0;
   int laser_planes = 0;                    // fitted from their plates

@@ -40,9 +40,8 @@ std::vector<DeviceCheck> RunRigCheck(const RigCheckOptions& options) {
       checks.push_back({"camera " + c.id, c.backend, true, simulated});
       continue;
     }
-    checks.push_back(Probe("camera " + c.id, "aravis " + c.device, [&] {
-      return drivers::DescribeCamera(*aravis.MakeCamera(rig, i));
-    }));
+    checks.push_back(Probe("camera " + c.id, "aravis " + c.device,
+                           [&] { return drivers::DescribeCamera(*aravis.MakeCamera(rig, i)); }));
   }
   const std::pair<const char*, const formats::StageDescription*> stages[] = {{"turntable", &rig.turntable},
                                                                              {"light arc", &rig.light_arc}};
@@ -58,16 +57,14 @@ std::vector<DeviceCheck> RunRigCheck(const RigCheckOptions& options) {
   if (rig.lamps.backend != "gpiod") {
     checks.push_back({"lamps", rig.lamps.backend, true, simulated});
   } else {
-    checks.push_back(Probe("lamps", "gpiod " + GpioLine(rig.lamps.lines.front()), [&] {
-      return drivers::DescribeLamps(*gpiod.MakeLampBank(rig));
-    }));
+    checks.push_back(Probe("lamps", "gpiod " + GpioLine(rig.lamps.lines.front()),
+                           [&] { return drivers::DescribeLamps(*gpiod.MakeLampBank(rig)); }));
   }
   if (rig.laser.backend != "gpiod") {
     checks.push_back({"laser unit", rig.laser.backend, true, simulated});
   } else {
-    checks.push_back(Probe("laser unit", "gpiod " + GpioLine(rig.laser.enable), [&] {
-      return drivers::DescribeLaser(*gpiod.MakeLaserUnit(rig));
-    }));
+    checks.push_back(Probe("laser unit", "gpiod " + GpioLine(rig.laser.enable),
+                           [&] { return drivers::DescribeLaser(*gpiod.MakeLaserUnit(rig)); }));
   }
   return checks;
 }

@@ -19,7 +19,7 @@ struct DeviceCheck {
   std::string device;   // "camera cam0", "turntable", ...
   std::string backend;  // with its address: "aravis 127.0.0.1", "tic 00123456"
   bool ok = false;
-  std::string state;    // what it read (ok) or the error (not ok)
+  std::string state;  // what it read (ok) or the error (not ok)
 };
 
 std::vector<DeviceCheck> RunRigCheck(const RigCheckOptions& options);

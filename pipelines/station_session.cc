@@ -63,8 +63,8 @@ void OpenStationSession(const fs::path& dir, const StationSession& session) {
                                                         : FirstDifference(old_plan, new_plan, "plan")));
     }
     if (manifest.calibration_checksum && *manifest.calibration_checksum != session.calibration_checksum) {
-      throw core::Error(dir.string() + ": the session records another calibration than " + session.calibration_origin + " (" +
-                        formats::kSessionManifestName + " calibration.xxh3_64)");
+      throw core::Error(dir.string() + ": the session records another calibration than " + session.calibration_origin +
+                        " (" + formats::kSessionManifestName + " calibration.xxh3_64)");
     }
   } else {
     // A folder without a manifest is a session whose creation was killed:

@@ -20,7 +20,7 @@ std::string ClaimedFormat(const fs::path& dir) {
   if (!fs::is_regular_file(file, ec)) return {};
   const nlohmann::json doc = core::ReadJsonFile(file, 16u << 20);
   return doc.is_object() && doc.contains("format") && doc["format"].is_string() ? doc["format"].get<std::string>()
-                                                                                  : std::string();
+                                                                                : std::string();
 }
 
 std::uint64_t SizeOrZero(const fs::path& file) {

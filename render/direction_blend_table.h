@@ -13,8 +13,8 @@
 namespace mesocap::render {
 
 struct DirectionBlendTable {
-  int phi_cells = 0;    // over [0, 2 pi)
-  int theta_cells = 0;  // over [0, pi/2]; directions below the horizon use the last row
+  int phi_cells = 0;                         // over [0, 2 pi)
+  int theta_cells = 0;                       // over [0, pi/2]; directions below the horizon use the last row
   std::vector<std::array<int, 4>> index;     // phi_cells * theta_cells, row-major by theta
   std::vector<std::array<float, 4>> weight;  // unused entries have weight 0 and index 0
 };

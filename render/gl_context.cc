@@ -19,7 +19,7 @@ namespace {
 void ExpectGl45(const std::string& where) {
   if (epoxy_gl_version() < 45) {
     throw core::Error(where + ": OpenGL 4.5 core is required, the driver offers " +
-                std::to_string(epoxy_gl_version() / 10) + "." + std::to_string(epoxy_gl_version() % 10));
+                      std::to_string(epoxy_gl_version() / 10) + "." + std::to_string(epoxy_gl_version() % 10));
   }
 }
 
@@ -52,9 +52,12 @@ class EglContext : public GlContext {
       tried += tried.empty() ? "EGL devices" : " and EGL devices";
     }
     if (display_ == EGL_NO_DISPLAY) {
-      throw core::Error("headless OpenGL: no EGL display (tried " + (tried.empty() ? std::string("nothing: neither "
-                  "EGL_MESA_platform_surfaceless nor EGL_EXT_platform_device is offered") : tried) +
-                  "; install libegl-mesa0 for Mesa's surfaceless platform)");
+      throw core::Error("headless OpenGL: no EGL display (tried " +
+                        (tried.empty()
+                             ? std::string("nothing: neither "
+                                           "EGL_MESA_platform_surfaceless nor EGL_EXT_platform_device is offered")
+                             : tried) +
+                        "; install libegl-mesa0 for Mesa's surfaceless platform)");
     }
     if (!eglBindAPI(EGL_OPENGL_API)) {
       throw core::Error("headless OpenGL: the EGL display has no desktop OpenGL API (error " + EglErrorText() + ")");
@@ -66,18 +69,18 @@ class EglContext : public GlContext {
     if (!eglChooseConfig(display_, config_attributes, &config, 1, &config_count) || config_count < 1) {
       throw core::Error("headless OpenGL: no EGL config with desktop OpenGL (error " + EglErrorText() + ")");
     }
-    const EGLint context_attributes[] = {EGL_CONTEXT_MAJOR_VERSION, 4, EGL_CONTEXT_MINOR_VERSION, 5,
-                                         EGL_CONTEXT_OPENGL_PROFILE_MASK, EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT,
-                                         EGL_NONE};
+    const EGLint context_attributes[] = {
+        EGL_CONTEXT_MAJOR_VERSION,           4,       EGL_CONTEXT_MINOR_VERSION, 5, EGL_CONTEXT_OPENGL_PROFILE_MASK,
+        EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT, EGL_NONE};
     context_ = eglCreateContext(display_, config, EGL_NO_CONTEXT, context_attributes);
     if (context_ == EGL_NO_CONTEXT) {
       throw core::Error("headless OpenGL: the EGL driver cannot create an OpenGL 4.5 core context (error " +
-                  EglErrorText() + ")");
+                        EglErrorText() + ")");
     }
     // Surfaceless: the renderer draws into framebuffer objects only.
     if (!eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, context_)) {
-      throw core::Error("headless OpenGL: cannot make the context current without a surface (error " +
-                  EglErrorText() + "; EGL_KHR_surfaceless_context missing?)");
+      throw core::Error("headless OpenGL: cannot make the context current without a surface (error " + EglErrorText() +
+                        "; EGL_KHR_surfaceless_context missing?)");
     }
     ExpectGl45("headless OpenGL");
   }
@@ -107,8 +110,9 @@ class GlfwContext : public GlContext {
     const char* x11 = std::getenv("DISPLAY");
     const char* wayland = std::getenv("WAYLAND_DISPLAY");
     if ((x11 == nullptr || *x11 == '\0') && (wayland == nullptr || *wayland == '\0')) {
-      throw core::Error("window: no display (neither DISPLAY nor WAYLAND_DISPLAY is set); use `mesocap render` for "
-                  "headless output");
+      throw core::Error(
+          "window: no display (neither DISPLAY nor WAYLAND_DISPLAY is set); use `mesocap render` for "
+          "headless output");
     }
     glfwSetErrorCallback([](int, const char* text) { GlfwLastError() = text; });
     if (!glfwInit()) throw core::Error("window: GLFW cannot initialise: " + GlfwLastError());

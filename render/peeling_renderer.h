@@ -37,9 +37,9 @@ struct PeelingOptions {
 };
 
 struct RenderResult {
-  core::Image color;     // 3 channels, linear radiance times the scene's exposure, origin top-left
-  core::Image coverage;  // 1 channel: 1 where a surface is shown
-  core::Image shadow;    // 1 channel: 1 where the shown point is in macroscale shadow (shaded with La)
+  core::Image color;      // 3 channels, linear radiance times the scene's exposure, origin top-left
+  core::Image coverage;   // 1 channel: 1 where a surface is shown
+  core::Image shadow;     // 1 channel: 1 where the shown point is in macroscale shadow (shaded with La)
   int passes = 0;         // view peel passes run (1 for BTF only)
   int shadow_passes = 0;  // light peel passes run (1 for a plain shadow map)
   double frame_ms = 0.0;  // shadow map + view, GPU finished (glFinish), without read-back

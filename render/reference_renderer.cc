@@ -262,7 +262,7 @@ struct ReferenceRenderer::Impl {
       rtcReleaseGeometry(geometry);
       rtcReleaseScene(scene);
       throw core::Error("reference renderer: Embree cannot allocate " + what + " (" + std::to_string(face_count) +
-                  " triangles)");
+                        " triangles)");
     }
     for (std::size_t k = 0; k < vertex_count; ++k) {
       const Eigen::Vector3f& p = position(k);
@@ -410,7 +410,8 @@ ReferenceRenderer::ReferenceRenderer(const RenderScene& scene) : impl_(std::make
     const RenderMaterial& material = scene.materials[object.material];
     if (!material.geometry) {
       throw core::Error("reference renderer: material " + core::Quoted(material.name) + " of object " +
-                        core::Quoted(object.name) + " has no true geometry (only simulated materials such as sim:brick have one)");
+                        core::Quoted(object.name) +
+                        " has no true geometry (only simulated materials such as sim:brick have one)");
     }
     impl_->AddDisplaced(object, static_cast<int>(i), material);
   }

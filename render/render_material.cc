@@ -14,9 +14,10 @@ RenderMaterial LoadRenderMaterial(const std::filesystem::path& package) {
   const std::filesystem::path file = package / "manifest.json";
   if (!manifest.factored_btf) {
     throw core::FormatError(file, "factored_btf",
-                      manifest.full_btf ? "the renderer needs the SVD-factored BTF; this package has only the full "
-                                          "BTF (run `mesocap compress` first)"
-                                        : "the renderer needs the SVD-factored BTF; the package has none");
+                            manifest.full_btf
+                                ? "the renderer needs the SVD-factored BTF; this package has only the full "
+                                  "BTF (run `mesocap compress` first)"
+                                : "the renderer needs the SVD-factored BTF; the package has none");
   }
   if (!manifest.mdf) throw core::FormatError(file, "mdf", "the renderer needs the MDF; the package has none");
   if (!manifest.ambient)

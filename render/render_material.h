@@ -18,7 +18,7 @@ namespace mesocap::render {
 struct RenderMaterial {
   std::string name;
   std::filesystem::path package;  // the material package it was read from
-  double sample_size_mm = 0.0;  // side of the square one texture unit covers
+  double sample_size_mm = 0.0;    // side of the square one texture unit covers
   double d_max_mm = 0.0;
   core::FactoredBtf btf;
   core::Mdf mdf;

@@ -6,8 +6,8 @@
 #include <cmath>
 #include <functional>
 #include <map>
-#include <tuple>
 #include <numbers>
+#include <tuple>
 
 #include "core/error.h"
 #include "formats/obj_mesh.h"
@@ -15,15 +15,14 @@
 namespace mesocap::render {
 namespace {
 
-
 // A closed parametric surface P(u, v) on [0,1]^2, periodic in u (and in v
 // when `periodic_v`), sampled on a (nu+1) x (nv+1) grid: the seam vertices are
 // duplicated for their texture coordinates but copy the positions and normals
 // of the first column/row bit for bit, so the mesh (and its displaced shell)
 // has no cracks. Normals from central differences of P, outward when
 // dP/du x dP/dv points outward.
-void AppendParametric(const std::function<Eigen::Vector3d(double, double)>& surface, int nu, int nv,
-                      bool periodic_v, const Eigen::Vector2d& tiles, RenderMesh* mesh) {
+void AppendParametric(const std::function<Eigen::Vector3d(double, double)>& surface, int nu, int nv, bool periodic_v,
+                      const Eigen::Vector2d& tiles, RenderMesh* mesh) {
   const int base = mesh->vertex_count();
   constexpr double h = 1e-5;
   for (int j = 0; j <= nv; ++j) {

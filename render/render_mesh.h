@@ -22,9 +22,9 @@ struct RenderMesh {
   std::vector<Eigen::Vector2f> texcoords;  // material texture units
   std::vector<Eigen::Vector3i> triangles;  // counter-clockwise seen from outside
   // Filled by ComputeTangentFrames:
-  std::vector<Eigen::Vector4f> tangents;   // xyz unit along +x of the texture, orthogonal to the normal;
-                                           // w = +-1, bitangent = w * normal x tangent
-  std::vector<float> texture_scale;        // s: scene mm per material mm
+  std::vector<Eigen::Vector4f> tangents;  // xyz unit along +x of the texture, orthogonal to the normal;
+                                          // w = +-1, bitangent = w * normal x tangent
+  std::vector<float> texture_scale;       // s: scene mm per material mm
 
   int vertex_count() const { return static_cast<int>(positions.size()); }
 };

@@ -34,8 +34,8 @@ int Segments(const core::JsonFieldReader& o, std::string_view key, int fallback)
 RenderMesh ReadShape(const core::JsonFieldReader& o, const std::filesystem::path& scene_dir) {
   const std::string shape = o.Choice("shape", {"cylinder", "torus", "torus_knot", "box", "obj"});
   if (shape == "obj") {
-    o.RejectUnknownMembers({"name", "shape", "file", "scale", "tiles", "material", "albedo", "translate",
-                            "rotate_deg"});
+    o.RejectUnknownMembers(
+        {"name", "shape", "file", "scale", "tiles", "material", "albedo", "translate", "rotate_deg"});
     const std::filesystem::path file(o.String("file"));
     return LoadObjRenderMesh(file.is_absolute() ? file : scene_dir / file, o.NumberOr("scale", 1.0, 1e-9, 1e9),
                              Tiles(o));
@@ -64,8 +64,8 @@ RenderMesh ReadShape(const core::JsonFieldReader& o, const std::filesystem::path
                          static_cast<int>(o.Integer("p", 1, 16)), static_cast<int>(o.Integer("q", 1, 16)),
                          Segments(o, "segments", 256), Segments(o, "tube_segments", 32), Tiles(o));
   }
-  o.RejectUnknownMembers({"name", "shape", "min", "max", "tiles_per_100mm", "material", "albedo", "translate",
-                          "rotate_deg"});
+  o.RejectUnknownMembers(
+      {"name", "shape", "min", "max", "tiles_per_100mm", "material", "albedo", "translate", "rotate_deg"});
   const Eigen::Vector3d min = o.Vector3("min", -kMaxCoordinateMm, kMaxCoordinateMm);
   const Eigen::Vector3d max = o.Vector3("max", -kMaxCoordinateMm, kMaxCoordinateMm);
   if (!((max - min).minCoeff() > 0)) o.Fail("max", "expected every coordinate above min's");
@@ -153,11 +153,11 @@ RenderScene ReadRenderScene(const std::filesystem::path& file, const MaterialRes
     parts.insert(parts.begin(), std::move(object));
     const Eigen::Vector3d r = o.Has("rotate_deg")
                                   ? Eigen::Vector3d(o.Vector3("rotate_deg", -360.0, 360.0) * core::kRadiansPerDegree)
-                                                  : Eigen::Vector3d::Zero();
-    const Eigen::Matrix3d rotation = (Eigen::AngleAxisd(r.z(), Eigen::Vector3d::UnitZ()) *
-                                      Eigen::AngleAxisd(r.y(), Eigen::Vector3d::UnitY()) *
-                                      Eigen::AngleAxisd(r.x(), Eigen::Vector3d::UnitX()))
-                                         .toRotationMatrix();
+                                  : Eigen::Vector3d::Zero();
+    const Eigen::Matrix3d rotation =
+        (Eigen::AngleAxisd(r.z(), Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(r.y(), Eigen::Vector3d::UnitY()) *
+         Eigen::AngleAxisd(r.x(), Eigen::Vector3d::UnitX()))
+            .toRotationMatrix();
     const Eigen::Vector3d translation =
         o.Has("translate") ? o.Vector3("translate", -kMaxCoordinateMm, kMaxCoordinateMm) : Eigen::Vector3d::Zero();
     for (SceneObject& part : parts) {

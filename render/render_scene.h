@@ -33,8 +33,8 @@ struct SceneLight {
 
 struct SceneObject {
   std::string name;
-  RenderMesh mesh;       // world space, tangent frames computed
-  int material = -1;     // index into RenderScene::materials; -1: plain diffuse
+  RenderMesh mesh;                           // world space, tangent frames computed
+  int material = -1;                         // index into RenderScene::materials; -1: plain diffuse
   Eigen::Vector3f albedo{0.5f, 0.5f, 0.5f};  // plain objects only
 };
 

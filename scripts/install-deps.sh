@@ -30,8 +30,8 @@ packages=(
   libmicrohttpd-dev libsystemd-dev libcurl4-openssl-dev
   # tests and benchmarks; chromium (/usr/bin/chromium) runs the daemon's
   # status page headless in a test; python3 runs the size check
-  # (scripts/check_code_size.py)
-  libgtest-dev libgmock-dev libbenchmark-dev chromium python3
+  # (scripts/check_code_size.py); clang-format checks the layout (.clang-format)
+  libgtest-dev libgmock-dev libbenchmark-dev chromium python3 clang-format
   # the benchmarks' PNG plots (bench/*_plot.sh)
   gnuplot-nox
   # fuzzing (scripts/fuzz.sh): clang and its runtimes, libFuzzer's among them

@@ -1,10 +1,10 @@
 #include "sim/board_photo_renderer.h"
 
+#include <tbb/parallel_for.h>
 #include <Eigen/Geometry>
 #include <cmath>
-#include <numbers>
 #include <limits>
-#include <tbb/parallel_for.h>
+#include <numbers>
 
 #include "sim/camera_renderer.h"
 

@@ -69,8 +69,8 @@ void AddBox(TileGeometry& g, const Eigen::Vector3d& lo, const Eigen::Vector3d& h
 // in the other horizontal coordinate, with a circular cross-section of
 // `radius` in the plane normal to the axis around the height centre_z(s).
 // centre_z must be P-periodic; the open ends meet the neighbouring copies.
-void AddTube(TileGeometry& g, int axis, double offset, const std::function<double(double)>& centre_z,
-             double radius, int segments, int sides, int part) {
+void AddTube(TileGeometry& g, int axis, double offset, const std::function<double(double)>& centre_z, double radius,
+             int segments, int sides, int part) {
   const double p = g.tile_size_mm;
   const int first = static_cast<int>(g.vertices.size());
   for (int k = 0; k <= segments; ++k) {
@@ -102,8 +102,7 @@ TileGeometry Flat() {
 TileGeometry Box() {
   TileGeometry g{.name = "box", .tile_size_mm = 5.0, .d_max_mm = 1.0};
   g.AddBase(-1.0, g.AddPart(Diffuse(0.45f, 0.42f, 0.38f)));
-  AddBox(g, {1.5, 1.5, -1.0}, {3.5, 3.5, 0.0}, g.AddPart(Diffuse(0.7f, 0.25f, 0.2f)),
-         kTop | kFacesX | kFacesY);
+  AddBox(g, {1.5, 1.5, -1.0}, {3.5, 3.5, 0.0}, g.AddPart(Diffuse(0.7f, 0.25f, 0.2f)), kTop | kFacesX | kFacesY);
   return g;
 }
 
@@ -111,8 +110,7 @@ TileGeometry Blocks() {
   TileGeometry g{.name = "blocks", .tile_size_mm = 9.0, .d_max_mm = 2.0, .albedo_variation = 0.15f};
   g.AddBase(-2.0, g.AddPart(Diffuse(0.35f, 0.35f, 0.35f)));
   constexpr double kHeights[9] = {2.0, 1.2, 0.6, 1.6, 0.9, 1.4, 0.4, 1.8, 1.0};
-  const Reflectance colours[3] = {Glossy(0.7f, 0.3f, 0.2f, 0.15f, 40.0f),
-                                  Glossy(0.25f, 0.5f, 0.7f, 0.15f, 40.0f),
+  const Reflectance colours[3] = {Glossy(0.7f, 0.3f, 0.2f, 0.15f, 40.0f), Glossy(0.25f, 0.5f, 0.7f, 0.15f, 40.0f),
                                   Glossy(0.75f, 0.7f, 0.3f, 0.15f, 40.0f)};
   for (int j = 0; j < 3; ++j) {
     for (int i = 0; i < 3; ++i) {
@@ -156,11 +154,11 @@ TileGeometry Weave() {
     const double at = 1.0 + kPitch * n;
     const double phase = kPi * n;
     AddTube(
-        g, 0, at, [&](double x) { return kCentre + kSwing * std::cos(kPi * (x - 1.0) / kPitch + phase); },
-        kRadius, 96, 24, g.AddPart(Tinted(warp, 200 + n, 0.1f)));
+        g, 0, at, [&](double x) { return kCentre + kSwing * std::cos(kPi * (x - 1.0) / kPitch + phase); }, kRadius, 96,
+        24, g.AddPart(Tinted(warp, 200 + n, 0.1f)));
     AddTube(
-        g, 1, at, [&](double y) { return kCentre - kSwing * std::cos(kPi * (y - 1.0) / kPitch + phase); },
-        kRadius, 96, 24, g.AddPart(Tinted(weft, 210 + n, 0.1f)));
+        g, 1, at, [&](double y) { return kCentre - kSwing * std::cos(kPi * (y - 1.0) / kPitch + phase); }, kRadius, 96,
+        24, g.AddPart(Tinted(weft, 210 + n, 0.1f)));
   }
   return g;
 }
@@ -226,9 +224,8 @@ struct BuiltinScene {
   TileGeometry (*make)();
 };
 
-constexpr BuiltinScene kScenes[] = {{"flat", Flat},   {"box", Box},      {"blocks", Blocks},
-                                    {"brick", Brick}, {"weave", Weave},  {"pipes", Pipes},
-                                    {"grass", Grass}, {"sponge", Sponge}};
+constexpr BuiltinScene kScenes[] = {{"flat", Flat},   {"box", Box},     {"blocks", Blocks}, {"brick", Brick},
+                                    {"weave", Weave}, {"pipes", Pipes}, {"grass", Grass},   {"sponge", Sponge}};
 
 }  // namespace
 

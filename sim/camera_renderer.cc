@@ -497,8 +497,8 @@ core::Image CameraRenderer::Render(const SimulatedRigState& state, int camera, i
   const RenderCache& cached = CachedRender(state, camera);
   const auto stripe_frame = [&] {
     return cached.sweep ? cached.sweep->Frame(state.laser_tilt_rad)
-                        : LaserSweepRenderer::SingleFrame(*this, cached.view, state.laser_mount,
-                                                          state.light_arc_rad, state.laser_tilt_rad);
+                        : LaserSweepRenderer::SingleFrame(*this, cached.view, state.laser_mount, state.light_arc_rad,
+                                                          state.laser_tilt_rad);
   };
   const bool any_lamp = std::find(state.lamps_on.begin(), state.lamps_on.end(), true) != state.lamps_on.end();
   if (!any_lamp && state.laser_on && channels == 1) return stripe_frame();

@@ -92,7 +92,7 @@ class SplitMix64 {
 }  // namespace
 
 core::Image ApplySensor(const core::Image& signal, const formats::CameraDescription& camera, std::mt19937_64& rng,
-                  bool noise_on) {
+                        bool noise_on) {
   const double full_well = camera.full_well_electrons;
   const double max_code = MaxCode(camera);
   const double codes_per_electron = max_code / full_well;

@@ -31,7 +31,7 @@ inline double MaxCode(const formats::CameraDescription& camera) {
 // Deterministic for a given generator state (it takes one draw and seeds a
 // generator per row from it, so rows are drawn in parallel).
 core::Image ApplySensor(const core::Image& signal, const formats::CameraDescription& camera, std::mt19937_64& rng,
-                  bool noise_on);
+                        bool noise_on);
 
 // A generator for one image, seeded from the run's seed and the image's
 // coordinates (step, camera, frame), so every image's noise is the same

@@ -26,8 +26,8 @@ struct CellSpan {
 class CellWalk {
  public:
   // The ray origin + t dir for t in [t_min, t_max], clipped to the slab.
-  CellWalk(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double t_min, double t_max,
-           double tile_size_mm, double d_max_mm);
+  CellWalk(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double t_min, double t_max, double tile_size_mm,
+           double d_max_mm);
 
   // The next cell; false once the ray has left the slab or [t_min, t_max],
   // or after kMaxCellsPerRay cells.

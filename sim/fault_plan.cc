@@ -39,7 +39,9 @@ FaultRule ParseRule(const core::JsonFieldReader& f, FaultKind kind) {
     const auto counts = f.Numbers("at", raw.size());
     for (std::size_t i = 0; i < counts.size(); ++i) {
       if (counts[i] < 1 || counts[i] > kMaxCount || counts[i] != std::floor(counts[i])) {
-        f.Fail("at[" + std::to_string(i) + "]", "expected a whole operation count in [1, 2^53] (the first operation is 1), got " + core::JsonExcerpt(f.Raw("at")[i]));
+        f.Fail("at[" + std::to_string(i) + "]",
+               "expected a whole operation count in [1, 2^53] (the first operation is 1), got " +
+                   core::JsonExcerpt(f.Raw("at")[i]));
       }
       rule.at.push_back(static_cast<std::uint64_t>(counts[i]));
     }
@@ -110,12 +112,18 @@ std::string RuleName(std::size_t i, const FaultRule& rule) {
 
 std::string_view FaultKindName(FaultKind kind) {
   switch (kind) {
-    case FaultKind::kCameraDropFrame: return "camera_drop_frame";
-    case FaultKind::kCameraTimeout: return "camera_timeout";
-    case FaultKind::kCameraDisconnect: return "camera_disconnect";
-    case FaultKind::kStageStall: return "stage_stall";
-    case FaultKind::kStageTimeout: return "stage_timeout";
-    case FaultKind::kLampFailure: return "lamp_failure";
+    case FaultKind::kCameraDropFrame:
+      return "camera_drop_frame";
+    case FaultKind::kCameraTimeout:
+      return "camera_timeout";
+    case FaultKind::kCameraDisconnect:
+      return "camera_disconnect";
+    case FaultKind::kStageStall:
+      return "stage_stall";
+    case FaultKind::kStageTimeout:
+      return "stage_timeout";
+    case FaultKind::kLampFailure:
+      return "lamp_failure";
   }
   return "unknown";
 }
@@ -148,8 +156,8 @@ core::CheckResult FaultPlan::Check(const formats::RigDescription& rig) const {
     const FaultRule& r = rules[i];
     if (r.device.empty()) continue;
     if (IsCameraKind(r.kind)) {
-      const bool known = std::any_of(rig.cameras.begin(), rig.cameras.end(),
-                                     [&](const auto& c) { return c.id == r.device; });
+      const bool known =
+          std::any_of(rig.cameras.begin(), rig.cameras.end(), [&](const auto& c) { return c.id == r.device; });
       if (!known) return RuleName(i, r) + ": rig " + core::Quoted(rig.name) + " has no such camera";
     }
     if (r.kind == FaultKind::kLampFailure && std::stoull(r.device) >= rig.lamps.elevations_rad.size()) {
@@ -184,8 +192,7 @@ std::uint64_t FaultStreamSeed(std::uint64_t rig_seed, const std::string& device,
   return Mix(Mix(rig_seed) ^ h);
 }
 
-FaultSchedule::FaultSchedule(const FaultPlan& plan, FaultKind kind, const std::string& device,
-                             std::uint64_t rig_seed)
+FaultSchedule::FaultSchedule(const FaultPlan& plan, FaultKind kind, const std::string& device, std::uint64_t rig_seed)
     : random_(FaultStreamSeed(rig_seed, device, kind)) {
   double survive = 1.0;  // chance that no rate rule fires on one operation
   for (const FaultRule& r : plan.rules) {

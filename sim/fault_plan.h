@@ -76,9 +76,9 @@ std::string LampDeviceId(int lamp);
 
 struct FaultRule {
   FaultKind kind = FaultKind::kCameraDropFrame;
-  std::string device;              // empty: every device of the kind
-  std::optional<double> rate;      // per operation, in [0, 1]
-  std::vector<std::uint64_t> at;   // operation counts from 1
+  std::string device;             // empty: every device of the kind
+  std::optional<double> rate;     // per operation, in [0, 1]
+  std::vector<std::uint64_t> at;  // operation counts from 1
 };
 
 struct FaultPlan {
@@ -95,8 +95,7 @@ struct FaultPlan {
 
 // Parses the object described above; errors name the file and the field.
 // `where` is the object's path in the document ("faults" in a rig).
-FaultPlan ParseFaultPlan(const nlohmann::json& json, const std::filesystem::path& file,
-                         const std::string& where = "");
+FaultPlan ParseFaultPlan(const nlohmann::json& json, const std::filesystem::path& file, const std::string& where = "");
 // A file of its own ("format": "mesocap.faults", "version": 1).
 FaultPlan ReadFaultPlan(const std::filesystem::path& file);
 // The rig description's "faults" member, or an empty plan without one.
@@ -107,8 +106,7 @@ FaultPlan FaultPlanOfRig(const formats::RigDescription& rig);
 class FaultSchedule {
  public:
   FaultSchedule() = default;  // never fires
-  FaultSchedule(const FaultPlan& plan, FaultKind kind, const std::string& device,
-                std::uint64_t rig_seed);
+  FaultSchedule(const FaultPlan& plan, FaultKind kind, const std::string& device, std::uint64_t rig_seed);
 
   // Counts one operation; true when the fault fires on it.
   bool Fires();

@@ -69,9 +69,9 @@ core::Image RenderTrueBtfView(const MesostructureScene& scene, const GroundTruth
       for (int b = 0; b < n; ++b) {
         for (int a = 0; a < n; ++a) {
           // The centre of stratum (a, b) of the texel's square.
-          const Eigen::Vector3d p = grid.TexelCentre(i, j) +
-                                    Eigen::Vector3d(((a + 0.5) / n - 0.5) * grid.texel_width_mm(),
-                                                    ((b + 0.5) / n - 0.5) * grid.texel_height_mm(), 0.0);
+          const Eigen::Vector3d p =
+              grid.TexelCentre(i, j) + Eigen::Vector3d(((a + 0.5) / n - 0.5) * grid.texel_width_mm(),
+                                                       ((b + 0.5) / n - 0.5) * grid.texel_height_mm(), 0.0);
           const auto hit = FirstHitBelow(scene, p, view);
           if (!hit) continue;  // black backing under holes
           for (int l = 0; l < o.lights.size(); ++l) {
@@ -83,8 +83,8 @@ core::Image RenderTrueBtfView(const MesostructureScene& scene, const GroundTruth
             }
             // Divided by the irradiance on the reference plane, cos(theta_l):
             // the BTF is radiance per unit reference-plane irradiance.
-            const Eigen::Vector3f t = hit->reflectance.Evaluate(hit->normal, light, view) *
-                                      static_cast<float>(n_dot_l / light.z());
+            const Eigen::Vector3f t =
+                hit->reflectance.Evaluate(hit->normal, light, view) * static_cast<float>(n_dot_l / light.z());
             float* px = out.pixel(i, l * h + j);
             for (int c = 0; c < 3; ++c) px[c] += mean * t[c];
           }
@@ -138,7 +138,7 @@ void WriteGroundTruthPackage(const MesostructureScene& scene, const GroundTruthO
   progress.Advance();
 
   formats::AmbientTerm ambient{o.texels.width, o.texels.height, o.views,
-                      core::Image(o.texels.width, o.texels.height * o.views.size(), 3)};
+                               core::Image(o.texels.width, o.texels.height * o.views.size(), 3)};
   for (int v = 0; v < o.views.size(); ++v) {
     const core::Image view = RenderTrueBtfView(scene, o, v);
     AccumulateAmbientTerm(view, o.lights, v, &ambient);

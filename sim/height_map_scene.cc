@@ -27,16 +27,15 @@ float ValueAt(const core::Image& image, int x, int y) {
 
 std::unique_ptr<MesostructureScene> LoadHeightMapScene(const fs::path& image_file, double tile_size_mm,
                                                        double depth_mm) {
-  if (!(tile_size_mm > 0.0) || !std::isfinite(tile_size_mm) || !(depth_mm > 0.0) ||
-      !std::isfinite(depth_mm)) {
+  if (!(tile_size_mm > 0.0) || !std::isfinite(tile_size_mm) || !(depth_mm > 0.0) || !std::isfinite(depth_mm)) {
     throw core::Error(image_file.string() + ": height map tile size and depth must be positive and finite, got " +
-                std::to_string(tile_size_mm) + " and " + std::to_string(depth_mm) + " mm");
+                      std::to_string(tile_size_mm) + " and " + std::to_string(depth_mm) + " mm");
   }
   const core::ImageHeader header = core::ReadImageHeader(image_file);
   if (static_cast<long>(header.width) * header.height > kMaxPixels) {
     throw core::FormatError(image_file, "size",
-                      "a height map may have at most " + std::to_string(kMaxPixels) + " pixels, got " +
-                          std::to_string(header.width) + "x" + std::to_string(header.height));
+                            "a height map may have at most " + std::to_string(kMaxPixels) + " pixels, got " +
+                                std::to_string(header.width) + "x" + std::to_string(header.height));
   }
   const core::Image image = core::ReadImage(image_file);
   const int w = image.width();
@@ -50,7 +49,7 @@ std::unique_ptr<MesostructureScene> LoadHeightMapScene(const fs::path& image_fil
       const float value = ValueAt(image, x % w, y % h);
       if (!(value >= 0.0f && value <= 1.0f)) {
         throw core::FormatError(image_file, "pixel (" + std::to_string(x % w) + ", " + std::to_string(y % h) + ")",
-                          "height value " + std::to_string(value) + " is outside [0, 1]");
+                                "height value " + std::to_string(value) + " is outside [0, 1]");
       }
       g.AddVertex({(x + 0.5) * tile_size_mm / w, (y + 0.5) * tile_size_mm / h, -depth_mm * (1.0 - value)});
     }

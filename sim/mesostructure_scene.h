@@ -23,14 +23,13 @@ struct Reflectance {
   // BRDF value f_r(wi, wo) for unit normal n and unit wi (to light), wo (to
   // viewer): diffuse_albedo / pi + specular_albedo (e + 8) / (8 pi) (n.h)^e.
   // Zero when wi or wo is below the surface.
-  Eigen::Vector3f Evaluate(const Eigen::Vector3d& n, const Eigen::Vector3d& wi,
-                           const Eigen::Vector3d& wo) const;
+  Eigen::Vector3f Evaluate(const Eigen::Vector3d& n, const Eigen::Vector3d& wi, const Eigen::Vector3d& wo) const;
 };
 
 struct SurfaceHit {
-  double distance = 0.0;     // along the (unit) ray direction, mm
-  Eigen::Vector3d point;     // in the frame of the ray (not wrapped into the tile)
-  Eigen::Vector3d normal;    // unit, facing against the ray
+  double distance = 0.0;   // along the (unit) ray direction, mm
+  Eigen::Vector3d point;   // in the frame of the ray (not wrapped into the tile)
+  Eigen::Vector3d normal;  // unit, facing against the ray
   Reflectance reflectance;
 };
 
@@ -61,8 +60,8 @@ class MesostructureScene {
   // in single precision (Embree), so offsets below ~1e-7 (P + d_max), about
   // a nanometre, are not resolved; the distance, point and normal on that
   // face are then exact to ~1e-12 relative (refined in double precision).
-  virtual std::optional<SurfaceHit> Intersect(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir,
-                                              double t_min, double t_max) const = 0;
+  virtual std::optional<SurfaceHit> Intersect(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double t_min,
+                                              double t_max) const = 0;
   // Whether Intersect would find a hit in [t_min, t_max]: for shadow rays.
   virtual bool Occluded(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double t_min,
                         double t_max) const = 0;
@@ -109,8 +108,8 @@ std::unique_ptr<MesostructureScene> MakeBuiltinScene(const std::string& name);
 // differing by more than 1%; height values outside [0, 1], more than
 // 1024 x 1024 pixels. Details in obj_scene.cc and height_map_scene.cc.
 std::unique_ptr<MesostructureScene> LoadObjScene(const std::filesystem::path& obj, double scale);
-std::unique_ptr<MesostructureScene> LoadHeightMapScene(const std::filesystem::path& image,
-                                                       double tile_size_mm, double depth_mm);
+std::unique_ptr<MesostructureScene> LoadHeightMapScene(const std::filesystem::path& image, double tile_size_mm,
+                                                       double depth_mm);
 
 // Where a scene comes from, as a user names it: a built-in scene name, an
 // OBJ file (.obj, with its scale) or a height map image (.png, .exr, .tif,

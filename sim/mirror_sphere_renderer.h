@@ -37,8 +37,8 @@ struct MirrorSpherePhotoOptions {
 // pixel side and at the pixels' centres (1 per side).
 core::Image RenderMirrorSpherePhoto(const formats::RigDescription& rig, const formats::Calibration& truth, int camera,
                                     double turntable_rad, double arc_rad, const std::vector<bool>& lamps_on,
-                                    const MirrorSpherePhotoOptions& options = {},
-                                    const UndistortedGrid* grid = nullptr, const UndistortedGrid* centres = nullptr);
+                                    const MirrorSpherePhotoOptions& options = {}, const UndistortedGrid* grid = nullptr,
+                                    const UndistortedGrid* centres = nullptr);
 
 // The pixels a photo of the sphere looks at (the rest of the image is dark):
 // a square about the sphere's image. Throws Error when the rig has no

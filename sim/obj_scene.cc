@@ -44,8 +44,8 @@ std::unique_ptr<MesostructureScene> LoadObjScene(const fs::path& obj, double sca
   // The x, y extent is one tile: a tile must be square.
   if (std::abs(extent.y() - extent.x()) > 0.01 * extent.x()) {
     throw core::FormatError(obj, "v",
-                      "x and y extents must be equal within 1% (one square tile), got " +
-                          std::to_string(extent.x()) + " and " + std::to_string(extent.y()) + " mm");
+                            "x and y extents must be equal within 1% (one square tile), got " +
+                                std::to_string(extent.x()) + " and " + std::to_string(extent.y()) + " mm");
   }
   g.tile_size_mm = extent.x();
   g.d_max_mm = extent.z();

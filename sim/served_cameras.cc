@@ -135,8 +135,7 @@ std::string GenICamDescription(const std::vector<PixelFormatTraits>& formats) {
                "<pValue>AcquisitionStartCommandRegister</pValue>", "AcquisitionStart command");
   const auto commands = text.find("<Command Name=\"AcquisitionStart\"");
   return text.substr(0, commands) + IntReg("TriggerSoftwareTokenRegister", kTriggerTokenRegister, "RO") +
-         IntReg("AcquisitionStartCommandRegister", kRedirectedAcquisitionStartRegister, "WO") +
-         text.substr(commands);
+         IntReg("AcquisitionStartCommandRegister", kRedirectedAcquisitionStartRegister, "WO") + text.substr(commands);
 }
 
 }  // namespace
@@ -146,9 +145,8 @@ struct ServedSettings {
   guint32 exposure_us = 0, gain = 0, pixel_format = 0;
   drivers::CameraRegion region;
   bool operator==(const ServedSettings& o) const {
-    return exposure_us == o.exposure_us && gain == o.gain && pixel_format == o.pixel_format &&
-           region.x == o.region.x && region.y == o.region.y && region.width == o.region.width &&
-           region.height == o.region.height;
+    return exposure_us == o.exposure_us && gain == o.gain && pixel_format == o.pixel_format && region.x == o.region.x &&
+           region.y == o.region.y && region.width == o.region.width && region.height == o.region.height;
   }
 };
 
@@ -322,7 +320,8 @@ struct ServedCameras::Server {
       for (const auto& f : formats) {
         if (f.code == wanted.pixel_format) format = &f;
       }
-      if (format == nullptr) throw core::Error("pixel format " + std::to_string(wanted.pixel_format) + " is not served");
+      if (format == nullptr)
+        throw core::Error("pixel format " + std::to_string(wanted.pixel_format) + " is not served");
       const drivers::CameraSettings now = camera->settings();
       drivers::CameraRegion region = wanted.region;
       // The whole sensor is the interface's default region, {0, 0, 0, 0}.
@@ -330,8 +329,8 @@ struct ServedCameras::Server {
       if (region.x == 0 && region.y == 0 && region.width == info.sensor_width && region.height == info.sensor_height) {
         region = {};
       }
-      const auto mode = format->channels == 1 && info.channels != 1 ? drivers::PixelFormat::kMono
-                                                                               : drivers::PixelFormat::kNative;
+      const auto mode =
+          format->channels == 1 && info.channels != 1 ? drivers::PixelFormat::kMono : drivers::PixelFormat::kNative;
       if (now.exposure_us != wanted.exposure_us) camera->SetExposure(wanted.exposure_us);
       if (now.gain_db != wanted.gain) camera->SetGain(wanted.gain);
       if (now.region.x != region.x || now.region.y != region.y || now.region.width != region.width ||
@@ -386,8 +385,8 @@ void ServedCameras::Serve(std::size_t i) {
   const drivers::CameraInfo info = server.camera->info();
   // Aravis reads the description from a file: write it, start the
   // device, and remove the file (the device keeps its contents).
-  const fs::path xml = fs::temp_directory_path() /
-                       ("mesocap-served-" + std::to_string(::getpid()) + "-" + std::to_string(i) + ".xml");
+  const fs::path xml =
+      fs::temp_directory_path() / ("mesocap-served-" + std::to_string(::getpid()) + "-" + std::to_string(i) + ".xml");
   {
     std::ofstream out(xml, std::ios::binary | std::ios::trunc);
     out << GenICamDescription(server.formats);

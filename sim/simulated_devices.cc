@@ -96,8 +96,8 @@ void SimulatedCamera::SetRegion(const drivers::CameraRegion& r) {
   if (r.width == 0 && r.x != 0) Fail("a full-width region (width 0) starts at x 0");
   if (r.height == 0 && r.y != 0) Fail("a full-height region (height 0) starts at y 0");
   if (r.x >= w || r.width > w - r.x || r.y >= h || r.height > h - r.y) {
-    Fail("region " + std::to_string(r.width) + " x " + std::to_string(r.height) + " at (" + std::to_string(r.x) +
-         ", " + std::to_string(r.y) + ") is not inside the sensor" + sensor);
+    Fail("region " + std::to_string(r.width) + " x " + std::to_string(r.height) + " at (" + std::to_string(r.x) + ", " +
+         std::to_string(r.y) + ") is not inside the sensor" + sensor);
   }
   settings_.region = r;
 }
@@ -155,17 +155,16 @@ drivers::Frame SimulatedCamera::Grab(std::chrono::milliseconds timeout) {
   state_->clock_s += exposure_s;
   if (full.width() != info_.sensor_width || full.height() != info_.sensor_height || full.channels() != channels) {
     throw core::Error("camera " + info_.id + ": the frame renderer gave a " + std::to_string(full.width()) + " x " +
-                std::to_string(full.height()) + " x " + std::to_string(full.channels()) + " image for a " +
-                std::to_string(info_.sensor_width) + " x " + std::to_string(info_.sensor_height) + " x " +
-                std::to_string(channels) + " readout");
+                      std::to_string(full.height()) + " x " + std::to_string(full.channels()) + " image for a " +
+                      std::to_string(info_.sensor_width) + " x " + std::to_string(info_.sensor_height) + " x " +
+                      std::to_string(channels) + " readout");
   }
 
   const auto& r = settings_.region;
   const int width = r.width == 0 ? info_.sensor_width : r.width;
   const int height = r.height == 0 ? info_.sensor_height : r.height;
   // The renderer's signal is at the description's exposure and 0 dB.
-  const double scale =
-      settings_.exposure_us / reference_exposure_us_ * std::pow(10.0, settings_.gain_db / 20.0);
+  const double scale = settings_.exposure_us / reference_exposure_us_ * std::pow(10.0, settings_.gain_db / 20.0);
   core::Image signal;
   if (width == info_.sensor_width && height == info_.sensor_height && scale == 1.0) {
     signal = std::move(full);  // the whole sensor at the description's exposure: nothing to cut or scale

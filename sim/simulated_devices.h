@@ -59,9 +59,9 @@ enum class SensorModel {
 // exposure and one sequence number, and the camera goes on to the next.
 class SimulatedCamera : public drivers::Camera {
  public:
-  SimulatedCamera(const formats::RigDescription& rig, int camera_index,
-                  std::shared_ptr<SimulatedRigState> state, FrameRenderer& renderer,
-                  const FaultPlan& faults, std::uint64_t seed, SensorModel sensor = SensorModel::kNoisy);
+  SimulatedCamera(const formats::RigDescription& rig, int camera_index, std::shared_ptr<SimulatedRigState> state,
+                  FrameRenderer& renderer, const FaultPlan& faults, std::uint64_t seed,
+                  SensorModel sensor = SensorModel::kNoisy);
 
   drivers::CameraInfo info() const override { return info_; }
   drivers::CameraSettings settings() const override { return settings_; }
@@ -120,9 +120,8 @@ class SimulatedRotaryStage : public drivers::RotaryStage {
   enum class Axis { kTurntable, kLightArc };
   static constexpr double kHomingApproachS = 1.0;
 
-  SimulatedRotaryStage(const formats::RigDescription& rig, Axis axis,
-                       std::shared_ptr<SimulatedRigState> state, const FaultPlan& faults,
-                       std::uint64_t seed);
+  SimulatedRotaryStage(const formats::RigDescription& rig, Axis axis, std::shared_ptr<SimulatedRigState> state,
+                       const FaultPlan& faults, std::uint64_t seed);
 
   std::string id() const override;
   void Home() override;
@@ -195,7 +194,7 @@ class SimulatedLampBank : public drivers::LampBank {
 // +-kMaxTiltRad; SetTilt advances the clock by the time it takes.
 class SimulatedLaserUnit : public drivers::LaserUnit {
  public:
-  static constexpr double kMaxTiltRad = 0.7853981633974483;  // 45 degrees
+  static constexpr double kMaxTiltRad = 0.7853981633974483;        // 45 degrees
   static constexpr double kTiltSpeedRadPerS = 0.5235987755982988;  // 30 degrees/s
 
   SimulatedLaserUnit(const formats::RigDescription& rig, std::shared_ptr<SimulatedRigState> state);

@@ -19,8 +19,7 @@ void SimulatedRigBackend::CheckFaultsAgainst(const formats::RigDescription& rig)
   if (auto problem = faults_.Check(rig); !problem.empty()) throw core::Error("simulated rig: " + problem);
 }
 
-std::unique_ptr<drivers::Camera> SimulatedRigBackend::MakeCamera(const formats::RigDescription& rig,
-                                                                 int camera_index) {
+std::unique_ptr<drivers::Camera> SimulatedRigBackend::MakeCamera(const formats::RigDescription& rig, int camera_index) {
   CheckFaultsAgainst(rig);
   if (camera_index < 0 || camera_index >= static_cast<int>(rig.cameras.size())) {
     throw core::Error("simulated rig: no camera " + std::to_string(camera_index) + " in rig " + core::Quoted(rig.name));

@@ -45,9 +45,7 @@ Reflectance ReflectanceAt(const TileGeometry& geometry, int part, double x, doub
 }
 
 void CheckTileGeometry(const TileGeometry& g) {
-  const auto fail = [&](const std::string& what) {
-    throw std::logic_error("tile geometry '" + g.name + "': " + what);
-  };
+  const auto fail = [&](const std::string& what) { throw std::logic_error("tile geometry '" + g.name + "': " + what); };
   const double p = g.tile_size_mm;
   if (!(p > 0.0) || !std::isfinite(p)) fail("tile size must be positive");
   if (!(g.d_max_mm >= 0.0) || !std::isfinite(g.d_max_mm)) fail("d_max must be >= 0");

@@ -54,15 +54,13 @@ class TiledScene final : public MesostructureScene {
 
   std::optional<SurfaceHit> Intersect(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double t_min,
                                       double t_max) const override;
-  bool Occluded(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double t_min,
-                double t_max) const override;
+  bool Occluded(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double t_min, double t_max) const override;
 
  private:
   void BuildEmbreeScene();
   // Calls visit(cell_ray) for each cell the ray crosses until visit returns true.
   template <class Visit>
-  bool Walk(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double t_min, double t_max,
-            Visit&& visit) const;
+  bool Walk(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double t_min, double t_max, Visit&& visit) const;
   RTCRay EmbreeRay(const CellRay& cell, const Eigen::Vector3d& dir) const;
 
   TileGeometry geometry_;
@@ -130,8 +128,8 @@ void TiledScene::BuildEmbreeScene() {
   rtcSetSceneFlags(scene_.get(), RTC_SCENE_FLAG_ROBUST);
   rtcSetSceneBuildQuality(scene_.get(), RTC_BUILD_QUALITY_HIGH);
   RTCGeometry mesh = rtcNewGeometry(device_.get(), RTC_GEOMETRY_TYPE_TRIANGLE);
-  auto* vertex_buffer = static_cast<float*>(rtcSetNewGeometryBuffer(
-      mesh, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), vertices.size()));
+  auto* vertex_buffer = static_cast<float*>(
+      rtcSetNewGeometryBuffer(mesh, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), vertices.size()));
   auto* index_buffer = static_cast<std::uint32_t*>(rtcSetNewGeometryBuffer(
       mesh, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(std::uint32_t), triangles.size()));
   if (vertex_buffer == nullptr || index_buffer == nullptr) {
@@ -186,8 +184,8 @@ RTCRay TiledScene::EmbreeRay(const CellRay& cell, const Eigen::Vector3d& dir) co
   return ray;
 }
 
-std::optional<SurfaceHit> TiledScene::Intersect(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir,
-                                                double t_min, double t_max) const {
+std::optional<SurfaceHit> TiledScene::Intersect(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double t_min,
+                                                double t_max) const {
   std::optional<SurfaceHit> result;
   Walk(origin, dir, t_min, t_max, [&](const CellRay& cell) {
     RTCIntersectContext context;
@@ -207,8 +205,7 @@ std::optional<SurfaceHit> TiledScene::Intersect(const Eigen::Vector3d& origin, c
     // Refine in double precision on the triangle Embree found.
     const std::uint32_t prim = query.hit.primID;
     const Eigen::Vector3i& tri = geometry_.triangles[prim_triangle_[prim]];
-    const Eigen::Vector3d shift(prim_shift_[prim][0] * tile_size_mm(), prim_shift_[prim][1] * tile_size_mm(),
-                                0.0);
+    const Eigen::Vector3d shift(prim_shift_[prim][0] * tile_size_mm(), prim_shift_[prim][1] * tile_size_mm(), 0.0);
     const Eigen::Vector3d a = geometry_.vertices[tri[0]] + shift;
     const Eigen::Vector3d n = (geometry_.vertices[tri[1]] - geometry_.vertices[tri[0]])
                                   .cross(geometry_.vertices[tri[2]] - geometry_.vertices[tri[0]]);
@@ -228,16 +225,14 @@ std::optional<SurfaceHit> TiledScene::Intersect(const Eigen::Vector3d& origin, c
     hit.normal = n.normalized();
     if (hit.normal.dot(dir) > 0.0) hit.normal = -hit.normal;
     const Eigen::Vector3d in_cell = cell.origin + s * dir;
-    hit.reflectance =
-        ReflectanceAt(geometry_, geometry_.triangle_part[prim_triangle_[prim]], in_cell.x(), in_cell.y());
+    hit.reflectance = ReflectanceAt(geometry_, geometry_.triangle_part[prim_triangle_[prim]], in_cell.x(), in_cell.y());
     result = hit;
     return true;
   });
   return result;
 }
 
-bool TiledScene::Occluded(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double t_min,
-                          double t_max) const {
+bool TiledScene::Occluded(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double t_min, double t_max) const {
   return Walk(origin, dir, t_min, t_max, [&](const CellRay& cell) {
     RTCIntersectContext context;
     rtcInitIntersectContext(&context);

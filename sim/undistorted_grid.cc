@@ -28,10 +28,10 @@ UndistortedGrid::UndistortedGrid(const formats::CameraCalibration& camera, int s
   const std::size_t count = pixels * n_ * n_;
   try {
     state_ = std::make_unique<std::atomic<std::uint8_t>[]>(pixels);  // zero: kEmpty
-    values_.reset(new Eigen::Vector2d[count]);  // no initialization: pages stay untouched
+    values_.reset(new Eigen::Vector2d[count]);                       // no initialization: pages stay untouched
   } catch (const std::bad_alloc&) {
-    core::ThrowOutOfMemory(count * sizeof(Eigen::Vector2d), "the undistorted rays of " + std::to_string(width) +
-                                                                " x " + std::to_string(height) + " pixels, " +
+    core::ThrowOutOfMemory(count * sizeof(Eigen::Vector2d), "the undistorted rays of " + std::to_string(width) + " x " +
+                                                                std::to_string(height) + " pixels, " +
                                                                 std::to_string(n_ * n_) + " a pixel");
   }
 }

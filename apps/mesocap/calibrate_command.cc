@@ -54,8 +54,9 @@ void RegisterCalibrateCommand(CLI::App& app) {
   auto o = std::make_shared<pipelines::CalibrateCamerasOptions>();
   auto json = std::make_shared<bool>(false);
   CLI::App* sub = group->add_subcommand(
-      "camera", "Calibrate one camera, or several jointly with their relative poses, from folders of photos of a "
-                "board (files with the same name in different folders were taken at the same instant)");
+      "camera",
+      "Calibrate one camera, or several jointly with their relative poses, from folders of photos of a "
+      "board (files with the same name in different folders were taken at the same instant)");
   sub->add_option("--images", o->image_folders, "folder of one camera's photos (JPEG, PNG, TIFF); repeat per camera")
       ->required();
   sub->add_option("--board", o->board,

@@ -22,7 +22,7 @@ using nlohmann::json;
 
 struct CaptureClientOptions {
   std::filesystem::path socket = DefaultControlSocket();
-  std::string url;                    // instead of the socket
+  std::string url;                   // instead of the socket
   std::filesystem::path token_file;  // with url
   bool json_output = false;
   std::string plan = "capture";
@@ -59,8 +59,8 @@ std::string Summary(const json& job) {
     line += ", ETA " + Duration(job["eta_s"].get<double>());
   }
   if (!job.value("operator_prompt", "").empty()) {
-    line += "; the operator is asked: " + job.value("operator_prompt", "") +
-            " (when done: mesocap capture ack " + job.value("id", "") + ")";
+    line += "; the operator is asked: " + job.value("operator_prompt", "") + " (when done: mesocap capture ack " +
+            job.value("id", "") + ")";
   } else if (!job.value("pause_reason", "").empty()) {
     line += "; paused: " + job.value("pause_reason", "");
   }
@@ -138,8 +138,9 @@ void RegisterCaptureCommand(CLI::App& app) {
 
   CLI::App* submit = group->add_subcommand("submit", "Queue a capture session; prints its job id");
   common(submit);
-  submit->add_option("--plan", o->plan,
-                     "capture (BTF images, laser calibration and sweeps), btf (the BTF images alone) or calibration")
+  submit
+      ->add_option("--plan", o->plan,
+                   "capture (BTF images, laser calibration and sweeps), btf (the BTF images alone) or calibration")
       ->check(CLI::IsMember(acquisition::kPlanKinds))
       ->capture_default_str();
   submit->callback([o] {

@@ -17,13 +17,13 @@ void RegisterInfoCommand(CLI::App& app);
 void RegisterGroundTruthCommand(CLI::App& app);
 void RegisterSimulateCommand(CLI::App& app);
 void RegisterCompressCommand(CLI::App& app);
-void RegisterEvalBtfCommand(CLI::App& app);     // `eval btf`
-void RegisterProcessBtfCommand(CLI::App& app);  // `process btf`
-void RegisterProcessMdfCommand(CLI::App& app);  // `process mdf`
-void RegisterEvalMdfCommand(CLI::App& app);     // `eval mdf`
-void RegisterExportBonnCommand(CLI::App& app);  // `export bonn`
-void RegisterImportBonnCommand(CLI::App& app);  // `import bonn`
-void RegisterRigCheckCommand(CLI::App& app);    // `rig check`, `devices`
+void RegisterEvalBtfCommand(CLI::App& app);       // `eval btf`
+void RegisterProcessBtfCommand(CLI::App& app);    // `process btf`
+void RegisterProcessMdfCommand(CLI::App& app);    // `process mdf`
+void RegisterEvalMdfCommand(CLI::App& app);       // `eval mdf`
+void RegisterExportBonnCommand(CLI::App& app);    // `export bonn`
+void RegisterImportBonnCommand(CLI::App& app);    // `import bonn`
+void RegisterRigCheckCommand(CLI::App& app);      // `rig check`, `devices`
 void RegisterServeCamerasCommand(CLI::App& app);  // `sim serve-cameras`
 void RegisterCalibrateCommand(CLI::App& app);     // `calibrate`, `calibrate camera`
 void RegisterCaptureCommand(CLI::App& app);       // `capture submit|list|status|watch|...`
@@ -48,7 +48,8 @@ inline CLI::Validator InRange(double min, double max) {
   return CLI::Validator(
       [min, max, range](std::string& text) -> std::string {
         double value = 0.0;
-        if (!CLI::detail::lexical_cast(text, value)) return "expected a number in " + range + ", got " + core::Quoted(text);
+        if (!CLI::detail::lexical_cast(text, value))
+          return "expected a number in " + range + ", got " + core::Quoted(text);
         if (!(value >= min && value <= max)) return core::Cut(text) + " is outside " + range;
         return {};
       },
@@ -61,9 +62,9 @@ inline CLI::Validator InRange(double min, double max) {
 inline void ExpectReplaceableFile(const std::filesystem::path& out, bool replace,
                                   std::vector<std::filesystem::path> inputs) {
   core::RemoveStaleTemporariesOf(out);
-  core::ExpectReplaceable(out, {replace, "a file",
-                                [](const std::filesystem::path& p) { return std::filesystem::is_regular_file(p); },
-                                std::move(inputs)});
+  core::ExpectReplaceable(
+      out, {replace, "a file", [](const std::filesystem::path& p) { return std::filesystem::is_regular_file(p); },
+            std::move(inputs)});
 }
 
 void RegisterRenderCommand(CLI::App& app);

@@ -6,8 +6,8 @@
 
 #include <algorithm>
 #include <chrono>
-#include <filesystem>
 #include <cstdio>
+#include <filesystem>
 #include <nlohmann/json.hpp>
 #include <vector>
 
@@ -46,7 +46,7 @@ void WriteComparisonImages(const std::filesystem::path& dir, const std::string& 
   core::WriteImage(dir / (name + "_coverage_difference.png"),
                    render::MaskDifference(r.coverage, truth.coverage, truth.color), core::PixelEncoding::kUInt8);
   core::WriteImage(dir / (name + "_shadow_difference.png"), render::MaskDifference(r.shadow, truth.shadow, truth.color),
-             core::PixelEncoding::kUInt8);
+                   core::PixelEncoding::kUInt8);
 }
 
 void RunCompare(const CompareCommandOptions& o) {

@@ -119,8 +119,10 @@ ControlEndpoint LoopbackControlEndpoint(const std::string& url, const std::files
   const auto [end, ec] = std::from_chars(port.data(), port.data() + port.size(), number);
   valid = valid && ec == std::errc() && end == port.data() + port.size() && number >= 1 && number <= 65535;
   if (!valid) {
-    throw core::Error("--url: expected http://127.0.0.1:PORT (mesocapd listens on loopback only; its port is in "
-                      "STATE/control.port), got " + core::Quoted(url));
+    throw core::Error(
+        "--url: expected http://127.0.0.1:PORT (mesocapd listens on loopback only; its port is in "
+        "STATE/control.port), got " +
+        core::Quoted(url));
   }
   ControlEndpoint endpoint;
   endpoint.url = std::string(kPrefix) + std::to_string(number);

@@ -53,8 +53,8 @@ void RegisterEvalMdfCommand(CLI::App& app) {
   sub->add_option("--estimate", o->estimate, "material package holding the measured MDF")->required();
   sub->add_flag("--json", o->json, "print the table as one JSON object");
   sub->add_flag("--inside-sample-only", o->inside_sample_only,
-               "leave out true hits behind the sample pocket's wall (outside the sample square), which the rig "
-               "cannot see");
+                "leave out true hits behind the sample pocket's wall (outside the sample square), which the rig "
+                "cannot see");
   sub->add_option("--out", o->out, "also write the JSON table to this file");
   sub->add_flag("--replace", o->replace, "replace an existing file at --out");
   sub->callback([o] { RunEvalMdf(*o); });

@@ -40,9 +40,9 @@ void RegisterExportBonnCommand(CLI::App& app) {
   sub->add_option("--scalar", o->scalar, "fmf/dfmf factor values: half (as btflib writes) or float")
       ->transform(CLI::CheckedTransformer(scalars, CLI::ignore_case))
       ->default_str("half");
-  auto* rank = sub->add_option("--rank", o->compression.rank,
-                               "fmf/dfmf when factoring here: number of SVD components, 1..100")
-                   ->check(InRange(1, core::kMaxBtfRank));
+  auto* rank =
+      sub->add_option("--rank", o->compression.rank, "fmf/dfmf when factoring here: number of SVD components, 1..100")
+          ->check(InRange(1, core::kMaxBtfRank));
   sub->add_option("--max-error", o->compression.max_relative_error,
                   "fmf/dfmf when factoring here: the smallest rank whose relative RMS error is at most this")
       ->check(InRange(1e-12, 1.0))

@@ -4,8 +4,8 @@
 #include <spdlog/spdlog.h>
 
 #include "apps/mesocap/command.h"
-#include "formats/material_manifest.h"
 #include "apps/mesocap/scene_option.h"
+#include "formats/material_manifest.h"
 #include "pipelines/ground_truth.h"
 
 namespace mesocap {
@@ -16,8 +16,7 @@ void RegisterGroundTruthCommand(CLI::App& app) {
                                      "Write the exact material package (MDF, BTF, ambient term, true calibration) of "
                                      "a simulated scene");
   AddSceneOptions(sub, &o->scene);
-  sub->add_option("--rig", o->rig, "shipped rig (tiny, small, paper) or a rig description file")
-      ->capture_default_str();
+  sub->add_option("--rig", o->rig, "shipped rig (tiny, small, paper) or a rig description file")->capture_default_str();
   sub->add_option("--out", o->out, "material package folder to write")->required();
   sub->add_option("--texture-size", o->texture_size, "texels per side of the texture grid")
       ->check(InRange(1, 4096))
@@ -26,8 +25,9 @@ void RegisterGroundTruthCommand(CLI::App& app) {
                   "the BTF and ambient term of a texel are the mean of n x n samples of its area (1: its centre)")
       ->check(InRange(1, formats::kMaxTexelSamplesPerSide))
       ->capture_default_str();
-  sub->add_option("--views", o->views, "view directions: \"rig\" (the rig's own) or a sampling set name "
-                                       "(paper12x8, ubo2003, ubo2014, grid<A>x<P>, ...)")
+  sub->add_option("--views", o->views,
+                  "view directions: \"rig\" (the rig's own) or a sampling set name "
+                  "(paper12x8, ubo2003, ubo2014, grid<A>x<P>, ...)")
       ->capture_default_str();
   sub->add_option("--lights", o->lights, "light directions, as --views")->capture_default_str();
   sub->add_flag("--replace", o->replace, "replace an existing package at --out");

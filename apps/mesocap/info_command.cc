@@ -57,8 +57,8 @@ json MaterialInfo(const fs::path& dir) {
   if (m.error_report) parts["error_report"] = formats::ReadErrorReport(dir, m);
   if (m.calibration) {
     const formats::Calibration c = formats::ReadPackageCalibration(dir, m);
-    parts["calibration"] = {{"cameras", c.cameras.size()}, {"lamps", c.lamps.size()},
-                            {"laser_mounts", c.laser_mounts.size()}};
+    parts["calibration"] = {
+        {"cameras", c.cameras.size()}, {"lamps", c.lamps.size()}, {"laser_mounts", c.laser_mounts.size()}};
   }
   return {{"kind", "material"},
           {"path", dir.string()},
@@ -105,24 +105,25 @@ json CalibrationInfo(const fs::path& file) {
   const formats::Calibration c = formats::ReadCalibration(file);
   json cameras = json::array();
   for (const auto& cam : c.cameras) {
-    cameras.push_back({{"id", cam.id},
-                       {"image_size", {cam.width, cam.height}},
-                       {"fx", cam.intrinsics.fx},
-                       {"fy", cam.intrinsics.fy},
-                       {"k1", cam.distortion.k1},
-                       {"position_mm", {cam.pose.transform.translation.x(), cam.pose.transform.translation.y(),
-                                        cam.pose.transform.translation.z()}},
-                       {"has_uncertainty", cam.intrinsics.uncertainty.fx.has_value()},
-                       {"signal_per_radiance_second",
-                        cam.radiometry ? json(cam.radiometry->signal_per_radiance_second) : json(nullptr)}});
+    cameras.push_back(
+        {{"id", cam.id},
+         {"image_size", {cam.width, cam.height}},
+         {"fx", cam.intrinsics.fx},
+         {"fy", cam.intrinsics.fy},
+         {"k1", cam.distortion.k1},
+         {"position_mm",
+          {cam.pose.transform.translation.x(), cam.pose.transform.translation.y(), cam.pose.transform.translation.z()}},
+         {"has_uncertainty", cam.intrinsics.uncertainty.fx.has_value()},
+         {"signal_per_radiance_second",
+          cam.radiometry ? json(cam.radiometry->signal_per_radiance_second) : json(nullptr)}});
   }
   return {{"kind", "calibration"},
           {"path", file.string()},
           {"cameras", cameras},
           {"lamps", c.lamps.size()},
           {"laser_mounts", c.laser_mounts.size()},
-          {"turntable_axis", {c.turntable.axis_direction.x(), c.turntable.axis_direction.y(),
-                              c.turntable.axis_direction.z()}}};
+          {"turntable_axis",
+           {c.turntable.axis_direction.x(), c.turntable.axis_direction.y(), c.turntable.axis_direction.z()}}};
 }
 
 // Per laser location, the ray-plane sine with each camera (LaserRaySine), and
@@ -168,7 +169,7 @@ json RigInfo(const fs::path& file) {
 
 json ImageInfo(const fs::path& file) {
   const core::ImageHeader h = core::ReadImageHeader(file);
-  return {{"kind", "image"},   {"path", file.string()},     {"width", h.width},
+  return {{"kind", "image"},    {"path", file.string()},  {"width", h.width},
           {"height", h.height}, {"channels", h.channels}, {"encoding", ToString(h.encoding)}};
 }
 
@@ -210,8 +211,8 @@ void PrintText(const json& j) {
     if (key == "cameras" && value.is_array()) {
       for (const auto& cam : value) {
         std::cout << "  camera " << cam["id"].get<std::string>() << ": " << cam["image_size"][0] << "x"
-                  << cam["image_size"][1] << " px, fx " << cam["fx"] << " fy " << cam["fy"] << ", k1 "
-                  << cam["k1"] << ", gain "
+                  << cam["image_size"][1] << " px, fx " << cam["fx"] << " fy " << cam["fy"] << ", k1 " << cam["k1"]
+                  << ", gain "
                   << (cam["signal_per_radiance_second"].is_null() ? "not calibrated"
                                                                   : cam["signal_per_radiance_second"].dump())
                   << "\n";

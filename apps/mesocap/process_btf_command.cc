@@ -21,9 +21,7 @@ void RegisterProcessBtfCommand(CLI::App& app) {
   sub->add_option("--calibration", o->calibration, "calibration file (default: the one the session names)")
       ->check(CLI::ExistingFile);
   sub->add_option("--out", o->out, "material package folder to write")->required();
-  sub->add_option("--texture-size", o->texture_size, "texels per side")
-      ->check(InRange(1, 4096))
-      ->capture_default_str();
+  sub->add_option("--texture-size", o->texture_size, "texels per side")->check(InRange(1, 4096))->capture_default_str();
   AddCompressionOptions(sub, &o->compression);
   sub->add_option("--gain", o->gain,
                   "camera signal (fraction of full scale) per radiance second, for every camera, overriding "

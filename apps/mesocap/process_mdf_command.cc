@@ -36,9 +36,10 @@ void RegisterProcessMdfCommand(CLI::App& app) {
     const pipelines::ProcessMdfReport r = pipelines::RunProcessMdf(*o);
     spdlog::info("wrote {}: {} sweeps, {}x{} texels x {} views", o->out.string(), r.sweeps, r.texels_per_side,
                  r.texels_per_side, r.views);
-    spdlog::info("{} laser planes from their plates: height uncertainty at the sample centre at most {:.4f} mm "
-                 "(one sigma; -v for each plane)",
-                 r.laser_planes, r.worst_plane_height_sigma_mm);
+    spdlog::info(
+        "{} laser planes from their plates: height uncertainty at the sample centre at most {:.4f} mm "
+        "(one sigma; -v for each plane)",
+        r.laser_planes, r.worst_plane_height_sigma_mm);
   });
 }
 

@@ -99,7 +99,7 @@ render::RenderMaterial ResolveRenderMaterial(const std::string& spec, const std:
   }
   if (!formats::ReadMaterialManifest(package).factored_btf) {
     throw core::Error("material " + spec + ": the cached package " + package.string() +
-                " has no factored BTF; remove it to have it built again");
+                      " has no factored BTF; remove it to have it built again");
   }
   render::RenderMaterial material = render::LoadRenderMaterial(package);
   material.geometry = geometry;

@@ -19,8 +19,7 @@ void RegisterRigCheckCommand(CLI::App& app) {
     const auto checks = pipelines::RunRigCheck(*o);
     int failed = 0;
     for (const auto& c : checks) {
-      std::printf("%-12s %-28s %s: %s\n", c.device.c_str(), c.backend.c_str(), c.ok ? "ok" : "FAILED",
-                  c.state.c_str());
+      std::printf("%-12s %-28s %s: %s\n", c.device.c_str(), c.backend.c_str(), c.ok ? "ok" : "FAILED", c.state.c_str());
       failed += c.ok ? 0 : 1;
     }
     std::fflush(stdout);

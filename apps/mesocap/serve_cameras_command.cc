@@ -69,8 +69,7 @@ void RegisterServeCamerasCommand(CLI::App& app) {
   CLI::App* sub = group->add_subcommand(
       "serve-cameras", "Serve the simulated rig's cameras as GigE Vision devices on this host's addresses");
   AddSceneOptions(sub, &o->scene);
-  sub->add_option("--rig", o->rig, "shipped rig (tiny, small, paper) or a rig description file")
-      ->capture_default_str();
+  sub->add_option("--rig", o->rig, "shipped rig (tiny, small, paper) or a rig description file")->capture_default_str();
   sub->add_option("--turntable-deg", o->turntable_deg, "turntable angle")->check(InRange(-360, 360));
   sub->add_option("--arc-deg", o->arc_deg, "light arc angle")->check(InRange(-360, 360));
   sub->add_option("--lamp", o->lamp, "the lamp that is on")->check(InRange(0, 255))->capture_default_str();

@@ -70,7 +70,8 @@ void RunSimulate(const SimulateCommandOptions& o) {
   // A folder without a manifest is a session whose creation was killed:
   // resuming it starts it.
   if (!existing && o.resume && !fs::is_directory(o.out)) {
-    throw core::Error(o.out.string() + ": no capture session to resume (no such folder); leave out --resume to start "
+    throw core::Error(o.out.string() +
+                      ": no capture session to resume (no such folder); leave out --resume to start "
                       "one");
   }
   if (existing && !o.resume) {

@@ -39,7 +39,7 @@ struct DaemonCommandOptions {
   pipelines::SimulatedStationOptions station;
   fs::path calibration;  // a real rig's
   fs::path state;
-  fs::path socket;  // default: STATE/control.sock
+  fs::path socket;                        // default: STATE/control.sock
   std::optional<std::uint16_t> tcp_port;  // 0: one the kernel picks
   double fault_retry_s = 30;
   bool prompt_operator = false;
@@ -160,7 +160,8 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
   } catch (const std::exception& e) {
-    std::fprintf(core::MessageStream(), "mesocapd: error: %s\n", core::Cut(e.what(), 4 * core::kMaxEchoedCharacters).c_str());
+    std::fprintf(core::MessageStream(), "mesocapd: error: %s\n",
+                 core::Cut(e.what(), 4 * core::kMaxEchoedCharacters).c_str());
     return 1;
   }
   return 0;

@@ -76,9 +76,7 @@ struct AravisCamera::Device {
   // The stream's buffers point into these; they outlive the stream.
   std::vector<std::vector<std::byte>> pool;
 
-  static void OnControlLost(ArvDevice*, gpointer self) {
-    static_cast<Device*>(self)->control_lost = true;
-  }
+  static void OnControlLost(ArvDevice*, gpointer self) { static_cast<Device*>(self)->control_lost = true; }
 };
 
 std::string AravisCameraOptions::Check() const {
@@ -388,9 +386,8 @@ void AravisCamera::SetRegion(const CameraRegion& region) {
   if (region.x < 0 || region.y < 0 || width <= 0 || height <= 0 || region.x + width > info_.sensor_width ||
       region.y + height > info_.sensor_height) {
     throw DeviceError("camera " + options_.id + ": region " + std::to_string(width) + " x " + std::to_string(height) +
-                      " at (" + std::to_string(region.x) + ", " + std::to_string(region.y) +
-                      ") is not inside the " + std::to_string(info_.sensor_width) + " x " +
-                      std::to_string(info_.sensor_height) + " sensor");
+                      " at (" + std::to_string(region.x) + ", " + std::to_string(region.y) + ") is not inside the " +
+                      std::to_string(info_.sensor_width) + " x " + std::to_string(info_.sensor_height) + " sensor");
   }
   StopStream();  // the payload changes
   GError* error = nullptr;
@@ -473,7 +470,8 @@ Frame AravisCamera::Grab(std::chrono::milliseconds timeout) {
   // trigger), this one is.
   ArvBuffer* earlier = nullptr;
   for (;;) {
-    const auto left = std::chrono::duration_cast<std::chrono::microseconds>(deadline - std::chrono::steady_clock::now());
+    const auto left =
+        std::chrono::duration_cast<std::chrono::microseconds>(deadline - std::chrono::steady_clock::now());
     ArvBuffer* buffer =
         left.count() > 0 ? arv_stream_timeout_pop_buffer(device_->stream, static_cast<guint64>(left.count())) : nullptr;
     // The retry's frame stays owed: should it come late, the next Grab sets

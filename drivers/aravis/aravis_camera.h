@@ -34,8 +34,8 @@ struct AravisCameraOptions {
   // GigE Vision packet size in bytes; 0 negotiates the largest one that
   // reaches this host unfragmented.
   int packet_size = 0;
-  bool packet_resend = true;  // ask the camera to resend lost packets
-  double frame_rate_hz = 0.0; // free run; 0 keeps the camera's
+  bool packet_resend = true;   // ask the camera to resend lost packets
+  double frame_rate_hz = 0.0;  // free run; 0 keeps the camera's
   // GenICam pixel format names; "" picks: for kNative the RGB format with
   // the most bits, else a Bayer one, else mono; for kMono the mono format
   // with the most bits.

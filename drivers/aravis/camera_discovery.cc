@@ -50,8 +50,7 @@ std::string ResolveCamera(const std::string& device) {
   std::string found;
   for (const auto& c : cameras) found += (found.empty() ? "" : ", ") + c.id + " (" + c.address + ")";
   if (matches.empty()) {
-    throw DeviceError("no camera " + core::Quoted(device) + " found (found: " + (found.empty() ? "none" : found) +
-                      ")");
+    throw DeviceError("no camera " + core::Quoted(device) + " found (found: " + (found.empty() ? "none" : found) + ")");
   }
   throw DeviceError("camera " + core::Quoted(device) + " is ambiguous (found: " + found +
                     "); name it by its device id");

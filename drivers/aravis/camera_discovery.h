@@ -7,7 +7,7 @@
 namespace mesocap::drivers::aravis {
 
 struct DiscoveredCamera {
-  std::string id;        // Aravis device id ("Vendor-Model-Serial"), opens the camera
+  std::string id;  // Aravis device id ("Vendor-Model-Serial"), opens the camera
   std::string vendor;
   std::string model;
   std::string serial;

@@ -24,11 +24,16 @@ PixelFormatTraits Traits(ArvPixelFormat code, std::string name, int channels, in
 // GenICam by the first row's first two: GenICam RG is OpenCV BG.
 int DemosaicCode(BayerPattern pattern) {
   switch (pattern) {
-    case BayerPattern::kRG: return cv::COLOR_BayerBG2RGB;
-    case BayerPattern::kGR: return cv::COLOR_BayerGB2RGB;
-    case BayerPattern::kGB: return cv::COLOR_BayerGR2RGB;
-    case BayerPattern::kBG: return cv::COLOR_BayerRG2RGB;
-    case BayerPattern::kNone: break;
+    case BayerPattern::kRG:
+      return cv::COLOR_BayerBG2RGB;
+    case BayerPattern::kGR:
+      return cv::COLOR_BayerGB2RGB;
+    case BayerPattern::kGB:
+      return cv::COLOR_BayerGR2RGB;
+    case BayerPattern::kBG:
+      return cv::COLOR_BayerRG2RGB;
+    case BayerPattern::kNone:
+      break;
   }
   throw core::Error("not a Bayer pattern");
 }

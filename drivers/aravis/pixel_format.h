@@ -19,11 +19,11 @@ namespace mesocap::drivers::aravis {
 enum class BayerPattern { kNone, kRG, kGR, kGB, kBG };
 
 struct PixelFormatTraits {
-  std::uint32_t code = 0;  // PFNC / GigE Vision pixel format code
-  std::string name;        // GenICam enumeration entry
-  int channels = 1;        // of the decoded image: 1 mono, 3 RGB (Bayer decodes to 3)
-  int bit_depth = 8;       // significant bits a value
-  int bytes_per_value = 1; // 1, or 2 for a little-endian 16-bit container
+  std::uint32_t code = 0;   // PFNC / GigE Vision pixel format code
+  std::string name;         // GenICam enumeration entry
+  int channels = 1;         // of the decoded image: 1 mono, 3 RGB (Bayer decodes to 3)
+  int bit_depth = 8;        // significant bits a value
+  int bytes_per_value = 1;  // 1, or 2 for a little-endian 16-bit container
   BayerPattern bayer = BayerPattern::kNone;
 };
 

@@ -126,8 +126,8 @@ int EmulatedGpioChip::Request(const GpioLineAddress& line, const std::string& co
 
 std::unique_ptr<GpioOutputLine> EmulatedGpioChip::RequestOutput(const GpioLineAddress& line,
                                                                 const std::string& consumer, bool initially_active) {
-  auto output = std::make_unique<EmulatedOutputLine>(state_, Request(line, consumer), line.active_low,
-                                                     state_->Describe(line));
+  auto output =
+      std::make_unique<EmulatedOutputLine>(state_, Request(line, consumer), line.active_low, state_->Describe(line));
   // The kernel drives an output line from its request on.
   output->SetActive(initially_active);
   return output;
@@ -135,8 +135,7 @@ std::unique_ptr<GpioOutputLine> EmulatedGpioChip::RequestOutput(const GpioLineAd
 
 std::unique_ptr<GpioInputLine> EmulatedGpioChip::RequestInput(const GpioLineAddress& line,
                                                               const std::string& consumer) {
-  return std::make_unique<EmulatedInputLine>(state_, Request(line, consumer), line.active_low,
-                                             state_->Describe(line));
+  return std::make_unique<EmulatedInputLine>(state_, Request(line, consumer), line.active_low, state_->Describe(line));
 }
 
 GpioChipOpener EmulatedGpioChip::Opener() const {

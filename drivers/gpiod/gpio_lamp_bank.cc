@@ -60,9 +60,9 @@ void GpioLampBank::SetLamp(int index, bool on) {
   if (lamp.sense && !lamp.sense->IsActive()) {
     lamp.power->SetActive(false);
     lamp.on = false;
-    throw LampFailureError("GPIO lamps: lamp " + std::to_string(index) + " does not light (burnt out: " +
-                           lamp.sense->description() + " reads no current " + std::to_string(options_.settle.count()) +
-                           " ms after switching on)");
+    throw LampFailureError("GPIO lamps: lamp " + std::to_string(index) +
+                           " does not light (burnt out: " + lamp.sense->description() + " reads no current " +
+                           std::to_string(options_.settle.count()) + " ms after switching on)");
   }
 }
 

@@ -9,7 +9,6 @@
 namespace mesocap::drivers::gpiod {
 namespace {
 
-
 std::string Mounts(int count) { return "(the arc has mounts 0 to " + std::to_string(count - 1) + ")"; }
 
 }  // namespace

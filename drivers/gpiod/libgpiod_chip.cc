@@ -115,8 +115,7 @@ class LibgpiodChip : public GpioChip {
         line = chip_.find_line(address.name);
       }
     } catch (const std::out_of_range&) {
-      throw DeviceError(description + ": no such line (the chip has " + std::to_string(chip_.num_lines()) +
-                        " lines)");
+      throw DeviceError(description + ": no such line (the chip has " + std::to_string(chip_.num_lines()) + " lines)");
     } catch (const std::system_error& error) {
       ThrowLineFailure(description, "look up the line", error.code());
     }

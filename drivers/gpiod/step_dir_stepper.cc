@@ -9,7 +9,6 @@
 namespace mesocap::drivers::gpiod {
 namespace {
 
-
 double Wrap(double angle) {
   double wrapped = std::fmod(angle, core::kTwoPi);
   if (wrapped < 0.0) wrapped += core::kTwoPi;
@@ -52,9 +51,8 @@ std::string StepDirStepperOptions::Check() const {
   // The step line must be inactive between pulses at least as long as active.
   const double period_ns = 1e9 / (max_speed_rad_per_s * steps_per_rad());
   if (period_ns < 2.0 * static_cast<double>(step_pulse.count())) {
-    return "max_speed_rad_per_s: " + Speed(max_speed_rad_per_s) + " needs a step every " +
-           std::to_string(period_ns) + " ns, shorter than twice step_pulse (" + std::to_string(step_pulse.count()) +
-           " ns)";
+    return "max_speed_rad_per_s: " + Speed(max_speed_rad_per_s) + " needs a step every " + std::to_string(period_ns) +
+           " ns, shorter than twice step_pulse (" + std::to_string(step_pulse.count()) + " ns)";
   }
   return "";
 }
@@ -98,8 +96,8 @@ void StepDirStepper::Step(bool positive, std::chrono::nanoseconds period) {
 }
 
 std::int64_t StepDirStepper::steps_per_turn() const {
-  const double turn = options_.full_steps_per_revolution * static_cast<double>(options_.microsteps) *
-                      options_.gear_ratio;
+  const double turn =
+      options_.full_steps_per_revolution * static_cast<double>(options_.microsteps) * options_.gear_ratio;
   // Up, but not for the rounding error of a whole number of steps.
   return static_cast<std::int64_t>(std::ceil(turn * (1.0 - 1e-12)));
 }

@@ -80,7 +80,7 @@ class StepDirStepper : public RotaryStage {
   std::unique_ptr<GpioInputLine> limit_switch_;
   double steps_per_rad_;
   bool homed_ = false;
-  bool positive_ = true;             // the level the dir line holds
+  bool positive_ = true;                   // the level the dir line holds
   std::chrono::nanoseconds last_step_{0};  // when the last step began
   std::int64_t position_steps_ = 0;
   std::int64_t remaining_steps_ = 0;  // signed: still to send for the move

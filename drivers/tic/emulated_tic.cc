@@ -242,10 +242,10 @@ int EmulatedTic::commands_received(TicCommand command) const {
 
 TicVariables EmulatedTic::Variables() const {
   TicVariables v;
-  const bool deenergized = error_status_ & (ErrorMask(TicErrorBit::kIntentionallyDeenergized) |
-                                            ErrorMask(TicErrorBit::kMotorDriverError) |
-                                            ErrorMask(TicErrorBit::kLowVin) | ErrorMask(TicErrorBit::kKillSwitch));
-  v.operation_state = static_cast<std::uint8_t>(deenergized       ? TicOperationState::kDeenergized
+  const bool deenergized =
+      error_status_ & (ErrorMask(TicErrorBit::kIntentionallyDeenergized) | ErrorMask(TicErrorBit::kMotorDriverError) |
+                       ErrorMask(TicErrorBit::kLowVin) | ErrorMask(TicErrorBit::kKillSwitch));
+  v.operation_state = static_cast<std::uint8_t>(deenergized          ? TicOperationState::kDeenergized
                                                 : error_status_ != 0 ? TicOperationState::kSoftError
                                                                      : TicOperationState::kNormal);
   v.energized = !deenergized;

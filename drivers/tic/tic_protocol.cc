@@ -51,8 +51,8 @@ constexpr ErrorFacts kErrorFacts[] = {
 };
 
 std::uint32_t ReadU32(std::span<const std::uint8_t> block, std::size_t offset) {
-  return std::uint32_t{block[offset]} | std::uint32_t{block[offset + 1]} << 8 |
-         std::uint32_t{block[offset + 2]} << 16 | std::uint32_t{block[offset + 3]} << 24;
+  return std::uint32_t{block[offset]} | std::uint32_t{block[offset + 1]} << 8 | std::uint32_t{block[offset + 2]} << 16 |
+         std::uint32_t{block[offset + 3]} << 24;
 }
 
 std::uint16_t ReadU16(std::span<const std::uint8_t> block, std::size_t offset) {
@@ -87,16 +87,26 @@ std::optional<std::uint8_t> StepModeCode(int microsteps) {
   // Codes 0-5 are 1-32 microsteps; 6 is the T249's "2 (100%)" mode, so the
   // 36v4's 64-256 continue at 7.
   switch (microsteps) {
-    case 1: return 0;
-    case 2: return 1;
-    case 4: return 2;
-    case 8: return 3;
-    case 16: return 4;
-    case 32: return 5;
-    case 64: return 7;
-    case 128: return 8;
-    case 256: return 9;
-    default: return std::nullopt;
+    case 1:
+      return 0;
+    case 2:
+      return 1;
+    case 4:
+      return 2;
+    case 8:
+      return 3;
+    case 16:
+      return 4;
+    case 32:
+      return 5;
+    case 64:
+      return 7;
+    case 128:
+      return 8;
+    case 256:
+      return 9;
+    default:
+      return std::nullopt;
   }
 }
 
@@ -119,12 +129,18 @@ std::string DescribeErrors(std::uint32_t bits) {
 
 std::string OperationStateName(std::uint8_t state) {
   switch (static_cast<TicOperationState>(state)) {
-    case TicOperationState::kReset: return "reset";
-    case TicOperationState::kDeenergized: return "de-energized";
-    case TicOperationState::kSoftError: return "soft error";
-    case TicOperationState::kWaitingForErrLine: return "waiting for ERR line";
-    case TicOperationState::kStartingUp: return "starting up";
-    case TicOperationState::kNormal: return "normal";
+    case TicOperationState::kReset:
+      return "reset";
+    case TicOperationState::kDeenergized:
+      return "de-energized";
+    case TicOperationState::kSoftError:
+      return "soft error";
+    case TicOperationState::kWaitingForErrLine:
+      return "waiting for ERR line";
+    case TicOperationState::kStartingUp:
+      return "starting up";
+    case TicOperationState::kNormal:
+      return "normal";
   }
   return "unknown operation state " + std::to_string(state);
 }

@@ -13,7 +13,6 @@
 namespace mesocap::drivers::tic {
 namespace {
 
-
 // Errors an idle Tic collects when nobody resets its command timeout; the
 // next move clears them.
 constexpr std::uint32_t kIdleErrors =
@@ -36,10 +35,11 @@ core::CheckResult TicStageOptions::Check() const {
   if (id.empty()) return "id is empty";
   if (serial_number.empty()) return "serial_number is empty: name the Tic to open";
   if (full_steps_per_revolution <= 0) return "full_steps_per_revolution must be positive";
-  if (!StepModeCode(microsteps)) return "microsteps must be a power of two from 1 to 256, not " + std::to_string(microsteps);
+  if (!StepModeCode(microsteps))
+    return "microsteps must be a power of two from 1 to 256, not " + std::to_string(microsteps);
   if (microsteps > MaxMicrosteps(product)) {
-    return ProductName(product) + " offers at most " + std::to_string(MaxMicrosteps(product)) +
-           " microsteps, not " + std::to_string(microsteps);
+    return ProductName(product) + " offers at most " + std::to_string(MaxMicrosteps(product)) + " microsteps, not " +
+           std::to_string(microsteps);
   }
   if (!(gear_ratio > 0.0) || !std::isfinite(gear_ratio)) return "gear_ratio must be positive";
   // The Tic counts in 32 bits; a few hundred turns either way must fit.
@@ -78,7 +78,9 @@ TicRotaryStage::TicRotaryStage(TicStageOptions options, TicOpener opener, std::u
   Configure();
 }
 
-std::string TicRotaryStage::Name() const { return "Tic stage " + options_.id + " (serial " + options_.serial_number + ")"; }
+std::string TicRotaryStage::Name() const {
+  return "Tic stage " + options_.id + " (serial " + options_.serial_number + ")";
+}
 
 void TicRotaryStage::Configure() {
   if (transport_->info().product != options_.product) {

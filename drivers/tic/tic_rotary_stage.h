@@ -37,7 +37,7 @@ struct TicStageOptions {
   // Microsteps per full step: a power of two the product offers (1-32;
   // T500 1-8; 36v4 1-256).
   int microsteps = 8;
-  double gear_ratio = 1.0;  // motor turns per output turn
+  double gear_ratio = 1.0;           // motor turns per output turn
   double max_speed_rad_per_s = 0.5;  // of the output
   HomingDirection homing_direction = HomingDirection::kReverse;
   // The Tic's command timeout setting; 0 when it is off there.

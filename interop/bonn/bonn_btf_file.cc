@@ -71,8 +71,8 @@ class ByteReader {
   void Need(std::uint64_t bytes, const std::string& field) const {
     if (bytes > remaining()) {
       throw core::FormatError(file_, field,
-                        "truncated: needs " + std::to_string(bytes) + " bytes at offset " + std::to_string(offset_) +
-                            ", the file has " + std::to_string(remaining()) + " left");
+                              "truncated: needs " + std::to_string(bytes) + " bytes at offset " +
+                                  std::to_string(offset_) + ", the file has " + std::to_string(remaining()) + " left");
     }
   }
   void Read(void* dst, std::uint64_t bytes, const std::string& field) {
@@ -102,8 +102,8 @@ class ByteReader {
   int Count(const std::string& field, std::uint32_t lo, std::uint32_t hi) {
     const auto v = Get<std::uint32_t>(field);
     if (v < lo || v > hi) {
-      throw core::FormatError(file_, field, "expected " + std::to_string(lo) + ".." + std::to_string(hi) + ", got " +
-                                          std::to_string(v));
+      throw core::FormatError(
+          file_, field, "expected " + std::to_string(lo) + ".." + std::to_string(hi) + ", got " + std::to_string(v));
     }
     return static_cast<int>(v);
   }
@@ -128,7 +128,7 @@ BonnDirection ReadDirection(ByteReader& in, const std::string& field) {
   d.phi = in.Get<float>(field + ".phi");
   if (!std::isfinite(d.theta) || !(d.theta >= 0.0f) || !(d.theta < static_cast<float>(std::numbers::pi / 2))) {
     throw core::FormatError(in.file(), field + ".theta",
-                      "expected a polar angle in [0, pi/2) rad (upper hemisphere), got " + Num(d.theta));
+                            "expected a polar angle in [0, pi/2) rad (upper hemisphere), got " + Num(d.theta));
   }
   if (!std::isfinite(d.phi))
     throw core::FormatError(in.file(), field + ".phi", "expected a finite azimuth, got " + Num(d.phi));
@@ -161,9 +161,9 @@ void ReadMeta(ByteReader& in, BonnBtfFile* btf) {
   if (version > 3) {
     const auto channels = in.Get<std::uint32_t>("meta.channel_count");
     if (channels != 3) {
-      throw core::FormatError(in.file(), "meta.channel_count",
-                        "expected 3 colour channels (RGB), got " + std::to_string(channels) +
-                            " (spectral BTFs are not supported)");
+      throw core::FormatError(
+          in.file(), "meta.channel_count",
+          "expected 3 colour channels (RGB), got " + std::to_string(channels) + " (spectral BTFs are not supported)");
     }
     btf->channel_names.clear();
     for (std::uint32_t c = 0; c < channels; ++c) {
@@ -171,15 +171,15 @@ void ReadMeta(ByteReader& in, BonnBtfFile* btf) {
       const auto n = in.Get<std::uint32_t>(field + ".length");
       if (n > kMaxNameBytes) {
         throw core::FormatError(in.file(), field + ".length",
-                          "expected at most " + std::to_string(kMaxNameBytes) + ", got " + std::to_string(n));
+                                "expected at most " + std::to_string(kMaxNameBytes) + ", got " + std::to_string(n));
       }
       btf->channel_names.push_back(in.Chars(n, field));
     }
   }
   if (in.offset() - start != size) {
     throw core::FormatError(in.file(), "meta.size",
-                      "says the meta-data block has " + std::to_string(size) + " bytes, its fields (version " +
-                          std::to_string(version) + ") take " + std::to_string(in.offset() - start));
+                            "says the meta-data block has " + std::to_string(size) + " bytes, its fields (version " +
+                                std::to_string(version) + ") take " + std::to_string(in.offset() - start));
   }
 }
 
@@ -196,8 +196,8 @@ void ReadDirections(ByteReader& in, BonnBtfFile* btf) {
     const int lights = in.Count(field + ".light_count", 1, formats::kMaxDirections);
     if (v > 0 && lights != btf->light_count()) {
       throw core::FormatError(in.file(), field + ".light_count",
-                        "expected the same light count after every view (" + std::to_string(btf->light_count()) +
-                            "), got " + std::to_string(lights));
+                              "expected the same light count after every view (" + std::to_string(btf->light_count()) +
+                                  "), got " + std::to_string(lights));
     }
     in.Need(static_cast<std::uint64_t>(lights) * 8, field + ".lights");
     for (int l = 0; l < lights; ++l) {
@@ -209,8 +209,8 @@ void ReadDirections(ByteReader& in, BonnBtfFile* btf) {
                  std::abs(std::remainder(d.phi - btf->lights[l].phi, 2 * std::numbers::pi_v<float>)) > 1e-6f) {
         // mesocap's BTF is a tensor product: one light set for every view.
         throw core::FormatError(in.file(), light_field,
-                          "expected the same light directions after every view; differs from views[0].lights[" +
-                              std::to_string(l) + "]");
+                                "expected the same light directions after every view; differs from views[0].lights[" +
+                                    std::to_string(l) + "]");
       }
     }
   }
@@ -245,8 +245,8 @@ void ReadScalars(ByteReader& in, BonnScalar scalar, std::uint64_t count, float* 
   }
   for (std::uint64_t i = 0; i < count; ++i) {
     if (!std::isfinite(dst[i])) {
-      throw core::FormatError(in.file(), field, "value " + Num(dst[i]) + " at index " + std::to_string(i) +
-                                              "; expected finite numbers");
+      throw core::FormatError(in.file(), field,
+                              "value " + Num(dst[i]) + " at index " + std::to_string(i) + "; expected finite numbers");
     }
   }
 }
@@ -270,13 +270,12 @@ BonnRowSpace RowSpaceOf(const ByteReader& in, const BonnBtfFile& btf, std::uint6
   if (rows == channels * directions && columns == texels) return BonnRowSpace::kDirections;
   if (rows == channels * texels && columns == directions) return BonnRowSpace::kTexels;
   const std::string c = channels == 1 ? "" : std::to_string(channels) + " x ";
-  throw core::FormatError(in.file(), field,
-                          "expected " + c + "lights x views = " + std::to_string(channels * directions) +
-                              " rows and width x height = " + std::to_string(texels) +
-                              " columns (the database's orientation), or " + c + "width x height = " +
-                              std::to_string(channels * texels) + " rows and lights x views = " +
-                              std::to_string(directions) + " columns; got " + std::to_string(rows) + " x " +
-                              std::to_string(columns));
+  throw core::FormatError(
+      in.file(), field,
+      "expected " + c + "lights x views = " + std::to_string(channels * directions) +
+          " rows and width x height = " + std::to_string(texels) + " columns (the database's orientation), or " + c +
+          "width x height = " + std::to_string(channels * texels) + " rows and lights x views = " +
+          std::to_string(directions) + " columns; got " + std::to_string(rows) + " x " + std::to_string(columns));
 }
 
 BonnFactors ReadFactors(ByteReader& in, BonnScalar scalar, int rank, std::uint64_t rows, std::uint64_t columns,
@@ -321,8 +320,8 @@ class ByteWriter {
 
 void PutFixedString(ByteWriter& out, const std::string& s, const std::string& field) {
   if (s.size() > kMetaStringBytes) {
-    throw core::Error("Bonn BTF " + field + " " + core::Quoted(s) + " is longer than " + std::to_string(kMetaStringBytes) +
-                      " bytes");
+    throw core::Error("Bonn BTF " + field + " " + core::Quoted(s) + " is longer than " +
+                      std::to_string(kMetaStringBytes) + " bytes");
   }
   std::string padded = s;
   padded.resize(kMetaStringBytes, '\0');
@@ -374,7 +373,7 @@ void PutScalars(ByteWriter& out, BonnScalar scalar, const float* values, std::si
   for (std::size_t i = 0; i < count; ++i) {
     if (!(std::abs(values[i]) <= kBonnHalfMax)) {
       throw core::Error("Bonn BTF " + what + " value " + Num(values[i]) + " at index " + std::to_string(i) +
-                  " does not fit a half float (|v| <= 65504); write float scalars instead");
+                        " does not fit a half float (|v| <= 65504); write float scalars instead");
     }
     bits[i] = Eigen::numext::bit_cast<std::uint16_t>(Eigen::half(values[i]));
   }
@@ -394,7 +393,7 @@ void CheckForWriting(const BonnBtfFile& btf) {
   const std::size_t expected = btf.form == BonnBtfForm::kFmf ? 1 : 3;
   if (btf.factors.size() != expected) {
     throw core::Error("Bonn BTF: expected " + std::to_string(expected) + " factor sets, got " +
-                std::to_string(btf.factors.size()));
+                      std::to_string(btf.factors.size()));
   }
   const int channels = btf.form == BonnBtfForm::kFmf ? 3 : 1;
   const Eigen::Index texels = static_cast<Eigen::Index>(btf.width) * btf.height;
@@ -440,8 +439,9 @@ BonnBtfFile ReadBonnBtfFile(const fs::path& file) {
   if (!match) {
     std::string shown;
     for (unsigned char c : head) shown += (c >= 32 && c < 127) ? static_cast<char>(c) : '?';
-    throw core::FormatError(file, "signature",
-                      "expected \"!FMF12FCER\", \"!FMF06FCR\", \"!FMF06FC\" or \"!DFMF08FCR\", got \"" + shown + "\"");
+    throw core::FormatError(
+        file, "signature",
+        "expected \"!FMF12FCER\", \"!FMF06FCR\", \"!FMF06FC\" or \"!DFMF08FCR\", got \"" + shown + "\"");
   }
   BonnBtfFile btf;
   btf.form = match->form;
@@ -478,8 +478,8 @@ BonnBtfFile ReadBonnBtfFile(const fs::path& file) {
     const auto rank = body.Get<std::uint32_t>("components (repeated)");
     if (rank != rank_file || rank < 1) {
       throw core::FormatError(file, "components (repeated)",
-                        "expected a positive count equal to the first (" + std::to_string(rank_file) + "), got " +
-                            std::to_string(rank));
+                              "expected a positive count equal to the first (" + std::to_string(rank_file) + "), got " +
+                                  std::to_string(rank));
     }
     const auto rows = body.Get<std::uint32_t>("rows");
     const auto columns = body.Get<std::uint32_t>("columns");
@@ -500,9 +500,9 @@ BonnBtfFile ReadBonnBtfFile(const fs::path& file) {
       const BonnScalar scalar = ScalarOf(body, body.Get<std::uint8_t>(prefix + "scalar_size"), prefix + "scalar_size");
       const auto rank = body.Get<std::uint32_t>(prefix + "components");
       if (rank < 1 || rank > max_rank) {
-        throw core::FormatError(file, prefix + "components",
-                          "expected 1.." + std::to_string(max_rank) + " (the header's largest count), got " +
-                              std::to_string(rank));
+        throw core::FormatError(
+            file, prefix + "components",
+            "expected 1.." + std::to_string(max_rank) + " (the header's largest count), got " + std::to_string(rank));
       }
       const auto rows = body.Get<std::uint32_t>(prefix + "rows");
       const auto columns = body.Get<std::uint32_t>(prefix + "columns");
@@ -517,8 +517,8 @@ BonnBtfFile ReadBonnBtfFile(const fs::path& file) {
   }
   if (body.remaining() != 0) {
     throw core::FormatError(file, "size",
-                      std::to_string(body.remaining()) + " bytes after the last factor matrix; expected none " +
-                          "(inconsistent counts in the header?)");
+                            std::to_string(body.remaining()) + " bytes after the last factor matrix; expected none " +
+                                "(inconsistent counts in the header?)");
   }
   return btf;
 }
@@ -548,7 +548,7 @@ void WriteBonnBtfFile(const fs::path& file, const BonnBtfFile& btf, BonnScalar s
       static_cast<long long>(btf.width) * btf.height == static_cast<long long>(btf.view_count()) * btf.light_count()) {
     if (btf.form == BonnBtfForm::kFmf) {
       throw core::Error("Bonn FMF: width x height equals views x lights (" + std::to_string(btf.width * btf.height) +
-                  "), so a reader would take the texel rows for direction rows; write a DFMF instead");
+                        "), so a reader would take the texel rows for direction rows; write a DFMF instead");
     }
     BonnBtfFile swapped = btf;
     swapped.row_space = BonnRowSpace::kDirections;
@@ -596,18 +596,30 @@ void WriteBonnBtfFile(const fs::path& file, const BonnBtfFile& btf, BonnScalar s
 
 const char* BonnColorModelName(int model) {
   switch (model) {
-    case 0: return "RGB";
-    case 1: return "YUV";
-    case 2: return "LAB";
-    case 3: return "PCA";
-    case 4: return "YCoCg";
-    case 5: return "SPECTRAL";
-    case 6: return "SPECTRAL_LINEAR";
-    case 9: return "Ylog_UV";
-    case 10: return "Ylog_Ulog_Vlog";
-    case 11: return "Ylog_UdivY_VdivY";
-    case 12: return "log RGB";
-    default: return "unknown";
+    case 0:
+      return "RGB";
+    case 1:
+      return "YUV";
+    case 2:
+      return "LAB";
+    case 3:
+      return "PCA";
+    case 4:
+      return "YCoCg";
+    case 5:
+      return "SPECTRAL";
+    case 6:
+      return "SPECTRAL_LINEAR";
+    case 9:
+      return "Ylog_UV";
+    case 10:
+      return "Ylog_Ulog_Vlog";
+    case 11:
+      return "Ylog_UdivY_VdivY";
+    case 12:
+      return "log RGB";
+    default:
+      return "unknown";
   }
 }
 
@@ -615,7 +627,8 @@ BonnColorTransform BonnToRgb(const BonnBtfFile& btf) {
   BonnColorTransform t;
   if (btf.form == BonnBtfForm::kFmf) return t;
   switch (btf.color_model) {
-    case kBonnColorRgb: return t;
+    case kBonnColorRgb:
+      return t;
     case kBonnColorYuv:
       // The YUV -> RGB matrix of btflib's undecorrelate.m (BT.601 analogue YUV).
       t.to_rgb << 1, 0, 1.13983, 1, -0.39465, -0.5806, 1, 2.03211, 0;
@@ -630,8 +643,8 @@ BonnColorTransform BonnToRgb(const BonnBtfFile& btf) {
       return t;
     default:
       throw core::Error("DFMF colour model " + std::to_string(btf.color_model) + " (" +
-                  BonnColorModelName(btf.color_model) +
-                  ") is not supported: mesocap reads the linear models 0 RGB, 1 YUV, 3 PCA and 4 YCoCg");
+                        BonnColorModelName(btf.color_model) +
+                        ") is not supported: mesocap reads the linear models 0 RGB, 1 YUV, 3 PCA and 4 YCoCg");
   }
 }
 

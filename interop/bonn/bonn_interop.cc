@@ -70,9 +70,12 @@ std::vector<double> CosineDivisors(const BonnBtfFile& btf) {
 
 const char* ToString(BonnForm form) {
   switch (form) {
-    case BonnForm::kUbo2003: return "ubo2003";
-    case BonnForm::kFmf: return "fmf";
-    case BonnForm::kDfmf: return "dfmf";
+    case BonnForm::kUbo2003:
+      return "ubo2003";
+    case BonnForm::kFmf:
+      return "fmf";
+    case BonnForm::kDfmf:
+      return "dfmf";
   }
   return "?";
 }
@@ -81,7 +84,7 @@ BonnBtfFile BonnDfmfFromFactored(const core::FactoredBtf& btf) {
   btf.CheckShape();
   if (btf.layout != core::BtfFactorLayout::kPerTexel) {
     throw core::Error("DFMF export needs the per_texel layout (rows x, y; columns view, light), got " +
-                std::string(ToString(btf.layout)));
+                      std::string(ToString(btf.layout)));
   }
   BonnBtfFile b;
   b.form = BonnBtfForm::kDfmf;
@@ -165,8 +168,8 @@ core::SamplingSet BonnLightSet(const BonnBtfFile& btf, const fs::path& file) {
 core::FactoredBtf FactoredFromBonn(const BonnBtfFile& btf, const fs::path& file) {
   if (btf.dynamic_range_reduction != 0) {
     throw core::Error(file.string() + ": the FMF stores log values (dynamic_range_reduction " +
-                std::to_string(btf.dynamic_range_reduction) +
-                "), which no linear factorization reproduces; import it as a full BTF");
+                      std::to_string(btf.dynamic_range_reduction) +
+                      "), which no linear factorization reproduces; import it as a full BTF");
   }
   BonnColorTransform color;
   try {

@@ -103,8 +103,9 @@ NameAngles ParseName(const fs::path& file) {
     const bool digits_only =
         std::all_of(first, last, [](char c) { return std::isdigit(static_cast<unsigned char>(c)) || c == '.'; });
     if (it == kTokens.end() || first == last || parsed.ec != std::errc() || parsed.ptr != last || !digits_only) {
-      throw core::FormatError(file, "name",
-                        "expected tl<deg>_pl<deg>_tv<deg>_pv<deg> (e.g. tl015_pl060_tv030_pv090), got part " + core::Quoted(part));
+      throw core::FormatError(
+          file, "name",
+          "expected tl<deg>_pl<deg>_tv<deg>_pv<deg> (e.g. tl015_pl060_tv030_pv090), got part " + core::Quoted(part));
     }
     const int index = static_cast<int>(it - kTokens.begin());
     if (seen[index]) throw core::FormatError(file, "name", std::string("angle ") + kTokens[index] + " given twice");
@@ -119,14 +120,15 @@ NameAngles ParseName(const fs::path& file) {
   if (parts != 4) throw core::FormatError(file, "name", "expected exactly the four parts tl, pl, tv, pv");
   for (int i : {0, 2}) {
     if (out.deg[i] >= 90.0) {
-      throw core::FormatError(file, "name", std::string(kTokens[i]) + " " + std::to_string(out.deg[i]) +
-                                          " degrees is not a polar angle of the upper hemisphere [0, 90)");
+      throw core::FormatError(file, "name",
+                              std::string(kTokens[i]) + " " + std::to_string(out.deg[i]) +
+                                  " degrees is not a polar angle of the upper hemisphere [0, 90)");
     }
   }
   for (int i : {1, 3}) {
     if (out.deg[i] >= 360.0) {
-      throw core::FormatError(file, "name",
-                        std::string(kTokens[i]) + " " + std::to_string(out.deg[i]) + " degrees is outside [0, 360)");
+      throw core::FormatError(
+          file, "name", std::string(kTokens[i]) + " " + std::to_string(out.deg[i]) + " degrees is outside [0, 360)");
     }
   }
   return out;
@@ -189,7 +191,7 @@ Ubo2003ImageSet ScanUbo2003Folder(const fs::path& dir) {
   for (const auto& file : candidates) {
     if (Lower(file.extension().string()) != extension) {
       throw core::FormatError(file, "extension",
-                        "expected every image in the same format as " + candidates.front().filename().string());
+                              "expected every image in the same format as " + candidates.front().filename().string());
     }
     const NameAngles a = ParseName(file);
     const DegreePair light = Key(a.deg[0], a.deg[1]);
@@ -222,16 +224,17 @@ Ubo2003ImageSet ScanUbo2003Folder(const fs::path& dir) {
         fs::path expected = dir / Ubo2003ImageName(set.lights.angles(l), set.views.angles(v), enc);
         expected.replace_extension(extension);
         throw core::FormatError(expected, "",
-                          "missing: every light must be imaged from every view (" + std::to_string(light_keys.size()) +
-                              " lights x " + std::to_string(view_keys.size()) + " views seen); no image for light " +
-                              std::to_string(l) + ", view " + std::to_string(v));
+                                "missing: every light must be imaged from every view (" +
+                                    std::to_string(light_keys.size()) + " lights x " +
+                                    std::to_string(view_keys.size()) + " views seen); no image for light " +
+                                    std::to_string(l) + ", view " + std::to_string(v));
       }
       const core::ImageHeader h = core::ReadImageHeader(it->second);
       if (h.width != first.width || h.height != first.height) {
         throw core::FormatError(it->second, h.width != first.width ? "width" : "height",
-                          "expected " + std::to_string(first.width) + "x" + std::to_string(first.height) + " like " +
-                              candidates.front().filename().string() + ", got " + std::to_string(h.width) + "x" +
-                              std::to_string(h.height));
+                                "expected " + std::to_string(first.width) + "x" + std::to_string(first.height) +
+                                    " like " + candidates.front().filename().string() + ", got " +
+                                    std::to_string(h.width) + "x" + std::to_string(h.height));
       }
       if (h.channels != 3) {
         throw core::FormatError(it->second, "channels", "expected 3 (RGB), got " + std::to_string(h.channels));
@@ -239,8 +242,8 @@ Ubo2003ImageSet ScanUbo2003Folder(const fs::path& dir) {
       if ((h.encoding == core::PixelEncoding::kFloat32 || h.encoding == core::PixelEncoding::kHalf) !=
           (first.encoding == core::PixelEncoding::kFloat32 || first.encoding == core::PixelEncoding::kHalf)) {
         throw core::FormatError(it->second, "pixel type",
-                          std::string("expected ") + ToString(first.encoding) + " like " +
-                              candidates.front().filename().string() + ", got " + ToString(h.encoding));
+                                std::string("expected ") + ToString(first.encoding) + " like " +
+                                    candidates.front().filename().string() + ", got " + ToString(h.encoding));
       }
       set.files[v][l] = it->second;
       ++l;
@@ -271,8 +274,8 @@ core::Image ReadUbo2003View(const Ubo2003ImageSet& set, int view, double scale) 
       for (int i = 0; i < w * 3; ++i) {
         const float v = srgb ? OIIO::sRGB_to_linear(src[i]) : src[i];
         if (!std::isfinite(v)) {
-          throw core::FormatError(file, "pixels", "value at x=" + std::to_string(i / 3) + ", y=" + std::to_string(y) +
-                                                " is not finite");
+          throw core::FormatError(
+              file, "pixels", "value at x=" + std::to_string(i / 3) + ", y=" + std::to_string(y) + " is not finite");
         }
         dst[i] = static_cast<float>(v / scale);
       }
@@ -287,7 +290,7 @@ long long WriteUbo2003View(const fs::path& dir, const core::SamplingSet& views, 
   const int h = lights.size() > 0 ? values.height() / lights.size() : 0;
   if (values.channels() != 3 || h <= 0 || h * lights.size() != values.height()) {
     throw core::Error("Bonn image export: view image " + std::to_string(values.width()) + "x" +
-                std::to_string(values.height()) + " does not hold " + std::to_string(lights.size()) + " lights");
+                      std::to_string(values.height()) + " does not hold " + std::to_string(lights.size()) + " lights");
   }
   const int w = values.width();
   long long clipped = 0;
@@ -305,7 +308,7 @@ long long WriteUbo2003View(const fs::path& dir, const core::SamplingSet& views, 
         } else {
           if (!(std::abs(v) <= kUbo2003HalfMax)) {
             throw core::Error("Bonn image export: value " + std::to_string(v) + " (view " + std::to_string(view) +
-                        ", light " + std::to_string(l) + ") does not fit a half float (|v| <= 65504)");
+                              ", light " + std::to_string(l) + ") does not fit a half float (|v| <= 65504)");
           }
           dst[i] = v;
         }

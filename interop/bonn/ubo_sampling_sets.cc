@@ -35,8 +35,8 @@ std::vector<core::SphericalAngles> RingAngles(const std::vector<RingSpec>& rings
 core::SamplingSet NamedSamplingSet(const std::string& name) {
   // Sattler, Sarlette, Klein 2003: six rings 15 degrees apart.
   if (name == "ubo2003") {
-    return core::SamplingSet::FromAngles(name, RingAngles({{0, 1, 0}, {15, 6, 0}, {30, 12, 0}, {45, 18, 0},
-                                                           {60, 20, 0}, {75, 24, 0}}));
+    return core::SamplingSet::FromAngles(
+        name, RingAngles({{0, 1, 0}, {15, 6, 0}, {30, 12, 0}, {45, 18, 0}, {60, 20, 0}, {75, 24, 0}}));
   }
   // Bonn dome 1 as in btflib's create_ubo_dome1_sampling (ring offsets included).
   if (name == "ubo2014") {

@@ -54,8 +54,8 @@ TEST(BearerTokenTest, AFileOfAnotherModeKindOrContentIsRefusedByName) {
   const std::string remedy = "; remove it and mesocapd makes a new one";
   const std::string token(64, 'c');
   std::ofstream(file) << token << "\n";
-  fs::permissions(file, fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read |
-                            fs::perms::others_read);
+  fs::permissions(file,
+                  fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read | fs::perms::others_read);
   EXPECT_EQ(ErrorOf([&] { OpenOrCreateBearerTokenFile(file); }),
             file.string() + ": mode 0644, expected 0600 (only mesocapd's user may read the bearer token)" + remedy);
   EXPECT_EQ(ReadBearerTokenFile(file), token);  // a client reads it whatever its mode
@@ -64,8 +64,8 @@ TEST(BearerTokenTest, AFileOfAnotherModeKindOrContentIsRefusedByName) {
 
   const std::string content_error =
       ": expected a bearer token (64 lowercase hex digits and a newline, as mesocapd writes it)";
-  for (const std::string& bad : {std::string(63, 'c'), std::string(65, 'c'), std::string(64, 'C'),
-                                 std::string(64, 'g'), token + "\n\n", std::string()}) {
+  for (const std::string& bad : {std::string(63, 'c'), std::string(65, 'c'), std::string(64, 'C'), std::string(64, 'g'),
+                                 token + "\n\n", std::string()}) {
     std::ofstream(file, std::ios::trunc) << bad;
     EXPECT_EQ(ErrorOf([&] { OpenOrCreateBearerTokenFile(file); }), file.string() + content_error + remedy)
         << "content of " << bad.size() << " bytes";

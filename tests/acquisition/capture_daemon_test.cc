@@ -153,7 +153,10 @@ TEST_F(SimulatedDaemonTest, AFaultTheRetriesCannotCurePausesTheJobUntilTheDevice
 }
 
 TEST_F(SimulatedDaemonTest, ADamagedJobRecordIsNamedAtStart) {
-  { auto daemon = MakeDaemon(); daemon->Submit("capture"); }
+  {
+    auto daemon = MakeDaemon();
+    daemon->Submit("capture");
+  }
   std::ofstream(state_ / "state" / "jobs" / "job-000001.json") << R"({"format": "mesocap.capture_job", "version": 1})";
   try {
     MakeDaemon();

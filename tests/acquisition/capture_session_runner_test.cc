@@ -320,12 +320,10 @@ TEST(CaptureSessionRunner, SweepsStoredAsAnalysesProcessToTheSameMdf) {
   EXPECT_FALSE(fs::exists(dir / "analysis" / "laser" / "t0_loc0_cam1.tif"));
 
   auto compare = [&](const mdf::MdfProcessingOptions& options) {
-    const mdf::MdfProcessingResult a =
-        mdf::ProcessMdfSession(formats::CapturedSession(dir / "frames"), calibration, options,
-                               core::Progress::Style::kSilent);
-    const mdf::MdfProcessingResult b =
-        mdf::ProcessMdfSession(formats::CapturedSession(dir / "analysis"), calibration, options,
-                               core::Progress::Style::kSilent);
+    const mdf::MdfProcessingResult a = mdf::ProcessMdfSession(formats::CapturedSession(dir / "frames"), calibration,
+                                                              options, core::Progress::Style::kSilent);
+    const mdf::MdfProcessingResult b = mdf::ProcessMdfSession(formats::CapturedSession(dir / "analysis"), calibration,
+                                                              options, core::Progress::Style::kSilent);
     EXPECT_EQ(a.mdf.distance_mm.size(), b.mdf.distance_mm.size());
     std::size_t measured = 0, disagree = 0;
     double worst = 0.0;

@@ -124,7 +124,8 @@ TEST_F(SimulatedDaemonTest, ErrorsNameTheFieldOrThePath) {
   expect(Call(*daemon, "POST", "/v1/jobs", "{\"plan\": "), 400, "request body: not valid JSON");
   expect(Call(*daemon, "POST", "/v1/jobs", R"({"plan": "capture", "out": "/etc"})"), 400,
          "request body: field 'out': unknown member; expected only plan");
-  expect(Call(*daemon, "POST", "/v1/jobs", R"({"plan": 3})"), 400, "request body: field 'plan': expected a string, got number 3");
+  expect(Call(*daemon, "POST", "/v1/jobs", R"({"plan": 3})"), 400,
+         "request body: field 'plan': expected a string, got number 3");
   expect(Call(*daemon, "POST", "/v1/jobs", R"({"plan": "sweep"})"), 400,
          "request body: field 'plan': expected one of \"capture\", \"btf\", \"calibration\", got \"sweep\"");
   expect(Call(*daemon, "POST", "/v1/jobs", "[1]"), 400,
@@ -137,8 +138,7 @@ TEST_F(SimulatedDaemonTest, ErrorsNameTheFieldOrThePath) {
          "job id \"..%2F..%2Fetc\": expected \"job-\" and six digits");
   expect(Call(*daemon, "GET", "/v1/jobs/job-000042"), 404, "no job \"job-000042\"");
   expect(Call(*daemon, "DELETE", "/v1/jobs"), 405, "DELETE /v1/jobs: method not allowed (use GET or POST)");
-  expect(Call(*daemon, "GET", "/v1/events", "", "after=-1"), 400,
-         "query after: expected an event number, got \"-1\"");
+  expect(Call(*daemon, "GET", "/v1/events", "", "after=-1"), 400, "query after: expected an event number, got \"-1\"");
   expect(Call(*daemon, "GET", "/v1/log", "", "lines=0"), 400,
          "query lines: expected a number of lines from 1 to 1000, got 0");
   expect(Call(*daemon, "GET", "/v1/log", "", "lines=x"), 400,
@@ -167,8 +167,8 @@ TEST_F(SimulatedDaemonTest, OverTcpEveryRequestButTheStatusPageNeedsTheBearerTok
   expect_refused(CallOverTcp(*daemon, "GET", "/v1/rig", "Bearer " + kToken.substr(1) + "b"), wrong, invalid);
   expect_refused(CallOverTcp(*daemon, "GET", "/v1/rig", "Bearer " + kToken.substr(0, 63)), wrong, invalid);
   expect_refused(CallOverTcp(*daemon, "GET", "/v1/rig", "Bearer " + kToken + kToken), wrong, invalid);
-  expect_refused(CallOverTcp(*daemon, "GET", "/v1/rig", "Basic " + kToken), "Authorization header: expected \"Bearer TOKEN\"",
-                 plain);
+  expect_refused(CallOverTcp(*daemon, "GET", "/v1/rig", "Basic " + kToken),
+                 "Authorization header: expected \"Bearer TOKEN\"", plain);
   expect_refused(CallOverTcp(*daemon, "GET", "/v1/rig", "Bearer "), "Authorization header: expected \"Bearer TOKEN\"",
                  plain);
   // A refused request does nothing: no job, whatever its body.
@@ -237,20 +237,28 @@ ControlRequest HostileRequest(int kind, std::mt19937& rng) {
     return s;
   };
   switch (kind) {
-    case 0: return {"POST", "/v1/jobs", "", random_bytes(rng() % 200), false};  // not JSON
-    case 1: return {"POST", "/v1/jobs", "", std::string(20000, '[') + std::string(20000, ']'), false};  // deep
-    case 2: return {"POST", "/v1/jobs", "", R"({"plan": "capture", "path": "../../x"})", false};  // unknown field
-    case 3: return {"POST", "/v1/jobs", "", R"({"plan": ")" + std::string(rng() % 5000, 'x') + "\"}", false};
-    case 4: return {"GET", "/v1/jobs/" + random_bytes(rng() % 40), "", "", false};
+    case 0:
+      return {"POST", "/v1/jobs", "", random_bytes(rng() % 200), false};  // not JSON
+    case 1:
+      return {"POST", "/v1/jobs", "", std::string(20000, '[') + std::string(20000, ']'), false};  // deep
+    case 2:
+      return {"POST", "/v1/jobs", "", R"({"plan": "capture", "path": "../../x"})", false};  // unknown field
+    case 3:
+      return {"POST", "/v1/jobs", "", R"({"plan": ")" + std::string(rng() % 5000, 'x') + "\"}", false};
+    case 4:
+      return {"GET", "/v1/jobs/" + random_bytes(rng() % 40), "", "", false};
     case 5:
       if (rng() % 2 == 0) return {"GET", "/v1/cameras/" + random_bytes(rng() % 40) + "/preview.png", "", "", false};
       return {"GET", "/" + std::string(rng() % 3000, '.') + "/etc/passwd", "", "", false};
-    case 6: return {random_bytes(1 + rng() % 10), "/v1/jobs", "", "", false};  // a method that does not exist
+    case 6:
+      return {random_bytes(1 + rng() % 10), "/v1/jobs", "", "", false};  // a method that does not exist
     case 7:  // a command that does not exist, or an acknowledgement nothing asked for
       return {"POST", "/v1/jobs/job-00000" + std::to_string(rng() % 10) + (rng() % 2 ? "/explode" : "/ack"), "", "",
               false};
-    case 8: return {"GET", "/v1/events", "after=x" + random_bytes(rng() % 30), "", false};
-    case 9: return {"POST", "/v1/jobs", "", R"({"plan": ["capture"], "plan2": null})", false};
+    case 8:
+      return {"GET", "/v1/events", "after=x" + random_bytes(rng() % 30), "", false};
+    case 9:
+      return {"POST", "/v1/jobs", "", R"({"plan": ["capture"], "plan2": null})", false};
     default: {
       // Over TCP, a request that would succeed but for its token: none, a
       // wrong one, one digit off, random bytes.
@@ -261,9 +269,14 @@ ControlRequest HostileRequest(int kind, std::mt19937& rng) {
       std::string wrong = kToken;
       wrong[rng() % wrong.size()] = 'b';
       switch (kind) {
-        case 10: break;
-        case 11: request.authorization = "Bearer " + wrong; break;
-        default: request.authorization = (rng() % 2 ? "Bearer " : "") + random_bytes(rng() % 100); break;
+        case 10:
+          break;
+        case 11:
+          request.authorization = "Bearer " + wrong;
+          break;
+        default:
+          request.authorization = (rng() % 2 ? "Bearer " : "") + random_bytes(rng() % 100);
+          break;
       }
       return request;
     }
@@ -340,7 +353,8 @@ TEST_F(SimulatedDaemonTest, HostileBytesThroughTheSocketAndThePortGetAnErrorOrAC
       submit + "Authorization: Bearer " + std::string(64, 'b') + "\r\n\r\n{\"plan\": \"capture\"}",
       submit + "Authorization: Basic " + kToken + "\r\n\r\n{\"plan\": \"capture\"}",
       "GET /v1/jobs HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer " + kToken.substr(1) + "\r\nConnection: close\r\n\r\n",
-      "GET /v1/events HTTP/1.1\r\nHost: x\r\nAuthorization: " + std::string(3000, 'A') + "\r\nConnection: close\r\n\r\n",
+      "GET /v1/events HTTP/1.1\r\nHost: x\r\nAuthorization: " + std::string(3000, 'A') +
+          "\r\nConnection: close\r\n\r\n",
   };
   for (int i = 0; i < 1000; ++i) {
     const std::size_t n = static_cast<std::size_t>(i / 3);
@@ -367,7 +381,8 @@ TEST_F(SimulatedDaemonTest, HostileBytesThroughTheSocketAndThePortGetAnErrorOrAC
   }
   // A slow client that sends half a request is dropped after the idle timeout.
   EXPECT_EQ(SendRaw(server_options.socket, "GET /v1/rig HTTP/1.1\r\nHo", false), "");
-  const std::string rig = SendRaw(server_options.socket, "GET /v1/rig HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n");
+  const std::string rig =
+      SendRaw(server_options.socket, "GET /v1/rig HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n");
   EXPECT_EQ(StatusOf(rig), 200) << rig;
   const std::string big = SendRaw(server_options.socket, requests[1]);
   EXPECT_EQ(StatusOf(big), 413) << big;

@@ -86,7 +86,8 @@ TEST_F(ControlServerTcpTest, ATokenGetsTheAnswerAndNoneOrAWrongOneGets401) {
                              "\r\nConnection: close\r\n";
   EXPECT_EQ(StatusOf(SendRaw(ConnectTcp(port), submit + "\r\n" + body)), 401);
   EXPECT_TRUE(daemon->Jobs().empty());
-  EXPECT_EQ(StatusOf(SendRaw(ConnectTcp(port), submit + "Authorization: Bearer " + kTcpToken + "\r\n\r\n" + body)), 201);
+  EXPECT_EQ(StatusOf(SendRaw(ConnectTcp(port), submit + "Authorization: Bearer " + kTcpToken + "\r\n\r\n" + body)),
+            201);
   EXPECT_EQ(daemon->Jobs().size(), 1u);
 
   // The status page: without a token, its document only.

@@ -34,8 +34,8 @@ class DaemonFaultsTest : public ::testing::TestWithParam<int> {
   static void SetUpTestSuite() {
     dir_ = new testing::TemporaryDirectory();
     const char* shipped = std::getenv("MESOCAP_FAULTS_RIG");
-    nlohmann::json rig = shipped && std::string(shipped) != "tiny" ? testing::OnePositionRig(shipped)
-                                                                   : testing::OneSweepRig();
+    nlohmann::json rig =
+        shipped && std::string(shipped) != "tiny" ? testing::OnePositionRig(shipped) : testing::OneSweepRig();
     // Three turntable angles: each lamp is switched on three times.
     rig["turntable"]["angles_deg"] = {0.0, 120.0, 240.0};
     rig_ = testing::WriteRig(*dir_ / "rig.json", rig);
@@ -79,8 +79,8 @@ class DaemonFaultsTest : public ::testing::TestWithParam<int> {
       if (job.state == state) return job;
       std::this_thread::sleep_for(2ms);
     }
-    ADD_FAILURE() << id << " never became " << JobStateName(state) << "; it is "
-                  << JobStateName(daemon.Job(id)->state) << ": " << daemon.Job(id)->pause_reason;
+    ADD_FAILURE() << id << " never became " << JobStateName(state) << "; it is " << JobStateName(daemon.Job(id)->state)
+                  << ": " << daemon.Job(id)->pause_reason;
     return *daemon.Job(id);
   }
 
@@ -135,8 +135,8 @@ TEST_P(DaemonFaultsTest, AStageStalledPastTheRetries) {
   const char* stage = GetParam() % 2 == 0 ? "turntable" : "light_arc";
   std::string at;
   for (int k = n; k < n + 5; ++k) at += (at.empty() ? "" : ", ") + std::to_string(k);
-  auto daemon = MakeDaemon(state_ / "state",
-                           WriteFaults(R"("stage_stall": {"device": ")" + std::string(stage) + R"(", "at": [)" + at + "]}"));
+  auto daemon = MakeDaemon(state_ / "state", WriteFaults(R"("stage_stall": {"device": ")" + std::string(stage) +
+                                                         R"(", "at": [)" + at + "]}"));
   const std::string id = daemon->Submit("capture").id;
   daemon->Start();
   WaitFor(*daemon, id, JobState::kDone);
@@ -145,7 +145,8 @@ TEST_P(DaemonFaultsTest, AStageStalledPastTheRetries) {
   bool named = false;
   for (const DaemonEvent& e : daemon->events().After(0, 0ms)) {
     const std::string message = e.data.value("message", "");
-    if (e.type == "fault") named = message.find(std::string(stage) == "turntable" ? "turntable" : "light") != std::string::npos;
+    if (e.type == "fault")
+      named = message.find(std::string(stage) == "turntable" ? "turntable" : "light") != std::string::npos;
   }
   EXPECT_TRUE(named) << stage;
   ExpectTheUndisturbedSession(*daemon, id);
@@ -154,10 +155,10 @@ TEST_P(DaemonFaultsTest, AStageStalledPastTheRetries) {
 TEST_P(DaemonFaultsTest, ALampBurntOutAndReplaced) {
   // The first two lamps in turn, at their first, second or third switch-on.
   const int lamp = GetParam() % 2, at = 1 + GetParam() / 2;
-  auto daemon = MakeDaemon(state_ / "state",
-                           WriteFaults(R"("lamp_failure": {"device": )" + std::to_string(lamp) + R"(, "at": [)" +
-                                       std::to_string(at) + "]}"),
-                           1h);  // the operator resumes it once the bulb is new
+  auto daemon = MakeDaemon(
+      state_ / "state",
+      WriteFaults(R"("lamp_failure": {"device": )" + std::to_string(lamp) + R"(, "at": [)" + std::to_string(at) + "]}"),
+      1h);  // the operator resumes it once the bulb is new
   const std::string id = daemon->Submit("capture").id;
   daemon->Start();
   const CaptureJob paused = WaitFor(*daemon, id, JobState::kPaused);

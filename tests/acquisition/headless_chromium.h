@@ -48,10 +48,19 @@ class HeadlessChromium {
       ADD_FAILURE() << "pipe2 failed";
       return;
     }
-    const std::vector<std::string> args = {
-        kChromium, "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-        "--disable-background-networking", "--disable-component-update", "--disable-sync",
-        "--disable-dev-shm-usage", "--remote-debugging-pipe", "--user-data-dir=" + (dir_ / "profile").string(), url};
+    const std::vector<std::string> args = {kChromium,
+                                           "--headless",
+                                           "--no-sandbox",
+                                           "--disable-gpu",
+                                           "--disable-quic",
+                                           "--no-first-run",
+                                           "--disable-background-networking",
+                                           "--disable-component-update",
+                                           "--disable-sync",
+                                           "--disable-dev-shm-usage",
+                                           "--remote-debugging-pipe",
+                                           "--user-data-dir=" + (dir_ / "profile").string(),
+                                           url};
     // Everything the child needs is made before fork: a threaded process's
     // child may only make async-signal-safe calls until exec.
     std::vector<std::string> environment = {"HOME=" + (dir_ / "home").string(), "TMPDIR=" + (dir_ / "tmp").string(),
@@ -103,8 +112,8 @@ class HeadlessChromium {
   // The value of a JavaScript expression in the page, a promise's once it
   // settles (null on an exception or a closed browser).
   nlohmann::json Evaluate(const std::string& expression) {
-    const nlohmann::json answer =
-        Call("Runtime.evaluate", {{"expression", expression}, {"returnByValue", true}, {"awaitPromise", true}}, session_);
+    const nlohmann::json answer = Call(
+        "Runtime.evaluate", {{"expression", expression}, {"returnByValue", true}, {"awaitPromise", true}}, session_);
     if (!answer.contains("result") || answer["result"].contains("exceptionDetails")) return nullptr;
     return answer["result"]["result"].value("value", nlohmann::json());
   }
@@ -202,7 +211,8 @@ class HeadlessChromium {
         buffer_.erase(0, end + 1);
         if (message.is_object() && message.value("id", -1) == id) return message;
       }
-      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+      const auto left =
+          std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
       if (left.count() <= 0) return nlohmann::json::object();
       pollfd p{from_browser_, POLLIN, 0};
       if (::poll(&p, 1, static_cast<int>(left.count())) <= 0) continue;

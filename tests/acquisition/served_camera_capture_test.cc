@@ -50,8 +50,11 @@ class LampsThatInterrupt : public drivers::LampBank {
 // The simulated rig of one capture, its cameras served or not.
 struct Capture {
   explicit Capture(const formats::RigDescription& rig)
-      : scene(sim::MakeBuiltinScene("weave")), description(rig), renderer(*scene, description, {1}),
-        backend(renderer, {}, 5, sim::SensorModel::kNoisy), rig_operator(backend.shared_state()) {}
+      : scene(sim::MakeBuiltinScene("weave")),
+        description(rig),
+        renderer(*scene, description, {1}),
+        backend(renderer, {}, 5, sim::SensorModel::kNoisy),
+        rig_operator(backend.shared_state()) {}
 
   void CreateSession(const fs::path& dir) const {
     formats::SessionManifest manifest;
@@ -118,8 +121,9 @@ TEST(ServedCameraCapture, KilledServerStopsTheCaptureAndResumeIsByteIdentical) {
   const CaptureRunReport resumed = capture.Run(dir / "served" / "S", devices);
   EXPECT_GT(resumed.steps_done_before, 0u);
   EXPECT_GT(resumed.steps_run, 0u);
-  EXPECT_EQ(testing::Differences(testing::Normalized(dir / "reference" / "S"), testing::Normalized(dir / "served" / "S")),
-            "");
+  EXPECT_EQ(
+      testing::Differences(testing::Normalized(dir / "reference" / "S"), testing::Normalized(dir / "served" / "S")),
+      "");
 }
 
 // No process or socket outlives the tests (tests/common/no_leftovers.h),

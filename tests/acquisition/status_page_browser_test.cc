@@ -234,5 +234,4 @@ TEST_F(StatusPageBrowserTest, APageWithAWrongTokenSaysItWasRefused) {
 }  // namespace mesocap::acquisition
 
 // After every test: no Chromium process and no socket left open.
-::testing::Environment* const kNoLeftovers =
-    ::testing::AddGlobalTestEnvironment(new mesocap::testing::NoLeftovers());
+::testing::Environment* const kNoLeftovers = ::testing::AddGlobalTestEnvironment(new mesocap::testing::NoLeftovers());

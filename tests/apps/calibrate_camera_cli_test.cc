@@ -49,7 +49,8 @@ class CalibrateCameraCli : public ::testing::Test {
     }
   }
   static void TearDownTestSuite() {
-    if (std::getenv("KEEP")) std::filesystem::copy(folder_->path(), std::getenv("KEEP"), std::filesystem::copy_options::recursive);
+    if (std::getenv("KEEP"))
+      std::filesystem::copy(folder_->path(), std::getenv("KEEP"), std::filesystem::copy_options::recursive);
     delete folder_;
   }
   static std::filesystem::path Folder(int camera) { return *folder_ / (camera == 0 ? "left" : "right"); }

@@ -29,10 +29,10 @@ using testing::TemporaryDirectory;
 
 // What the rig's calibration must reach, as the report gives it.
 struct ReportBounds {
-  double rms_px;                 // per camera
-  double projection_sigma_px;    // the sample centre's, one sigma
+  double rms_px;               // per camera
+  double projection_sigma_px;  // the sample centre's, one sigma
   double cross_validation_px;
-  double sample_mm;              // the sample square's side (its rig description)
+  double sample_mm;  // the sample square's side (its rig description)
 };
 
 ReportBounds BoundsFor(const std::string& rig) {
@@ -44,7 +44,8 @@ class CalibrateRigCli : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     folder_ = new TemporaryDirectory;
-    const auto r = Mesocap(std::string("simulate --plan calibration --rig ") + MESOCAP_CALIBRATION_RIG + " --scene weave --out " + Session().string());
+    const auto r = Mesocap(std::string("simulate --plan calibration --rig ") + MESOCAP_CALIBRATION_RIG +
+                           " --scene weave --out " + Session().string());
     ASSERT_EQ(r.exit_code, 0) << r.err;
   }
   static void TearDownTestSuite() { delete folder_; }
@@ -175,14 +176,16 @@ void ExpectTheGainsAndIntensities(const nlohmann::json& report, const formats::C
     for (int ch = 0; ch < 3; ++ch) {
       EXPECT_NEAR(estimate.lamps[l].intensity[ch], truth.lamps[l].intensity[ch], 0.01) << truth.lamps[l].id;
       EXPECT_NEAR(estimate.lamps[l].intensity[ch], truth.lamps[l].intensity[ch],
-                  4 * (*estimate.lamps[l].uncertainty.intensity)[ch]) << truth.lamps[l].id;
+                  4 * (*estimate.lamps[l].uncertainty.intensity)[ch])
+          << truth.lamps[l].id;
     }
   }
 }
 
 TEST_F(CalibrateRigCli, CamerasAndTurntableWithinTheirUncertainty) {
   TemporaryDirectory out;
-  const auto r = Mesocap("calibrate --session " + Session().string() + " --out " + (out / "c.json").string() + " --json");
+  const auto r =
+      Mesocap("calibrate --session " + Session().string() + " --out " + (out / "c.json").string() + " --json");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const nlohmann::json report = nlohmann::json::parse(r.out);
   // The session records the rig's true calibration (the simulator's), which

@@ -17,8 +17,8 @@ TEST(CalibrateSessionCli, ACaptureSessionIsNotACalibrationSession) {
   TemporaryDirectory scratch;
   const auto sim = Mesocap("simulate --rig tiny --scene weave --plan btf --out " + (scratch / "capture").string());
   ASSERT_EQ(sim.exit_code, 0) << sim.err;
-  const auto r = Mesocap("calibrate --session " + (scratch / "capture").string() + " --out " +
-                         (scratch / "c.json").string());
+  const auto r =
+      Mesocap("calibrate --session " + (scratch / "capture").string() + " --out " + (scratch / "c.json").string());
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.err.find("has no board images"), std::string::npos) << r.err;
   EXPECT_FALSE(std::filesystem::exists(scratch / "c.json"));

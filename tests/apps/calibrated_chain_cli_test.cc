@@ -35,9 +35,9 @@ Figures Process(const fs::path& dir, const fs::path& calibration, const std::str
   const std::string session = (dir / "S").string(), truth = (dir / "T").string();
   const std::string mdf = (dir / ("mdf-" + name)).string(), btf = (dir / ("btf-" + name)).string();
   MesocapOk("-q process mdf --session " + session + " --calibration " + calibration.string() +
-      " --texture-size 12 --out " + mdf);
+            " --texture-size 12 --out " + mdf);
   MesocapOk("-q process btf --session " + session + " --calibration " + calibration.string() +
-      " --texture-size 12 --out " + btf);
+            " --texture-size 12 --out " + btf);
   const nlohmann::json m = MesocapOk("eval mdf --inside-sample-only --json --truth " + truth + " --estimate " + mdf);
   const nlohmann::json b = MesocapOk("eval btf --json --truth " + truth + " --estimate " + btf);
   if (m.is_null() || b.is_null()) return {};
@@ -58,8 +58,8 @@ TEST(CalibratedChainCli, EstimatedCalibrationCostsLittleAgainstTheTrueOne) {
   ASSERT_FALSE(HasFailure());
   std::printf("true calibration: median %.4f p95 %.4f coverage %.4f psnr %.2f\n", truth.median_mm, truth.p95_mm,
               truth.coverage, truth.psnr_db);
-  std::printf("estimated:        median %.4f p95 %.4f coverage %.4f psnr %.2f\n", estimate.median_mm,
-              estimate.p95_mm, estimate.coverage, estimate.psnr_db);
+  std::printf("estimated:        median %.4f p95 %.4f coverage %.4f psnr %.2f\n", estimate.median_mm, estimate.p95_mm,
+              estimate.coverage, estimate.psnr_db);
   EXPECT_NEAR(estimate.median_mm, truth.median_mm, 0.1 * truth.median_mm);
   EXPECT_NEAR(estimate.p95_mm, truth.p95_mm, 0.1 * truth.p95_mm);
   EXPECT_NEAR(estimate.coverage, truth.coverage, 0.005);

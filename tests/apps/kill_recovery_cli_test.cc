@@ -68,8 +68,8 @@ std::vector<std::string> ProcessMdf(const fs::path& in, const fs::path& out) {
 // One representation (not the budget's choice among ten): what a kill leaves
 // behind does not depend on it, and each run stays one SVD long.
 std::vector<std::string> ProcessBtf(const fs::path& in, const fs::path& out) {
-  return {"-q",     "process", "btf",     "--session", (in / "S").string(), "--out", out.string(),
-          "--layout", "paper",  "--color", "rgb"};
+  return {"-q",       "process", "btf",     "--session", (in / "S").string(), "--out", out.string(),
+          "--layout", "paper",   "--color", "rgb"};
 }
 std::vector<std::string> Compress(const fs::path& in, const fs::path& out) {
   return {"-q", "compress", "--in", (in / "T").string(), "--out", out.string(), "--layout", "paper", "--color", "rgb"};
@@ -86,9 +86,9 @@ class KillRecoveryTest : public ::testing::TestWithParam<Job> {
   static void SetUpTestSuite() {
     inputs_ = new testing::TemporaryDirectory();
     ASSERT_EQ(Wait(Start(Simulate({}, *inputs_ / "S"))), 0);
-    ASSERT_EQ(Wait(Start({"-q", "groundtruth", "--rig", "tiny", "--texture-size", "16", "--out",
-                          (*inputs_ / "T").string()})),
-              0);
+    ASSERT_EQ(
+        Wait(Start({"-q", "groundtruth", "--rig", "tiny", "--texture-size", "16", "--out", (*inputs_ / "T").string()})),
+        0);
   }
   static void TearDownTestSuite() { delete inputs_; }
   static testing::TemporaryDirectory* inputs_;

@@ -68,9 +68,8 @@ TEST_F(MdfCliTest, ProcessAndEvaluate) {
     }
   }
   EXPECT_GT(measured, 0);
-  const CommandResult e =
-      Mesocap("eval mdf --json --truth " + truth_.string() + " --estimate " + material.string() + " --out " +
-              (out / "table.json").string());
+  const CommandResult e = Mesocap("eval mdf --json --truth " + truth_.string() + " --estimate " + material.string() +
+                                  " --out " + (out / "table.json").string());
   ASSERT_EQ(e.exit_code, 0) << e.err;
   const auto table = nlohmann::json::parse(e.out);
   EXPECT_EQ(table, core::ReadJsonFile(out / "table.json"));
@@ -94,8 +93,8 @@ TEST_F(MdfCliTest, ProcessAndEvaluate) {
   // The 30-45 degree camera beats the 60-75 degree one.
   EXPECT_LT(table["by_polar_angle"][2]["median_texels"].get<double>(),
             table["by_polar_angle"][4]["median_texels"].get<double>());
-  const CommandResult inside = Mesocap("eval mdf --json --inside-sample-only --truth " + truth_.string() +
-                                       " --estimate " + material.string());
+  const CommandResult inside =
+      Mesocap("eval mdf --json --inside-sample-only --truth " + truth_.string() + " --estimate " + material.string());
   ASSERT_EQ(inside.exit_code, 0) << inside.err;
   EXPECT_GT(nlohmann::json::parse(inside.out)["overall"]["coverage"].get<double>(), 0.97);
   const CommandResult text = Mesocap("eval mdf --truth " + truth_.string() + " --estimate " + material.string());
@@ -158,9 +157,9 @@ TEST_F(MdfCliTest, SequenceWithWrongFrameSizeWritesNothingAndKeepsExistingOutput
   // An existing package (what --replace may replace), with a file of the user's.
   ASSERT_EQ(Mesocap("groundtruth --rig tiny --texture-size 4 --out " + (out / "m").string()).exit_code, 0);
   std::ofstream(out / "m" / "keep.txt") << "old";
-  const CommandResult p = Mesocap("process mdf --session " + session.string() + " --calibration " +
-                                  (session / "calibration.json").string() + " --out " + (out / "m").string() +
-                                  " --replace");
+  const CommandResult p =
+      Mesocap("process mdf --session " + session.string() + " --calibration " +
+              (session / "calibration.json").string() + " --out " + (out / "m").string() + " --replace");
   EXPECT_NE(p.exit_code, 0);
   EXPECT_NE(p.err.find("t0_loc0_cam0.tif"), std::string::npos) << p.err;
   EXPECT_NE(p.err.find("128x96"), std::string::npos) << p.err;
@@ -174,9 +173,8 @@ TEST_F(MdfCliTest, SequenceWithWrongFrameSizeWritesNothingAndKeepsExistingOutput
 
 TEST_F(MdfCliTest, EvalRejectsMismatchedPackages) {
   testing::TemporaryDirectory out;
-  ASSERT_EQ(Mesocap("groundtruth --scene blocks --rig tiny --texture-size 32 --out " + (out / "t32").string())
-                .exit_code,
-            0);
+  ASSERT_EQ(
+      Mesocap("groundtruth --scene blocks --rig tiny --texture-size 32 --out " + (out / "t32").string()).exit_code, 0);
   const CommandResult e = Mesocap("eval mdf --truth " + truth_.string() + " --estimate " + (out / "t32").string());
   EXPECT_NE(e.exit_code, 0);
   EXPECT_NE(e.err.find("64x64"), std::string::npos) << e.err;

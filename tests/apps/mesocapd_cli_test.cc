@@ -310,8 +310,8 @@ TEST_F(MesocapdTest, OverLoopbackTcpTheClientSteersTheDaemonWithTheTokenFile) {
   // A token file others may read is refused, by name.
   fs::permissions(token_file, fs::perms::group_read | fs::perms::others_read, fs::perm_options::add);
   const fs::path log = work_ / "refused.log";
-  const pid_t pid = testing::StartProcess(
-      MESOCAPD_BINARY, {"-q", "--rig", "tiny", "--state", state.string(), "--tcp-port", "0"}, log);
+  const pid_t pid = testing::StartProcess(MESOCAPD_BINARY,
+                                          {"-q", "--rig", "tiny", "--state", state.string(), "--tcp-port", "0"}, log);
   EXPECT_EQ(testing::WaitForExit(pid), 1);
   EXPECT_EQ(testing::Slurp(log), "mesocapd: error: " + token_file.string() +
                                      ": mode 0644, expected 0600 (only mesocapd's user may read the bearer token); "

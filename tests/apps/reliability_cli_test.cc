@@ -103,8 +103,7 @@ TEST_F(ReliabilityCliTest, ReplaceRefusesWhatTheCommandDoesNotWriteAndItsInput) 
   EXPECT_EQ(testing::CountTemporaries(work_.path()), 0);
   // What the command writes is replaced.
   ASSERT_EQ(Mesocap("-q compress --in " + T + kOneRepresentation + " --out " + (work_ / "C").string()).exit_code, 0);
-  EXPECT_EQ(Mesocap("-q compress --in " + T + " --rank 1 --out " + (work_ / "C").string() + " --replace").exit_code,
-            0);
+  EXPECT_EQ(Mesocap("-q compress --in " + T + " --rank 1 --out " + (work_ / "C").string() + " --replace").exit_code, 0);
   EXPECT_EQ(testing::CountTemporaries(work_.path()), 0);
 }
 

@@ -44,7 +44,8 @@ void WriteScene(const std::filesystem::path& dir, const std::string& material) {
     "camera": {"position": [0, -120, 75], "look_at": [0, 0, -4]},
     "light": {"position": [80, -60, 170], "intensity": 60000},
     "objects": [{"shape": "torus", "major_radius": 26, "minor_radius": 10, "tiles": [8, 3],
-                 "material": ")" + material + R"("}]})";
+                 "material": ")" + material +
+                                           R"("}]})";
 }
 
 TEST(RenderCli, RendersAFactoredPackageHeadless) {
@@ -98,10 +99,9 @@ TEST(RenderCli, CompareReportsEveryModeAndWritesTheDifferences) {
   WriteScene(dir.path(), "sim:blocks");
   // A cached sim: material, so the test does not build one from ground truth.
   WritePackage(dir / "cache" / "materials" / "blocks-v3");
-  const testing::CommandResult r =
-      Mesocap("compare " + (dir / "scene.json").string() + " --size 48x36 --repeat 1 --json --images " +
-                  (dir / "images").string(),
-              "MESOCAP_CACHE_DIR=" + (dir / "cache").string());
+  const testing::CommandResult r = Mesocap("compare " + (dir / "scene.json").string() +
+                                               " --size 48x36 --repeat 1 --json --images " + (dir / "images").string(),
+                                           "MESOCAP_CACHE_DIR=" + (dir / "cache").string());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const nlohmann::json report = nlohmann::json::parse(r.out);
   for (const char* mode : {"btf", "silhouette", "full"}) {

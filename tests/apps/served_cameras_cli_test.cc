@@ -28,9 +28,9 @@ TEST(ServedCameras, SessionThroughGigEVisionIsByteIdentical) {
   const auto direct = testing::Mesocap("-q simulate --rig " + rig + " --seed 4 --out " + (dir / "a" / "S").string(),
                                        "mkdir -p " + (dir / "a").string() + " &&");
   ASSERT_EQ(direct.exit_code, 0) << direct.err;
-  const auto served = testing::Mesocap(
-      "simulate --rig " + rig + " --seed 4 --serve-cameras --out " + (dir / "b" / "S").string(),
-      "mkdir -p " + (dir / "b").string() + " &&");
+  const auto served =
+      testing::Mesocap("simulate --rig " + rig + " --seed 4 --serve-cameras --out " + (dir / "b" / "S").string(),
+                       "mkdir -p " + (dir / "b").string() + " &&");
   ASSERT_EQ(served.exit_code, 0) << served.err;
   EXPECT_NE(served.err.find("serving camera cam1 as a GigE Vision device at 127.0.0.2"), std::string::npos)
       << served.err;
@@ -72,8 +72,8 @@ TEST(ServedCameras, AnyGenICamClientConnectsAndDevicesListsThem) {
   testing::TemporaryDirectory dir;
   ServeCameras server(dir / "serve.log");
   // Aravis' own command-line client reads the served camera's features.
-  const int status = std::system(("arv-tool-0.8 -a 127.0.0.2 control Width PixelFormat > " +
-                                  (dir / "tool.out").string() + " 2>&1").c_str());
+  const int status = std::system(
+      ("arv-tool-0.8 -a 127.0.0.2 control Width PixelFormat > " + (dir / "tool.out").string() + " 2>&1").c_str());
   EXPECT_EQ(WEXITSTATUS(status), 0);
   const std::string features = testing::Slurp(dir / "tool.out");
   EXPECT_NE(features.find("Width = 128"), std::string::npos) << features;

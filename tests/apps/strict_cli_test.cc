@@ -47,8 +47,8 @@ TEST(StrictCli, QuietMeansNoProgressAndNoInfo) {
 TEST(StrictCli, ResumeNeedsASession) {
   testing::TemporaryDirectory dir;
   const CommandResult r = Mesocap("-q " + Simulate(dir, testing::WriteRig(dir / "rig.json"), " --resume"));
-  ExpectOneErrorLine(r, (dir / "s").string() +
-                            ": no capture session to resume (no such folder); leave out --resume to start one");
+  ExpectOneErrorLine(
+      r, (dir / "s").string() + ": no capture session to resume (no such folder); leave out --resume to start one");
   EXPECT_FALSE(fs::exists(dir / "s"));
   // A folder whose session creation was killed (at most the manifest's
   // temporary in it) is started.
@@ -62,13 +62,14 @@ TEST(StrictCli, AResumeWithOtherOptionsNamesTheField) {
   testing::TemporaryDirectory dir;
   const std::string rig = testing::WriteRig(dir / "rig.json");
   ASSERT_EQ(Mesocap("-q " + Simulate(dir, rig)).exit_code, 0);
-  ExpectOneErrorLine(Mesocap("-q " + Simulate(dir, rig, " --resume --seed 5")),
-                     (dir / "s").string() + ": the session was started with other options: recording.seed was 1, now 5");
+  ExpectOneErrorLine(
+      Mesocap("-q " + Simulate(dir, rig, " --resume --seed 5")),
+      (dir / "s").string() + ": the session was started with other options: recording.seed was 1, now 5");
   nlohmann::json other = testing::OneSweepRig();
   other["cameras"][1]["bit_depth"] = 10;
-  ExpectOneErrorLine(Mesocap("-q " + Simulate(dir, testing::WriteRig(dir / "other.json", other), " --resume")),
-                     (dir / "s").string() +
-                         ": the session was started with another rig: rig.cameras[1].bit_depth was 12, now 10");
+  ExpectOneErrorLine(
+      Mesocap("-q " + Simulate(dir, testing::WriteRig(dir / "other.json", other), " --resume")),
+      (dir / "s").string() + ": the session was started with another rig: rig.cameras[1].bit_depth was 12, now 10");
 }
 
 // A camera that is gone at the first operation: the error names the step the
@@ -82,9 +83,8 @@ TEST(StrictCli, ADisconnectBeforeTheFirstStepSaysWhereAndHowToResume) {
   ExpectOneErrorLine(r, (dir / "s").string() +
                             ": step \"laser-calibration-loc0_h0\" (1 of 5): camera cam0: disconnected; 0 of 5 steps "
                             "are journaled; resume with: mesocap simulate --resume --out " +
-                            (dir / "s").string() + " --scene flat --rig " + rig +
-                            " --seed 1 --faults " + (dir / "faults.json").string() +
-                            " --samples-per-pixel-side 1 --interreflection-rays 0");
+                            (dir / "s").string() + " --scene flat --rig " + rig + " --seed 1 --faults " +
+                            (dir / "faults.json").string() + " --samples-per-pixel-side 1 --interreflection-rays 0");
 }
 
 TEST(StrictCli, MisspeltRigMembersAreRefusedBeforeAnythingIsWritten) {
@@ -146,9 +146,9 @@ TEST(StrictCli, ACorruptImageGivesOneLineAndNoLibraryChatter) {
     EXPECT_EQ(r.exit_code, 1);
     EXPECT_EQ(r.err.find("libpng"), std::string::npos) << r.err;
     const std::string last = r.err.substr(r.err.rfind('\n', r.err.size() - 2) + 1);
-    EXPECT_EQ(last.rfind("mesocap: error: " + png.string() + ": field 'pixels': cannot read (truncated or corrupt?): ",
-                         0),
-              0u)
+    EXPECT_EQ(
+        last.rfind("mesocap: error: " + png.string() + ": field 'pixels': cannot read (truncated or corrupt?): ", 0),
+        0u)
         << r.err;
     EXPECT_EQ(std::count(last.begin(), last.end(), '\n'), 1) << r.err;
   }
@@ -168,17 +168,18 @@ TEST(StrictCli, RenderAndEvalMdfReplaceTheirOutputOnlyWhenAsked) {
   testing::TemporaryDirectory dir;
   std::ofstream(dir / "picture.png") << "keep me";
   const std::string scene = std::string(MESOCAP_SOURCE_DIR) + "/render/scenes/cylinder.json";
-  ExpectOneErrorLine(Mesocap("render " + scene + " --out " + (dir / "picture.png").string()),
-                     (dir / "picture.png").string() +
-                         ": already exists; choose another output, or --replace to replace a file there");
+  ExpectOneErrorLine(
+      Mesocap("render " + scene + " --out " + (dir / "picture.png").string()),
+      (dir / "picture.png").string() + ": already exists; choose another output, or --replace to replace a file there");
   EXPECT_EQ(Slurp(dir / "picture.png"), "keep me");
 
   const std::string gt = (dir / "gt").string();
   ASSERT_EQ(Mesocap("-q groundtruth --scene flat --rig tiny --texture-size 4 --out " + gt).exit_code, 0);
   std::ofstream(dir / "table.json") << "keep me";
   const std::string eval = "eval mdf --truth " + gt + " --estimate " + gt + " --out " + (dir / "table.json").string();
-  ExpectOneErrorLine(Mesocap(eval), (dir / "table.json").string() +
-                                        ": already exists; choose another output, or --replace to replace a file there");
+  ExpectOneErrorLine(
+      Mesocap(eval),
+      (dir / "table.json").string() + ": already exists; choose another output, or --replace to replace a file there");
   EXPECT_EQ(Slurp(dir / "table.json"), "keep me");
   // Never the command's own input, with --replace or not.
   const std::string own = "eval mdf --truth " + gt + " --estimate " + gt + " --out " + gt + "/manifest.json --replace";

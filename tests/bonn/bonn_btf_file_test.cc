@@ -136,8 +136,7 @@ TEST(BonnBtfFile, HalfRoundTripIsWithinHalfRounding) {
     ASSERT_EQ(got.rows(), want.rows());
     for (Eigen::Index i = 0; i < want.size(); ++i) {
       const float w = want.data()[i];
-      EXPECT_LE(std::abs(got.data()[i] - w), std::max(std::abs(w) * std::ldexp(1.0f, -11), std::ldexp(1.0f, -25)))
-          << i;
+      EXPECT_LE(std::abs(got.data()[i] - w), std::max(std::abs(w) * std::ldexp(1.0f, -11), std::ldexp(1.0f, -25))) << i;
     }
   };
   expect_half(r.factors[0].u, b.factors[0].u);
@@ -303,8 +302,8 @@ TEST(BonnBtfFile, BadFilesNameTheFieldAndWhatWasExpected) {
   ExpectBad(bad, "size", "bytes after the last factor matrix");
 
   // Cut anywhere: the field being read is named, with the bytes missing.
-  for (std::size_t cut : {std::size_t{12}, std::size_t{100}, directions + 6, after_header - 2, channel0 + 3,
-                          good.size() - 1}) {
+  for (std::size_t cut :
+       {std::size_t{12}, std::size_t{100}, directions + 6, after_header - 2, channel0 + 3, good.size() - 1}) {
     Spit(bad, good.substr(0, cut));
     try {
       ReadBonnBtfFile(bad);

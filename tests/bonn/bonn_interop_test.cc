@@ -53,16 +53,14 @@ TEST(BonnInterop, DfmfRoundTripFromPerTexelFactors) {
     EXPECT_EQ(back.layout, core::BtfFactorLayout::kPerTexel);
     EXPECT_EQ(back.rank(), 24);
     const double relative = scalar == BonnScalar::kHalf ? 2 * std::ldexp(1.0, -11) + std::ldexp(1.0, -22) : 0.0;
-    const double ratio = WorstRatio(truth, [&](int v) { return btf::ReconstructBtfView(back, v); },
-                                    [&](int x, int y, int v, int l, int c) {
-                                      return (relative + 2e-6) * TermSum(written, x, y, v, l, c) + 1e-6;
-                                    });
+    const double ratio = WorstRatio(
+        truth, [&](int v) { return btf::ReconstructBtfView(back, v); },
+        [&](int x, int y, int v, int l, int c) { return (relative + 2e-6) * TermSum(written, x, y, v, l, c) + 1e-6; });
     EXPECT_LE(ratio, 1.0) << (scalar == BonnScalar::kHalf ? "half" : "float");
     // btflib's decode path (the full BTF) agrees with the factored import.
-    const double decode = WorstRatio(truth, [&](int v) { return BonnBtfView(read, v); },
-                                     [&](int x, int y, int v, int l, int c) {
-                                       return (relative + 2e-6) * TermSum(written, x, y, v, l, c) + 1e-6;
-                                     });
+    const double decode = WorstRatio(
+        truth, [&](int v) { return BonnBtfView(read, v); },
+        [&](int x, int y, int v, int l, int c) { return (relative + 2e-6) * TermSum(written, x, y, v, l, c) + 1e-6; });
     EXPECT_LE(decode, 1.0);
   }
 }
@@ -82,12 +80,13 @@ TEST(BonnInterop, DfmfDecorrelatedChannelsAreThePcaModel) {
   EXPECT_EQ(back.color, core::BtfFactorColor::kYCbCr);
   EXPECT_TRUE(back.rgb_to_factored.isApprox(factored.rgb_to_factored, 1e-6));
   // The colour matrix passes through float: 1e-6 of the channel terms.
-  const double ratio = WorstRatio(truth, [&](int v) { return btf::ReconstructBtfView(back, v); },
-                                  [&](int x, int y, int v, int l, int) {
-                                    double s = 0;
-                                    for (int c = 0; c < 3; ++c) s += TermSum(written, x, y, v, l, c);
-                                    return 1e-5 * s + 1e-6;
-                                  });
+  const double ratio = WorstRatio(
+      truth, [&](int v) { return btf::ReconstructBtfView(back, v); },
+      [&](int x, int y, int v, int l, int) {
+        double s = 0;
+        for (int c = 0; c < 3; ++c) s += TermSum(written, x, y, v, l, c);
+        return 1e-5 * s + 1e-6;
+      });
   EXPECT_LE(ratio, 1.0);
 }
 
@@ -113,8 +112,12 @@ TEST(BonnInterop, FmfRoundTripOfAFullBtf) {
     auto bound = [&](int x, int y, int v, int l, int c) {
       return (relative + 1e-5) * TermSum(written, x, y, v, l, c) + 1e-6;
     };
-    EXPECT_LE(WorstRatio(truth, [&](int v) { return btf::ReconstructBtfView(back, v); }, bound), 1.0);
-    EXPECT_LE(WorstRatio(truth, [&](int v) { return BonnBtfView(read, v); }, bound), 1.0);
+    EXPECT_LE(WorstRatio(
+                  truth, [&](int v) { return btf::ReconstructBtfView(back, v); }, bound),
+              1.0);
+    EXPECT_LE(WorstRatio(
+                  truth, [&](int v) { return BonnBtfView(read, v); }, bound),
+              1.0);
   }
   // A lower rank: the error is the truncation the report states.
   o.rank = 0;
@@ -166,8 +169,12 @@ TEST(BonnInterop, CosineAndMeanAreUndoneInEitherOrientation) {
     const core::FactoredBtf back = FactoredFromBonn(file, name);
     EXPECT_EQ(back.rank(), 26);  // 25 stored + the mean
     auto bound = [&](int x, int y, int v, int l, int c) { return 1e-5 * TermSum(base, x, y, v, l, c) + 2e-6; };
-    EXPECT_LE(WorstRatio(truth, [&](int v) { return btf::ReconstructBtfView(back, v); }, bound), 1.0);
-    EXPECT_LE(WorstRatio(truth, [&](int v) { return BonnBtfView(file, v); }, bound), 1.0);
+    EXPECT_LE(WorstRatio(
+                  truth, [&](int v) { return btf::ReconstructBtfView(back, v); }, bound),
+              1.0);
+    EXPECT_LE(WorstRatio(
+                  truth, [&](int v) { return BonnBtfView(file, v); }, bound),
+              1.0);
   }
 
   // Nonlinear decodes cannot be factored: a clear refusal naming the model.
@@ -217,8 +224,14 @@ TEST(BonnInterop, TexelRowFilesAreImported) {
     EXPECT_EQ(read.row_space, BonnRowSpace::kTexels) << name;
     const core::FactoredBtf back = FactoredFromBonn(read, dir / name);
     auto bound = [&](int x, int y, int v, int l, int c) { return 1e-5 * TermSum(file, x, y, v, l, c) + 1e-6; };
-    EXPECT_LE(WorstRatio(truth, [&](int v) { return btf::ReconstructBtfView(back, v); }, bound), 1.0) << name;
-    EXPECT_LE(WorstRatio(truth, [&](int v) { return BonnBtfView(read, v); }, bound), 1.0) << name;
+    EXPECT_LE(WorstRatio(
+                  truth, [&](int v) { return btf::ReconstructBtfView(back, v); }, bound),
+              1.0)
+        << name;
+    EXPECT_LE(WorstRatio(
+                  truth, [&](int v) { return BonnBtfView(read, v); }, bound),
+              1.0)
+        << name;
   }
 }
 
@@ -256,7 +269,7 @@ WrittenHeader ReadWrittenHeader(const std::filesystem::path& path) {
   const auto meta_size = get(std::uint32_t{});
   EXPECT_EQ(get(std::uint32_t{}), 4u);  // version
   at += 3 * 80 + 4 + 12;
-  get(std::uint32_t{});  // cosine flag
+  get(std::uint32_t{});        // cosine flag
   at += get(std::uint32_t{});  // XML
   const auto channels = get(std::uint32_t{});
   EXPECT_EQ(channels, 3u);
@@ -375,7 +388,10 @@ TEST(BonnInterop, AmbiguousCountsRoundTrip) {
     EXPECT_EQ(read.row_space, BonnRowSpace::kDirections) << name;
     const core::FactoredBtf back = FactoredFromBonn(read, dir / name);
     auto bound = [&](int x, int y, int v, int l, int c) { return 1e-5 * TermSum(file, x, y, v, l, c) + 1e-6; };
-    EXPECT_LE(WorstRatio(truth, [&](int v) { return btf::ReconstructBtfView(back, v); }, bound), 1.0) << name;
+    EXPECT_LE(WorstRatio(
+                  truth, [&](int v) { return btf::ReconstructBtfView(back, v); }, bound),
+              1.0)
+        << name;
   }
 }
 

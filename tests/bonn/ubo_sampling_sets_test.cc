@@ -42,8 +42,8 @@ TEST(UboSamplingSets, Ubo2014) {
 }
 
 TEST(UboSamplingSets, RejectsUnknownNamesAndBadGrids) {
-  for (const std::string bad : {"ubo2015", "", "grid", "grid24", "grid24x", "gridx6", "grid024x6",
-                                "grid+2x6", "grid2x6 ", "grid99999999999x1"}) {
+  for (const std::string bad : {"ubo2015", "", "grid", "grid24", "grid24x", "gridx6", "grid024x6", "grid+2x6",
+                                "grid2x6 ", "grid99999999999x1"}) {
     const std::string msg = ErrorOf([&] { NamedSamplingSet(bad); });
     EXPECT_TRUE(Contains(msg, "ubo2014") && Contains(msg, "grid<A>x<P>")) << bad << ": " << msg;
   }
@@ -67,7 +67,8 @@ TEST(UboSamplingSets, PassTheChecksOfEverySamplingSet) {
 TEST(UboSamplingSets, RingBandsAtMidpoints) {
   const SamplingSet set = NamedSamplingSet("ubo2003");
   EXPECT_NEAR(set.weight(0), 2 * testing::kPi * (1 - std::cos(7.5 * testing::kDeg)), 1e-15);  // pole cap
-  EXPECT_NEAR(set.weight(1), 2 * testing::kPi * (std::cos(7.5 * testing::kDeg) - std::cos(22.5 * testing::kDeg)) / 6, 1e-15);
+  EXPECT_NEAR(set.weight(1), 2 * testing::kPi * (std::cos(7.5 * testing::kDeg) - std::cos(22.5 * testing::kDeg)) / 6,
+              1e-15);
   EXPECT_NEAR(set.weight(80), 2 * testing::kPi * std::cos(67.5 * testing::kDeg) / 24, 1e-15);  // last band to 90
 }
 

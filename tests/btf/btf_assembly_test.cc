@@ -241,8 +241,8 @@ TEST(ReferencePlaneRectifierTest, ConstantsRampsAndFootprintOnTheTinyRig) {
           for (int i = 0; i < size; ++i) {
             const Eigen::Vector2d centre = sim::ProjectToPixel(camera, world_from_sample.Apply(grid.TexelCentre(i, j)));
             worst_constant = std::max(worst_constant, std::abs(texture.at(i, j, 0) - 0.25));
-            worst_ramp = std::max({worst_ramp, std::abs(texture.at(i, j, 1) - centre.x()),
-                                   std::abs(texture.at(i, j, 2) - centre.y())});
+            worst_ramp = std::max(
+                {worst_ramp, std::abs(texture.at(i, j, 1) - centre.x()), std::abs(texture.at(i, j, 2) - centre.y())});
           }
         EXPECT_LT(worst_constant, 1e-6);
         EXPECT_LT(worst_ramp, 0.01) << "camera " << cam << ", " << size << " texels";

@@ -54,8 +54,8 @@ TEST(BtfEvaluation, CapturedInterpolatedAndUnresolvedPairsApart) {
   const core::SamplingSet views = core::SamplingSet::Named("grid2x2");
   const core::SamplingSet lights = core::SamplingSet::Named("grid2x2");
   BtfPairRecord record;
-  record.captured = {{true, false, true, false}, {true, true, true, true}, {false, false, true, true},
-                     {true, true, true, true}};
+  record.captured = {
+      {true, false, true, false}, {true, true, true, true}, {false, false, true, true}, {true, true, true, true}};
   record.pixels_per_texel = {3.0, 2.0, 1.0, 0.5};
   BtfErrorAccumulator errors(views, lights);
   const core::Image truth(2, 2 * lights.size(), 3, 1.0f);
@@ -81,8 +81,7 @@ TEST(BtfEvaluation, CapturedInterpolatedAndUnresolvedPairsApart) {
   EXPECT_NEAR(j["unresolved"]["relative_rms"].get<double>(), 0.3, 1e-6);
   // Within 60 degrees: views 0 and 1 with lights 0 and 1 (22.5 deg), captured.
   EXPECT_EQ(j["captured_within_60deg"]["pairs"], 3);
-  EXPECT_NEAR(j["overall"]["relative_rms"].get<double>(),
-              std::sqrt((8 * 1e-4 + 4 * 1e-2 + 4 * 0.09) / 16), 1e-6);
+  EXPECT_NEAR(j["overall"]["relative_rms"].get<double>(), std::sqrt((8 * 1e-4 + 4 * 1e-2 + 4 * 0.09) / 16), 1e-6);
   // Without a record the four are there, null.
   const auto bare = ToJson(errors, std::nullopt);
   for (const char* kind : {"captured", "interpolated", "unresolved", "captured_within_60deg"}) {

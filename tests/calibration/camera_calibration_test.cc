@@ -20,7 +20,8 @@ TEST(BoardCornerDetector, FindsChArUcoCornersToATenthOfAPixel) {
   const BoardPrint print(kCharuco);
   const formats::CameraCalibration camera = testing::TestCamera("cam0");
   testing::DetectorError floor;
-  const CameraViews views = testing::Photograph(print, camera, testing::BoardPoses(kCharuco, 6, 400, 0.5, 1), 100, &floor);
+  const CameraViews views =
+      testing::Photograph(print, camera, testing::BoardPoses(kCharuco, 6, 400, 0.5, 1), 100, &floor);
   for (const BoardDetection& d : views.detections) EXPECT_GE(d.size(), 20u);
   EXPECT_GT(floor.corners, 150);
   EXPECT_LT(floor.rms_px, 0.1);
@@ -34,7 +35,8 @@ TEST(CameraCalibration, OneCameraFromChArUcoPhotos) {
   const BoardPrint print(kCharuco);
   const formats::CameraCalibration truth = testing::TestCamera("cam0");
   testing::DetectorError floor;
-  const CameraViews views = testing::Photograph(print, truth, testing::BoardPoses(kCharuco, 12, 400, 0.6, 2), 200, &floor);
+  const CameraViews views =
+      testing::Photograph(print, truth, testing::BoardPoses(kCharuco, 12, 400, 0.6, 2), 200, &floor);
   const CameraCalibrationResult result = CalibrateCameras(kCharuco, {views}, {});
   ASSERT_EQ(result.cameras.size(), 1u);
   const CalibratedCamera& c = result.cameras[0];

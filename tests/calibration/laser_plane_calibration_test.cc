@@ -153,8 +153,8 @@ TEST_F(LaserGeometryTest, PlaneSigmasMatchTheErrorsOverNoiseSeeds) {
       scatter2 += std::pow(position_errors[seed] - bias, 2) / (kSeeds - 1);
       sigma2 += std::pow(position_sigmas[seed], 2) / kSeeds;
     }
-    std::printf("location %d: position bias %.6f mm, scatter %.6f mm, sigma %.6f mm\n", li, bias,
-                std::sqrt(scatter2), std::sqrt(sigma2));
+    std::printf("location %d: position bias %.6f mm, scatter %.6f mm, sigma %.6f mm\n", li, bias, std::sqrt(scatter2),
+                std::sqrt(sigma2));
     scatter_ratio2 += scatter2 / sigma2 / 3;
     worst_bias = std::max(worst_bias, std::abs(bias));
   }

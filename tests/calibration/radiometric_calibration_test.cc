@@ -61,8 +61,8 @@ class RadiometricCalibrationTest : public testing::FlatSmallRigTest {
   std::vector<WhiteReferenceImage> Photographed(std::uint64_t seed) const {
     std::vector<WhiteReferenceImage> images;
     for (const WhiteReferenceImage& s : signals_) {
-      std::mt19937_64 rng = sim::ImageNoiseGenerator(seed, {static_cast<std::uint64_t>(s.camera),
-                                                            static_cast<std::uint64_t>(s.lamp)});
+      std::mt19937_64 rng =
+          sim::ImageNoiseGenerator(seed, {static_cast<std::uint64_t>(s.camera), static_cast<std::uint64_t>(s.lamp)});
       WhiteReferenceImage image = s;
       image.image = sim::ApplySensor(s.image, rig_.cameras[s.camera], rng, true);
       images.push_back(std::move(image));

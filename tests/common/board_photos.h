@@ -20,8 +20,7 @@
 
 namespace mesocap::testing {
 
-inline formats::CameraCalibration TestCamera(const std::string &id,
-                                             double k1 = -0.1) {
+inline formats::CameraCalibration TestCamera(const std::string &id, double k1 = -0.1) {
   formats::CameraCalibration camera;
   camera.id = id;
   camera.width = 640;
@@ -49,23 +48,18 @@ inline formats::CameraDescription TestSensor() {
 
 // world <- board: the board's centre at `centre` (world), turned by `tilt`
 // about the world's x and y axes and `spin` about its normal.
-inline core::RigidTransform
-BoardPose(const calibration::CalibrationBoard &board,
-          const Eigen::Vector3d &centre, double tilt_x_rad, double tilt_y_rad,
-          double spin_rad) {
-  const Eigen::Vector2d middle =
-      0.5 * (board.PrintedMin() + board.PrintedMax());
+inline core::RigidTransform BoardPose(const calibration::CalibrationBoard &board, const Eigen::Vector3d &centre,
+                                      double tilt_x_rad, double tilt_y_rad, double spin_rad) {
+  const Eigen::Vector2d middle = 0.5 * (board.PrintedMin() + board.PrintedMax());
   const Eigen::Matrix3d rotation =
       (Eigen::AngleAxisd(tilt_x_rad, Eigen::Vector3d::UnitX()) *
-       Eigen::AngleAxisd(tilt_y_rad, Eigen::Vector3d::UnitY()) *
-       Eigen::AngleAxisd(spin_rad, Eigen::Vector3d::UnitZ()))
+       Eigen::AngleAxisd(tilt_y_rad, Eigen::Vector3d::UnitY()) * Eigen::AngleAxisd(spin_rad, Eigen::Vector3d::UnitZ()))
           .toRotationMatrix();
   core::RigidTransform pose;
   pose.parent_frame = "world";
   pose.child_frame = "board";
   pose.rotation = rotation;
-  pose.translation =
-      centre - rotation * Eigen::Vector3d(middle.x(), middle.y(), 0);
+  pose.translation = centre - rotation * Eigen::Vector3d(middle.x(), middle.y(), 0);
   return pose;
 }
 
@@ -73,30 +67,24 @@ BoardPose(const calibration::CalibrationBoard &board,
 // spread across the view (+-`spread` of the distance sideways, so boards
 // reach the image's corners where distortion shows) and tilted up to
 // `max_tilt_rad` (seeded).
-inline std::vector<core::RigidTransform>
-BoardPoses(const calibration::CalibrationBoard &board, int count,
-           double distance_mm, double max_tilt_rad, std::uint64_t seed,
-           double spread = 0.25) {
+inline std::vector<core::RigidTransform> BoardPoses(const calibration::CalibrationBoard &board, int count,
+                                                    double distance_mm, double max_tilt_rad, std::uint64_t seed,
+                                                    double spread = 0.25) {
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
   std::vector<core::RigidTransform> poses;
   for (int i = 0; i < count; ++i) {
-    const Eigen::Vector3d centre(spread * distance_mm * unit(rng),
-                                 0.75 * spread * distance_mm * unit(rng),
+    const Eigen::Vector3d centre(spread * distance_mm * unit(rng), 0.75 * spread * distance_mm * unit(rng),
                                  distance_mm * (1 + 0.15 * unit(rng)));
-    poses.push_back(BoardPose(board, centre, max_tilt_rad * unit(rng),
-                              max_tilt_rad * unit(rng), 0.3 * unit(rng)));
+    poses.push_back(BoardPose(board, centre, max_tilt_rad * unit(rng), max_tilt_rad * unit(rng), 0.3 * unit(rng)));
   }
   return poses;
 }
 
-inline core::Image BoardPhoto(const calibration::BoardPrint &print,
-                              const core::RigidTransform &world_from_board,
-                              const formats::CameraCalibration &camera,
-                              std::uint64_t seed,
+inline core::Image BoardPhoto(const calibration::BoardPrint &print, const core::RigidTransform &world_from_board,
+                              const formats::CameraCalibration &camera, std::uint64_t seed,
                               const sim::BoardPhotoOptions &options = {}) {
-  const core::Image signal =
-      sim::RenderBoardPhoto(print, world_from_board, camera, options);
+  const core::Image signal = sim::RenderBoardPhoto(print, world_from_board, camera, options);
   std::mt19937_64 rng(seed);
   return sim::ApplySensor(signal, TestSensor(), rng, true);
 }
@@ -107,14 +95,11 @@ struct DetectorError {
   int corners = 0;
 };
 
-inline DetectorError Compare(const calibration::BoardDetection &detection,
-                             const std::vector<Eigen::Vector2d> &truth) {
+inline DetectorError Compare(const calibration::BoardDetection &detection, const std::vector<Eigen::Vector2d> &truth) {
   DetectorError error;
   double sum = 0;
   for (std::size_t i = 0; i < detection.size(); ++i) {
-    sum += (detection.pixels[i] -
-            truth[static_cast<std::size_t>(detection.ids[i])])
-               .squaredNorm();
+    sum += (detection.pixels[i] - truth[static_cast<std::size_t>(detection.ids[i])]).squaredNorm();
     ++error.corners;
   }
   error.rms_px = std::sqrt(sum / std::max(1, error.corners));
@@ -123,11 +108,10 @@ inline DetectorError Compare(const calibration::BoardDetection &detection,
 
 // One camera's photos of the board at `poses`, detected as the CLI does;
 // `floor`, when given, gets the detector's error against the truth.
-inline calibration::CameraViews
-Photograph(const calibration::BoardPrint &print,
-           const formats::CameraCalibration &camera,
-           const std::vector<core::RigidTransform> &poses, std::uint64_t seed,
-           DetectorError *floor = nullptr) {
+inline calibration::CameraViews Photograph(const calibration::BoardPrint &print,
+                                           const formats::CameraCalibration &camera,
+                                           const std::vector<core::RigidTransform> &poses, std::uint64_t seed,
+                                           DetectorError *floor = nullptr) {
   const calibration::BoardCornerDetector detector(print.board());
   calibration::CameraViews views;
   views.id = camera.id;
@@ -140,15 +124,12 @@ Photograph(const calibration::BoardPrint &print,
     views.names.push_back("photo" + std::to_string(i) + ".png");
     views.detections.push_back(detector.Detect(photo));
     views.qualities.push_back(detector.Quality(photo, views.detections.back()));
-    const DetectorError e =
-        Compare(views.detections.back(),
-                sim::TrueCornerPixels(print.board(), poses[i], camera));
+    const DetectorError e = Compare(views.detections.back(), sim::TrueCornerPixels(print.board(), poses[i], camera));
     sum += e.rms_px * e.rms_px * e.corners;
     corners += e.corners;
   }
-  if (floor)
-    *floor = {std::sqrt(sum / std::max(1, corners)), corners};
+  if (floor) *floor = {std::sqrt(sum / std::max(1, corners)), corners};
   return views;
 }
 
-} // namespace mesocap::testing
+}  // namespace mesocap::testing

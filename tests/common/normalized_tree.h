@@ -48,7 +48,8 @@ inline std::map<std::string, std::string> Normalized(const std::filesystem::path
 }
 
 // The files that differ between two Normalized() trees, by name; empty when equal.
-inline std::string Differences(const std::map<std::string, std::string>& a, const std::map<std::string, std::string>& b) {
+inline std::string Differences(const std::map<std::string, std::string>& a,
+                               const std::map<std::string, std::string>& b) {
   std::string names;
   for (const auto& [name, bytes] : a) {
     const auto it = b.find(name);

@@ -62,8 +62,7 @@ inline void ExpectRings(const core::SamplingSet& set, const std::vector<double>&
     for (int k = 0; k < count[r]; ++k, ++i) {
       ASSERT_LT(i, set.size());
       EXPECT_NEAR(set.angles(i).theta, theta_deg[r] * kDeg, 1e-15) << set.name() << " " << i;
-      EXPECT_NEAR(set.angles(i).phi, (offset_deg[r] + 360.0 * k / count[r]) * kDeg, 1e-14)
-          << set.name() << " " << i;
+      EXPECT_NEAR(set.angles(i).phi, (offset_deg[r] + 360.0 * k / count[r]) * kDeg, 1e-14) << set.name() << " " << i;
     }
   }
   EXPECT_EQ(i, set.size());

@@ -90,7 +90,6 @@ std::string MessageOf(const std::function<void()>& f) {
   return "(no error)";
 }
 
-
 TEST(AtomicDirectory, RefusesToReplaceUnlessAsked) {
   testing::TemporaryDirectory dir;
   std::filesystem::create_directories(dir / "pkg");
@@ -128,8 +127,9 @@ TEST(AtomicDirectory, ReplacesOnlyItsOwnKindAndNeverAnInput) {
   std::ofstream(dir / "pkg" / "inner" / "input.json") << "{}";
   EXPECT_THAT(MessageOf([&] { AtomicDirectory(dir / "pkg", ReplaceKind(true, {dir / "pkg"})); }),
               ::testing::HasSubstr("is this command's input"));
-  EXPECT_THAT(MessageOf([&] { AtomicDirectory(dir / "pkg/", ReplaceKind(true, {dir / "pkg" / "inner" / "input.json"})); }),
-              ::testing::HasSubstr("holding this command's input"));
+  EXPECT_THAT(
+      MessageOf([&] { AtomicDirectory(dir / "pkg/", ReplaceKind(true, {dir / "pkg" / "inner" / "input.json"})); }),
+      ::testing::HasSubstr("holding this command's input"));
   // The same folder by another spelling is still the input.
   EXPECT_THAT(MessageOf([&] { AtomicDirectory(dir / "pkg", ReplaceKind(true, {dir / "notes" / ".." / "pkg"})); }),
               ::testing::HasSubstr("input"));

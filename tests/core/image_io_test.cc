@@ -68,8 +68,7 @@ INSTANTIATE_TEST_SUITE_P(
                        ::testing::Values(1, 3, 4)),
     [](const auto& info) {
       const Case& c = std::get<0>(info.param);
-      return std::string(c.ext + 1) + "_" + ToString(c.encoding) + "_" +
-             std::to_string(std::get<1>(info.param)) + "ch";
+      return std::string(c.ext + 1) + "_" + ToString(c.encoding) + "_" + std::to_string(std::get<1>(info.param)) + "ch";
     });
 
 TEST(ImageIo, FloatExrKeepsInfinityAndNan) {

@@ -49,9 +49,9 @@ TEST(JsonFieldReader, FormatAndVersion) {
   // A reader of a range of versions returns the file's and names the range.
   EXPECT_EQ(r.ExpectFormat("mesocap.calibration", 1, 2), 2);
   EXPECT_EQ(r.ExpectFormat("mesocap.calibration", 2, 3), 2);
-  EXPECT_NE(ErrorOf([&] { r.ExpectFormat("mesocap.calibration", 3, 4); })
-                .find("versions 3 to 4, the file is version 2"),
-            std::string::npos);
+  EXPECT_NE(
+      ErrorOf([&] { r.ExpectFormat("mesocap.calibration", 3, 4); }).find("versions 3 to 4, the file is version 2"),
+      std::string::npos);
 }
 
 TEST(ReadJsonFile, RejectsMissingOversizeAndMalformed) {

@@ -143,14 +143,14 @@ TEST(SamplingSetWeights, RegularGridGivesBandSolidAngles) {
 
 TEST(SamplingSetFromAngles, KeepsOrderAndGroupsRings) {
   // Rings out of order, and a theta 5e-10 off its ring.
-  const SamplingSet set = SamplingSet::FromAngles(
-      "mine", {{0.5, 1.0}, {0.2, 0.0}, {0.5 + 5e-10, 3.0}, {0.0, 2.0}, {0.5, -1.0}});
+  const SamplingSet set =
+      SamplingSet::FromAngles("mine", {{0.5, 1.0}, {0.2, 0.0}, {0.5 + 5e-10, 3.0}, {0.0, 2.0}, {0.5, -1.0}});
   EXPECT_EQ(set.name(), "mine");
   ASSERT_EQ(set.size(), 5);
   EXPECT_EQ(set.angles(0).theta, 0.5);
   EXPECT_EQ(set.angles(1).theta, 0.2);
-  EXPECT_EQ(set.angles(2).theta, 0.5);  // joined the ring at 0.5
-  EXPECT_EQ(set.angles(3).phi, 0.0);    // pole
+  EXPECT_EQ(set.angles(2).theta, 0.5);                   // joined the ring at 0.5
+  EXPECT_EQ(set.angles(3).phi, 0.0);                     // pole
   EXPECT_NEAR(set.angles(4).phi, 2 * kPi - 1.0, 1e-15);  // wrapped
   // Three rings: bands [0, 0.1], [0.1, 0.35], [0.35, pi/2].
   EXPECT_NEAR(set.weight(3), 2 * kPi * (1 - std::cos(0.1)), 1e-15);
@@ -161,8 +161,7 @@ TEST(SamplingSetFromAngles, KeepsOrderAndGroupsRings) {
 TEST(SamplingSetFromAngles, RejectsBadAnglesNamingTheIndex) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   for (const double theta : {-0.1, kPi / 2, 2.0, nan}) {
-    const std::string msg =
-        ErrorOf([&] { SamplingSet::FromAngles("s", {{0.1, 0}, {0.2, 0}, {theta, 0}}); });
+    const std::string msg = ErrorOf([&] { SamplingSet::FromAngles("s", {{0.1, 0}, {0.2, 0}, {theta, 0}}); });
     EXPECT_TRUE(Contains(msg, "direction 2")) << msg;
   }
   EXPECT_TRUE(Contains(ErrorOf([&] { SamplingSet::FromAngles("s", {{0.1, nan}}); }), "direction 0"));
@@ -170,14 +169,11 @@ TEST(SamplingSetFromAngles, RejectsBadAnglesNamingTheIndex) {
 }
 
 TEST(SamplingSetFromAngles, RejectsDuplicates) {
-  const std::string msg =
-      ErrorOf([] { SamplingSet::FromAngles("s", {{0.3, 1.0}, {0.4, 1.0}, {0.3, 1.0 + 2 * kPi}}); });
+  const std::string msg = ErrorOf([] { SamplingSet::FromAngles("s", {{0.3, 1.0}, {0.4, 1.0}, {0.3, 1.0 + 2 * kPi}}); });
   EXPECT_TRUE(Contains(msg, "directions 0 and 2 coincide")) << msg;
   // Across phi = 0, and at the pole where phi does not matter.
-  EXPECT_TRUE(Contains(ErrorOf([] { SamplingSet::FromAngles("s", {{0.3, 1e-12}, {0.3, -1e-12}}); }),
-                       "coincide"));
-  EXPECT_TRUE(Contains(ErrorOf([] { SamplingSet::FromAngles("s", {{0.0, 0.0}, {0.0, 1.0}}); }),
-                       "coincide"));
+  EXPECT_TRUE(Contains(ErrorOf([] { SamplingSet::FromAngles("s", {{0.3, 1e-12}, {0.3, -1e-12}}); }), "coincide"));
+  EXPECT_TRUE(Contains(ErrorOf([] { SamplingSet::FromAngles("s", {{0.0, 0.0}, {0.0, 1.0}}); }), "coincide"));
   EXPECT_NO_THROW(SamplingSet::FromAngles("s", {{0.3, 0.0}, {0.3, 1e-8}}));
 }
 
@@ -189,8 +185,7 @@ std::vector<SamplingSet> AllTestSets() {
   std::vector<SamplingSet> sets;
   for (const auto& name : kNamedSets) sets.push_back(SamplingSet::Named(name));
   sets.push_back(SamplingSet::FromAngles(
-      "irregular", {{0.3, 2.0}, {0.7, 0.1}, {0.7, 3.0}, {0.71, 5.0}, {1.4, 1.0}, {1.4, 1.1},
-                    {1.4, 4.0}, {1.5, 0.5}}));
+      "irregular", {{0.3, 2.0}, {0.7, 0.1}, {0.7, 3.0}, {0.71, 5.0}, {1.4, 1.0}, {1.4, 1.1}, {1.4, 4.0}, {1.5, 0.5}}));
   return sets;
 }
 
@@ -304,9 +299,8 @@ std::string ReadError(const json& directions, const json& name = "s") {
 TEST(SamplingSetJson, RejectsBadEntriesNamingTheField) {
   const json good = {10, 0};
   const auto with = [&](const json& bad) { return json::array({good, json{20, 0}, json{30, 0}, bad}); };
-  for (const json& bad : {json{95, 0}, json{-1, 0}, json{90, 0}, json{10}, json{10, 20, 30},
-                          json{"10", 0}, json(10), json{10, nullptr},
-                          json{10, std::numeric_limits<double>::quiet_NaN()}}) {
+  for (const json& bad : {json{95, 0}, json{-1, 0}, json{90, 0}, json{10}, json{10, 20, 30}, json{"10", 0}, json(10),
+                          json{10, nullptr}, json{10, std::numeric_limits<double>::quiet_NaN()}}) {
     const std::string msg = ReadError(with(bad));
     EXPECT_TRUE(Contains(msg, "material.json")) << msg;
     EXPECT_TRUE(Contains(msg, "view_directions.directions_deg[3]")) << msg;

@@ -68,7 +68,7 @@ class PatternCamera : public Camera {
   }
   CameraSettings last_settings;
   std::chrono::milliseconds render_time{0};  // how long a frame takes to make
-  int frames_ = 0;  // the next frame's number
+  int frames_ = 0;                           // the next frame's number
 
  private:
   CameraSettings settings_;

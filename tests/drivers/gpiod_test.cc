@@ -28,9 +28,7 @@ struct FakeTime {
   }
 };
 
-GpioLineAddress ByName(const std::string& name, bool active_low = false) {
-  return {"gpiochip0", -1, name, active_low};
-}
+GpioLineAddress ByName(const std::string& name, bool active_low = false) { return {"gpiochip0", -1, name, active_low}; }
 GpioLineAddress ByOffset(int offset, bool active_low = false) { return {"gpiochip0", offset, "", active_low}; }
 
 // The rising edges written to `offset`.
@@ -74,8 +72,8 @@ class GpiodTest : public ::testing::Test {
   // name with a current sensor.
   GpioLampBankOptions Lamps() const {
     GpioLampBankOptions options;
-    options.lamps = {{ByOffset(0), std::nullopt}, {ByName("LAMP1", true), std::nullopt},
-                     {ByName("LAMP2"), ByName("SENSE2")}};
+    options.lamps = {
+        {ByOffset(0), std::nullopt}, {ByName("LAMP1", true), std::nullopt}, {ByName("LAMP2"), ByName("SENSE2")}};
     options.settle = milliseconds(250);
     return options;
   }
@@ -189,8 +187,9 @@ TEST_F(GpiodTest, ABusyLineIsNamedWithItsConsumer) {
   EXPECT_FALSE(chip_.IsRequested(0));
 
   GpioLampBank first(GpioLampBankOptions{{{ByOffset(0), std::nullopt}}}, chip_.Opener(), time_.timing());
-  const std::string second = MessageOf<DeviceError>(
-      [&] { GpioLampBank lamps(GpioLampBankOptions{{{ByOffset(0), std::nullopt}}}, chip_.Opener()); });
+  const std::string second = MessageOf<DeviceError>([&] {
+    GpioLampBank lamps(GpioLampBankOptions{{{ByOffset(0), std::nullopt}}}, chip_.Opener());
+  });
   EXPECT_EQ(second, "GPIO gpiochip0 line 0: in use by \"mesocap\" (Device or resource busy)");
 }
 

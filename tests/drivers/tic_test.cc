@@ -28,15 +28,24 @@ constexpr double kPi = std::numbers::pi;
 TEST(TicProtocolTest, CommandCodesAreThoseOfPololusProtocolHeader) {
   // include/tic_protocol.h, TIC_CMD_*.
   const std::pair<TicCommand, int> expected[] = {
-      {TicCommand::kSetTargetPosition, 0xE0}, {TicCommand::kSetTargetVelocity, 0xE3},
-      {TicCommand::kHaltAndSetPosition, 0xEC}, {TicCommand::kHaltAndHold, 0x89},
-      {TicCommand::kGoHome, 0x97},            {TicCommand::kResetCommandTimeout, 0x8C},
-      {TicCommand::kDeenergize, 0x86},        {TicCommand::kEnergize, 0x85},
-      {TicCommand::kExitSafeStart, 0x83},     {TicCommand::kEnterSafeStart, 0x8F},
-      {TicCommand::kReset, 0xB0},             {TicCommand::kClearDriverError, 0x8A},
-      {TicCommand::kSetMaxSpeed, 0xE6},       {TicCommand::kSetStartingSpeed, 0xE5},
-      {TicCommand::kSetMaxAccel, 0xEA},       {TicCommand::kSetMaxDecel, 0xE9},
-      {TicCommand::kSetStepMode, 0x94},       {TicCommand::kGetVariable, 0xA1},
+      {TicCommand::kSetTargetPosition, 0xE0},
+      {TicCommand::kSetTargetVelocity, 0xE3},
+      {TicCommand::kHaltAndSetPosition, 0xEC},
+      {TicCommand::kHaltAndHold, 0x89},
+      {TicCommand::kGoHome, 0x97},
+      {TicCommand::kResetCommandTimeout, 0x8C},
+      {TicCommand::kDeenergize, 0x86},
+      {TicCommand::kEnergize, 0x85},
+      {TicCommand::kExitSafeStart, 0x83},
+      {TicCommand::kEnterSafeStart, 0x8F},
+      {TicCommand::kReset, 0xB0},
+      {TicCommand::kClearDriverError, 0x8A},
+      {TicCommand::kSetMaxSpeed, 0xE6},
+      {TicCommand::kSetStartingSpeed, 0xE5},
+      {TicCommand::kSetMaxAccel, 0xEA},
+      {TicCommand::kSetMaxDecel, 0xE9},
+      {TicCommand::kSetStepMode, 0x94},
+      {TicCommand::kGetVariable, 0xA1},
       {TicCommand::kGetVariableAndClearErrorsOccurred, 0xA2},
   };
   for (const auto& [command, code] : expected) EXPECT_EQ(static_cast<int>(command), code);
@@ -44,9 +53,9 @@ TEST(TicProtocolTest, CommandCodesAreThoseOfPololusProtocolHeader) {
 
 TEST(TicProtocolTest, CommandsWithoutArgumentAreBareVendorRequests) {
   // lib/tic_handle.c: bmRequestType 0x40, wValue 0, wIndex 0, no data.
-  for (TicCommand command : {TicCommand::kHaltAndHold, TicCommand::kResetCommandTimeout, TicCommand::kDeenergize,
-                             TicCommand::kEnergize, TicCommand::kExitSafeStart, TicCommand::kEnterSafeStart,
-                             TicCommand::kReset, TicCommand::kClearDriverError}) {
+  for (TicCommand command :
+       {TicCommand::kHaltAndHold, TicCommand::kResetCommandTimeout, TicCommand::kDeenergize, TicCommand::kEnergize,
+        TicCommand::kExitSafeStart, TicCommand::kEnterSafeStart, TicCommand::kReset, TicCommand::kClearDriverError}) {
     EXPECT_EQ(EncodeCommand(command), (ControlSetup{0x40, static_cast<std::uint8_t>(command), 0, 0, 0}));
   }
 }
@@ -76,7 +85,7 @@ TEST(TicProtocolTest, SevenBitArgumentsGoInValue) {
 TEST(TicProtocolTest, StepModeCodes) {
   // include/tic_protocol.h: TIC_STEP_MODE_MICROSTEP1..32 = 0..5,
   // MICROSTEP2_100P = 6, MICROSTEP64/128/256 = 7/8/9.
-  const std::pair<int, int> expected[] = {{1, 0}, {2, 1}, {4, 2}, {8, 3}, {16, 4},
+  const std::pair<int, int> expected[] = {{1, 0},  {2, 1},  {4, 2},   {8, 3},  {16, 4},
                                           {32, 5}, {64, 7}, {128, 8}, {256, 9}};
   for (const auto& [microsteps, code] : expected) EXPECT_EQ(StepModeCode(microsteps), code) << microsteps;
   EXPECT_FALSE(StepModeCode(3));
@@ -155,12 +164,12 @@ TEST(TicProtocolTest, ErrorBitsAndNames) {
 TEST(TicProtocolTest, DecodesLittleEndianVariables) {
   // lib/tic_internal.h read_u16/read_u32: little-endian.
   std::array<std::uint8_t, kVariablesBlockSize> block{};
-  block[0x00] = 10;                       // normal
-  block[0x01] = 0b10011;                  // energized, position uncertain, homing active
-  block[0x02] = 0x44;                     // low VIN | command timeout
+  block[0x00] = 10;       // normal
+  block[0x01] = 0b10011;  // energized, position uncertain, homing active
+  block[0x02] = 0x44;     // low VIN | command timeout
   block[0x0A] = 0xFE, block[0x0B] = 0xFF, block[0x0C] = 0xFF, block[0x0D] = 0xFF;  // target -2
   block[0x22] = 0x78, block[0x23] = 0x56, block[0x24] = 0x34, block[0x25] = 0x12;  // current 0x12345678
-  block[0x33] = 0xE0, block[0x34] = 0x2E;  // VIN 12000 mV
+  block[0x33] = 0xE0, block[0x34] = 0x2E;                                          // VIN 12000 mV
   const TicVariables v = DecodeVariables(block);
   EXPECT_EQ(v.operation_state, 10);
   EXPECT_TRUE(v.energized);
@@ -188,8 +197,9 @@ TEST(EmulatedTicTest, RejectsWhatARealTicWouldStall) {
   EmulatedTic tic({});
   auto transport = tic.Open();
   std::array<std::uint8_t, 8> data{};
-  EXPECT_NE(ErrorOf<DeviceError>([&] { transport->ControlTransfer({0x40, 0x42, 0, 0, 0}, data); })
-                .find("pipe error"),
+  EXPECT_NE(ErrorOf<DeviceError>([&] {
+              transport->ControlTransfer({0x40, 0x42, 0, 0, 0}, data);
+            }).find("pipe error"),
             std::string::npos);
   // A read sent as a write, a read past the block, an argument to a bare command.
   EXPECT_THROW(transport->ControlTransfer({0x40, 0xA1, 0, 0, 4}, data), DeviceError);
@@ -211,8 +221,7 @@ TEST(EmulatedTicTest, StartsInSafeStartAndTimesOutWithoutKeepalive) {
   }
   EXPECT_EQ(ErrorStatusOf(tic), 0);
   tic.Advance(200ms);
-  EXPECT_EQ(ErrorStatusOf(tic),
-            ErrorMask(TicErrorBit::kCommandTimeout) | ErrorMask(TicErrorBit::kSafeStartViolation));
+  EXPECT_EQ(ErrorStatusOf(tic), ErrorMask(TicErrorBit::kCommandTimeout) | ErrorMask(TicErrorBit::kSafeStartViolation));
 }
 
 // ---- The stage over the emulated Tic ----
@@ -266,7 +275,7 @@ TEST_F(TicStageTest, HomesToTheSwitchWithGoHome) {
   EXPECT_DOUBLE_EQ(tic_.shaft_microsteps(), -1200.0);
   EXPECT_NEAR(stage->Position(), 0.0, 1e-12);
   EXPECT_FALSE(tic_.Variables().position_uncertain);
-  EXPECT_EQ(tic_.Variables().step_mode, 3);  // 1/8
+  EXPECT_EQ(tic_.Variables().step_mode, 3);         // 1/8
   EXPECT_EQ(tic_.Variables().max_speed, 8000000u);  // 800 microsteps/s = pi rad/s
 }
 
@@ -469,8 +478,7 @@ TEST(TicStageOptionsTest, Check) {
 TEST(LibusbTicTest, FindsNoTicAndNamesTheSerialItCannotOpen) {
   const std::vector<TicDeviceInfo> tics = ListLibusbTics();
   if (!tics.empty()) GTEST_SKIP() << "a Tic is plugged in: " << Describe(tics.front());
-  EXPECT_EQ(ErrorOf<DeviceError>([] { OpenLibusbTic("00123456"); }),
-            "no Tic with serial 00123456 found (found: none)");
+  EXPECT_EQ(ErrorOf<DeviceError>([] { OpenLibusbTic("00123456"); }), "no Tic with serial 00123456 found (found: none)");
 }
 
 TEST(LibusbTicTest, MapsLibusbErrors) {

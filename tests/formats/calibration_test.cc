@@ -24,9 +24,7 @@ std::string Slurp(const fs::path& p) {
   return {std::istreambuf_iterator<char>(in), {}};
 }
 
-void Spit(const fs::path& p, const std::string& text) {
-  std::ofstream(p, std::ios::binary | std::ios::trunc) << text;
-}
+void Spit(const fs::path& p, const std::string& text) { std::ofstream(p, std::ios::binary | std::ios::trunc) << text; }
 
 int CountEntries(const fs::path& dir) {
   int n = 0;
@@ -35,7 +33,7 @@ int CountEntries(const fs::path& dir) {
 }
 
 core::RigidTransform Pose(const std::string& parent, const std::string& child, double angle,
-                    const Eigen::Vector3d& axis, const Eigen::Vector3d& t) {
+                          const Eigen::Vector3d& axis, const Eigen::Vector3d& t) {
   core::RigidTransform p;
   p.parent_frame = parent;
   p.child_frame = child;
@@ -111,8 +109,7 @@ Calibration ExampleCalibration() {
 // Angles pass through degrees in the file, so allow for the last bits.
 template <typename V>
 void ExpectNear(const V& a, const V& b, const std::string& what) {
-  EXPECT_LE((a - b).norm(), 1e-12 * (1 + a.norm())) << what << ": " << a.transpose() << " vs "
-                                                    << b.transpose();
+  EXPECT_LE((a - b).norm(), 1e-12 * (1 + a.norm())) << what << ": " << a.transpose() << " vs " << b.transpose();
 }
 
 template <typename T>
@@ -173,10 +170,8 @@ void ExpectSame(const Calibration& a, const Calibration& b) {
   ExpectNear(t.uncertainty.axis_direction, u.uncertainty.axis_direction, "turntable.std.dir");
   ExpectNear(a.light_arc.axis_point_mm, b.light_arc.axis_point_mm, "light_arc.axis_point_mm");
   ExpectNear(a.light_arc.axis_direction, b.light_arc.axis_direction, "light_arc.axis_direction");
-  ExpectNear(a.light_arc.uncertainty.axis_point_mm, b.light_arc.uncertainty.axis_point_mm,
-             "light_arc.std.point");
-  ExpectNear(a.light_arc.uncertainty.axis_direction, b.light_arc.uncertainty.axis_direction,
-             "light_arc.std.dir");
+  ExpectNear(a.light_arc.uncertainty.axis_point_mm, b.light_arc.uncertainty.axis_point_mm, "light_arc.std.point");
+  ExpectNear(a.light_arc.uncertainty.axis_direction, b.light_arc.uncertainty.axis_direction, "light_arc.std.dir");
   ASSERT_EQ(a.lamps.size(), b.lamps.size());
   for (std::size_t i = 0; i < a.lamps.size(); ++i) {
     const auto &x = a.lamps[i], &y = b.lamps[i];
@@ -195,8 +190,7 @@ void ExpectSame(const Calibration& a, const Calibration& b) {
     ExpectNear(x.tilt_axis, y.tilt_axis, "laser tilt axis");
     ExpectNear(x.tilt_range_rad, y.tilt_range_rad, "laser tilt range");
     ExpectNear(x.uncertainty.source_mm, y.uncertainty.source_mm, "laser std source");
-    ExpectNear(x.uncertainty.plane_normal_at_zero_tilt, y.uncertainty.plane_normal_at_zero_tilt,
-               "laser std normal");
+    ExpectNear(x.uncertainty.plane_normal_at_zero_tilt, y.uncertainty.plane_normal_at_zero_tilt, "laser std normal");
     ExpectNear(x.uncertainty.tilt_axis, y.uncertainty.tilt_axis, "laser std tilt axis");
     ExpectNear(x.uncertainty.tilt_range_rad, y.uncertainty.tilt_range_rad, "laser std range");
   }
@@ -238,8 +232,7 @@ TEST(Calibration, FileUsesDegreesAndStdSiblings) {
   EXPECT_EQ(j["version"], 2);
   EXPECT_EQ(j["units"], (json{{"length", "mm"}, {"angle", "deg"}}));
   EXPECT_NEAR(j["laser_mounts"][0]["tilt_range_deg"][1].get<double>(), 0.35 * 180 / kPi, 1e-12);
-  EXPECT_NEAR(j["laser_mounts"][0]["std"]["tilt_range_deg"][0].get<double>(), 0.001 * 180 / kPi,
-              1e-15);
+  EXPECT_NEAR(j["laser_mounts"][0]["std"]["tilt_range_deg"][0].get<double>(), 0.001 * 180 / kPi, 1e-15);
   EXPECT_EQ(j["cameras"][0]["intrinsics"]["std"], (json{{"fx", 0.4}, {"cy", 0.25}}));
   EXPECT_FALSE(j["cameras"][1]["intrinsics"].contains("std"));
   EXPECT_EQ(j["cameras"][2]["pose"]["child"], "camera:cam2");
@@ -336,24 +329,19 @@ std::vector<Edit> HostileEdits() {
       {"extra k4", set("/cameras/0/distortion/k4", 0.1), "cameras[0].distortion.k4"},
       {"1e308 k1", set("/cameras/0/distortion/k1", -1e308), "cameras[0].distortion.k1"},
       {"negative std", set("/cameras/0/intrinsics/std/fx", -0.1), "cameras[0].intrinsics.std.fx"},
-      {"std of non-parameter", set("/cameras/0/intrinsics/std/k1", 0.1),
-       "cameras[0].intrinsics.std.k1"},
+      {"std of non-parameter", set("/cameras/0/intrinsics/std/k1", 0.1), "cameras[0].intrinsics.std.k1"},
       {"std shape", set("/cameras/0/intrinsics/std/fx", {0.1}), "cameras[0].intrinsics.std.fx"},
       {"std not object", set("/cameras/0/intrinsics/std", 0.4), "cameras[0].intrinsics.std"},
-      {"pose std shape", set("/cameras/2/pose/std/rotation_deg", {1, 2}),
-       "cameras[2].pose.std.rotation_deg"},
+      {"pose std shape", set("/cameras/2/pose/std/rotation_deg", {1, 2}), "cameras[2].pose.std.rotation_deg"},
       {"pose std name", set("/cameras/2/pose/std/rotation", {1, 2, 3}), "cameras[2].pose.std.rotation"},
       {"pose std 1e308", set("/cameras/2/pose/std/translation_mm", {1e308, 0, 0}),
        "cameras[2].pose.std.translation_mm[0]"},
       {"camera parent", set("/cameras/0/pose/parent", "turntable"), "cameras[0].pose.parent"},
       {"camera child", set("/cameras/0/pose/child", "camera:cam1"), "cameras[0].pose.child"},
       {"bad frame", set("/cameras/0/pose/child", "cam0"), "cameras[0].pose.child"},
-      {"not a rotation", set("/cameras/0/pose/rotation", {1, 0, 0, 0, 1, 0, 0, 0, 2}),
-       "cameras[0].pose.rotation"},
-      {"mirror", set("/cameras/0/pose/rotation", {1, 0, 0, 0, 1, 0, 0, 0, -1}),
-       "cameras[0].pose.rotation"},
-      {"1e308 translation", set("/cameras/1/pose/translation_mm", {0, 1e308, 0}),
-       "cameras[1].pose.translation_mm[1]"},
+      {"not a rotation", set("/cameras/0/pose/rotation", {1, 0, 0, 0, 1, 0, 0, 0, 2}), "cameras[0].pose.rotation"},
+      {"mirror", set("/cameras/0/pose/rotation", {1, 0, 0, 0, 1, 0, 0, 0, -1}), "cameras[0].pose.rotation"},
+      {"1e308 translation", set("/cameras/1/pose/translation_mm", {0, 1e308, 0}), "cameras[1].pose.translation_mm[1]"},
       {"no pose", erase("/cameras/1", "pose"), "cameras[1].pose"},
       {"zero gain", set("/cameras/1/radiometry/signal_per_radiance_second", 0),
        "cameras[1].radiometry.signal_per_radiance_second"},
@@ -391,8 +379,7 @@ std::vector<Edit> HostileEdits() {
       {"camera not object", set("/cameras/1", 5), "cameras[1]"},
       {"zero axis", set("/turntable/axis_direction", {0, 0, 0}), "turntable.axis_direction"},
       {"tiny axis", set("/turntable/axis_direction", {0, 1e-300, 0}), "turntable.axis_direction"},
-      {"1e308 axis", set("/turntable/axis_direction", {0, 1e308, 1e308}),
-       "turntable.axis_direction[1]"},
+      {"1e308 axis", set("/turntable/axis_direction", {0, 1e308, 1e308}), "turntable.axis_direction[1]"},
       {"sample parent", set("/turntable/sample_pose/parent", "world"), "turntable.sample_pose.parent"},
       {"no turntable", erase("", "turntable"), "turntable"},
       {"string axis point", set("/light_arc/axis_point_mm", {"a", 0, 0}), "light_arc.axis_point_mm[0]"},
@@ -402,14 +389,10 @@ std::vector<Edit> HostileEdits() {
       {"1e308 lamp", set("/lamps/1/position_mm", {0, 0, 1e308}), "lamps[1].position_mm[2]"},
       {"257 lamps", [](json& j) { j["lamps"] = ListOf(257, j["lamps"][0]); }, "lamps"},
       {"lamps object", set("/lamps", json::object()), "lamps"},
-      {"tilt axis off plane", set("/laser_mounts/0/tilt_axis", {0, 1, 0}),
-       "laser_mounts[0].tilt_axis"},
-      {"tilt axis slightly off", set("/laser_mounts/0/tilt_axis", {1, 1e-5, 0}),
-       "laser_mounts[0].tilt_axis"},
-      {"reversed range", set("/laser_mounts/0/tilt_range_deg", {10, -10}),
-       "laser_mounts[0].tilt_range_deg"},
-      {"1e308 range", set("/laser_mounts/1/tilt_range_deg", {0, 1e308}),
-       "laser_mounts[1].tilt_range_deg[1]"},
+      {"tilt axis off plane", set("/laser_mounts/0/tilt_axis", {0, 1, 0}), "laser_mounts[0].tilt_axis"},
+      {"tilt axis slightly off", set("/laser_mounts/0/tilt_axis", {1, 1e-5, 0}), "laser_mounts[0].tilt_axis"},
+      {"reversed range", set("/laser_mounts/0/tilt_range_deg", {10, -10}), "laser_mounts[0].tilt_range_deg"},
+      {"1e308 range", set("/laser_mounts/1/tilt_range_deg", {0, 1e308}), "laser_mounts[1].tilt_range_deg[1]"},
       {"duplicate mount", set("/laser_mounts/1/id", "mount0"), "laser_mounts[1].id"},
       {"no laser mounts", erase("", "laser_mounts"), "laser_mounts"},
   };

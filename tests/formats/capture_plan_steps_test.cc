@@ -68,9 +68,10 @@ TEST(CapturePlanSteps, ListsMustHaveOneEntryPerFrameAndCamera) {
   for (const std::size_t count : {std::size_t{3}, std::size_t{200000}}) {
     PlannedStep step = Sweep(rig);
     step.params["offset_mm"] = nlohmann::json(std::vector<double>(count, 0.5));
-    EXPECT_EQ(SweepError(step, rig), "manifest.json: field 'plan[3].offset_mm': expected one number per frame of the "
-                                     "rig's sweep (laser.frames_per_sweep = " +
-                                         frames + "), got " + std::to_string(count) + " entries");
+    EXPECT_EQ(SweepError(step, rig),
+              "manifest.json: field 'plan[3].offset_mm': expected one number per frame of the "
+              "rig's sweep (laser.frames_per_sweep = " +
+                  frames + "), got " + std::to_string(count) + " entries");
   }
   PlannedStep step = Sweep(rig);
   step.params["tilt_deg"].erase(0);

@@ -23,9 +23,7 @@ std::string Slurp(const fs::path& p) {
   return {std::istreambuf_iterator<char>(in), {}};
 }
 
-void Spit(const fs::path& p, const std::string& text) {
-  std::ofstream(p, std::ios::binary | std::ios::trunc) << text;
-}
+void Spit(const fs::path& p, const std::string& text) { std::ofstream(p, std::ios::binary | std::ios::trunc) << text; }
 
 void AppendText(const fs::path& p, const std::string& text) {
   std::ofstream(p, std::ios::binary | std::ios::app) << text;
@@ -40,11 +38,11 @@ SessionManifest ExampleManifest() {
            {"notes", nullptr}};
   m.calibration = "calibration/rig.json";
   m.calibration_checksum = core::FileChecksum{12, 0x0123456789abcdef};
-  m.plan.push_back({"btf-t000-a000-l0", StepKind::kBtfImage,
-                    {{"turntable_deg", 0}, {"arc_deg", 0}, {"lamp", "halogen0"}}});
+  m.plan.push_back(
+      {"btf-t000-a000-l0", StepKind::kBtfImage, {{"turntable_deg", 0}, {"arc_deg", 0}, {"lamp", "halogen0"}}});
   m.plan.push_back({"laser-cal-m0", StepKind::kLaserCalibration, json::object()});
-  m.plan.push_back({"sweep-t000-m0", StepKind::kLaserSweep,
-                    {{"mount", "mount0"}, {"tilt_deg", {-20, 20}}, {"frames", 400}}});
+  m.plan.push_back(
+      {"sweep-t000-m0", StepKind::kLaserSweep, {{"mount", "mount0"}, {"tilt_deg", {-20, 20}}, {"frames", 400}}});
   m.plan.push_back({"dark-frame", StepKind::kOther, {{"note", "lens cap on"}}});
   return m;
 }
@@ -283,10 +281,9 @@ TEST(CaptureSession, UtcTimestamps) {
   EXPECT_TRUE(IsUtcTimestamp(UtcTimestamp(std::chrono::system_clock::now())));
   EXPECT_TRUE(IsUtcTimestamp("2024-02-29T23:59:60Z"));
   EXPECT_TRUE(IsUtcTimestamp("2025-06-01T12:34:56.123456789Z"));
-  for (const char* bad : {"", "Z", "2025-06-01", "2025-06-01T12:34:56", "2025-06-01T12:34:56z",
-                          "2025-13-01T00:00:00Z", "2025-06-31T00:00:00Z", "2025-06-01T24:00:00Z",
-                          "2025-06-01T12:34:56.Z", "2025-06-01T12:34:56.1234567890Z",
-                          "2025-06-01T12:34:5xZ", "+2025-06-01T12:34:56Z"}) {
+  for (const char* bad : {"", "Z", "2025-06-01", "2025-06-01T12:34:56", "2025-06-01T12:34:56z", "2025-13-01T00:00:00Z",
+                          "2025-06-31T00:00:00Z", "2025-06-01T24:00:00Z", "2025-06-01T12:34:56.Z",
+                          "2025-06-01T12:34:56.1234567890Z", "2025-06-01T12:34:5xZ", "+2025-06-01T12:34:56Z"}) {
     EXPECT_FALSE(IsUtcTimestamp(bad)) << bad;
   }
 }
@@ -295,8 +292,8 @@ TEST(CaptureSession, SessionPathsStayInside) {
   for (const char* good : {"a", "images/cam0/000.exr", "a.b/c..d/...", "x-y_z"}) {
     EXPECT_TRUE(IsSessionPath(good)) << good;
   }
-  for (const char* bad : {"", "/etc/passwd", "..", "../a", "a/..", "a/../b", "./a", "a/./b",
-                          "a//b", "a/", "a\\b", "a\nb"}) {
+  for (const char* bad :
+       {"", "/etc/passwd", "..", "../a", "a/..", "a/../b", "./a", "a/./b", "a//b", "a/", "a\\b", "a\nb"}) {
     EXPECT_FALSE(IsSessionPath(bad)) << bad;
   }
   EXPECT_FALSE(IsSessionPath(std::string("a\0b", 3)));
@@ -322,8 +319,7 @@ struct ExampleSession {
 };
 
 JournalRecord Record(std::uint64_t seq, std::string step, std::vector<JournalFile> files = {}) {
-  return {seq, std::move(step), "2025-06-01T13:00:0" + std::to_string(seq % 10) + "Z",
-          std::move(files), std::nullopt};
+  return {seq, std::move(step), "2025-06-01T13:00:0" + std::to_string(seq % 10) + "Z", std::move(files), std::nullopt};
 }
 
 // A journaled file by size; the journal adds its hash.
@@ -380,19 +376,19 @@ TEST(CaptureJournal, AppendRefusesBadRecordsAndLeavesTheFileAsItWas) {
   journal.Append(ExampleRecords()[0]);
   const std::string before = Slurp(s.journal);
   const std::vector<JournalRecord> bad = {
-      Record(0, "laser-cal-m0"),                                 // seq repeated
-      Record(2, "laser-cal-m0"),                                 // seq skipped
-      Record(1, "btf-t000-a000-l0"),                             // step done already
-      Record(1, "not-in-plan"),                                  // step outside the plan
-      Record(1, "bad id"),                                       // not an id
-      {1, "laser-cal-m0", "13:00", {}, std::nullopt},            // not a UTC time
-      Record(1, "laser-cal-m0", {F("/etc/passwd", 100)}),         // absolute
-      Record(1, "laser-cal-m0", {F("../outside", 100)}),          // escapes the session
-      Record(1, "laser-cal-m0", {F("", 0)}),                      // empty
-      Record(1, "laser-cal-m0", {F("laser.json", 2), F("laser.json", 2)}),  // twice
-      Record(1, "laser-cal-m0", {F("missing.exr", 10)}),          // no such file
-      Record(1, "laser-cal-m0", {F("laser.json", 3)}),            // wrong size
-      Record(1, "laser-cal-m0", {F("btf", 0)}),                   // a folder
+      Record(0, "laser-cal-m0"),                                             // seq repeated
+      Record(2, "laser-cal-m0"),                                             // seq skipped
+      Record(1, "btf-t000-a000-l0"),                                         // step done already
+      Record(1, "not-in-plan"),                                              // step outside the plan
+      Record(1, "bad id"),                                                   // not an id
+      {1, "laser-cal-m0", "13:00", {}, std::nullopt},                        // not a UTC time
+      Record(1, "laser-cal-m0", {F("/etc/passwd", 100)}),                    // absolute
+      Record(1, "laser-cal-m0", {F("../outside", 100)}),                     // escapes the session
+      Record(1, "laser-cal-m0", {F("", 0)}),                                 // empty
+      Record(1, "laser-cal-m0", {F("laser.json", 2), F("laser.json", 2)}),   // twice
+      Record(1, "laser-cal-m0", {F("missing.exr", 10)}),                     // no such file
+      Record(1, "laser-cal-m0", {F("laser.json", 3)}),                       // wrong size
+      Record(1, "laser-cal-m0", {F("btf", 0)}),                              // a folder
       Record(1, "laser-cal-m0", {F("laser.json", std::uint64_t{1} << 63)}),  // absurd size
   };
   for (std::size_t i = 0; i < bad.size(); ++i) {
@@ -482,21 +478,17 @@ TEST(CaptureJournal, OrderAndPlanAreChecked) {
   const auto line = [](const JournalRecord& r) {
     json files = json::array();
     for (const auto& f : r.files) files.push_back({{"path", f.path}, {"bytes", f.bytes}});
-    return json{{"seq", r.seq}, {"step", r.step}, {"time_utc", r.time_utc}, {"files", files}}.dump() +
-           "\n";
+    return json{{"seq", r.seq}, {"step", r.step}, {"time_utc", r.time_utc}, {"files", files}}.dump() + "\n";
   };
   const auto first = line(Record(0, "dark-frame"));
   // Errors on the last line too: a complete line of JSON is not torn.
   Spit(s.journal, first + line(Record(2, "laser-cal-m0")));
-  EXPECT_NE(ErrorOf([&] { ReadCaptureJournal(s.journal); }, s.journal).find("'line 2.seq'"),
-            std::string::npos);
+  EXPECT_NE(ErrorOf([&] { ReadCaptureJournal(s.journal); }, s.journal).find("'line 2.seq'"), std::string::npos);
   Spit(s.journal, first + line(Record(1, "dark-frame")));
-  EXPECT_NE(ErrorOf([&] { ReadCaptureJournal(s.journal); }, s.journal).find("already recorded"),
-            std::string::npos);
+  EXPECT_NE(ErrorOf([&] { ReadCaptureJournal(s.journal); }, s.journal).find("already recorded"), std::string::npos);
   Spit(s.journal, first + line(Record(1, "elsewhere")));
   EXPECT_EQ(ReadCaptureJournal(s.journal).records.size(), 2u);  // no plan given: any id
-  EXPECT_NE(ErrorOf([&] { ReadCaptureJournal(s.journal, &s.manifest); }, s.journal)
-                .find("not in the plan"),
+  EXPECT_NE(ErrorOf([&] { ReadCaptureJournal(s.journal, &s.manifest); }, s.journal).find("not in the plan"),
             std::string::npos);
 }
 
@@ -524,8 +516,7 @@ TEST(CaptureJournal, HostileLinesNameLineAndField) {
        "line 2.files[0].bytes"},
       {R"({"seq":1,"step":"a","time_utc":"2025-06-01T13:00:00Z","files":[{"path":"x","bytes":1.5}]})",
        "line 2.files[0].bytes"},
-      {R"({"seq":1,"step":"a","time_utc":"2025-06-01T13:00:00Z","files":[{"path":"x"}]})",
-       "line 2.files[0].bytes"},
+      {R"({"seq":1,"step":"a","time_utc":"2025-06-01T13:00:00Z","files":[{"path":"x"}]})", "line 2.files[0].bytes"},
       {R"({"seq":1,"step":"a","time_utc":"2025-06-01T13:00:00Z","files":[],"ok":true})", "line 2.ok"},
       {R"({"seq":1e400,"step":"a","time_utc":"2025-06-01T13:00:00Z","files":[]})", "line 2"},
       {R"([1,2,3])", "line 2"},
@@ -652,8 +643,9 @@ TEST(CapturedSession, AnyChangedByteOfAJournaledFileIsDetected) {
       EXPECT_EQ(damaged[1].path, path);
     }
     Spit(s.root / path, original.substr(0, original.size() - 1));
-    EXPECT_NE(ErrorOf([&] { CapturedSession(s.root, {{"*"}}).IntactFile(path); }, s.root / path).find("bytes, expected"),
-              std::string::npos);
+    EXPECT_NE(
+        ErrorOf([&] { CapturedSession(s.root, {{"*"}}).IntactFile(path); }, s.root / path).find("bytes, expected"),
+        std::string::npos);
     Spit(s.root / path, original);
   }
   EXPECT_EQ(DamagedSessionFiles(s.root, s.manifest, ReadCaptureJournal(s.journal, &s.manifest).records).size(), 1u);
@@ -702,8 +694,9 @@ TEST(CaptureJournal, RedoneStepsReplaceTheirRecord) {
 // session (sizes only, the calibration a plain path) still reads.
 TEST(CaptureJournal, HashesAreRequiredInVersion2AndAbsentInVersion1) {
   ExampleSession s;
-  Spit(s.journal, "{\"seq\":0,\"step\":\"laser-cal-m0\",\"time_utc\":\"2025-06-01T13:00:05Z\","
-                  "\"files\":[{\"path\":\"laser.json\",\"bytes\":2}]}\n");
+  Spit(s.journal,
+       "{\"seq\":0,\"step\":\"laser-cal-m0\",\"time_utc\":\"2025-06-01T13:00:05Z\","
+       "\"files\":[{\"path\":\"laser.json\",\"bytes\":2}]}\n");
   EXPECT_NE(ErrorOf([&] { ReadCaptureJournal(s.journal, &s.manifest); }, s.journal).find("'line 1.files[0].xxh3_64'"),
             std::string::npos);
   json v1 = json::parse(Slurp(s.root / kSessionManifestName));

@@ -24,7 +24,6 @@ namespace mesocap::formats {
 namespace {
 using namespace test_package;
 
-
 // Far above anything the small test packages need (OpenImageIO's scanline
 // reader stages through a fixed 64 MiB buffer), far below what the hostile
 // manifests claim (gigabytes).

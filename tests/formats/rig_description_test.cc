@@ -65,8 +65,8 @@ TEST(RigDescription, LaserRaySineIsTheAngleBetweenTheCameraRayAndTheLaserPlane) 
   }
   // A mount at a camera's elevation, at its azimuth: the plane holds the ray.
   rig.laser.mount_elevations_rad.push_back(rig.cameras[1].elevation_rad);
-  rig.laser.locations.push_back({static_cast<int>(rig.laser.mount_elevations_rad.size()) - 1,
-                                 rig.cameras[1].azimuth_rad});
+  rig.laser.locations.push_back(
+      {static_cast<int>(rig.laser.mount_elevations_rad.size()) - 1, rig.cameras[1].azimuth_rad});
   EXPECT_LT(calibration::LaserRaySine(rig, 1, static_cast<int>(rig.laser.locations.size()) - 1), 1e-12);
 }
 
@@ -164,8 +164,12 @@ nlohmann::json RealTinyJson() {
   auto j = TinyJson();
   j["cameras"][0]["backend"] = "aravis";
   j["cameras"][0]["device"] = "Basler-a2A1920-40241234";
-  j["turntable"].update({{"backend", "tic"}, {"serial", "00123456"}, {"microsteps", 16}, {"gear_ratio", 90},
-                         {"homing", "forward"}, {"product", "36v4"}});
+  j["turntable"].update({{"backend", "tic"},
+                         {"serial", "00123456"},
+                         {"microsteps", 16},
+                         {"gear_ratio", 90},
+                         {"homing", "forward"},
+                         {"product", "36v4"}});
   nlohmann::json lines = nlohmann::json::array();
   for (std::size_t i = 0; i < j["lamps"]["elevations_deg"].size(); ++i) {
     lines.push_back({{"chip", "gpiochip0"}, {"line", static_cast<int>(i) + 4}});
@@ -247,9 +251,10 @@ TEST(RigDescription, UnknownMembersAreErrorsAtEveryLevel) {
   }
   auto j = TinyJson();
   j["laser"]["sweep_storge"] = "analysis";
-  EXPECT_EQ(ErrorOf(j), "laser.sweep_storge | rig.json: field 'laser.sweep_storge': unknown member; expected only "
-                        "backend, distance_mm, mount_elevations_deg, locations, sweep_mm, frames_per_sweep, "
-                        "stripe_sigma_mm, power, calibration_heights_mm, sweep_storage");
+  EXPECT_EQ(ErrorOf(j),
+            "laser.sweep_storge | rig.json: field 'laser.sweep_storge': unknown member; expected only "
+            "backend, distance_mm, mount_elevations_deg, locations, sweep_mm, frames_per_sweep, "
+            "stripe_sigma_mm, power, calibration_heights_mm, sweep_storage");
 }
 
 // Numbers without a range before (lamp intensity, principal point,
@@ -257,8 +262,9 @@ TEST(RigDescription, UnknownMembersAreErrorsAtEveryLevel) {
 TEST(RigDescription, EveryNumberHasARangeInTheMessage) {
   auto j = TinyJson();
   j["lamps"]["intensity"] = {1, 1e300, 1};
-  EXPECT_NE(ErrorOf(j).find("lamps.intensity | rig.json: field 'lamps.intensity': expected three numbers in [0, 1e+12]"),
-            std::string::npos)
+  EXPECT_NE(
+      ErrorOf(j).find("lamps.intensity | rig.json: field 'lamps.intensity': expected three numbers in [0, 1e+12]"),
+      std::string::npos)
       << ErrorOf(j);
   j = TinyJson();
   j["cameras"][0]["principal_point_px"] = {1e300, 0};
@@ -293,8 +299,7 @@ TEST(RigDescription, HugeStringsAreCutInTheMessage) {
   j["cameras"][0][huge] = 1;
   error = message(j);
   EXPECT_LT(error.size(), 1000u);
-  EXPECT_NE(error.find("field 'cameras[0]." + std::string(189, 'x') + "... (3145739 bytes in all)'"),
-            std::string::npos)
+  EXPECT_NE(error.find("field 'cameras[0]." + std::string(189, 'x') + "... (3145739 bytes in all)'"), std::string::npos)
       << error.substr(0, 400);
 }
 

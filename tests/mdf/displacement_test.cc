@@ -57,8 +57,8 @@ TEST(DisplacementImageTest, PointsOnTheBackingAreNoHitAndTheRimStaysUnknown) {
       unknown += core::IsUnknown(d);
     }
   }
-  EXPECT_EQ(no_hit, 16);           // the 4 x 4 texels inside the hole
-  EXPECT_EQ(surface, 256 - 16);    // the rim lies between texel centres
+  EXPECT_EQ(no_hit, 16);         // the 4 x 4 texels inside the hole
+  EXPECT_EQ(surface, 256 - 16);  // the rim lies between texel centres
   EXPECT_EQ(unknown, 0);
   // Without a board the same points are a deep surface, not a hole.
   const DisplacementImage deep =
@@ -129,8 +129,8 @@ TEST(DisplacementImageTest, ALoneUnknownPixelLeavesOnlyItsDiamondUnknown) {
       }
     }
   }
-  EXPECT_EQ(diamond, 4);   // texel centres inside the diamond
-  EXPECT_EQ(square, 5);    // measured now, unknown before
+  EXPECT_EQ(diamond, 4);  // texel centres inside the diamond
+  EXPECT_EQ(square, 5);   // measured now, unknown before
 }
 
 // A step seen straight down, pixels every 0.5 mm (40 x 40), 0.3125 mm

@@ -77,8 +77,8 @@ ScanResult RunSimulatedScan(const ScanSetup& setup) {
   const auto plate_frame = [&](int li, int hi, int cam) {
     const auto& loc = laser.locations[li];
     const sim::CameraView plate = renderer.TracePlate(cam, laser.calibration_heights_mm[hi]);
-    return sense(sim::LaserSweepRenderer(renderer, plate, loc.mount, loc.arc_angle_rad).Frame(0.0), cam, 1000 + li,
-                 cam, hi);
+    return sense(sim::LaserSweepRenderer(renderer, plate, loc.mount, loc.arc_angle_rad).Frame(0.0), cam, 1000 + li, cam,
+                 hi);
   };
   SweepGeometryOptions geometry_options;
   geometry_options.line = setup.line;

@@ -24,8 +24,8 @@ struct ScanSetup {
   std::vector<int> locations;          // empty: all
   int texture_size = 64;
   bool noise = true;
-  double signal_gain = 1.0;            // multiplies the stripe before the sensor (saturation)
-  std::set<int> dropped_frames;        // frame indices never delivered
+  double signal_gain = 1.0;      // multiplies the stripe before the sensor (saturation)
+  std::set<int> dropped_frames;  // frame indices never delivered
   // Changes a frame's signal before the sensor: (frame index, signal).
   std::function<void(int, core::Image*)> tamper;
   calibration::LaserLineOptions line;

@@ -69,8 +69,8 @@ TEST(SpaceTimeAnalyzerTest, StreamingMatchesTheWholeSequenceRule) {
       double v = 0.002 * uniform(rng);  // dark-pixel noise, below half the threshold
       if (kind >= 1) v += 0.6 * std::exp(-std::pow(f - (10 + p % 30), 2) / 4.0);
       if (kind == 2) v += 0.8 * std::exp(-std::pow(f - (25 + p % 20), 2) / 2.0);  // brighter, after a dip
-      if (kind == 3 && f >= 20 && f < 20 + p % 4) v = 1.0;                     // a saturated run
-      if (kind == 4) v = 0.003 + 0.01 * uniform(rng);                              // around the threshold
+      if (kind == 3 && f >= 20 && f < 20 + p % 4) v = 1.0;                        // a saturated run
+      if (kind == 4) v = 0.003 + 0.01 * uniform(rng);                             // around the threshold
       values[p][f] = static_cast<float>(std::min(1.0, v));
     }
   }
@@ -170,8 +170,8 @@ TEST(SpaceTimeAnalyzerTest, SecondPeakOfAPixelSeeingTwoSurfaces) {
       for (int p = 0; p < kPixels; ++p) {
         const bool single = p % 7 == 0;
         const double bright = p % 2 == 0 ? 0.6 : 0.2, dim = p % 2 == 0 ? 0.2 : 0.6;
-        frame.data()[p] = static_cast<float>(pulse(f, first_time(p), bright) +
-                                             (single ? 0.0 : pulse(f, first_time(p) + gap, dim)));
+        frame.data()[p] =
+            static_cast<float>(pulse(f, first_time(p), bright) + (single ? 0.0 : pulse(f, first_time(p) + gap, dim)));
       }
       analyzer.AddFrame(f, frame);
     }
@@ -243,7 +243,7 @@ TEST(SpaceTimeAnalyzerTest, RejectsBadFrames) {
   EXPECT_THROW(analyzer.AddFrame(0, core::Image(kW + 1, kH, 1)), core::Error);
   EXPECT_THROW(analyzer.AddFrame(0, core::Image(kW, kH, 3)), core::Error);
   analyzer.AddFrame(3, core::Image(kW, kH, 1));
-  EXPECT_THROW(analyzer.AddFrame(3, core::Image(kW, kH, 1)), core::Error);   // not increasing
+  EXPECT_THROW(analyzer.AddFrame(3, core::Image(kW, kH, 1)), core::Error);        // not increasing
   EXPECT_THROW(analyzer.AddFrame(kFrames, core::Image(kW, kH, 1)), core::Error);  // beyond the sweep
   EXPECT_THROW(SpaceTimeAnalyzer(0, kH, kFrames), core::Error);
   EXPECT_THROW(SpaceTimeAnalyzer(kW, kH, kFrames, {.threshold = 0.0f}), core::Error);
@@ -308,12 +308,14 @@ TEST(SweepAnalysisFileTest, RoundTripAndHostileInput) {
   // without the JSON library's own words.
   const auto error = [&](const std::string& name, const std::string& rest) {
     std::ofstream(dir.path() / name) << R"({"format": "mesocap.sweep_analysis", "version": 1, "width": 16,
-      "height": 8, "frame_count": 1, "image": ")" << name << R"(.exr", )" << rest << "}";
+      "height": 8, "frame_count": 1, "image": ")"
+                                     << name << R"(.exr", )" << rest << "}";
     return testing::ErrorOf<core::FormatError>([&] { formats::ReadSweepAnalysis(dir.path() / name); });
   };
   EXPECT_EQ(error("extra.json", R"("planes": [null], "frames": 1)"),
-            (dir.path() / "extra.json").string() + ": field 'frames': unknown member; expected only format, version, "
-                                                   "width, height, frame_count, image, planes");
+            (dir.path() / "extra.json").string() +
+                ": field 'frames': unknown member; expected only format, version, "
+                "width, height, frame_count, image, planes");
   EXPECT_EQ(error("plane.json", R"("planes": [{"offset_mm": 0}])"),
             (dir.path() / "plane.json").string() + ": field 'planes[0].normal': missing");
   EXPECT_EQ(error("far.json", R"("planes": [{"normal": [0, 0, 1], "offset_mm": 1e300}])"),

@@ -72,14 +72,15 @@ TEST(BonnJobs, PackageRoundTripsThroughEveryForm) {
     EXPECT_NEAR(from_ubo.views.angles(v).theta, truth.views.angles(v).theta, 1e-9);
     EXPECT_NEAR(from_ubo.views.angles(v).phi, truth.views.angles(v).phi, 1e-9);
   }
-  const double srgb = WorstRatio(truth, [&](int v) { return from_ubo.view_images[v]; },
-                                 [&](int x, int y, int v, int l, int c) {
-                                   const float w = truth.at(x, y, v, l)[c];
-                                   const float code = std::round(OIIO::linear_to_sRGB(w) * 255.0f);
-                                   return 0.5 * (OIIO::sRGB_to_linear(std::min(code + 1, 255.0f) / 255.0f) -
-                                                 OIIO::sRGB_to_linear(std::max(code - 1, 0.0f) / 255.0f)) +
-                                          1e-6;
-                                 });
+  const double srgb = WorstRatio(
+      truth, [&](int v) { return from_ubo.view_images[v]; },
+      [&](int x, int y, int v, int l, int c) {
+        const float w = truth.at(x, y, v, l)[c];
+        const float code = std::round(OIIO::linear_to_sRGB(w) * 255.0f);
+        return 0.5 * (OIIO::sRGB_to_linear(std::min(code + 1, 255.0f) / 255.0f) -
+                      OIIO::sRGB_to_linear(std::max(code - 1, 0.0f) / 255.0f)) +
+               1e-6;
+      });
   EXPECT_LE(srgb, 1.0);
 
   // DFMF from a full BTF (factored here at full rank), half, imported factored.
@@ -94,10 +95,11 @@ TEST(BonnJobs, PackageRoundTripsThroughEveryForm) {
   EXPECT_NEAR(di.manifest.description.physical_size_mm.x(), 12.0, 1e-5);
   const core::FactoredBtf from_dfmf = formats::ReadFactoredBtf(dir / "from_dfmf", di.manifest);
   const BonnBtfFile dfile = ReadBonnBtfFile(dir / "a.dfmf");
-  EXPECT_LE(WorstRatio(truth, [&](int v) { return btf::ReconstructBtfView(from_dfmf, v); },
-                       [&](int x, int y, int v, int l, int c) {
-                         return (2.1 * std::ldexp(1.0, -11) + 2e-6) * TermSum(dfile, x, y, v, l, c) + 1e-6;
-                       }),
+  EXPECT_LE(WorstRatio(
+                truth, [&](int v) { return btf::ReconstructBtfView(from_dfmf, v); },
+                [&](int x, int y, int v, int l, int c) {
+                  return (2.1 * std::ldexp(1.0, -11) + 2e-6) * TermSum(dfile, x, y, v, l, c) + 1e-6;
+                }),
             1.0);
   // The ambient term is the truth's (btf/ambient_term.h) within the
   // quantization integrated over the lights: sum_l cos(theta_l) w_l <= pi.
@@ -127,8 +129,9 @@ TEST(BonnJobs, PackageRoundTripsThroughEveryForm) {
   EXPECT_EQ(fi.rank, 24);
   const core::FullBtf from_fmf = formats::ReadFullBtf(dir / "from_fmf", fi.manifest);
   const BonnBtfFile ffile = ReadBonnBtfFile(dir / "a.fmf");
-  EXPECT_LE(WorstRatio(truth, [&](int v) { return from_fmf.view_images[v]; },
-                       [&](int x, int y, int v, int l, int c) { return 1e-5 * TermSum(ffile, x, y, v, l, c) + 1e-6; }),
+  EXPECT_LE(WorstRatio(
+                truth, [&](int v) { return from_fmf.view_images[v]; },
+                [&](int x, int y, int v, int l, int c) { return 1e-5 * TermSum(ffile, x, y, v, l, c) + 1e-6; }),
             1.0);
 }
 

@@ -24,8 +24,8 @@
 #include "formats/calibration.h"
 #include "pipelines/rig_station.h"
 #include "pipelines/simulated_station.h"
-#include "sim/mesostructure_scene.h"
 #include "sim/camera_renderer.h"
+#include "sim/mesostructure_scene.h"
 #include "sim/served_cameras.h"
 #include "sim/simulated_rig_backend.h"
 #include "sim/true_calibration.h"
@@ -155,12 +155,11 @@ TEST_F(RigStationTest, ACaptureThroughTheDaemonAsksTheOperatorAndJournalsEverySt
   }
   const acquisition::CaptureJob done = *daemon.Job(id);
   EXPECT_EQ(done.steps_done, done.steps_total);
-  EXPECT_GT(done.frames, 0u);  // a frame lost on a loaded loopback is taken again: dropped_frames may be above 0
+  EXPECT_GT(done.frames, 0u);     // a frame lost on a loaded loopback is taken again: dropped_frames may be above 0
   ASSERT_GE(prompts.size(), 4u);  // each calibration plate laid and taken off
   EXPECT_NE(prompts.front().find("calibration plate"), std::string::npos) << prompts.front();
   // The session holds the calibration it was given.
-  EXPECT_EQ(testing::Slurp(daemon.SessionDir(id) / "calibration.json"),
-            testing::Slurp(dir_ / "calibration.json"));
+  EXPECT_EQ(testing::Slurp(daemon.SessionDir(id) / "calibration.json"), testing::Slurp(dir_ / "calibration.json"));
   // The devices say what they are and where they stand.
   const acquisition::CaptureDaemon::RigStatus status = daemon.DeviceStates();
   ASSERT_EQ(status.devices.size(), sim_rig_.cameras.size() + 4);

@@ -107,8 +107,9 @@ TEST(RenderMesh, ObjWithTextureCoordinatesAndDerivedNormals) {
 TEST(RenderMesh, ObjWithoutTextureCoordinatesNamesTheFile) {
   testing::TemporaryDirectory dir;
   std::ofstream(dir / "bare.obj") << "v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 3\n";
-  const std::string error =
-      testing::ErrorOf<core::FormatError>([&] { LoadObjRenderMesh(dir / "bare.obj", 1.0, {1, 1}); });
+  const std::string error = testing::ErrorOf<core::FormatError>([&] {
+    LoadObjRenderMesh(dir / "bare.obj", 1.0, {1, 1});
+  });
   EXPECT_NE(error.find("bare.obj"), std::string::npos) << error;
   EXPECT_NE(error.find("texture coordinate"), std::string::npos) << error;
 }
@@ -118,7 +119,9 @@ TEST(RenderMesh, ObjWithoutTextureCoordinatesNamesTheFile) {
 TEST(RenderMesh, ObjCoordinatesOutsideTheRangeAreRefused) {
   testing::TemporaryDirectory dir;
   std::ofstream(dir / "far.obj") << "v 0 0 0\nv 1e308 0 0\nv 1 1 0\nvt 0 0\nf 1/1 2/1 3/1\n";
-  EXPECT_EQ(testing::ErrorOf<core::FormatError>([&] { LoadObjRenderMesh(dir / "far.obj", 1.0, {1, 1}); }),
+  EXPECT_EQ(testing::ErrorOf<core::FormatError>([&] {
+              LoadObjRenderMesh(dir / "far.obj", 1.0, {1, 1});
+            }),
             (dir / "far.obj").string() + ": field 'line 2': vertex coordinate 1e308 is outside [-1e+06, 1e+06]");
 }
 
@@ -154,7 +157,8 @@ TEST(RenderScene, ALightInsideTheBoundingSphereIsRefused) {
 TEST(RenderScene, HugeStringsAndAbsurdNumbersAreRefusedReadably) {
   testing::TemporaryDirectory dir;
   const std::string huge(500000, 'q');  // under the scene's 1 MiB
-  const std::string shape = SceneError(dir.path(), R"({"position": [0, 0, 50], "intensity": 1})", R"(, "tiles_per_100mm": 1, ")" + huge + R"(": 1)");
+  const std::string shape = SceneError(dir.path(), R"({"position": [0, 0, 50], "intensity": 1})",
+                                       R"(, "tiles_per_100mm": 1, ")" + huge + R"(": 1)");
   EXPECT_LT(shape.size(), 1000u);
   EXPECT_NE(shape.find("field 'objects[0]." + std::string(189, 'q') + "... (500011 bytes in all)': unknown member"),
             std::string::npos)
@@ -169,8 +173,8 @@ TEST(RenderScene, HugeStringsAndAbsurdNumbersAreRefusedReadably) {
 // mesostructure on its textured object (the scenes README and FORMATS.md list).
 TEST(RenderScene, EveryShippedSceneReads) {
   int scenes = 0;
-  for (const auto& entry : std::filesystem::directory_iterator(std::filesystem::path(MESOCAP_SOURCE_DIR) /
-                                                                "render/scenes")) {
+  for (const auto& entry :
+       std::filesystem::directory_iterator(std::filesystem::path(MESOCAP_SOURCE_DIR) / "render/scenes")) {
     SCOPED_TRACE(entry.path().string());
     std::vector<std::string> specs;
     const RenderScene scene = ReadRenderScene(entry.path(), [&](const std::string& spec, const std::filesystem::path&) {

@@ -313,7 +313,8 @@ TEST(CameraRendererTest, SweepFramesEqualTheSumOverEveryLitSample) {
         lit_pixels += expected > 1e-3 ? 1 : 0;
         widened_pixels += expected > 1e-3 && widened ? 1 : 0;
         ASSERT_NEAR(frame.at(x, y), expected, 1e-6 + 1e-4 * expected) << "tilt " << tilt << " pixel " << x << ", " << y;
-        ASSERT_NEAR(single.at(x, y), expected, 1e-6 + 1e-4 * expected) << "tilt " << tilt << " pixel " << x << ", " << y;
+        ASSERT_NEAR(single.at(x, y), expected, 1e-6 + 1e-4 * expected)
+            << "tilt " << tilt << " pixel " << x << ", " << y;
       }
     }
   }
@@ -339,7 +340,8 @@ TEST(CameraRendererTest, APlateFrameWithoutTheSweepIsTheSweepsFrame) {
     const core::Image single = LaserSweepRenderer::SingleFrame(renderer, plate, loc.mount, loc.arc_angle_rad, tilt);
     for (std::size_t i = 0; i < frame.size(); ++i) {
       lit += frame.data()[i] > 1e-3f ? 1 : 0;
-      ASSERT_NEAR(single.data()[i], frame.data()[i], 1e-6f * (1.0f + frame.data()[i])) << "tilt " << tilt << " pixel " << i;
+      ASSERT_NEAR(single.data()[i], frame.data()[i], 1e-6f * (1.0f + frame.data()[i]))
+          << "tilt " << tilt << " pixel " << i;
     }
   }
   EXPECT_GT(lit, 300);

@@ -73,8 +73,8 @@ TEST(GroundTruth, AreaAveragedBtfIsTheMeanOfTheFinerGridsTexels) {
               }
             }
             largest_spread = std::max(largest_spread, high - low);
-            ASSERT_NEAR(averaged.at(i, l * 6 + j, c), sum / 9, 1e-6) << "v " << v << " l " << l << " texel " << i
-                                                                     << ", " << j;
+            ASSERT_NEAR(averaged.at(i, l * 6 + j, c), sum / 9, 1e-6)
+                << "v " << v << " l " << l << " texel " << i << ", " << j;
           }
         }
       }
@@ -139,7 +139,7 @@ TEST(GroundTruth, BoxMdfMatchesTheAnalyticAnswerEverywhere) {
   const auto scene = MakeBuiltinScene("box");
   GroundTruthOptions o;
   o.texels.width = o.texels.height = 40;
-  o.texels.sample_size_mm = 13.0;  // not a multiple of the tile: texels fall everywhere in it
+  o.texels.sample_size_mm = 13.0;                   // not a multiple of the tile: texels fall everywhere in it
   o.views = core::SamplingSet::Named("paper12x8");  // up to 84.4 degrees
   const core::Mdf mdf = ComputeTrueMdf(*scene, o);
   int beside_box = 0;

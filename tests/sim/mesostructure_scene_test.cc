@@ -146,8 +146,7 @@ std::optional<double> BoxTruth(const Vec& o, const Vec& d, double t_min, double 
     if (t >= t_min && t <= t_max) best = t;
   }
   // Boxes whose cells the segment can reach within the slab.
-  const double t_far =
-      std::min(t_max, d.z() != 0.0 ? std::max(-o.z() / d.z(), (-1.0 - o.z()) / d.z()) : 100.0);
+  const double t_far = std::min(t_max, d.z() != 0.0 ? std::max(-o.z() / d.z(), (-1.0 - o.z()) / d.z()) : 100.0);
   const Vec a = o + t_min * d, b = o + t_far * d;
   for (int i = static_cast<int>(std::floor(std::min(a.x(), b.x()) / 5.0)) - 1;
        i <= static_cast<int>(std::floor(std::max(a.x(), b.x()) / 5.0)) + 1; ++i) {
@@ -177,9 +176,8 @@ TEST(BoxScene, BaseBesideTheBoxIsAtHOverCosTheta) {
   // Along the lines y = 0.5 and x = 0.5 no box is ever in the way, however
   // many tiles the ray crosses: up to 89.99 degrees (~1100 tiles).
   for (const double theta : {0.0, 10.0, 30.0, 45.0, 60.0, 75.0, 85.0, 89.0, 89.9, 89.99}) {
-    for (const auto& [origin, phi] :
-         {std::pair{Vec(4.0, 0.5, 0.0), 0.0}, std::pair{Vec(4.0, 0.5, 0.0), 180.0},
-          std::pair{Vec(0.5, -3.0, 0.0), 90.0}}) {
+    for (const auto& [origin, phi] : {std::pair{Vec(4.0, 0.5, 0.0), 0.0}, std::pair{Vec(4.0, 0.5, 0.0), 180.0},
+                                      std::pair{Vec(0.5, -3.0, 0.0), 90.0}}) {
       const auto hit = scene->Intersect(origin, -Omega(theta, phi), 0.0, kInf);
       ASSERT_TRUE(hit) << theta;
       const double expected = kH / std::cos(theta * kDeg);
@@ -374,8 +372,7 @@ TEST(PipesScene, SurfaceRaysDoNotSeeTheirOwnSurface) {
   std::mt19937_64 rng(11);
   for (int k = 0; k < 2000; ++k) {
     // A point on pipe A from above, then rays leaving it at least 1 degree above its facet.
-    const auto hit =
-        scene->Intersect(Vec(Uniform(rng, 0, 6), Uniform(rng, 0.7, 2.3), 1.0), Vec(0, 0, -1), 0, kInf);
+    const auto hit = scene->Intersect(Vec(Uniform(rng, 0, 6), Uniform(rng, 0.7, 2.3), 1.0), Vec(0, 0, -1), 0, kInf);
     ASSERT_TRUE(hit);
     Vec dir = RandomUnit(rng);
     if (dir.dot(hit->normal) < 0) dir = -dir;
@@ -544,11 +541,9 @@ class BruteForce {
       for (int sx = -2; sx <= 2; ++sx) {
         const Eigen::Vector2d shift((std::floor(o.x() / p) + sx) * p, (std::floor(o.y() / p) + sy) * p);
         // Tile geometry stays within half a period of its tile (CheckTileGeometry).
-        if ((shift.array() + 1.5 * p < lo.array()).any() || (shift.array() - 0.5 * p > hi.array()).any())
-          continue;
+        if ((shift.array() + 1.5 * p < lo.array()).any() || (shift.array() - 0.5 * p > hi.array()).any()) continue;
         for (std::size_t k = 0; k < g_.triangles.size(); ++k) {
-          if (((hi_[k] + shift).array() < lo.array()).any() ||
-              ((lo_[k] + shift).array() > hi.array()).any()) {
+          if (((hi_[k] + shift).array() < lo.array()).any() || ((lo_[k] + shift).array() > hi.array()).any()) {
             continue;
           }
           const Eigen::Vector3i& tri = g_.triangles[k];
@@ -586,8 +581,7 @@ TEST_P(EveryScene, MatchesBruteForce) {
     const Vec dir = -Omega(Uniform(rng, 0, 60), Uniform(rng, 0, 360));
     const auto truth = brute_force.Intersect(origin, dir);
     const auto d = Distance(*scene, origin, dir);
-    ASSERT_EQ(d.has_value(), truth.has_value())
-        << k << ": " << origin.transpose() << " / " << dir.transpose();
+    ASSERT_EQ(d.has_value(), truth.has_value()) << k << ": " << origin.transpose() << " / " << dir.transpose();
     if (!d) continue;
     ++hits;
     EXPECT_NEAR(*d, *truth, 1e-9 * (1.0 + *truth)) << k;

@@ -39,7 +39,7 @@ inline double Uniform(std::mt19937_64& rng, double lo, double hi) {
 }
 
 inline std::optional<double> Distance(const MesostructureScene& scene, const Vec& origin, const Vec& dir,
-                               double t_min = 0.0, double t_max = kInf) {
+                                      double t_min = 0.0, double t_max = kInf) {
   const auto hit = scene.Intersect(origin, dir, t_min, t_max);
   if (!hit) return std::nullopt;
   return hit->distance;

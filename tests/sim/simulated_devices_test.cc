@@ -403,9 +403,9 @@ TEST(SimulatedFaults, CameraTimeoutLosesTheFrame) {
 TEST(SimulatedFaults, DisconnectIsForGood) {
   SimRig sim(Tiny(), Plan(FaultKind::kCameraDisconnect, {4}, "cam1"));
   auto& cam = sim.camera(1);
-  cam.SetExposure(1000);  // call 1
-  cam.Trigger();          // 2
-  cam.Grab(milliseconds(100));  // 3
+  cam.SetExposure(1000);                                    // call 1
+  cam.Trigger();                                            // 2
+  cam.Grab(milliseconds(100));                              // 3
   EXPECT_THROW(cam.Trigger(), drivers::DisconnectedError);  // 4
   EXPECT_THROW(cam.SetGain(1.0), drivers::DisconnectedError);
   EXPECT_THROW(cam.Grab(milliseconds(100)), drivers::DisconnectedError);
@@ -426,9 +426,9 @@ TEST(SimulatedFaults, StallUnhomesTheStageAtAnUnknownPosition) {
   EXPECT_FALSE(table.IsMoving());
   const double stood = sim.state().turntable_rad;
   EXPECT_GE(stood, 0.0);
-  EXPECT_LT(stood, 180 * kDeg);                                // it stopped part way
+  EXPECT_LT(stood, 180 * kDeg);                                     // it stopped part way
   EXPECT_NEAR(sim.state().clock_s - t, stood / (30 * kDeg), 1e-9);  // and when it stopped
-  EXPECT_NEAR(table.Position(), 180 * kDeg, 1e-12);             // its controller counted every step
+  EXPECT_NEAR(table.Position(), 180 * kDeg, 1e-12);                 // its controller counted every step
   EXPECT_THROW(table.MoveTo(0.5), drivers::DeviceError);
   table.Home();
   EXPECT_EQ(sim.state().turntable_rad, 0.0);
