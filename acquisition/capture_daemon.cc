@@ -31,12 +31,12 @@ JobCommandResult NoSuchJob(const std::string& id) {
 
 JobCommandResult NotNow(const CaptureJob& job, const std::string& what) {
   return {JobCommandResult::Outcome::kNotNow,
-          "job " + job.id + " is " + std::string(JobStateName(job.state)) + ": cannot " + what + " it", job};
+          "job " + job.id + " is " + std::string(ToString(job.state)) + ": cannot " + what + " it", job};
 }
 
 }  // namespace
 
-std::string CaptureDaemonOptions::Check() const {
+core::CheckResult CaptureDaemonOptions::Check() const {
   if (state_dir.empty()) return "state_dir must name the daemon's state directory";
   if (fault_retry_interval.count() < 0) return "fault_retry_interval must not be negative";
   if (idle_poll_interval.count() < 1) return "idle_poll_interval must be at least 1 ms";
@@ -48,7 +48,7 @@ std::string CaptureDaemonOptions::Check() const {
 
 CaptureDaemon::CaptureDaemon(std::unique_ptr<CaptureStation> station, CaptureDaemonOptions options)
     : station_(std::move(station)), options_(std::move(options)) {
-  if (const std::string problem = options_.Check(); !problem.empty()) throw core::Error("capture daemon: " + problem);
+  core::ThrowIfInvalid(options_.Check(), "capture daemon");
   options_.runner.show_progress = false;
   const fs::path& dir = options_.state_dir;
   fs::create_directories(dir / kJobsFolder);
@@ -440,7 +440,7 @@ void CaptureDaemon::RunJob(const std::string& id) {
       job.pause_requested = false;
     }  // else the daemon stops: the job stays running, and a restart resumes it
     Save(job);
-    events_.Add("log", {{"message", id + " " + std::string(JobStateName(job.state))}});
+    events_.Add("log", {{"message", id + " " + std::string(ToString(job.state))}});
   } catch (const CaptureInterrupted& e) {
     // A stop, pause or cancel that came while the operator was asked.
     std::lock_guard lock(mutex_);

@@ -41,6 +41,7 @@
 #include "acquisition/capture_job.h"
 #include "acquisition/capture_station.h"
 #include "acquisition/daemon_event_log.h"
+#include "core/error.h"
 #include "core/image.h"
 #include "drivers/device_state.h"
 
@@ -58,7 +59,7 @@ struct CaptureDaemonOptions {
   // Handed to every run (timeouts, retries); show_progress is forced off.
   CaptureRunnerOptions runner;
 
-  std::string Check() const;
+  core::CheckResult Check() const;
 };
 
 // What a client's command did.

@@ -14,34 +14,8 @@ namespace {
 
 constexpr std::string_view kFormat = "mesocap.capture_job";
 constexpr int kVersion = 1;
-constexpr std::array<std::pair<JobState, std::string_view>, 6> kNames{{{JobState::kQueued, "queued"},
-                                                                       {JobState::kRunning, "running"},
-                                                                       {JobState::kPaused, "paused"},
-                                                                       {JobState::kDone, "done"},
-                                                                       {JobState::kFailed, "failed"},
-                                                                       {JobState::kCancelled, "cancelled"}}};
-
-std::vector<std::string> JobStateNames() {
-  std::vector<std::string> names;
-  for (const auto& [state, name] : kNames) names.emplace_back(name);
-  return names;
-}
 
 }  // namespace
-
-std::string_view JobStateName(JobState state) {
-  for (const auto& [s, name] : kNames) {
-    if (s == state) return name;
-  }
-  return "unknown";
-}
-
-std::optional<JobState> JobStateFromName(std::string_view name) {
-  for (const auto& [s, n] : kNames) {
-    if (n == name) return s;
-  }
-  return std::nullopt;
-}
 
 bool IsFinished(JobState state) {
   return state == JobState::kDone || state == JobState::kFailed || state == JobState::kCancelled;
@@ -57,7 +31,7 @@ nlohmann::json ToJson(const CaptureJob& job) {
                    {"version", kVersion},
                    {"id", job.id},
                    {"plan", job.plan_kind},
-                   {"state", JobStateName(job.state)},
+                   {"state", ToString(job.state)},
                    {"submitted_at", job.submitted_at},
                    {"steps_done", job.steps_done},
                    {"steps_total", job.steps_total},
@@ -109,7 +83,7 @@ CaptureJob ReadCaptureJob(const std::filesystem::path& file) {
   if (!IsJobId(job.id)) r.Fail("id", "expected \"job-\" and six digits, got " + core::Quoted(job.id));
   if (file.stem() != job.id) r.Fail("id", "expected " + core::Quoted(file.stem().string()) + " (the file's name)");
   job.plan_kind = r.Choice("plan", kPlanKinds);
-  job.state = *JobStateFromName(r.Choice("state", JobStateNames()));
+  job.state = *core::EnumFromString<JobState>(r.Choice("state", core::EnumStrings<JobState>()));
   job.submitted_at = r.String("submitted_at");
   constexpr std::int64_t kMax = std::int64_t{1} << 53;
   job.steps_done = static_cast<std::uint64_t>(r.Integer("steps_done", 0, kMax));

@@ -12,6 +12,8 @@
 #include <string>
 #include <string_view>
 
+#include "core/enum_text.h"
+
 namespace mesocap::acquisition {
 
 // queued -> running -> done | failed; running <-> paused; any but done and
@@ -19,8 +21,10 @@ namespace mesocap::acquisition {
 // or a kill): the next start resumes it first.
 enum class JobState { kQueued, kRunning, kPaused, kDone, kFailed, kCancelled };
 
-std::string_view JobStateName(JobState state);
-std::optional<JobState> JobStateFromName(std::string_view name);
+constexpr auto EnumNamesOf(JobState) {
+  return std::to_array({"queued", "running", "paused", "done", "failed", "cancelled"});
+}
+using core::ToString;
 // done, failed and cancelled: nothing more happens to the job.
 bool IsFinished(JobState state);
 

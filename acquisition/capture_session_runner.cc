@@ -488,8 +488,7 @@ core::CheckResult CaptureRunnerOptions::Check() const {
 
 CaptureRunReport RunCaptureSession(const fs::path& dir, drivers::Rig& rig, drivers::RigOperator& rig_operator,
                                    const CaptureRunnerOptions& options, const CaptureStepDone& step_done) {
-  if (const core::CheckResult problem = options.Check(); !problem.empty())
-    throw core::Error("capture options: " + problem);
+  core::ThrowIfInvalid(options.Check(), "capture options");
   if (options.operator_prompt) {
     PromptedOperator prompted(rig_operator, options.operator_prompt);
     return SessionRun(dir, rig, prompted, options).Run(step_done);

@@ -147,7 +147,7 @@ void LogServerError(void*, const char* format, va_list args) {
 
 }  // namespace
 
-std::string ControlServerOptions::Check() const {
+core::CheckResult ControlServerOptions::Check() const {
   if (socket.empty()) return "socket must name the control socket's path";
   if (socket.native().size() >= sizeof(sockaddr_un::sun_path)) {
     return "socket " + socket.string() + ": longer than " + std::to_string(sizeof(sockaddr_un::sun_path) - 1) +
@@ -175,7 +175,7 @@ void ControlServer::Serve(Listener& listener, const std::string& name) {
 
 ControlServer::ControlServer(CaptureDaemon& daemon, ControlServerOptions options)
     : daemon_(daemon), options_(std::move(options)) {
-  if (const std::string problem = options_.Check(); !problem.empty()) throw core::Error("control server: " + problem);
+  core::ThrowIfInvalid(options_.Check(), "control server");
   ListenOnUnixSocket();
   try {
     Serve(unix_, options_.socket.string());

@@ -17,6 +17,7 @@
 #include <string>
 
 #include "acquisition/capture_daemon.h"
+#include "core/error.h"
 
 struct MHD_Daemon;
 
@@ -33,7 +34,7 @@ struct ControlServerOptions {
   unsigned connection_limit = 64;  // per listening socket
   std::chrono::seconds idle_timeout{15};
 
-  std::string Check() const;
+  core::CheckResult Check() const;
 };
 
 class ControlServer {

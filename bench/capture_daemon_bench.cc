@@ -216,7 +216,7 @@ RunResult RunThroughDaemon(const pipelines::SimulatedStationOptions& station_opt
   server.Stop();
   daemon.Stop();
   if (job.state != acquisition::JobState::kDone) {
-    throw core::Error("the daemon's job ended " + std::string(acquisition::JobStateName(job.state)) + ": " +
+    throw core::Error("the daemon's job ended " + std::string(acquisition::ToString(job.state)) + ": " +
                       job.pause_reason + job.error);
   }
   r.frames = job.frames;

@@ -37,25 +37,6 @@ core::FullBtf HoldInMemory(core::FullBtfReader& btf) {
 
 }  // namespace
 
-const char* ToString(BtfSvdMethod method) {
-  switch (method) {
-    case BtfSvdMethod::kAuto:
-      return "auto";
-    case BtfSvdMethod::kExact:
-      return "exact";
-    case BtfSvdMethod::kRandomized:
-      return "randomized";
-  }
-  return "?";
-}
-
-BtfSvdMethod ParseBtfSvdMethod(const std::string& name) {
-  for (const BtfSvdMethod method : {BtfSvdMethod::kAuto, BtfSvdMethod::kExact, BtfSvdMethod::kRandomized}) {
-    if (name == ToString(method)) return method;
-  }
-  throw core::Error("unknown SVD method " + core::Quoted(name) + " (expected auto, exact or randomized)");
-}
-
 core::CheckResult BtfCompressionOptions::Check() const {
   if (rank < 0 || rank > core::kMaxBtfRank) {
     return "rank " + std::to_string(rank) + " is outside 0..100 (0 chooses the rank by the error budget)";
@@ -283,7 +264,7 @@ core::FactoredBtf Compress(core::FullBtfReader& btf, const core::FullBtf* whole,
 
 core::FactoredBtf CompressBtf(core::FullBtfReader& btf, const BtfCompressionOptions& options,
                               BtfCompressionReport* report) {
-  if (const auto problem = options.Check(); !problem.empty()) throw core::Error("compress: " + problem);
+  core::ThrowIfInvalid(options.Check(), "compress");
   // A choice or the clustered layout makes many passes over the BTF (an SVD
   // and its factors per representation): below kMaxInMemoryBtfBytes it is
   // read once and held, rather than decoded from its files on every pass.
@@ -302,7 +283,7 @@ core::FactoredBtf CompressBtf(core::FullBtfReader& btf, const BtfCompressionOpti
 
 core::FactoredBtf CompressBtf(const core::FullBtf& btf, const BtfCompressionOptions& options,
                               BtfCompressionReport* report) {
-  if (const auto problem = options.Check(); !problem.empty()) throw core::Error("compress: " + problem);
+  core::ThrowIfInvalid(options.Check(), "compress");
   core::InMemoryFullBtfReader reader(btf);
   if (!options.layout || *options.layout == core::BtfFactorLayout::kClustered) {
     // The clustered layout reads `btf` in place, past the reader's check

@@ -53,6 +53,7 @@
 #include <vector>
 
 #include "core/btf.h"
+#include "core/enum_text.h"
 #include "core/error.h"
 
 namespace mesocap::btf {
@@ -63,9 +64,8 @@ namespace mesocap::btf {
 // randomized beyond (auto), where the exact one's n x n factors take
 // gigabytes and O(m n^2) time.
 enum class BtfSvdMethod { kAuto, kExact, kRandomized };
-const char* ToString(BtfSvdMethod method);  // "auto", "exact", "randomized"
-// Throws Error listing the names for anything else.
-BtfSvdMethod ParseBtfSvdMethod(const std::string& name);
+constexpr auto EnumNamesOf(BtfSvdMethod) { return std::to_array({"auto", "exact", "randomized"}); }
+using core::ToString;
 
 struct BtfCompressionOptions {
   // The representation: a matrix layout and the channels factored. Either

@@ -56,9 +56,7 @@ double Bilinear(const cv::Mat& gray, double x, double y) {
 }  // namespace
 
 BoardCornerDetector::BoardCornerDetector(CalibrationBoard board) : board_(std::move(board)) {
-  if (const core::CheckResult problem = board_.Check(); !problem.empty()) {
-    throw core::Error("board " + core::Quoted(board_.Spec()) + ": " + problem);
-  }
+  core::ThrowIfInvalid(board_.Check(), "board " + core::Quoted(board_.Spec()));
 }
 
 BoardDetection BoardCornerDetector::Detect(const core::Image& image) const {

@@ -6,9 +6,7 @@
 namespace mesocap::calibration {
 
 BoardPrint::BoardPrint(CalibrationBoard board) : board_(std::move(board)) {
-  if (const core::CheckResult problem = board_.Check(); !problem.empty()) {
-    throw core::Error("board " + core::Quoted(board_.Spec()) + ": " + problem);
-  }
+  core::ThrowIfInvalid(board_.Check(), "board " + core::Quoted(board_.Spec()));
   if (board_.kind != CalibrationBoard::Kind::kCharuco) return;
   const cv::Ptr<cv::aruco::Dictionary> dictionary = cv::aruco::getPredefinedDictionary(
       static_cast<cv::aruco::PREDEFINED_DICTIONARY_NAME>(ArucoDictionaryId(board_.dictionary)));

@@ -156,9 +156,7 @@ CalibrationBoard ParseBoardSpec(std::string_view spec) {
       if (d.id == id) board.dictionary = d.name;
     }
   }
-  if (const core::CheckResult problem = board.Check(); !problem.empty()) {
-    throw core::Error("board " + core::Quoted(spec) + ": " + problem);
-  }
+  core::ThrowIfInvalid(board.Check(), "board " + core::Quoted(spec));
   return board;
 }
 

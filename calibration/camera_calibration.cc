@@ -194,9 +194,7 @@ using Usable = std::vector<std::vector<bool>>;                     // per camera
 using CameraFromBoard = std::vector<std::map<std::size_t, Pose>>;  // per camera: instant -> camera <- board
 
 void CheckCalibrationInputs(const std::vector<CameraViews>& cameras, const CameraCalibrationOptions& options) {
-  if (const core::CheckResult problem = options.Check(); !problem.empty()) {
-    throw core::Error("camera calibration: " + problem);
-  }
+  core::ThrowIfInvalid(options.Check(), "camera calibration");
   if (cameras.empty()) throw core::Error("camera calibration: no camera");
   const std::size_t instants = cameras[0].detections.size();
   for (const CameraViews& c : cameras) {

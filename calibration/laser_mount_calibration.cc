@@ -396,9 +396,7 @@ void CalibrateOneLaserMount(const formats::Calibration& geometry, std::size_t m,
 LaserMountResult CalibrateLaserMounts(const formats::Calibration& geometry,
                                       const std::vector<LaserPlaneObservation>& planes,
                                       const LaserMountOptions& options) {
-  if (const core::CheckResult problem = options.Check(); !problem.empty()) {
-    throw core::Error("laser mount calibration: " + problem);
-  }
+  core::ThrowIfInvalid(options.Check(), "laser mount calibration");
   LaserMountResult result;
   result.mounts = geometry.laser_mounts;
   std::map<int, std::vector<const LaserPlaneObservation*>> of_mount = LaserPlanesOfEachMount(geometry, planes);

@@ -422,7 +422,7 @@ void CheckLightArcSigmaLimits(const LightArcOptions& options, LightArcResult* re
 
 LightArcResult CalibrateLightArc(const formats::Calibration& geometry, const std::vector<HighlightObservation>& seen,
                                  const LightArcOptions& options) {
-  if (const core::CheckResult problem = options.Check(); !problem.empty()) throw core::Error("light arc: " + problem);
+  core::ThrowIfInvalid(options.Check(), "light arc");
   const double radius = options.sphere_radius_mm;
   const double min_cos = std::cos(core::RadiansFromDegrees(options.max_incidence_deg));
   LightArcResult result;

@@ -161,9 +161,7 @@ core::CheckResult RadiometryOptions::Check() const {
 
 RadiometryResult CalibrateRadiometry(const formats::Calibration& geometry, const std::vector<double>& exposure_s,
                                      const std::vector<WhiteReferenceImage>& images, const RadiometryOptions& o) {
-  if (const core::CheckResult problem = o.Check(); !problem.empty()) {
-    throw core::Error("radiometric calibration: " + problem);
-  }
+  core::ThrowIfInvalid(o.Check(), "radiometric calibration");
   const int cameras = static_cast<int>(geometry.cameras.size()), lamps = static_cast<int>(geometry.lamps.size());
   if (static_cast<int>(exposure_s.size()) != cameras) {
     throw core::Error("radiometric calibration: one exposure per camera is needed");

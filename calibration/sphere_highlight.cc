@@ -15,9 +15,7 @@ core::CheckResult SphereHighlightOptions::Check() const {
 }
 
 std::optional<SphereHighlight> FindSphereHighlight(const core::Image& image, const SphereHighlightOptions& options) {
-  if (const core::CheckResult problem = options.Check(); !problem.empty()) {
-    throw core::Error("sphere highlight: " + problem);
-  }
+  core::ThrowIfInvalid(options.Check(), "sphere highlight");
   const core::Image grey = image.channels() == 1 ? image : core::ChannelMean(image);
   int bx = 0, by = 0;
   float peak = -1.0f;

@@ -100,30 +100,6 @@ FullBtf MakeFullBtf(int width, int height, SamplingSet views, SamplingSet lights
   return btf;
 }
 
-const char* ToString(BtfFactorLayout layout) {
-  switch (layout) {
-    case BtfFactorLayout::kPaper:
-      return "paper";
-    case BtfFactorLayout::kPerTexel:
-      return "per_texel";
-    case BtfFactorLayout::kClustered:
-      return "clustered";
-    case BtfFactorLayout::kPerView:
-      return "per_view";
-  }
-  return "?";
-}
-
-std::optional<BtfFactorLayout> BtfFactorLayoutNamed(const std::string& name) {
-  for (const BtfFactorLayout layout :
-       {BtfFactorLayout::kPaper, BtfFactorLayout::kPerTexel, BtfFactorLayout::kClustered, BtfFactorLayout::kPerView}) {
-    if (name == ToString(layout)) return layout;
-  }
-  return std::nullopt;
-}
-
-const char* ToString(BtfFactorColor color) { return color == BtfFactorColor::kRgb ? "rgb" : "ycbcr"; }
-
 Eigen::Matrix3d YCbCrFromLinearRgbBt601() {
   Eigen::Matrix3d m;
   m << 0.299, 0.587, 0.114,       //

@@ -29,6 +29,7 @@
 #include <string>
 #include <vector>
 
+#include "core/enum_text.h"
 #include "core/image.h"
 #include "core/sampling_set.h"
 
@@ -109,10 +110,8 @@ FullBtf MakeFullBtf(int width, int height, SamplingSet views, SamplingSet lights
 enum class BtfFactorLayout { kPaper, kPerTexel, kClustered, kPerView };
 enum class BtfFactorColor { kRgb, kYCbCr };
 
-const char* ToString(BtfFactorLayout layout);  // "paper", "per_texel", "clustered", "per_view"
-// The layout of a name ToString gives; std::nullopt for any other.
-std::optional<BtfFactorLayout> BtfFactorLayoutNamed(const std::string& name);
-const char* ToString(BtfFactorColor color);  // "rgb", "ycbcr"
+constexpr auto EnumNamesOf(BtfFactorLayout) { return std::to_array({"paper", "per_texel", "clustered", "per_view"}); }
+constexpr auto EnumNamesOf(BtfFactorColor) { return std::to_array({"rgb", "ycbcr"}); }
 
 // Linear RGB to (Y, Cb, Cr) with the ITU-R BT.601 luma weights and no
 // offsets (the data are linear and signed chroma is fine for factors).

@@ -36,6 +36,14 @@ class FormatError : public Error {
 // Kept as a string (not an exception) so callers can collect several.
 using CheckResult = std::string;
 
+// The one way to refuse options: throws ErrorType("WHO: PROBLEM") when
+// Check() found a problem, WHO naming the command or part that was given
+// them ("process mdf", "stepper turntable").
+template <typename ErrorType = Error>
+void ThrowIfInvalid(const CheckResult& problem, const std::string& who) {
+  if (!problem.empty()) throw ErrorType(who + ": " + problem);
+}
+
 // A value echoed in a message (a name read from a file, a flag's text) is
 // cut to this many characters, so a 3 MB name still gives a readable line.
 inline constexpr std::size_t kMaxEchoedCharacters = 200;

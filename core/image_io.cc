@@ -131,20 +131,6 @@ ImageHeader ExpectedHeader(const fs::path& file, const OIIO::ImageInput& in, con
 
 std::string ImageLibraryMessage(const std::string& error) { return Cut(error.substr(0, error.find('\n'))); }
 
-const char* ToString(PixelEncoding e) {
-  switch (e) {
-    case PixelEncoding::kFloat32:
-      return "float32";
-    case PixelEncoding::kHalf:
-      return "half";
-    case PixelEncoding::kUInt8:
-      return "uint8";
-    case PixelEncoding::kUInt16:
-      return "uint16";
-  }
-  return "?";
-}
-
 ImageHeader ReadImageHeader(const fs::path& file) {
   auto in = OpenInput(file);
   return HeaderOf(file, in->spec());

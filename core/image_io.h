@@ -8,6 +8,7 @@
 #include <memory>
 #include <string>
 
+#include "core/enum_text.h"
 #include "core/image.h"
 
 namespace mesocap::core {
@@ -40,7 +41,7 @@ Image ReadImage(const std::filesystem::path& file, const ImageReadOptions& optio
 void WriteImage(const std::filesystem::path& file, const Image& image,
                 PixelEncoding encoding = PixelEncoding::kFloat32);
 
-const char* ToString(PixelEncoding encoding);
+constexpr auto EnumNamesOf(PixelEncoding) { return std::to_array({"float32", "half", "uint8", "uint16"}); }
 
 // `image` scaled down to fit within max_side x max_side pixels with
 // OpenImageIO's filtered resize (`image` itself when it fits already).

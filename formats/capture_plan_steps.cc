@@ -47,7 +47,7 @@ std::vector<CameraFile> ReadFiles(const core::JsonFieldReader& step, const RigDe
 core::JsonFieldReader StepFields(const PlannedStep& step, StepKind kind, std::size_t index, const fs::path& file) {
   const std::string where = "plan[" + std::to_string(index) + "]";
   if (step.kind != kind) {
-    throw core::FormatError(file, where + ".kind", std::string("expected \"") + StepKindName(kind) + "\"");
+    throw core::FormatError(file, where + ".kind", std::string("expected \"") + ToString(kind) + "\"");
   }
   return core::JsonFieldReader(step.params, file, where);
 }

@@ -25,20 +25,6 @@ constexpr int kOldestSessionVersion = 1;
 constexpr int kSessionMaxDepth = 64;
 constexpr std::size_t kMaxShortText = 256;
 
-const std::vector<std::string>& StepKindNames() {
-  static const std::vector<std::string> names = {
-      "btf_image", "laser_sweep", "laser_calibration", "board_image", "white_reference", "mirror_sphere", "other"};
-  return names;
-}
-
-StepKind StepKindFromName(const std::string& name) {
-  const auto& names = StepKindNames();
-  for (std::size_t i = 0; i < names.size(); ++i) {
-    if (names[i] == name) return static_cast<StepKind>(i);
-  }
-  return StepKind::kOther;  // unreachable: callers pass a name Choice() accepted
-}
-
 bool HasControlCharacter(std::string_view text) {
   for (const unsigned char ch : text) {
     if (ch < 0x20 || ch == 0x7f) return true;
@@ -74,7 +60,7 @@ PlannedStep ReadStep(const core::JsonFieldReader& fields) {
   if (!IsValidId(step.id)) {
     fields.Fail("id", "expected 1 to 128 characters from A-Z a-z 0-9 . _ -");
   }
-  step.kind = StepKindFromName(fields.Choice("kind", StepKindNames()));
+  step.kind = *core::EnumFromString<StepKind>(fields.Choice("kind", core::EnumStrings<StepKind>()));
   step.params = fields.json();
   step.params.erase("id");
   step.params.erase("kind");
@@ -129,8 +115,6 @@ int DaysInMonth(int year, int month) {
 }
 
 }  // namespace
-
-const char* StepKindName(StepKind kind) { return StepKindNames().at(static_cast<std::size_t>(kind)).c_str(); }
 
 std::string UtcTimestamp(std::chrono::system_clock::time_point time) {
   const auto seconds = std::chrono::floor<std::chrono::seconds>(time);
@@ -190,7 +174,7 @@ json ToJson(const SessionManifest& m) {
     }
     json s = step.params;
     s["id"] = step.id;
-    s["kind"] = StepKindName(step.kind);
+    s["kind"] = ToString(step.kind);
     steps.push_back(std::move(s));
   }
   json j = {{"format", kSessionFormat},

@@ -15,6 +15,7 @@
 #include <string_view>
 #include <vector>
 
+#include "core/enum_text.h"
 #include "core/file_checksum.h"
 #include "core/json_field_reader.h"
 
@@ -28,9 +29,11 @@ inline constexpr std::uintmax_t kMaxSessionManifestBytes = 16ull << 20;
 
 enum class StepKind { kBtfImage, kLaserSweep, kLaserCalibration, kBoardImage, kWhiteReference, kMirrorSphere, kOther };
 
-// "btf_image", "laser_sweep", "laser_calibration", "board_image", "white_reference",
-// "mirror_sphere", "other".
-const char* StepKindName(StepKind kind);
+constexpr auto EnumNamesOf(StepKind) {
+  return std::to_array(
+      {"btf_image", "laser_sweep", "laser_calibration", "board_image", "white_reference", "mirror_sphere", "other"});
+}
+using core::ToString;
 
 struct PlannedStep {
   std::string id;  // unique in the plan; IsValidId (core/calibration.h)

@@ -187,7 +187,8 @@ MaterialManifest::FactoredBtfPart ReadFactoredPart(const core::JsonFieldReader& 
   MaterialManifest::FactoredBtfPart part;
   f.RejectUnknownMembers({"layout", "color", "rank", "singular_values", "row_files", "column_file", "rgb_to_factored",
                           "clusters", "cluster_file"});
-  part.layout = *core::BtfFactorLayoutNamed(f.Choice("layout", {"paper", "per_texel", "clustered", "per_view"}));
+  part.layout =
+      *core::EnumFromString<core::BtfFactorLayout>(f.Choice("layout", {"paper", "per_texel", "clustered", "per_view"}));
   part.color = f.Choice("color", {"rgb", "ycbcr"}) == "rgb" ? core::BtfFactorColor::kRgb : core::BtfFactorColor::kYCbCr;
   const long long columns = part.layout == core::BtfFactorLayout::kPaper ? d.view_directions.size()
                             : part.layout == core::BtfFactorLayout::kPerView

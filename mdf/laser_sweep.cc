@@ -34,7 +34,7 @@ LaserSweepProcessor::LaserSweepProcessor(const calibration::CameraRays& rays, Sw
       line_options_(line_options),
       analyzer_(rays.width(), rays.height(), static_cast<int>(geometry_.delta_tilt_rad.size()), space_time_options),
       lines_(geometry_.delta_tilt_rad.size()) {
-  if (const auto problem = line_options.Check(); !problem.empty()) throw core::Error("laser line: " + problem);
+  core::ThrowIfInvalid(line_options.Check(), "laser line");
   if (geometry_.reference_region.size() != static_cast<std::size_t>(rays.width()) * rays.height()) {
     throw core::Error("laser sweep: the reference region does not match the camera's image size");
   }

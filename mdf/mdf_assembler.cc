@@ -8,7 +8,7 @@ MdfAssembler::MdfAssembler(calibration::TexelGrid grid, core::SamplingSet views,
                            MergeOptions merge)
     : grid_(grid), views_(std::move(views)), triangulation_(triangulation), merge_(merge) {
   for (const auto& problem : {grid_.Check(), triangulation_.Check(), merge_.Check()}) {
-    if (!problem.empty()) throw core::Error("MDF assembly: " + problem);
+    core::ThrowIfInvalid(problem, "MDF assembly");
   }
   if (views_.size() < 1) throw core::Error("MDF assembly: the view set is empty");
   images_.resize(views_.size());

@@ -84,7 +84,7 @@ core::CheckResult MdfProcessingOptions::Check() const {
 
 MdfProcessingResult ProcessMdfSession(const formats::CapturedSession& session, const formats::Calibration& calibration,
                                       const MdfProcessingOptions& options, core::Progress::Style progress_style) {
-  if (const auto problem = options.Check(); !problem.empty()) throw core::Error("process mdf: " + problem);
+  core::ThrowIfInvalid(options.Check(), "process mdf");
   const formats::SessionManifest& manifest = session.manifest();
   const fs::path manifest_file = session.manifest_file();
   const formats::RigDescription rig = formats::ParseRigDescription(manifest.rig, manifest_file);

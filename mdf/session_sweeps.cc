@@ -45,7 +45,7 @@ SessionSweepGeometry::SessionSweepGeometry(formats::RigDescription rig, const fo
       rig_(std::move(rig)),
       calibration_(calibration),
       options_(std::move(options)) {
-  if (const auto problem = options_.Check(); !problem.empty()) throw core::Error("sweep geometry: " + problem);
+  core::ThrowIfInvalid(options_.Check(), "sweep geometry");
   // Every camera of the session's rig must be calibrated, at the size the
   // rig records (a calibration of another rig fails here, not mid-way).
   for (const auto& camera : rig_.cameras) {

@@ -25,7 +25,7 @@ SpaceTimeAnalyzer::SpaceTimeAnalyzer(int width, int height, int frame_count, Spa
   if (width <= 0 || height <= 0 || frame_count <= 0) {
     throw core::Error("space-time analysis: image size and frame count must be positive");
   }
-  if (const auto problem = options.Check(); !problem.empty()) throw core::Error("space-time analysis: " + problem);
+  core::ThrowIfInvalid(options.Check(), "space-time analysis");
   const std::size_t n = static_cast<std::size_t>(width) * height;
   // Maxima below half the threshold are never tracked: the pixel is unknown
   // whatever they were, and the sensor noise of dark pixels, which keeps

@@ -57,7 +57,7 @@ std::vector<std::filesystem::path> PhotosIn(const std::filesystem::path& folder)
 }
 
 calibration::CalibrationReport RunCalibrateCameras(const CalibrateCamerasOptions& options) {
-  if (const core::CheckResult problem = options.Check(); !problem.empty()) throw core::Error(problem);
+  core::ThrowIfInvalid(options.Check(), "calibrate camera");
   const calibration::CalibrationBoard board = calibration::ParseBoardSpec(options.board);
   if (options.image_folders.size() > 1 && board.kind == calibration::CalibrationBoard::Kind::kChessboard &&
       board.cols % 2 == board.rows % 2) {

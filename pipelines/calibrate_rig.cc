@@ -362,7 +362,7 @@ void LogWhatWasCalibrated(const calibration::CalibrationReport& report, std::siz
 }  // namespace
 
 calibration::CalibrationReport RunCalibrateRig(const CalibrateRigOptions& options) {
-  if (const core::CheckResult problem = options.Check(); !problem.empty()) throw core::Error(problem);
+  core::ThrowIfInvalid(options.Check(), "calibrate");
   core::RemoveStaleTemporariesOf(options.out);
   core::ExpectReplaceable(options.out,
                           {options.replace,

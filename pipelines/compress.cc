@@ -17,7 +17,7 @@ core::CheckResult CompressOptions::Check() const {
 }
 
 btf::BtfCompressionReport RunCompress(const CompressOptions& o) {
-  if (const auto problem = o.Check(); !problem.empty()) throw core::Error("compress: " + problem);
+  core::ThrowIfInvalid(o.Check(), "compress");
   core::ExpectReplaceable(o.out, formats::PackageReplacement(o.replace, {o.in}));
   const formats::MaterialManifest manifest = formats::ReadMaterialManifest(o.in);
   if (!manifest.full_btf) {

@@ -119,7 +119,7 @@ core::CheckResult ExportBonnOptions::Check() const {
 
 ExportBonnReport RunExportBonn(const ExportBonnOptions& o) {
   const auto start = std::chrono::steady_clock::now();
-  if (const auto problem = o.Check(); !problem.empty()) throw core::Error("export bonn: " + problem);
+  core::ThrowIfInvalid(o.Check(), "export bonn");
   core::ExpectReplaceable(o.out, ExportReplacement(o));
   const formats::MaterialManifest manifest = formats::ReadMaterialManifest(o.in);
   if (!manifest.full_btf && !manifest.factored_btf) {

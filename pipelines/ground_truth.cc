@@ -40,7 +40,7 @@ core::CheckResult GroundTruthOptions::Check() const {
 }
 
 GroundTruthReport RunGroundTruth(const GroundTruthOptions& o) {
-  if (const auto problem = o.Check(); !problem.empty()) throw core::Error("groundtruth: " + problem);
+  core::ThrowIfInvalid(o.Check(), "groundtruth");
   core::ExpectReplaceable(o.out, formats::PackageReplacement(o.replace, {o.scene.scene, o.rig}));
   const auto scene = sim::LoadScene(o.scene);
   const formats::RigDescription rig = sim::LoadRig(o.rig);
@@ -50,7 +50,7 @@ GroundTruthReport RunGroundTruth(const GroundTruthOptions& o) {
   gt.views = DirectionSet(o.views, calibration::ViewDirections(rig), "--views");
   gt.lights = DirectionSet(o.lights, calibration::LightDirections(rig), "--lights");
   gt.samples_per_side = o.texel_samples_per_side;
-  if (const auto problem = gt.Check(); !problem.empty()) throw core::Error("groundtruth: " + problem);
+  core::ThrowIfInvalid(gt.Check(), "groundtruth");
   const formats::Calibration calibration = sim::TrueCalibration(rig);
   spdlog::info("ground truth of scene {} on rig {}: {}x{} texels ({}x{} samples each), {} views x {} lights",
                scene->name(), rig.name, gt.texels.width, gt.texels.height, gt.samples_per_side, gt.samples_per_side,

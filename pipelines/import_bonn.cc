@@ -147,7 +147,7 @@ core::CheckResult ImportBonnOptions::Check() const {
 
 ImportBonnReport RunImportBonn(const ImportBonnOptions& o) {
   const auto start = std::chrono::steady_clock::now();
-  if (const auto problem = o.Check(); !problem.empty()) throw core::Error("import bonn: " + problem);
+  core::ThrowIfInvalid(o.Check(), "import bonn");
   core::ExpectReplaceable(o.out, formats::PackageReplacement(o.replace, {o.in}));
   std::error_code ec;
   fs::path named = o.in;

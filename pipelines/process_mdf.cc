@@ -22,7 +22,7 @@ core::CheckResult ProcessMdfOptions::Check() const {
 }
 
 ProcessMdfReport RunProcessMdf(const ProcessMdfOptions& o) {
-  if (const auto problem = o.Check(); !problem.empty()) throw core::Error("process mdf: " + problem);
+  core::ThrowIfInvalid(o.Check(), "process mdf");
   core::ExpectReplaceable(o.out, formats::PackageReplacement(o.replace, {o.session, o.calibration}));
   const formats::CapturedSession session(o.session, {o.allow_incomplete, "process mdf"});
   if (!session.missing_steps().empty()) {

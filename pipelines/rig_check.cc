@@ -25,7 +25,7 @@ DeviceCheck Probe(std::string device, std::string backend, const std::function<s
 
 }  // namespace
 
-std::string RigCheckOptions::Check() const { return rig.empty() ? "rig: expected a rig description file" : ""; }
+core::CheckResult RigCheckOptions::Check() const { return rig.empty() ? "rig: expected a rig description file" : ""; }
 
 std::vector<DeviceCheck> RunRigCheck(const RigCheckOptions& options) {
   const formats::RigDescription rig = formats::ReadRigDescription(options.rig);

@@ -8,11 +8,13 @@
 #include <string>
 #include <vector>
 
+#include "core/error.h"
+
 namespace mesocap::pipelines {
 
 struct RigCheckOptions {
   std::filesystem::path rig;  // a rig description file
-  std::string Check() const;
+  core::CheckResult Check() const;
 };
 
 struct DeviceCheck {

@@ -38,7 +38,7 @@ std::vector<std::unique_ptr<drivers::RigBackend>> RealBackends() {
 
 }  // namespace
 
-std::string RigStationOptions::Check() const {
+core::CheckResult RigStationOptions::Check() const {
   if (rig.empty()) return "rig: expected a rig description file";
   if (calibration.empty()) {
     return "calibration: a real rig needs its calibration file (mesocap calibrate --session ... --out FILE)";
@@ -53,7 +53,7 @@ bool DrivesRealDevices(const formats::RigDescription& rig) {
 
 RigStation::RigStation(const RigStationOptions& options, std::vector<std::unique_ptr<drivers::RigBackend>> backends)
     : backends_(backends.empty() ? RealBackends() : std::move(backends)) {
-  if (const std::string problem = options.Check(); !problem.empty()) throw core::Error("rig station: " + problem);
+  core::ThrowIfInvalid(options.Check(), "rig station");
   description_ = formats::ReadRigDescription(options.rig);
   if (!DrivesRealDevices(description_)) {
     throw core::Error(options.rig.string() + ": every device is simulated: run it as a simulated rig");

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "acquisition/capture_station.h"
+#include "core/error.h"
 #include "drivers/rig.h"
 #include "formats/calibration.h"
 
@@ -24,7 +25,7 @@ struct RigStationOptions {
   std::filesystem::path rig;          // a rig description file whose devices are real
   std::filesystem::path calibration;  // the rig's calibration.json
 
-  std::string Check() const;
+  core::CheckResult Check() const;
 };
 
 // Whether a rig description drives any real device (a backend other than

@@ -34,9 +34,7 @@ sim::FaultPlan LoadFaults(const formats::RigDescription& rig, const SimulatedSta
     const sim::FaultPlan extra = sim::ReadFaultPlan(o.faults);
     faults.rules.insert(faults.rules.end(), extra.rules.begin(), extra.rules.end());
   }
-  if (const core::CheckResult problem = faults.Check(rig); !problem.empty()) {
-    throw core::Error((o.faults.empty() ? o.rig : o.faults.string()) + ": " + problem);
-  }
+  core::ThrowIfInvalid(faults.Check(rig), o.faults.empty() ? o.rig : o.faults.string());
   return faults;
 }
 
@@ -49,7 +47,7 @@ sim::CameraRendererOptions RendererOptions(const SimulatedStationOptions& o) {
 
 }  // namespace
 
-std::string SimulatedStationOptions::Check() const {
+core::CheckResult SimulatedStationOptions::Check() const {
   if (rig.empty()) return "rig must name a shipped rig or a rig description file";
   if (samples_per_pixel_side < 1 || samples_per_pixel_side > 16) return "samples_per_pixel_side must be 1..16";
   if (interreflection_rays < 0 || interreflection_rays > 256) return "interreflection_rays must be 0..256";
@@ -112,7 +110,7 @@ struct SimulatedStation::Devices {
 };
 
 SimulatedStation::SimulatedStation(const SimulatedStationOptions& options) : options_(options) {
-  if (const std::string problem = options_.Check(); !problem.empty()) throw core::Error("simulated rig: " + problem);
+  core::ThrowIfInvalid(options_.Check(), "simulated rig");
   devices_ = std::make_unique<Devices>(sim::LoadScene(options_.scene), sim::LoadRig(options_.rig), options_);
 }
 

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "acquisition/capture_station.h"
+#include "core/error.h"
 #include "sim/mesostructure_scene.h"
 #include "sim/served_cameras.h"
 
@@ -30,7 +31,7 @@ struct SimulatedStationOptions {
   int samples_per_pixel_side = 3;
   int interreflection_rays = 0;
 
-  std::string Check() const;
+  core::CheckResult Check() const;
 };
 
 class SimulatedStation : public acquisition::CaptureStation {

@@ -89,7 +89,7 @@ core::CheckResult VerifyOptions::Check() const {
 }
 
 VerifyReport RunVerify(const VerifyOptions& o) {
-  if (const auto problem = o.Check(); !problem.empty()) throw core::Error("verify: " + problem);
+  core::ThrowIfInvalid(o.Check(), "verify");
   std::error_code ec;
   if (!fs::is_directory(o.path, ec)) {
     throw core::Error(o.path.string() + ": not a folder; verify checks a capture session or material package");

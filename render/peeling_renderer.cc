@@ -324,25 +324,6 @@ struct PeelTargets {
 
 }  // namespace
 
-const char* ToString(RenderMode mode) {
-  switch (mode) {
-    case RenderMode::kBtf:
-      return "btf";
-    case RenderMode::kSilhouette:
-      return "silhouette";
-    case RenderMode::kFull:
-      return "full";
-  }
-  return "?";
-}
-
-RenderMode ParseRenderMode(const std::string& name) {
-  for (const RenderMode mode : {RenderMode::kBtf, RenderMode::kSilhouette, RenderMode::kFull}) {
-    if (name == ToString(mode)) return mode;
-  }
-  throw core::Error("unknown render mode " + core::Quoted(name) + " (expected btf, silhouette or full)");
-}
-
 core::CheckResult PeelingOptions::Check() const {
   if (width < 1 || height < 1 || width > 8192 || height > 8192) {
     return "image size must be in [1, 8192] per side, got " + std::to_string(width) + "x" + std::to_string(height);
@@ -523,7 +504,7 @@ struct PeelingRenderer::Impl {
   }
 
   RenderResult Frame(const SceneCamera& camera, const SceneLight& scene_light, const PeelingOptions& options) {
-    if (const core::CheckResult problem = options.Check(); !problem.empty()) throw core::Error("render: " + problem);
+    core::ThrowIfInvalid(options.Check(), "render");
     if (view.width != options.width || view.height != options.height) {
       if (view.width > 0) view.Destroy();
       view.Create(options.width, options.height, true);

@@ -9,6 +9,7 @@
 #include <memory>
 #include <string>
 
+#include "core/enum_text.h"
 #include "core/error.h"
 #include "core/image.h"
 #include "render/render_scene.h"
@@ -18,9 +19,8 @@ namespace mesocap::render {
 // The paper's Table 2 columns: BTF only; + object silhouettes; + shadow
 // silhouettes and MDF shadow casting.
 enum class RenderMode { kBtf, kSilhouette, kFull };
-const char* ToString(RenderMode mode);  // "btf", "silhouette", "full"
-// Throws Error listing the names for anything else.
-RenderMode ParseRenderMode(const std::string& name);
+constexpr auto EnumNamesOf(RenderMode) { return std::to_array({"btf", "silhouette", "full"}); }
+using core::ToString;
 
 struct PeelingOptions {
   RenderMode mode = RenderMode::kFull;

@@ -21,9 +21,7 @@ core::CheckResult BoardPhotoOptions::Check() const {
 core::Image RenderBoardPhoto(const calibration::BoardPrint& print, const core::RigidTransform& world_from_board,
                              const formats::CameraCalibration& camera, const BoardPhotoOptions& options,
                              const UndistortedGrid* grid) {
-  if (const core::CheckResult problem = options.Check(); !problem.empty()) {
-    throw core::Error("board photo: " + problem);
-  }
+  core::ThrowIfInvalid(options.Check(), "board photo");
   // Rays in the board's frame: the plane z = 0 there.
   const core::RigidTransform board_from_camera = world_from_board.Inverse().Compose(camera.pose.transform);
   const Eigen::Vector3d origin = board_from_camera.translation;

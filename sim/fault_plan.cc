@@ -67,7 +67,7 @@ FaultRule ParseRule(const core::JsonFieldReader& f, FaultKind kind) {
 
 FaultPlan Parse(const core::JsonFieldReader& root, bool is_file) {
   std::vector<std::string_view> names;
-  for (FaultKind k : kAllFaultKinds) names.push_back(FaultKindName(k));
+  for (FaultKind k : kAllFaultKinds) names.push_back(ToString(k));
   if (is_file) {
     root.ExpectFormat("mesocap.faults", 1);
     root.RejectUnknownMembers({"format", "version", names[0], names[1], names[2], names[3], names[4], names[5]});
@@ -76,7 +76,7 @@ FaultPlan Parse(const core::JsonFieldReader& root, bool is_file) {
   }
   FaultPlan plan;
   for (FaultKind kind : kAllFaultKinds) {
-    const std::string_view key = FaultKindName(kind);
+    const std::string_view key = ToString(kind);
     if (!root.Has(key)) continue;
     if (root.Raw(key).is_array()) {
       for (const auto& rule : root.Objects(key, kMaxRulesPerKind)) plan.rules.push_back(ParseRule(rule, kind));
@@ -104,29 +104,11 @@ std::uint64_t Mix(std::uint64_t x) {
 }
 
 std::string RuleName(std::size_t i, const FaultRule& rule) {
-  return "fault rule " + std::to_string(i) + " (" + std::string(FaultKindName(rule.kind)) +
+  return "fault rule " + std::to_string(i) + " (" + std::string(ToString(rule.kind)) +
          (rule.device.empty() ? "" : ", device " + core::Quoted(rule.device)) + ")";
 }
 
 }  // namespace
-
-std::string_view FaultKindName(FaultKind kind) {
-  switch (kind) {
-    case FaultKind::kCameraDropFrame:
-      return "camera_drop_frame";
-    case FaultKind::kCameraTimeout:
-      return "camera_timeout";
-    case FaultKind::kCameraDisconnect:
-      return "camera_disconnect";
-    case FaultKind::kStageStall:
-      return "stage_stall";
-    case FaultKind::kStageTimeout:
-      return "stage_timeout";
-    case FaultKind::kLampFailure:
-      return "lamp_failure";
-  }
-  return "unknown";
-}
 
 std::string LampDeviceId(int lamp) { return std::to_string(lamp); }
 
@@ -188,7 +170,7 @@ FaultPlan FaultPlanOfRig(const formats::RigDescription& rig) {
 std::uint64_t FaultStreamSeed(std::uint64_t rig_seed, const std::string& device, FaultKind kind) {
   std::uint64_t h = Fnv1a(0xcbf29ce484222325ull, device);
   h = Fnv1a(h, "/");
-  h = Fnv1a(h, FaultKindName(kind));
+  h = Fnv1a(h, ToString(kind));
   return Mix(Mix(rig_seed) ^ h);
 }
 

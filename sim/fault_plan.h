@@ -46,6 +46,7 @@
 #include <string_view>
 #include <vector>
 
+#include "core/enum_text.h"
 #include "core/error.h"
 #include "formats/rig_description.h"
 
@@ -65,8 +66,11 @@ inline constexpr FaultKind kAllFaultKinds[] = {
     FaultKind::kStageStall,      FaultKind::kStageTimeout,  FaultKind::kLampFailure,
 };
 
-// The JSON name: "camera_drop_frame", ...
-std::string_view FaultKindName(FaultKind kind);
+constexpr auto EnumNamesOf(FaultKind) {
+  return std::to_array(
+      {"camera_drop_frame", "camera_timeout", "camera_disconnect", "stage_stall", "stage_timeout", "lamp_failure"});
+}
+using core::ToString;
 
 // The device ids faults name: cameras by their id, the stages as below,
 // lamps by their index (LampDeviceId).

@@ -114,7 +114,7 @@ void AccumulateAmbientTerm(const core::Image& btf_view, const core::SamplingSet&
 void WriteGroundTruthPackage(const MesostructureScene& scene, const GroundTruthOptions& o,
                              const formats::Calibration* calibration, const std::string& source,
                              const std::filesystem::path& out, bool replace, core::Progress::Style progress_style) {
-  if (const auto problem = o.Check(); !problem.empty()) throw core::Error("ground truth: " + problem);
+  core::ThrowIfInvalid(o.Check(), "ground truth");
   formats::MaterialDescription d;
   d.name = scene.name();
   d.width = o.texels.width;

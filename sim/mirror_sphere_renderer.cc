@@ -180,9 +180,7 @@ core::Image RenderMirrorSpherePhoto(const formats::RigDescription& rig, const fo
                                     double turntable_rad, double arc_rad, const std::vector<bool>& lamps_on,
                                     const MirrorSpherePhotoOptions& options, const UndistortedGrid* grid,
                                     const UndistortedGrid* centres) {
-  if (const core::CheckResult problem = options.Check(); !problem.empty()) {
-    throw core::Error("mirror sphere photo: " + problem);
-  }
+  core::ThrowIfInvalid(options.Check(), "mirror sphere photo");
   if (!rig.mirror_sphere) throw core::Error("camera renderer: rig " + core::Quoted(rig.name) + " has no mirror_sphere");
   const formats::MirrorSphereDescription& sphere = *rig.mirror_sphere;
   const formats::CameraCalibration& cam = truth.cameras.at(camera);

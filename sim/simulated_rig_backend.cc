@@ -12,11 +12,11 @@ SimulatedRigBackend::SimulatedRigBackend(FrameRenderer& renderer, FaultPlan faul
       faults_(std::move(faults)),
       seed_(seed),
       sensor_(sensor) {
-  if (auto problem = faults_.Check(); !problem.empty()) throw core::Error("simulated rig: " + problem);
+  core::ThrowIfInvalid(faults_.Check(), "simulated rig");
 }
 
 void SimulatedRigBackend::CheckFaultsAgainst(const formats::RigDescription& rig) const {
-  if (auto problem = faults_.Check(rig); !problem.empty()) throw core::Error("simulated rig: " + problem);
+  core::ThrowIfInvalid(faults_.Check(rig), "simulated rig");
 }
 
 std::unique_ptr<drivers::Camera> SimulatedRigBackend::MakeCamera(const formats::RigDescription& rig, int camera_index) {

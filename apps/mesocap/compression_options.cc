@@ -36,7 +36,7 @@ void AddCompressionOptions(CLI::App* sub, btf::BtfCompressionOptions* o) {
            if (name == "auto") {
              o->layout.reset();
            } else {
-             o->layout = core::BtfFactorLayoutNamed(name);
+             o->layout = core::EnumFromString<core::BtfFactorLayout>(name);
            }
          },
          "matrix layout: paper (rows x, y, light; columns view), per_texel (rows x, y; columns view, light), "
@@ -60,7 +60,7 @@ void AddCompressionOptions(CLI::App* sub, btf::BtfCompressionOptions* o) {
       ->check(CLI::IsMember({"auto", "rgb", "ycbcr"}))
       ->default_str("auto");
   sub->add_option_function<std::string>(
-         "--svd", [o](const std::string& name) { o->svd = btf::ParseBtfSvdMethod(name); },
+         "--svd", [o](const std::string& name) { o->svd = core::ParseEnum<btf::BtfSvdMethod>(name, "SVD method"); },
          "exact (streamed QR), randomized (sketch and power iterations: for matrices over 2048 columns a side) "
          "or auto (randomized where both sides exceed 2048)")
       ->check(CLI::IsMember({"auto", "exact", "randomized"}))

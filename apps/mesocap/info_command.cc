@@ -78,7 +78,7 @@ json MaterialInfo(const fs::path& dir) {
 json SessionInfo(const fs::path& dir) {
   const formats::SessionManifest m = formats::ReadSessionManifest(dir);
   std::map<std::string, int> kinds;
-  for (const auto& s : m.plan) ++kinds[formats::StepKindName(s.kind)];
+  for (const auto& s : m.plan) ++kinds[ToString(s.kind)];
   json out = {{"kind", "session"},
               {"path", dir.string()},
               {"rig", m.rig.value("name", "")},

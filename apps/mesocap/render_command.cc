@@ -30,7 +30,7 @@ core::PixelEncoding EncodingFor(const std::filesystem::path& file) {
 
 void RunRender(const RenderCommandOptions& o) {
   render::PeelingOptions peeling = o.scene.Peeling();
-  peeling.mode = render::ParseRenderMode(o.mode);
+  peeling.mode = core::ParseEnum<render::RenderMode>(o.mode, "render mode");
   const core::PixelEncoding encoding = EncodingFor(o.out);
   ExpectReplaceableFile(o.out, o.replace, {o.scene.scene});
   const render::RenderScene scene = render::ReadRenderScene(o.scene.scene, ResolveRenderMaterial);

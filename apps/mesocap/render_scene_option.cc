@@ -61,7 +61,7 @@ render::PeelingOptions RenderSceneOptions::Peeling() const {
     throw core::Error("--passes: expected auto or a count in [1, 254], got " + core::Quoted(passes));
   }
   o.shadow_map_size = shadow_map_size;
-  if (const core::CheckResult problem = o.Check(); !problem.empty()) throw core::Error(problem);
+  core::ThrowIfInvalid(o.Check(), "render");
   return o;
 }
 

@@ -79,7 +79,7 @@ struct AravisCamera::Device {
   static void OnControlLost(ArvDevice*, gpointer self) { static_cast<Device*>(self)->control_lost = true; }
 };
 
-std::string AravisCameraOptions::Check() const {
+core::CheckResult AravisCameraOptions::Check() const {
   if (id.empty()) return "id: expected the rig's camera id";
   if (device.empty()) return "device: expected an Aravis device id, serial number or address";
   if (buffer_count < 2 || buffer_count > 256) return "buffer_count: expected 2 to 256 buffers";
@@ -99,7 +99,7 @@ std::string AravisCameraOptions::Check() const {
 }
 
 AravisCamera::AravisCamera(AravisCameraOptions options) : options_(std::move(options)) {
-  if (auto problem = options_.Check(); !problem.empty()) throw core::Error("camera " + options_.id + ": " + problem);
+  core::ThrowIfInvalid(options_.Check(), "camera " + options_.id);
   Open();
 }
 

@@ -15,6 +15,7 @@
 #include <memory>
 #include <string>
 
+#include "core/error.h"
 #include "drivers/aravis/pixel_format.h"
 #include "drivers/aravis/stream_ports.h"
 #include "drivers/camera.h"
@@ -46,7 +47,7 @@ struct AravisCameraOptions {
   std::shared_ptr<StreamPorts> stream_ports;
 
   // "" when usable, else what is wrong, naming the field.
-  std::string Check() const;
+  core::CheckResult Check() const;
 };
 
 class AravisCamera : public Camera {

@@ -4,7 +4,7 @@
 
 namespace mesocap::drivers::gpiod {
 
-std::string GpioLampBankOptions::Check() const {
+core::CheckResult GpioLampBankOptions::Check() const {
   if (lamps.empty()) return "lamps: none (one power line a lamp)";
   if (settle.count() < 0) return "settle: " + std::to_string(settle.count()) + " ms (0 or more)";
   std::vector<std::pair<std::string, const GpioLineAddress*>> lines;
@@ -18,7 +18,7 @@ std::string GpioLampBankOptions::Check() const {
 
 GpioLampBank::GpioLampBank(GpioLampBankOptions options, const GpioChipOpener& open, GpioTiming timing)
     : options_(std::move(options)), timing_(std::move(timing)) {
-  if (std::string problem = options_.Check(); !problem.empty()) throw DeviceError("GPIO lamps: " + problem);
+  core::ThrowIfInvalid<DeviceError>(options_.Check(), "GPIO lamps");
   GpioChips chips(open);
   for (const GpioLamp& lamp : options_.lamps) {
     Lamp& requested = lamps_.emplace_back();

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "core/error.h"
 #include "drivers/gpiod/gpio_line.h"
 #include "drivers/lamp_bank.h"
 
@@ -26,7 +27,7 @@ struct GpioLampBankOptions {
   // A halogen lamp's warm-up: SetLamp(on) returns once its light is steady.
   std::chrono::milliseconds settle{200};
 
-  std::string Check() const;
+  core::CheckResult Check() const;
 };
 
 // Switches one lamp at a time or several; every lamp is off once it is

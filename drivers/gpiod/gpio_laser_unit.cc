@@ -13,7 +13,7 @@ std::string Mounts(int count) { return "(the arc has mounts 0 to " + std::to_str
 
 }  // namespace
 
-std::string GpioLaserOptions::Check() const {
+core::CheckResult GpioLaserOptions::Check() const {
   if (std::string problem = CheckLines({{"enable", &enable}}); !problem.empty()) return problem;
   if (!(std::isfinite(max_tilt_rad) && max_tilt_rad > 0.0 && max_tilt_rad < std::numbers::pi)) {
     return "max_tilt_rad: " + std::to_string(max_tilt_rad) + " (above 0, below pi)";
@@ -25,7 +25,7 @@ std::string GpioLaserOptions::Check() const {
 
 GpioLaserUnit::GpioLaserUnit(GpioLaserOptions options, const GpioChipOpener& open, std::unique_ptr<RotaryStage> tilt)
     : options_(std::move(options)), tilt_(std::move(tilt)), mount_(options_.mount) {
-  if (std::string problem = options_.Check(); !problem.empty()) throw DeviceError("GPIO laser unit: " + problem);
+  core::ThrowIfInvalid<DeviceError>(options_.Check(), "GPIO laser unit");
   if (!tilt_) throw DeviceError("GPIO laser unit: no tilt stage");
   // Requested inactive: the laser is off from here on.
   enable_ = GpioChips(open).RequestOutput(options_.enable);

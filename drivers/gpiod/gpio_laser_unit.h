@@ -7,6 +7,7 @@
 #include <memory>
 #include <string>
 
+#include "core/error.h"
 #include "drivers/gpiod/gpio_line.h"
 #include "drivers/laser_unit.h"
 #include "drivers/rotary_stage.h"
@@ -20,7 +21,7 @@ struct GpioLaserOptions {
   int mount_count = 1;                       // mounts on the light arc
   int mount = 0;                             // where the operator put it
 
-  std::string Check() const;
+  core::CheckResult Check() const;
 };
 
 // Tilt 0 is the tilt stage's position 0 (its reference); negative tilts are

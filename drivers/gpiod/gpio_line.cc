@@ -8,7 +8,7 @@
 
 namespace mesocap::drivers::gpiod {
 
-std::string GpioLineAddress::Check() const {
+core::CheckResult GpioLineAddress::Check() const {
   if (chip.empty()) return "chip: empty (a chip's name \"gpiochip0\", path \"/dev/gpiochip0\" or label)";
   if (offset < -1) return "offset: " + std::to_string(offset) + " (a line's offset is 0 or more; -1 finds it by name)";
   if (offset == -1 && name.empty()) return "line: neither an offset nor a name";

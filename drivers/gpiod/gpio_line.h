@@ -13,6 +13,8 @@
 #include <utility>
 #include <vector>
 
+#include "core/error.h"
+
 namespace mesocap::drivers::gpiod {
 
 // The consumer every line is requested as, so `gpioinfo` shows who holds it.
@@ -28,7 +30,7 @@ struct GpioLineAddress {
   // ground): values read and written are the active state, not the level.
   bool active_low = false;
 
-  std::string Check() const;
+  core::CheckResult Check() const;
   // How messages name the line: `GPIO gpiochip0 line 17` or
   // `GPIO gpiochip0 line "LAMP3"`.
   std::string Describe() const;

@@ -23,7 +23,7 @@ double StepDirStepperOptions::steps_per_rad() const {
   return full_steps_per_revolution * static_cast<double>(microsteps) * gear_ratio / core::kTwoPi;
 }
 
-std::string StepDirStepperOptions::Check() const {
+core::CheckResult StepDirStepperOptions::Check() const {
   if (id.empty()) return "id: empty (names the stage in messages)";
   if (std::string problem = CheckLines({{"step", &step}, {"direction", &direction}, {"limit_switch", &limit_switch}});
       !problem.empty()) {
@@ -59,9 +59,7 @@ std::string StepDirStepperOptions::Check() const {
 
 StepDirStepper::StepDirStepper(StepDirStepperOptions options, const GpioChipOpener& open, GpioTiming timing)
     : options_(std::move(options)), timing_(std::move(timing)) {
-  if (std::string problem = options_.Check(); !problem.empty()) {
-    throw DeviceError("stepper " + options_.id + ": " + problem);
-  }
+  core::ThrowIfInvalid<DeviceError>(options_.Check(), "stepper " + options_.id);
   GpioChips chips(open);
   step_ = chips.RequestOutput(options_.step);
   // Requested inactive: the dir line says "negative" until a move says otherwise.

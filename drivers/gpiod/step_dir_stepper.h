@@ -8,6 +8,7 @@
 #include <memory>
 #include <string>
 
+#include "core/error.h"
 #include "drivers/gpiod/gpio_line.h"
 #include "drivers/rotary_stage.h"
 
@@ -32,7 +33,7 @@ struct StepDirStepperOptions {
   std::chrono::nanoseconds step_pulse = std::chrono::microseconds(4);
   std::chrono::nanoseconds direction_setup = std::chrono::microseconds(4);
 
-  std::string Check() const;
+  core::CheckResult Check() const;
   // Microsteps for one radian of the stage.
   double steps_per_rad() const;
 };

@@ -71,9 +71,7 @@ double TicStageOptions::SpeedUnits() const {
 
 TicRotaryStage::TicRotaryStage(TicStageOptions options, TicOpener opener, std::unique_ptr<StageClock> clock)
     : options_(std::move(options)), opener_(std::move(opener)), clock_(std::move(clock)) {
-  if (const core::CheckResult problem = options_.Check(); !problem.empty()) {
-    throw core::Error("Tic stage " + options_.id + ": " + problem);
-  }
+  core::ThrowIfInvalid(options_.Check(), "Tic stage " + options_.id);
   transport_ = opener_(options_.serial_number);
   Configure();
 }

@@ -68,18 +68,6 @@ std::vector<double> CosineDivisors(const BonnBtfFile& btf) {
 
 }  // namespace
 
-const char* ToString(BonnForm form) {
-  switch (form) {
-    case BonnForm::kUbo2003:
-      return "ubo2003";
-    case BonnForm::kFmf:
-      return "fmf";
-    case BonnForm::kDfmf:
-      return "dfmf";
-  }
-  return "?";
-}
-
 BonnBtfFile BonnDfmfFromFactored(const core::FactoredBtf& btf) {
   btf.CheckShape();
   if (btf.layout != core::BtfFactorLayout::kPerTexel) {

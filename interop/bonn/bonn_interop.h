@@ -38,6 +38,7 @@
 
 #include "btf/btf_compression.h"
 #include "core/btf.h"
+#include "core/enum_text.h"
 #include "core/error.h"
 #include "interop/bonn/bonn_btf_file.h"
 
@@ -45,7 +46,8 @@ namespace mesocap::bonn {
 
 // The forms a package's BTF is exported to or imported from.
 enum class BonnForm { kUbo2003, kFmf, kDfmf };
-const char* ToString(BonnForm form);  // "ubo2003", "fmf", "dfmf"
+constexpr auto EnumNamesOf(BonnForm) { return std::to_array({"ubo2003", "fmf", "dfmf"}); }
+using core::ToString;
 
 // A per_texel factored BTF as a DFMF (direction rows). Throws Error for the paper layout.
 BonnBtfFile BonnDfmfFromFactored(const core::FactoredBtf& btf);

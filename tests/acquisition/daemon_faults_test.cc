@@ -79,8 +79,8 @@ class DaemonFaultsTest : public ::testing::TestWithParam<int> {
       if (job.state == state) return job;
       std::this_thread::sleep_for(2ms);
     }
-    ADD_FAILURE() << id << " never became " << JobStateName(state) << "; it is " << JobStateName(daemon.Job(id)->state)
-                  << ": " << daemon.Job(id)->pause_reason;
+    ADD_FAILURE() << id << " never became " << ToString(state) << "; it is " << ToString(daemon.Job(id)->state) << ": "
+                  << daemon.Job(id)->pause_reason;
     return *daemon.Job(id);
   }
 

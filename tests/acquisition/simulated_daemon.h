@@ -61,8 +61,8 @@ class SimulatedDaemonTest : public ::testing::Test {
       if (job && job->state == state) return *job;
       std::this_thread::sleep_for(std::chrono::milliseconds(5));
     }
-    ADD_FAILURE() << id << " never became " << JobStateName(state) << "; it is " << JobStateName(daemon.Job(id)->state)
-                  << " " << daemon.Job(id)->pause_reason;
+    ADD_FAILURE() << id << " never became " << ToString(state) << "; it is " << ToString(daemon.Job(id)->state) << " "
+                  << daemon.Job(id)->pause_reason;
     return *daemon.Job(id);
   }
   std::string SessionDifferences(const CaptureDaemon& daemon, const std::string& id, const char* kind) {

@@ -146,7 +146,7 @@ std::string RowExpression(const std::string& id) {
 
 std::string Shown(const CaptureJob& job) {
   const std::string steps = std::to_string(job.steps_done) + "/" + std::to_string(job.steps_total);
-  return std::string(JobStateName(job.state)) + " " + steps + " " + steps;
+  return std::string(ToString(job.state)) + " " + steps + " " + steps;
 }
 
 TEST_F(StatusPageBrowserTest, ThePageShowsTheRunningJobsStepsAndFollowsThem) {

@@ -144,7 +144,7 @@ TEST_F(RigStationTest, ACaptureThroughTheDaemonAsksTheOperatorAndJournalsEverySt
     std::this_thread::sleep_for(2ms);
   }
   for (acquisition::CaptureJob job; (job = *daemon.Job(id)).state != acquisition::JobState::kDone;) {
-    ASSERT_LT(std::chrono::steady_clock::now(), deadline) << acquisition::JobStateName(job.state);
+    ASSERT_LT(std::chrono::steady_clock::now(), deadline) << acquisition::ToString(job.state);
     ASSERT_FALSE(job.paused_by_fault) << job.pause_reason;
     ASSERT_NE(job.state, acquisition::JobState::kFailed) << job.error;
     if (!job.operator_prompt.empty()) {

@@ -494,7 +494,7 @@ TEST(SimulatedFaults, RatesHoldOverManyOperations) {
     FaultSchedule schedule(RatePlan(kind, 0.1), kind, "dev", 7);
     int fired = 0;
     for (int i = 0; i < 10000; ++i) fired += schedule.Fires() ? 1 : 0;
-    EXPECT_NEAR(fired, 1000, 100) << FaultKindName(kind);
+    EXPECT_NEAR(fired, 1000, 100) << ToString(kind);
     EXPECT_EQ(schedule.operations(), 10000u);
   }
 }
