@@ -204,6 +204,14 @@ SamplingSet::RingBlend SamplingSet::BlendOnRing(const Ring& ring, double phi) co
   return {ring.members[lo], ring.members[hi], u};
 }
 
+bool SamplingSet::SameDirectionsAs(const SamplingSet& other, double tolerance) const {
+  if (size() != other.size()) return false;
+  for (int i = 0; i < size(); ++i) {
+    if ((direction(i) - other.direction(i)).norm() > tolerance) return false;
+  }
+  return true;
+}
+
 int SamplingSet::Nearest(const Eigen::Vector3d& d) const {
   const SphericalAngles a = AnglesFromDirection(d);
   const Eigen::Vector3d u = d.normalized();

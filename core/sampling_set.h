@@ -70,6 +70,10 @@ class SamplingSet {
   // Index of the set direction closest in angle to `d`.
   int Nearest(const Eigen::Vector3d& d) const;
 
+  // The same directions in the same order, each within `tolerance` (as a
+  // distance of unit vectors, about the angle in radians).
+  bool SameDirectionsAs(const SamplingSet& other, double tolerance) const;
+
   // Neighbours of `d` and weights (non-negative, summing to 1) to blend them:
   // linear in phi within the two rings that bracket theta, linear in theta
   // between them; clamped to the first/last ring outside their range.

@@ -29,13 +29,9 @@ std::string CurrentUtcTime() {
   return text;
 }
 
-bool SameDirections(const core::SamplingSet& a, const core::SamplingSet& b) {
-  if (a.size() != b.size()) return false;
-  for (int i = 0; i < a.size(); ++i) {
-    if ((a.direction(i) - b.direction(i)).norm() > 1e-9) return false;
-  }
-  return true;
-}
+// A part's directions are the package's when they agree to this (unit
+// vectors): the same set computed twice, or read back from the manifest.
+constexpr double kSameDirection = 1e-9;
 
 void CheckDescription(const fs::path& dir, const MaterialDescription& d) {
   if (const core::CheckResult problem = core::CheckImageSize(d.width, d.height, "texture size"); !problem.empty()) {
@@ -62,14 +58,14 @@ void ExpectGrid(const fs::path& dir, const MaterialDescription& d, const char* p
     throw core::Error(dir.string() + ": " + part + " is " + std::to_string(width) + "x" + std::to_string(height) +
                       " texels, the package " + std::to_string(d.width) + "x" + std::to_string(d.height));
   }
-  if (!SameDirections(views, d.view_directions)) {
+  if (!views.SameDirectionsAs(d.view_directions, kSameDirection)) {
     throw core::Error(dir.string() + ": " + part + " is sampled on other view directions than the package");
   }
 }
 
 void ExpectLights(const fs::path& dir, const MaterialDescription& d, const char* part,
                   const core::SamplingSet& lights) {
-  if (!SameDirections(lights, d.light_directions)) {
+  if (!lights.SameDirectionsAs(d.light_directions, kSameDirection)) {
     throw core::Error(dir.string() + ": " + part + " is sampled on other light directions than the package");
   }
 }
