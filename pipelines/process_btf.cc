@@ -16,6 +16,8 @@
 #include "formats/captured_session.h"
 #include "formats/material_manifest.h"
 #include "formats/material_package.h"
+#include "formats/material_package_layout.h"
+#include "formats/material_package_reader.h"
 #include "formats/material_package_writer.h"
 #include "formats/rig_description.h"
 
@@ -64,6 +66,39 @@ void AddCameraRadiometry(const formats::RigDescription& rig, const formats::Cali
   }
 }
 
+// The measured MDF a renderable material carries beside its BTF (MDF paper
+// Sec. 4: both describe one sample). It must lie on the BTF's texel grid and
+// view set; its d_max becomes the package's.
+struct CarriedMdf {
+  double d_max_mm = 0.0;
+  core::Mdf mdf;
+  formats::MdfForms forms;
+  std::optional<core::Image> confidence;
+};
+
+std::optional<CarriedMdf> ReadCarriedMdf(const ProcessBtfOptions& o, const formats::MaterialDescription& d) {
+  if (o.mdf.empty()) return std::nullopt;
+  const formats::MaterialManifest manifest = formats::ReadMaterialManifest(o.mdf);
+  const fs::path file = o.mdf / formats::kManifestFile;
+  const formats::MaterialDescription& m = manifest.description;
+  if (!manifest.mdf) throw core::FormatError(file, "mdf", "expected a package with an MDF (mesocap process mdf)");
+  if (m.width != d.width || m.height != d.height) {
+    throw core::FormatError(file, "width",
+                            "expected the BTF's texture size " + std::to_string(d.width) + " (--texture-size), got " +
+                                std::to_string(m.width) + "x" + std::to_string(m.height));
+  }
+  if ((m.physical_size_mm - d.physical_size_mm).norm() > 1e-6 * d.physical_size_mm.norm()) {
+    throw core::FormatError(file, "physical_size_mm",
+                            "expected the session's sample size " + core::Fixed(d.physical_size_mm.x(), 3) + " mm");
+  }
+  if (!m.view_directions.SameDirectionsAs(d.view_directions, 1e-6)) {
+    throw core::FormatError(file, "view_directions", "expected the session's view directions (the same rig)");
+  }
+  CarriedMdf carried{m.d_max_mm, formats::ReadMdf(o.mdf, manifest), manifest.mdf->forms, std::nullopt};
+  if (manifest.mdf->confidence) carried.confidence = formats::ReadMdfConfidence(o.mdf, manifest);
+  return carried;
+}
+
 }  // namespace
 
 core::CheckResult ProcessBtfOptions::Check() const {
@@ -79,8 +114,8 @@ core::CheckResult ProcessBtfOptions::Check() const {
 }
 
 ProcessBtfReport RunProcessBtf(const ProcessBtfOptions& o) {
-  if (const auto problem = o.Check(); !problem.empty()) throw core::Error("process btf: " + problem);
-  core::ExpectReplaceable(o.out, formats::PackageReplacement(o.replace, {o.session, o.calibration}));
+  core::ThrowIfInvalid(o.Check(), "process btf");
+  core::ExpectReplaceable(o.out, formats::PackageReplacement(o.replace, {o.session, o.calibration, o.mdf}));
   const formats::CapturedSession session(o.session, {o.allow_incomplete, "process btf"});
   if (!session.missing_steps().empty()) {
     spdlog::warn("{}: leaving out {} of {} planned steps, which the journal lacks (--allow-incomplete)",
@@ -111,13 +146,18 @@ ProcessBtfReport RunProcessBtf(const ProcessBtfOptions& o) {
   d.view_directions = a.views;
   d.light_directions = a.lights;
   d.provenance.source = "process btf session=" + o.session.string();
+  const std::optional<CarriedMdf> mdf = ReadCarriedMdf(o, d);
+  if (mdf) {
+    d.d_max_mm = mdf->d_max_mm;
+    d.provenance.source += " mdf=" + o.mdf.string();
+  }
   // Held at once: a view being assembled and the ambient term (floats).
   const std::uint64_t texels = static_cast<std::uint64_t>(o.texture_size) * o.texture_size;
   core::CheckMemoryFor(12 * texels * (a.lights.size() + a.views.size()),
                        "a BTF view and the ambient term at " + std::to_string(o.texture_size) + "x" +
                            std::to_string(o.texture_size) + " texels, " + std::to_string(a.views.size()) + " views x " +
                            std::to_string(a.lights.size()) + " lights (--texture-size)");
-  formats::MaterialPackageWriter writer(o.out, d, o.replace, {o.session, calibration_file});
+  formats::MaterialPackageWriter writer(o.out, d, o.replace, {o.session, calibration_file, o.mdf});
 
   // Each assembled view goes to disk as soon as it is made, so assembly
   // never holds the BTF (1.8 GB of float for a paper rig at 128 x 128); the
@@ -146,6 +186,10 @@ ProcessBtfReport RunProcessBtf(const ProcessBtfOptions& o) {
   scratch.reset();
 
   writer.WriteFactoredBtf(factored);
+  if (mdf) {
+    writer.WriteMdf(mdf->mdf, mdf->forms);
+    if (mdf->confidence) writer.WriteMdfConfidence(*mdf->confidence);
+  }
   writer.WriteAmbientTerm(ambient);
   writer.WriteCalibration(calibration);
   writer.WriteErrorReport(

@@ -18,7 +18,11 @@ struct ProcessBtfOptions {
   std::filesystem::path session;      // capture session folder
   std::filesystem::path calibration;  // calibration file; empty: the one the session names
   std::filesystem::path out;          // material package folder to write
-  int texture_size = 64;              // texels per side
+  // A package `process mdf` made of the same sample at the same texture
+  // size, whose MDF (and confidence) the new package carries, so that it
+  // renders; empty: a package without MDF.
+  std::filesystem::path mdf;
+  int texture_size = 64;  // texels per side
   // Camera signal (fraction of full scale) per radiance second for every
   // camera; 0: each camera's radiometry from the calibration.
   double gain = 0.0;

@@ -22,6 +22,10 @@ void RegisterProcessBtfCommand(CLI::App& app) {
       ->check(CLI::ExistingFile);
   sub->add_option("--out", o->out, "material package folder to write")->required();
   sub->add_option("--texture-size", o->texture_size, "texels per side")->check(InRange(1, 4096))->capture_default_str();
+  sub->add_option("--mdf", o->mdf,
+                  "material package of the same session's MDF (mesocap process mdf, same --texture-size): the new "
+                  "package carries it, so that it renders")
+      ->check(CLI::ExistingDirectory);
   AddCompressionOptions(sub, &o->compression);
   sub->add_option("--gain", o->gain,
                   "camera signal (fraction of full scale) per radiance second, for every camera, overriding "

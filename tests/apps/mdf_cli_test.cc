@@ -180,5 +180,47 @@ TEST_F(MdfCliTest, EvalRejectsMismatchedPackages) {
   EXPECT_NE(e.err.find("64x64"), std::string::npos) << e.err;
 }
 
+// The measured MDF carried into the BTF's package (`process btf --mdf`): one
+// material with both parts, which renders; an MDF on another texture grid is
+// refused naming its manifest and field, and nothing is written.
+TEST_F(MdfCliTest, ProcessBtfCarriesTheMeasuredMdfIntoAMaterialThatRenders) {
+  testing::TemporaryDirectory out;
+  const fs::path mdf = out / "mdf", material = out / "material", coarse = out / "mdf6";
+  const std::string session = " --session " + session_.string();
+  ASSERT_EQ(Mesocap("-q process mdf" + session + " --texture-size 8 --out " + mdf.string()).exit_code, 0);
+  const CommandResult b =
+      Mesocap("-q process btf" + session + " --texture-size 8 --mdf " + mdf.string() + " --out " + material.string());
+  ASSERT_EQ(b.exit_code, 0) << b.err;
+  const formats::MaterialManifest m = formats::ReadMaterialManifest(material);
+  const formats::MaterialManifest measured = formats::ReadMaterialManifest(mdf);
+  ASSERT_TRUE(m.mdf && m.factored_btf && m.ambient);
+  EXPECT_EQ(m.mdf->confidence, measured.mdf->confidence);
+  EXPECT_EQ(m.description.d_max_mm, measured.description.d_max_mm);
+  const core::Mdf carried = formats::ReadMdf(material, m), original = formats::ReadMdf(mdf, measured);
+  ASSERT_EQ(carried.distance_mm.size(), original.distance_mm.size());
+  for (std::size_t i = 0; i < carried.distance_mm.size(); ++i) {
+    const float c = carried.distance_mm.data()[i], o = original.distance_mm.data()[i];
+    ASSERT_TRUE(c == o || (std::isnan(c) && std::isnan(o))) << i;
+  }
+  std::ofstream(out / "scene.json") << R"({"format": "mesocap.scene", "version": 1,
+    "camera": {"position": [0, -60, 40], "look_at": [0, 0, 0], "up": [0, 0, 1], "fov_y_deg": 40},
+    "light": {"position": [40, -40, 120], "intensity": 30000, "ambient": 0.2},
+    "objects": [{"name": "torus", "shape": "torus", "major_radius": 20, "minor_radius": 8, "segments": 48,
+                 "tube_segments": 24, "tiles": [4, 2], "material": "material"}]})";
+  const CommandResult r = Mesocap("-q render " + (out / "scene.json").string() + " --mode full --size 64x48 --out " +
+                                  (out / "frame.png").string());
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(fs::exists(out / "frame.png"));
+
+  ASSERT_EQ(Mesocap("-q process mdf" + session + " --texture-size 6 --out " + coarse.string()).exit_code, 0);
+  const CommandResult refused = Mesocap("-q process btf" + session + " --texture-size 8 --mdf " + coarse.string() +
+                                        " --out " + (out / "refused").string());
+  EXPECT_NE(refused.exit_code, 0);
+  EXPECT_NE(refused.err.find((coarse / "manifest.json").string()), std::string::npos) << refused.err;
+  EXPECT_NE(refused.err.find("width"), std::string::npos) << refused.err;
+  EXPECT_NE(refused.err.find("expected the BTF's texture size 8"), std::string::npos) << refused.err;
+  EXPECT_FALSE(fs::exists(out / "refused"));
+}
+
 }  // namespace
 }  // namespace mesocap
