@@ -366,7 +366,7 @@ void AssembleResampled(const std::vector<BtfCaptureImage>& images, const formats
 
 void AssembleBtfViews(const std::vector<BtfCaptureImage>& images, const formats::Calibration& calibration,
                       const BtfAssemblyOptions& o, const BtfViewSink& sink, BtfAssemblyReport* report) {
-  if (const auto problem = o.Check(); !problem.empty()) throw core::Error("BTF assembly: " + problem);
+  core::ThrowIfInvalid(o.Check(), "BTF assembly");
   // One exposure and one gain per calibrated camera.
   for (const auto& [per_camera, what] :
        {std::pair{&o.exposure_s, "exposures"}, std::pair{&o.signal_per_radiance_second, "gains"}}) {
@@ -403,11 +403,13 @@ void AssembleBtfViews(const std::vector<BtfCaptureImage>& images, const formats:
   }
   for (const auto& row : r.measured)
     for (bool m : row) r.measured_pairs += m;
+  // The rig's design, not a fault: a turntable and arc reach only some
+  // (view, light) pairs of the sets, and `eval btf` reports the two apart.
   if (r.filled_pairs > 0) {
-    spdlog::warn(
-        "BTF assembly: {} of {} (view, light) pairs were not captured by the rig and are interpolated "
-        "from the captured ones",
-        r.filled_pairs, r.filled_pairs + r.measured_pairs);
+    spdlog::info(
+        "BTF assembly: the rig captures {} of the {} (view, light) pairs; the other {} are interpolated "
+        "from each view's captured lights",
+        r.measured_pairs, r.filled_pairs + r.measured_pairs, r.filled_pairs);
   }
   if (r.extrapolated_views > 0 || r.extrapolated_lights > 0) {
     spdlog::warn(

@@ -1,54 +1,66 @@
 #!/usr/bin/env bash
-# The main job on the simulated rig, run by scripts/setup.sh after the build,
-# the whole chain as on a real rig, without the simulator's truth: the `tiny`
-# rig's calibration session (a ChArUco board on holder tilts at turntable
-# angles, a mirror sphere and a white reference under each lamp) and the rig
-# calibrated from it (its cameras resolve the sphere too coarsely for the
-# lamps' positions: the calibration reports them and keeps the rig
-# description's);
-# a capture session of the `weave` scene (BTF images, laser-plane
-# calibration frames, laser sweeps, with sensor noise); the MDF and the BTF
-# processed with the estimated calibration; then, only to judge them, their
-# error against the exact material of the same scene; and a frame of the
-# depth-peeling renderer.
-# The texture is 12 x 12 texels (1 mm): the tiny rig's 128 x 96 cameras see
-# the 12 mm sample across about 28 pixels, 14 at the most oblique view, so a
-# finer grid would hold detail no camera resolved.
+# The main job on the simulated rig, run by scripts/setup.sh after the build:
+# the whole chain as on a real rig, without the simulator's truth, on the
+# `small` rig (four 400 x 300 cameras, four lamps on a light arc, three laser
+# mounts):
+# - the rig's calibration session (a ChArUco board on holder tilts at
+#   turntable angles, a mirror sphere and a white reference under each lamp,
+#   laser plates) and the rig calibrated from it;
+# - a capture session of the `weave` scene (BTF images, laser-plane
+#   calibration frames, laser sweeps, with sensor noise);
+# - the MDF and the BTF processed with the estimated calibration into one
+#   material, which then renders on a torus (headless GL);
+# - then, only to judge them, their error against the exact material.
+# The texture is 28 x 28 texels (0.46 mm): the most oblique camera sees a
+# texel across about one pixel there, so no texel holds detail no camera
+# resolved.
 # Output goes to out/demo/ (replaced on every run).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 mesocap=build/release/apps/mesocap
 out=out/demo
-texels=12
+rig=small
+texels=28
 mkdir -p "$out"
 
-echo "== calibration session and the rig's calibration: tiny rig =="
+echo "== calibration session and the rig's calibration: $rig rig =="
 rm -rf "$out/calibration-session"
-"$mesocap" -q simulate --plan calibration --scene weave --rig tiny --out "$out/calibration-session"
+"$mesocap" -q simulate --plan calibration --scene weave --rig "$rig" --out "$out/calibration-session"
 "$mesocap" calibrate --session "$out/calibration-session" --out "$out/calibration.json" --replace
 
-echo "== capture session: weave scene, tiny rig =="
+echo "== capture session: weave scene, $rig rig =="
 rm -rf "$out/weave-session"
-"$mesocap" simulate --scene weave --rig tiny --seed 1 --out "$out/weave-session"
+"$mesocap" -q simulate --scene weave --rig "$rig" --seed 1 --out "$out/weave-session"
 "$mesocap" info "$out/weave-session"
 
-echo "== MDF and BTF with the estimated calibration =="
+echo "== the material: MDF and BTF with the estimated calibration =="
 "$mesocap" process mdf --session "$out/weave-session" --calibration "$out/calibration.json" \
-  --texture-size "$texels" --out "$out/weave-measured" --replace
+  --texture-size "$texels" --out "$out/weave-mdf" --replace
 "$mesocap" process btf --session "$out/weave-session" --calibration "$out/calibration.json" \
-  --texture-size "$texels" --out "$out/weave-btf" --replace
+  --texture-size "$texels" --mdf "$out/weave-mdf" --out "$out/weave-material" --replace
 
-echo "== their error against the exact material (ground truth: weave scene, tiny rig) =="
-"$mesocap" -q groundtruth --scene weave --rig tiny --texture-size "$texels" --out "$out/weave-truth" --replace
+echo "== the material on a torus: BTF, MDF silhouettes and shadows (headless GL) =="
+cat > "$out/weave_torus.json" <<'SCENE'
+{
+  "format": "mesocap.scene",
+  "version": 1,
+  "camera": {"position": [0, -120, 75], "look_at": [0, 0, -4], "up": [0, 0, 1], "fov_y_deg": 38},
+  "light": {"position": [80, -60, 170], "intensity": 60000, "ambient": 0.15},
+  "objects": [
+    {"name": "torus", "shape": "torus", "major_radius": 26, "minor_radius": 10, "segments": 160, "tube_segments": 64,
+     "tiles": [6, 2], "material": "weave-material", "rotate_deg": [20, 0, 0]},
+    {"name": "floor", "shape": "box", "min": [-70, -70, -36], "max": [70, 70, -30], "albedo": [0.6, 0.6, 0.6]}
+  ]
+}
+SCENE
+"$mesocap" render "$out/weave_torus.json" --mode full --size 400x300 --out "$out/weave_torus.png" --replace
+
+echo "== its error against the exact material (ground truth: weave scene, $rig rig) =="
+"$mesocap" -q groundtruth --scene weave --rig "$rig" --texture-size "$texels" --out "$out/weave-truth" --replace
 echo "MDF (the sample square only: the rig cannot see behind the pocket's wall):"
-"$mesocap" eval mdf --truth "$out/weave-truth" --estimate "$out/weave-measured" --inside-sample-only
-echo "BTF (the tiny rig captures 32 of its 64 view and light pairs; the rest are interpolated; both apart below):"
-"$mesocap" eval btf --truth "$out/weave-truth" --estimate "$out/weave-btf"
-
-echo "== the paper's cylinder with a blocks material: BTF, MDF silhouettes and shadows (headless GL) =="
-# sim: materials are built from ground truth and SVD-factored once, then cached.
-MESOCAP_CACHE_DIR="$out/cache" "$mesocap" render render/scenes/cylinder.json --mode full --size 400x300 \
-  --out "$out/cylinder.png" --replace
-echo "demo: wrote $out/calibration.json, $out/weave-session, $out/weave-measured, $out/weave-btf," \
-  "$out/weave-truth and $out/cylinder.png"
+"$mesocap" eval mdf --truth "$out/weave-truth" --estimate "$out/weave-material" --inside-sample-only
+echo "BTF (captured pairs, those interpolated from a view's captured lights, and views finer than a pixel apart):"
+"$mesocap" eval btf --truth "$out/weave-truth" --estimate "$out/weave-material"
+echo "demo: wrote $out/calibration.json, $out/weave-session, $out/weave-material, $out/weave_torus.png" \
+  "and $out/weave-truth"
