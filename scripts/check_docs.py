@@ -71,7 +71,8 @@ def tracked_files(root):
     if (root / ".git").exists():
         listed = subprocess.run(["git", "-C", str(root), "ls-files"], check=True, capture_output=True, text=True)
         return [name for name in listed.stdout.splitlines() if (root / name).exists()]
-    return sorted(str(p.relative_to(root)) for p in root.rglob("*") if p.is_file())
+    found = (str(p.relative_to(root)) for p in root.rglob("*") if p.is_file())
+    return sorted(name for name in found if name.split("/")[0] not in GENERATED_FOLDERS | {".git"})
 
 
 def cpp_comments(text):
