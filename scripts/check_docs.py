@@ -140,6 +140,16 @@ class Repository:
             if "/" in name and "." in name.rsplit("/", 1)[1].lstrip("."):
                 self.extensions[name.split("/")[0]].add(name.rsplit(".", 1)[1])
 
+    def is_repository_path(self, word):
+        """Whether a word with a `/` names a repository path (the rules above)."""
+        first, last = word.split("/")[0], word.rstrip("/").split("/")[-1]
+        extension = last.rsplit(".", 1)[1] if "." in last.lstrip(".") else None
+        if first in GENERATED_FOLDERS or first in (".", ""):
+            return False
+        if first in self.top_folders:
+            return extension is None or extension in self.extensions[first]
+        return word.endswith(SOURCE_EXTENSIONS)
+
     def exists(self, path, cited_from):
         """Whether `path` names a tracked file or folder from the root or from
         the folder of `cited_from`; a glob must match one."""
@@ -186,14 +196,7 @@ def named_paths(text, repo, in_doc):
             word = word[: word.rfind("/", 0, placeholder.start()) + 1]
         if "/" not in word or "..." in word or word.startswith(("/", "../")) or before in "$~{}<@:":
             continue
-        first, last = word.split("/")[0], word.rstrip("/").split("/")[-1]
-        extension = last.rsplit(".", 1)[1] if "." in last.lstrip(".") else None
-        if first in GENERATED_FOLDERS or first in (".", ""):
-            continue
-        if first in repo.top_folders:
-            if extension is None or extension in repo.extensions[first]:
-                yield word
-        elif word.endswith(SOURCE_EXTENSIONS):
+        if any(repo.is_repository_path(variant) for variant in expand_braces(word)):
             yield word
     if in_doc:
         for match in BACKTICKED_NAME.finditer(text):
@@ -233,7 +236,7 @@ def check_paths(repo):
             if "/" not in word:
                 if word not in repo.file_names:
                     failures.append(f"{name}:{number}: names {word}, which does not exist")
-            elif not any(repo.exists(p, name) for p in expand_braces(word)):
+            elif not all(repo.exists(p, name) for p in expand_braces(word)):
                 failures.append(f"{name}:{number}: names {word}, which does not exist")
         if in_doc:
             for match in LINK.finditer(text):
