@@ -13,7 +13,7 @@ git tracks under DIR, or every such file under DIR where DIR is not a git
 checkout (the tests' planted trees).
 
 (a) A repository path is a word of letters, digits and `_ . - + * ? /`
-(`{h,cc}` expanded, `*` and `?` globbing) that
+(`x.{h,cc}` expanded, each must exist; `*` and `?` glob) that
 - holds a `/` and starts with a top-level folder of the repository
   (`core/mdf.h`, `drivers/tic/`, `render/scenes/*.json`), or holds a `/`
   and ends in a source extension (.h .cc .py .sh .cmake .md) whatever its
@@ -28,9 +28,10 @@ exist yet: the path is checked up to the folder before it.
 
 Not repository paths, so not checked (what programs write, or what lies
 outside the checkout):
-- anything under `build/` or `out/`, and any word whose first folder the
-  repository does not hold, unless it has a source extension
-  (`build/release/apps/mesocap`, `out/demo/cylinder.png`, `STATE/control.sock`);
+- anything under `build/` or `out/` (`build/release/apps/mesocap`,
+  `out/demo/cylinder.png`), source extension or not;
+- a word whose first folder the repository does not hold, unless it ends in
+  a source extension (`STATE/control.sock`);
 - a file under a top-level folder with an extension no tracked file in that
   folder has: a session's or package's own `btf/`, `mdf/` folders
   (`btf/view_0000.exr`, docs/FORMATS.md);
@@ -41,7 +42,8 @@ tic_protocol.h) or by URL.
 
 (b) Every library (a folder whose CMakeLists.txt calls mesocap_library) is a
 row of docs/ARCHITECTURE.md's table, and every pipelines/*.h is named in its
-part on pipelines/.
+part on pipelines/ (from the bold `pipelines/` to the next bold name or
+heading).
 
 (c) Nothing cites a file outside the repository: no relative path climbs
 out of it (`../shared/...`), and no comment or doc names DESIGN.md, the
