@@ -1,5 +1,5 @@
 // `mesocap eval mdf --truth T --estimate E [--json] [--out FILE]`: the error
-// table of a measured MDF against the exact one (processing/mdf_evaluation.h).
+// table of a measured MDF against the exact one (mdf/mdf_evaluation.h).
 #include <cstdio>
 #include <filesystem>
 #include <memory>
