@@ -121,7 +121,7 @@ void RegisterCaptureCommand(CLI::App& app) {
   const auto address = [o](CLI::App* sub) {
     CLI::Option* socket =
         sub->add_option("--socket", o->socket, "mesocapd's control socket ($MESOCAP_SOCKET overrides the default)")
-            ->capture_default_str();
+            ->default_str(kShippedControlSocket);  // the help shows the same default whatever the environment
     CLI::Option* url = sub->add_option("--url", o->url,
                                        "mesocapd's loopback TCP address, http://127.0.0.1:PORT (mesocapd --tcp-port), "
                                        "instead of its socket");

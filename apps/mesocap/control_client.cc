@@ -106,7 +106,7 @@ std::size_t FeedEvents(char* data, std::size_t size, std::size_t count, void* pa
 
 std::filesystem::path DefaultControlSocket() {
   if (const char* env = std::getenv("MESOCAP_SOCKET"); env != nullptr && *env != '\0') return env;
-  return "/var/lib/mesocapd/control.sock";
+  return kShippedControlSocket;
 }
 
 ControlEndpoint LoopbackControlEndpoint(const std::string& url, const std::filesystem::path& token_file) {

@@ -45,8 +45,11 @@ class ControlClient {
   ControlEndpoint endpoint_;
 };
 
-// The socket a client uses without --socket: $MESOCAP_SOCKET, or the one
-// the shipped unit file makes.
+// The socket the shipped unit file makes.
+inline constexpr const char* kShippedControlSocket = "/var/lib/mesocapd/control.sock";
+
+// The socket a client uses without --socket: $MESOCAP_SOCKET, or the
+// shipped one.
 std::filesystem::path DefaultControlSocket();
 
 }  // namespace mesocap
