@@ -25,10 +25,11 @@ void RegisterCompressCommand(CLI::App& app) {
       "Spectrum, error per rank, bytes, every representation tried and the reason go into error_report.json "
       "(btf_compression); each representation tried is one log line (rank, bytes, error, seconds).\n\n"
       "Choosing a representation (the default) or the clustered layout reads the full BTF once and holds it "
-      "in memory, up to 2 GiB of float RGB (a paper-rig BTF at 128 x 128 texels is 1.69 GiB: the default "
-      "choice takes about 14 minutes and 6 GB); above that the choice leaves the clustered layout out. One "
+      "in memory, up to 2 GiB of float RGB (a paper-rig BTF at 128 x 128 texels, docs/FORMATS.md "
+      "\"The full BTF\": the default choice takes about 14 minutes and 6 GB); above that the choice leaves the "
+      "clustered layout out. One "
       "fixed representation of another layout streams the BTF from its view files in bands of about 64 MiB "
-      "(a paper-rig BTF of 1.5 GB compresses in about 350 MiB). Matrices over 2048 columns a side (per_texel "
+      "(a paper-rig BTF compresses in about 350 MiB). Matrices over 2048 columns a side (per_texel "
       "on the paper rig) are factored by a randomized SVD (--svd; svd in the report).");
   sub->add_option("--in", o->in, "material package holding a full BTF")->required()->check(CLI::ExistingDirectory);
   sub->add_option("--out", o->out, "material package folder to write")->required();
