@@ -143,6 +143,16 @@ TEST_F(ControlServerConnectionsTest, WhatTheHttpLibraryAnswersByItselfIsWhatTheD
   EXPECT_EQ(StatusOf(headers), 431) << headers.substr(0, 300);
   const std::string line = SendRaw(options.socket, "GET /" + std::string(100000, 'u') + " HTTP/1.1\r\n\r\n");
   EXPECT_EQ(StatusOf(line), 414) << line.substr(0, 300);
+  const std::string malformed = SendRaw(options.socket, "NOT HTTP AT ALL\r\n\r\n");
+  EXPECT_EQ(StatusOf(malformed), 400) << malformed;
+  const std::string version = SendRaw(options.socket, "GET / HTTP/2.0\r\nHost: x\r\n\r\n");
+  EXPECT_EQ(StatusOf(version), 505) << version;
+  // Binary bytes up to a line break: closed without an answer.
+  EXPECT_EQ(SendRaw(options.socket, std::string("\x16\x03\x01\x02\x00\x01\xfc\x03\x03\r\n\r\n", 13)), "");
+  // The API's own answer to what libmicrohttpd passes on is JSON.
+  const std::string unknown = SendRaw(options.socket, "BREW /v1/rig HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n");
+  EXPECT_EQ(StatusOf(unknown), 405) << unknown;
+  EXPECT_EQ(json::parse(BodyOf(unknown)).at("error"), "BREW /v1/rig: method not allowed (use GET)");
 }
 
 // The umask as the kernel reports it (reading it with umask(2) would set it).
