@@ -116,8 +116,9 @@ TEST_F(ControlServerConnectionsTest, EventStreamsTakeAQuarterOfTheSlotsOfEachLis
     ASSERT_EQ(StatusOf(Answer(fd, "GET /v1/events HTTP/1.1\r\nHost: x\r\n\r\n")), 200) << i;
     streams.push_back(fd);
   }
-  const std::string refused =
-      SendRaw(options.socket, "GET /v1/events HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n");
+  const int extra = ConnectUnix(options.socket);
+  const std::string refused = Answer(extra, "GET /v1/events HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n");
+  ::close(extra);
   EXPECT_EQ(StatusOf(refused), 429) << refused;
   EXPECT_EQ(json::parse(BodyOf(refused)).at("error"),
             "GET /v1/events: too many event streams open on this socket; close one, or poll GET /v1/jobs");
