@@ -35,6 +35,7 @@ class ControlClient {
   // be reached.
   nlohmann::json Get(const std::string& path) const;
   nlohmann::json Post(const std::string& path, const nlohmann::json& body) const;
+  nlohmann::json Delete(const std::string& path) const;
   // Reads the server-sent events of GET `path`, calling `on_event(type,
   // data)` for each, until it returns false or the daemon ends the stream.
   void Stream(const std::string& path,
