@@ -43,14 +43,16 @@ void WriteAll(int fd, std::string_view bytes, const fs::path& file) {
   }
 }
 
-void CreateTokenFile(const fs::path& file, const std::string& token) {
+}  // namespace
+
+void WriteSecretFile(const fs::path& file, const std::string& text) {
   core::AtomicFile atomic(file);
   const int fd = ::open(atomic.temp_path().c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0600);
   if (fd < 0) throw core::Error(atomic.temp_path().string() + ": cannot create: " + std::strerror(errno));
   try {
     // Exactly 0600 whatever the umask took away (it can only take, never add).
     if (::fchmod(fd, 0600) != 0) throw core::Error(file.string() + ": cannot chmod: " + std::strerror(errno));
-    WriteAll(fd, token + "\n", file);
+    WriteAll(fd, text, file);
   } catch (...) {
     ::close(fd);
     throw;
@@ -58,6 +60,8 @@ void CreateTokenFile(const fs::path& file, const std::string& token) {
   ::close(fd);
   atomic.Commit();
 }
+
+namespace {
 
 std::string Octal(unsigned mode) {
   char text[8];
@@ -102,9 +106,7 @@ std::string OpenOrCreateBearerTokenFile(const fs::path& file) {
   struct stat st {};
   if (::lstat(file.c_str(), &st) != 0) {
     if (errno != ENOENT) throw core::Error(file.string() + ": " + std::strerror(errno));
-    const std::string token = NewToken();
-    CreateTokenFile(file, token);
-    return token;
+    return RotateBearerTokenFile(file);
   }
   const std::string remedy = "; remove it and mesocapd makes a new one";
   if (!S_ISREG(st.st_mode)) throw core::Error(file.string() + ": not a regular file" + remedy);
@@ -122,6 +124,12 @@ std::string OpenOrCreateBearerTokenFile(const fs::path& file) {
   } catch (const core::Error& e) {
     throw core::Error(e.what() + remedy);
   }
+}
+
+std::string RotateBearerTokenFile(const fs::path& file) {
+  const std::string token = NewToken();
+  WriteSecretFile(file, token + "\n");
+  return token;
 }
 
 bool BearerTokensEqual(std::string_view a, std::string_view b) {

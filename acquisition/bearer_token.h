@@ -21,6 +21,16 @@ bool IsBearerToken(std::string_view token);
 // Throws Error naming the file and what is wrong with it otherwise.
 std::string OpenOrCreateBearerTokenFile(const std::filesystem::path& file);
 
+// Replaces the token in `file` with a new one (mode 0600, written under a
+// temporary name and renamed over the old file) and returns it: clients of
+// the old token are refused from then on.
+std::string RotateBearerTokenFile(const std::filesystem::path& file);
+
+// Writes `text` to `file` readable by this user only (mode 0600 from its
+// creation, renamed into place): the token file, and the status page's
+// address that carries the token.
+void WriteSecretFile(const std::filesystem::path& file, const std::string& text);
+
 // A client's side: the token in `file` (a trailing newline allowed); Error
 // naming the file when it cannot be read or holds no token.
 std::string ReadBearerTokenFile(const std::filesystem::path& file);

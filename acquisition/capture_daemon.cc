@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <spdlog/spdlog.h>
 #include <sys/file.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -24,6 +25,26 @@ using Clock = std::chrono::steady_clock;
 constexpr const char* kJobsFolder = "jobs";
 constexpr const char* kSessionsFolder = "sessions";
 constexpr const char* kLockFile = "mesocapd.lock";
+
+// The state folder and what the daemon makes in it are its user's and
+// group's, whatever the umask it was started under.
+void SetMode(const fs::path& path, fs::perms mode) {
+  std::error_code ec;
+  fs::permissions(path, mode, ec);
+  if (ec) throw core::Error(path.string() + ": cannot set its mode: " + ec.message());
+}
+
+constexpr fs::perms kFolderMode = fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec;
+
+// The highest job number that names a folder in `sessions`, or 0.
+std::uint64_t HighestSessionNumber(const fs::path& sessions) {
+  std::uint64_t highest = 0;
+  for (const fs::directory_entry& entry : fs::directory_iterator(sessions)) {
+    const std::string name = entry.path().filename().string();
+    if (IsJobId(name)) highest = std::max(highest, JobNumber(name));
+  }
+  return highest;
+}
 
 JobCommandResult NoSuchJob(const std::string& id) {
   return {JobCommandResult::Outcome::kNoSuchJob, "no job " + core::Quoted(id), {}};
@@ -53,8 +74,10 @@ CaptureDaemon::CaptureDaemon(std::unique_ptr<CaptureStation> station, CaptureDae
   const fs::path& dir = options_.state_dir;
   fs::create_directories(dir / kJobsFolder);
   fs::create_directories(dir / kSessionsFolder);
-  lock_fd_ = ::open((dir / kLockFile).c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  for (const fs::path& folder : {dir, dir / kJobsFolder, dir / kSessionsFolder}) SetMode(folder, kFolderMode);
+  lock_fd_ = ::open((dir / kLockFile).c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0640);
   if (lock_fd_ < 0) throw core::Error((dir / kLockFile).string() + ": cannot open: " + std::strerror(errno));
+  ::fchmod(lock_fd_, 0640);
   if (::flock(lock_fd_, LOCK_EX | LOCK_NB) != 0) {
     ::close(lock_fd_);
     lock_fd_ = -1;
@@ -65,7 +88,7 @@ CaptureDaemon::CaptureDaemon(std::unique_ptr<CaptureStation> station, CaptureDae
   for (const fs::directory_entry& entry : fs::directory_iterator(dir / kJobsFolder)) {
     if (entry.path().extension() != ".json") continue;
     CaptureJob job = ReadCaptureJob(entry.path());
-    next_number_ = std::max<std::uint64_t>(next_number_, std::stoull(job.id.substr(4)) + 1);
+    next_number_ = std::max<std::uint64_t>(next_number_, JobNumber(job.id) + 1);
     // A fault-paused job is tried again at once after a restart: the
     // device may have come back while the daemon was down.
     if (job.state == JobState::kPaused && job.paused_by_fault) retry_at_[job.id] = Clock::now();
@@ -78,6 +101,9 @@ CaptureDaemon::CaptureDaemon(std::unique_ptr<CaptureStation> station, CaptureDae
     }
     jobs_.emplace(job.id, std::move(job));
   }
+  // A session whose record was removed keeps its number: a new job never
+  // takes it over.
+  next_number_ = std::max(next_number_, HighestSessionNumber(dir / kSessionsFolder) + 1);
 }
 
 CaptureDaemon::~CaptureDaemon() {
@@ -242,6 +268,30 @@ JobCommandResult CaptureDaemon::Ack(const std::string& id) {
   return {JobCommandResult::Outcome::kDone, {}, job};
 }
 
+JobCommandResult CaptureDaemon::Forget(const std::string& id, bool delete_session) {
+  {
+    std::lock_guard lock(mutex_);
+    const auto it = jobs_.find(id);
+    if (it == jobs_.end()) return NoSuchJob(id);
+    if (!IsFinished(it->second.state)) return NotNow(it->second, "forget");
+    // The record first: a session left after a failed removal belongs to no
+    // job, and its number is still never given again.
+    std::error_code ec;
+    fs::remove(RecordPath(id), ec);
+    if (ec) throw core::Error(RecordPath(id).string() + ": cannot remove: " + ec.message());
+    CaptureJob job = std::move(it->second);
+    jobs_.erase(it);
+    retry_at_.erase(id);
+    if (delete_session) {
+      fs::remove_all(SessionDir(id), ec);
+      if (ec) throw core::Error(SessionDir(id).string() + ": cannot remove: " + ec.message());
+    }
+    events_.Add("forgotten", {{"id", id}, {"session_deleted", delete_session}});
+  }
+  Log(id + " forgotten (its session " + (delete_session ? "deleted" : "kept in sessions/" + id) + ")");
+  return {JobCommandResult::Outcome::kDone, {}, {}};
+}
+
 CaptureDaemon::RigStatus CaptureDaemon::DeviceStates() const {
   std::lock_guard lock(mutex_);
   return rig_status_;
@@ -364,6 +414,13 @@ void CaptureDaemon::RunWorker() {
   }
 }
 
+void CaptureDaemon::Fail(CaptureJob& job, const std::string& error) {
+  job.state = JobState::kFailed;
+  job.error = error;
+  Save(job);
+  events_.Add("log", {{"message", job.id + " failed: " + error}});
+}
+
 void CaptureDaemon::RunJob(const std::string& id) {
   const fs::path dir = SessionDir(id);
   std::string plan_kind;
@@ -375,17 +432,28 @@ void CaptureDaemon::RunJob(const std::string& id) {
     dropped_before = job.dropped_frames;
     retries_before = job.retries;
   }
+  {
+    // A folder a job that never ran finds is no session of its own: a
+    // capture of an earlier job whose record was removed, or an operator's.
+    std::lock_guard lock(mutex_);
+    CaptureJob& job = jobs_.at(id);
+    if (!job.started) {
+      std::error_code ec;
+      if (fs::exists(fs::symlink_status(dir, ec))) {
+        Fail(job, std::string(kSessionsFolder) + "/" + id + " exists and belongs to no job: move it away");
+        return;
+      }
+      job.started = true;
+      Save(job);
+    }
+  }
   Log(id + " running");
   try {
     station_->OpenSession(dir, plan_kind);
   } catch (const std::exception& e) {
     // The session cannot be made or is another capture: no retry cures that.
     std::lock_guard lock(mutex_);
-    CaptureJob& job = jobs_.at(id);
-    job.state = JobState::kFailed;
-    job.error = e.what();
-    Save(job);
-    events_.Add("log", {{"message", id + " failed: " + job.error}});
+    Fail(jobs_.at(id), e.what());
     return;
   }
   {

@@ -93,6 +93,9 @@ class CaptureDaemon {
   JobCommandResult Cancel(const std::string& id);
   // The person at the rig did what the job's operator prompt asked.
   JobCommandResult Ack(const std::string& id);
+  // Removes a finished job's record, and its session with `delete_session`
+  // (kept otherwise, under sessions/ID). Error when a file cannot be removed.
+  JobCommandResult Forget(const std::string& id, bool delete_session);
 
   // What the worker read last from the rig's devices, and when (UTC; empty
   // before the first reading).
@@ -123,6 +126,8 @@ class CaptureDaemon {
   CaptureJob* NextJob(std::chrono::steady_clock::time_point now,
                       std::optional<std::chrono::steady_clock::time_point>* wake_at);
   void RunJob(const std::string& id);
+  // Marks the job failed with `error`; under mutex_.
+  void Fail(CaptureJob& job, const std::string& error);
   // Reads every device's state through the station; on the worker thread.
   // True when every device answers.
   bool ReadDeviceStates();
@@ -143,7 +148,7 @@ class CaptureDaemon {
 
   mutable std::mutex mutex_;
   std::condition_variable wake_;
-  std::map<std::string, CaptureJob> jobs_;                                 // by id, which is submission order
+  std::map<std::string, CaptureJob, JobIdOrder> jobs_;                     // by id, which is submission order
   std::map<std::string, std::chrono::steady_clock::time_point> retry_at_;  // fault-paused jobs
   std::uint64_t next_number_ = 1;
   std::string running_;

@@ -45,7 +45,8 @@ nlohmann::json ToJson(const CaptureJob& job) {
                    {"operator_prompt", job.operator_prompt},
                    {"error", job.error},
                    {"pause_requested", job.pause_requested},
-                   {"cancel_requested", job.cancel_requested}};
+                   {"cancel_requested", job.cancel_requested},
+                   {"started", job.started}};
   if (const std::optional<double> eta = job.EtaSeconds()) {
     j["eta_s"] = *eta;
   } else {
@@ -77,10 +78,11 @@ CaptureJob ReadCaptureJob(const std::filesystem::path& file) {
                           "error",
                           "pause_requested",
                           "cancel_requested",
+                          "started",
                           "eta_s"});
   CaptureJob job;
   job.id = r.String("id");
-  if (!IsJobId(job.id)) r.Fail("id", "expected \"job-\" and six digits, got " + core::Quoted(job.id));
+  if (!IsJobId(job.id)) r.Fail("id", "expected \"job-\" and at least six digits, got " + core::Quoted(job.id));
   if (file.stem() != job.id) r.Fail("id", "expected " + core::Quoted(file.stem().string()) + " (the file's name)");
   job.plan_kind = r.Choice("plan", kPlanKinds);
   job.state = *core::EnumFromString<JobState>(r.Choice("state", core::EnumStrings<JobState>()));
@@ -100,6 +102,8 @@ CaptureJob ReadCaptureJob(const std::filesystem::path& file) {
   job.error = r.String("error");
   job.pause_requested = r.Boolean("pause_requested");
   job.cancel_requested = r.Boolean("cancel_requested");
+  // Absent in records of daemons before the check: such a job may have run.
+  job.started = r.Has("started") ? r.Boolean("started") : true;
   return job;
 }
 
@@ -108,16 +112,19 @@ void WriteCaptureJob(const std::filesystem::path& file, const CaptureJob& job) {
 }
 
 bool IsJobId(std::string_view id) {
-  if (id.size() != 10 || id.substr(0, 4) != "job-") return false;
+  // At most 19 digits: every such number fits in 64 bits.
+  if (id.size() < 10 || id.size() > 23 || id.substr(0, 4) != "job-") return false;
   for (const char c : id.substr(4)) {
     if (c < '0' || c > '9') return false;
   }
-  return true;
+  return id.size() == 10 || id[4] != '0';
 }
 
 std::string JobId(std::uint64_t number) {
-  std::string digits = std::to_string(number % 1000000);
-  return "job-" + std::string(6 - digits.size(), '0') + digits;
+  const std::string digits = std::to_string(number);
+  return "job-" + std::string(digits.size() < 6 ? 6 - digits.size() : 0, '0') + digits;
 }
+
+std::uint64_t JobNumber(std::string_view id) { return std::stoull(std::string(id.substr(4))); }
 
 }  // namespace mesocap::acquisition

@@ -29,7 +29,7 @@ using core::ToString;
 bool IsFinished(JobState state);
 
 struct CaptureJob {
-  std::string id;         // "job-000001": the order of submission
+  std::string id;         // "job-000001": the order of submission (JobNumber)
   std::string plan_kind;  // "capture" or "calibration" (acquisition/capture_plan.h)
   JobState state = JobState::kQueued;
   // Why a paused job waits: a client's pause, or the fault that the
@@ -50,6 +50,9 @@ struct CaptureJob {
   double running_s = 0;           // wall time spent running steps, over every run
   bool cancel_requested = false;  // a cancel of a running job, until it stops between steps
   bool pause_requested = false;   // likewise for a pause
+  // The worker has begun it once: its session folder, if any, is its own.
+  // A job that never ran refuses a folder it finds there.
+  bool started = false;
 
   // Seconds left at the pace of the steps run so far; nullopt before the first.
   std::optional<double> EtaSeconds() const;
@@ -60,9 +63,19 @@ nlohmann::json ToJson(const CaptureJob& job);
 CaptureJob ReadCaptureJob(const std::filesystem::path& file);
 void WriteCaptureJob(const std::filesystem::path& file, const CaptureJob& job);
 
-// Whether `id` has the form the daemon gives ("job-" and six digits), so a
-// client's path never reaches the file system.
+// Whether `id` has the form the daemon gives ("job-" and the number in at
+// least six digits, no more leading zeros than that), so a client's path
+// never reaches the file system and each number has one id.
 bool IsJobId(std::string_view id);
 std::string JobId(std::uint64_t number);
+// The number of an id that IsJobId accepts.
+std::uint64_t JobNumber(std::string_view id);
+
+// Orders ids by number ("job-999999" before "job-1000000").
+struct JobIdOrder {
+  bool operator()(std::string_view a, std::string_view b) const {
+    return a.size() != b.size() ? a.size() < b.size() : a < b;
+  }
+};
 
 }  // namespace mesocap::acquisition

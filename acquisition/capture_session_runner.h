@@ -89,7 +89,7 @@ struct CaptureRunReport {
 using CaptureStepDone = std::function<void(const CaptureRunReport& report, std::size_t steps_journaled)>;
 
 // Runs every step of the session at `dir` (created with its manifest, see
-// core/capture_session.h) that its journal does not hold yet, in plan
+// formats/capture_session.h) that its journal does not hold yet, in plan
 // order. The rig must have the cameras the plan's files name (by id) and a
 // turntable, light arc, lamp bank and laser unit. Throws Error as described
 // above; a step of kind "other" is refused before anything moves.

@@ -139,6 +139,20 @@ ControlResponse LogLines(CaptureDaemon& daemon, const ControlRequest& request) {
   return Json(200, {{"lines", out}, {"last_event", daemon.events().last_number()}});
 }
 
+ControlResponse Forget(CaptureDaemon& daemon, const ControlRequest& request, const std::string& id) {
+  std::uint64_t delete_session = 0;
+  if (auto error = QueryNumber(request, "delete_session", "0 or 1", &delete_session)) return *error;
+  if (delete_session > 1)
+    return Error(400, "query delete_session: expected 0 or 1, got " + std::to_string(delete_session));
+  try {
+    const JobCommandResult result = daemon.Forget(id, delete_session == 1);
+    if (result.outcome != JobCommandResult::Outcome::kDone) return JobCommand(result);
+  } catch (const core::Error& e) {
+    return Error(500, e.what());
+  }
+  return Json(200, {{"forgotten", id}, {"session", delete_session == 1 ? "deleted" : "kept"}});
+}
+
 ControlResponse StatusPage() {
   ControlResponse r;
   r.content_type = "text/html; charset=utf-8";
@@ -201,7 +215,7 @@ ControlResponse HandleControlRequest(CaptureDaemon& daemon, const ControlRequest
   if (request.body_too_large) return TooLarge();
   const std::string_view path = request.path;
   if (path.empty() || path[0] != '/') return Error(400, "path " + core::Quoted(path) + ": expected one from /v1/");
-  const bool get = request.method == "GET", post = request.method == "POST";
+  const bool get = request.method == "GET", post = request.method == "POST", del = request.method == "DELETE";
   if (IsStatusPage(path)) {
     if (!get) return MethodNotAllowed(request, "GET");
     return StatusPage();
@@ -247,9 +261,10 @@ ControlResponse HandleControlRequest(CaptureDaemon& daemon, const ControlRequest
     }
     if ((s.size() == 3 || s.size() == 4) && s[1] == "jobs") {
       const std::string id(s[2]);
-      if (!IsJobId(id)) return Error(404, "job id " + core::Quoted(id) + ": expected \"job-\" and six digits");
+      if (!IsJobId(id)) return Error(404, "job id " + core::Quoted(id) + ": expected \"job-\" and at least six digits");
       if (s.size() == 3) {
-        if (!get) return MethodNotAllowed(request, "GET");
+        if (del) return Forget(daemon, request, id);
+        if (!get) return MethodNotAllowed(request, "GET or DELETE");
         const std::optional<CaptureJob> job = daemon.Job(id);
         if (!job) return Error(404, "no job " + core::Quoted(id));
         json body = ToJson(*job);
@@ -268,7 +283,7 @@ ControlResponse HandleControlRequest(CaptureDaemon& daemon, const ControlRequest
     }
   }
   return Error(404, "path " + core::Quoted(path) +
-                        ": not an endpoint (GET /, GET /v1/rig, GET|POST /v1/jobs, GET /v1/jobs/ID, POST "
+                        ": not an endpoint (GET /, GET /v1/rig, GET|POST /v1/jobs, GET|DELETE /v1/jobs/ID, POST "
                         "/v1/jobs/ID/pause|resume|cancel|ack, GET /v1/cameras/ID/preview.png, GET /v1/events, "
                         "GET /v1/log)");
 }

@@ -9,6 +9,7 @@
 //   GET  /v1/jobs                    every job, in submission order
 //   POST /v1/jobs  {"plan": KIND}    submit a job -> 201 and its record
 //   GET  /v1/jobs/ID                 one job (steps, ETA, frames, pause reason)
+//   DELETE /v1/jobs/ID[?delete_session=1]  forget a finished job (its session stays without the query)
 //   POST /v1/jobs/ID/pause|resume|cancel
 //   POST /v1/jobs/ID/ack             the operator did what the job's prompt asked
 //   GET  /v1/cameras/ID/preview.png  a camera's latest frame, scaled down

@@ -12,6 +12,7 @@
 #include <cerrno>
 #include <cstring>
 #include <memory>
+#include <nlohmann/json.hpp>
 
 #include "acquisition/bearer_token.h"
 #include "acquisition/control_api.h"
@@ -31,8 +32,14 @@ struct PendingRequest {
 // An event stream's state between the reader's calls.
 struct EventStream {
   ControlServer* server = nullptr;
+  ConnectionWatch* watch = nullptr;  // counts the open streams
   std::uint64_t after = 0;
   std::string pending;  // bytes of messages not yet handed to libmicrohttpd
+
+  explicit EventStream(ControlServer* s, ConnectionWatch* w, std::uint64_t a) : server(s), watch(w), after(a) {}
+  ~EventStream() { watch->StreamEnded(); }
+  EventStream(const EventStream&) = delete;
+  EventStream& operator=(const EventStream&) = delete;
 };
 
 ssize_t ReadEvents(void* cls, std::uint64_t, char* buffer, std::size_t max) {
@@ -77,10 +84,38 @@ MHD_Result AddQueryArgument(void* cls, MHD_ValueKind, const char* key, const cha
   return MHD_YES;
 }
 
+// An event stream, or 429 when the listener has its most open already.
+MHD_Result StartEventStream(const ControlServer::Listener& listener, MHD_Connection* connection, std::uint64_t after) {
+  if (!listener.watch->StartStream()) {
+    ControlResponse refused;
+    refused.status = 429;
+    refused.body = nlohmann::json{{"error", "GET /v1/events: too many event streams open on this " +
+                                                std::string(listener.tcp ? "port" : "socket") +
+                                                "; close one, or poll GET /v1/jobs"}}
+                       .dump() +
+                   "\n";
+    return Respond(connection, refused);
+  }
+  auto stream = std::make_unique<EventStream>(listener.server, listener.watch.get(), after);
+  MHD_Response* r =
+      MHD_create_response_from_callback(MHD_SIZE_UNKNOWN, 4096, ReadEvents, stream.get(), FreeEventStream);
+  if (r == nullptr) return MHD_NO;
+  stream.release();
+  MHD_add_response_header(r, "Content-Type", "text/event-stream");
+  MHD_add_response_header(r, "Cache-Control", "no-store");
+  const MHD_Result result = MHD_queue_response(connection, MHD_HTTP_OK, r);
+  MHD_destroy_response(r);
+  return result;
+}
+
 MHD_Result HandleConnection(void* cls, MHD_Connection* connection, const char* url, const char* method, const char*,
                             const char* upload_data, std::size_t* upload_data_size, void** con_cls) {
   const auto* listener = static_cast<ControlServer::Listener*>(cls);
   ControlServer* server = listener->server;
+  const auto answer = [&](const ControlResponse& r) {
+    listener->watch->Answering(connection);
+    return Respond(connection, r);
+  };
   auto* pending = static_cast<PendingRequest*>(*con_cls);
   if (pending == nullptr) {
     pending = new PendingRequest;
@@ -94,7 +129,7 @@ MHD_Result HandleConnection(void* cls, MHD_Connection* connection, const char* u
       request.authorization = value;
     }
     // A request without the right token is refused before its body is read.
-    if (auto refused = RefusedAccess(request, server->bearer_token())) return Respond(connection, *refused);
+    if (auto refused = RefusedAccess(request, server->bearer_token())) return answer(*refused);
     // So is a declared body over the limit.
     if (const char* length = MHD_lookup_connection_value(connection, MHD_HEADER_KIND, "Content-Length")) {
       char* end = nullptr;
@@ -102,7 +137,7 @@ MHD_Result HandleConnection(void* cls, MHD_Connection* connection, const char* u
       const unsigned long long declared = std::strtoull(length, &end, 10);
       if (errno != 0 || end == length || declared > kMaxRequestBodyBytes) {
         request.body_too_large = true;
-        return Respond(connection, HandleControlRequest(server->daemon(), request, server->bearer_token()));
+        return answer(HandleControlRequest(server->daemon(), request, server->bearer_token()));
       }
     }
     return MHD_YES;
@@ -119,24 +154,25 @@ MHD_Result HandleConnection(void* cls, MHD_Connection* connection, const char* u
     return MHD_YES;
   }
   const ControlResponse response = HandleControlRequest(server->daemon(), pending->request, server->bearer_token());
-  if (!response.event_stream) return Respond(connection, response);
-  auto stream = std::make_unique<EventStream>();
-  stream->server = server;
-  stream->after = response.events_after;
-  MHD_Response* r =
-      MHD_create_response_from_callback(MHD_SIZE_UNKNOWN, 4096, ReadEvents, stream.get(), FreeEventStream);
-  if (r == nullptr) return MHD_NO;
-  stream.release();
-  MHD_add_response_header(r, "Content-Type", "text/event-stream");
-  MHD_add_response_header(r, "Cache-Control", "no-store");
-  const MHD_Result result = MHD_queue_response(connection, MHD_HTTP_OK, r);
-  MHD_destroy_response(r);
-  return result;
+  if (!response.event_stream) return answer(response);
+  listener->watch->Answering(connection);
+  return StartEventStream(*listener, connection, response.events_after);
 }
 
-void RequestCompleted(void*, MHD_Connection*, void** con_cls, MHD_RequestTerminationCode) {
+void RequestCompleted(void* cls, MHD_Connection* connection, void** con_cls, MHD_RequestTerminationCode) {
   delete static_cast<PendingRequest*>(*con_cls);
   *con_cls = nullptr;
+  static_cast<ControlServer::Listener*>(cls)->watch->Answered(connection);
+}
+
+void ConnectionChanged(void* cls, MHD_Connection* connection, void**, MHD_ConnectionNotificationCode code) {
+  ConnectionWatch& watch = *static_cast<ControlServer::Listener*>(cls)->watch;
+  if (code == MHD_CONNECTION_NOTIFY_STARTED) {
+    const MHD_ConnectionInfo* info = MHD_get_connection_info(connection, MHD_CONNECTION_INFO_CONNECTION_FD);
+    if (info != nullptr) watch.Opened(connection, info->connect_fd);
+  } else {
+    watch.Closed(connection);
+  }
 }
 
 void LogServerError(void*, const char* format, va_list args) {
@@ -157,18 +193,22 @@ core::CheckResult ControlServerOptions::Check() const {
     return "bearer_token must be a token (" + std::to_string(kBearerTokenHexDigits) +
            " lowercase hex digits) when tcp_port is set";
   }
-  if (connection_limit < 2) return "connection_limit must be at least 2";
+  if (connection_limit < 4) return "connection_limit must be at least 4";
   if (idle_timeout.count() < 1) return "idle_timeout must be at least 1 s";
+  if (request_timeout.count() < 100) return "request_timeout must be at least 100 ms";
   return {};
 }
 
 void ControlServer::Serve(Listener& listener, const std::string& name) {
+  listener.watch = std::make_unique<ConnectionWatch>(options_.request_timeout, options_.connection_limit / 2,
+                                                     options_.connection_limit / 4);
   listener.http = MHD_start_daemon(
       MHD_USE_THREAD_PER_CONNECTION | MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_POLL | MHD_USE_ERROR_LOG, 0, nullptr,
       nullptr, &HandleConnection, &listener, MHD_OPTION_LISTEN_SOCKET, listener.fd, MHD_OPTION_CONNECTION_LIMIT,
       options_.connection_limit, MHD_OPTION_CONNECTION_TIMEOUT, static_cast<unsigned>(options_.idle_timeout.count()),
       MHD_OPTION_CONNECTION_MEMORY_LIMIT, static_cast<std::size_t>(32 * 1024), MHD_OPTION_NOTIFY_COMPLETED,
-      &RequestCompleted, nullptr, MHD_OPTION_EXTERNAL_LOGGER, &LogServerError, nullptr, MHD_OPTION_END);
+      &RequestCompleted, &listener, MHD_OPTION_NOTIFY_CONNECTION, &ConnectionChanged, &listener,
+      MHD_OPTION_EXTERNAL_LOGGER, &LogServerError, nullptr, MHD_OPTION_END);
   if (listener.http == nullptr) throw core::Error(name + ": the HTTP server did not start");
   listener.fd = -1;  // MHD_stop_daemon closes it
 }
@@ -183,6 +223,7 @@ ControlServer::ControlServer(CaptureDaemon& daemon, ControlServerOptions options
       ListenOnLoopback();
       Serve(tcp_, "127.0.0.1:" + std::to_string(tcp_port_));
     }
+    watchdog_ = std::thread([this] { WatchConnections(); });
   } catch (...) {
     Stop();
     throw;
@@ -209,16 +250,16 @@ void ControlServer::ListenOnUnixSocket() {
     }
     fs::remove(options_.socket);
   }
-  // Mode 0660 from the start (no window in which others may connect).
-  const mode_t old_mask = ::umask(0117);
-  const int bound = ::bind(fd, reinterpret_cast<sockaddr*>(&address), sizeof address);
-  const int bind_errno = errno;
-  ::umask(old_mask);
-  if (bound != 0 || ::listen(fd, 64) != 0) {
-    const int e = bound != 0 ? bind_errno : errno;
+  // Bound, then chmod-ed, then listening: nobody can connect before the
+  // mode is 0660 (connect is refused until listen), and the process's umask,
+  // which every thread shares, is left alone.
+  const bool bound = ::bind(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) == 0;
+  const bool ready = bound && ::chmod(path.c_str(), 0660) == 0 && ::listen(fd, 64) == 0;
+  if (!ready) {
+    const int e = errno;
     ::close(fd);
     fd = -1;
-    if (bound == 0) fs::remove(options_.socket);
+    if (bound) fs::remove(options_.socket);
     throw core::Error(path + ": cannot listen: " + std::strerror(e));
   }
   socket_bound_ = true;
@@ -247,10 +288,25 @@ void ControlServer::ListenOnLoopback() {
   tcp_port_ = ntohs(address.sin_port);
 }
 
+void ControlServer::WatchConnections() {
+  std::unique_lock lock(watchdog_mutex_);
+  while (!stopping_) {
+    for (Listener* listener : {&unix_, &tcp_}) {
+      if (listener->watch) listener->watch->CloseOverdue(ConnectionWatch::Clock::now());
+    }
+    watchdog_wake_.wait_for(lock, std::chrono::milliseconds(100));
+  }
+}
+
 ControlServer::~ControlServer() { Stop(); }
 
 void ControlServer::Stop() {
-  stopping_ = true;
+  {
+    std::lock_guard lock(watchdog_mutex_);
+    stopping_ = true;
+  }
+  watchdog_wake_.notify_all();
+  if (watchdog_.joinable()) watchdog_.join();
   // Joins every connection's thread (event streams end within a second) and
   // closes the listening socket; one it never took is closed here.
   for (Listener* listener : {&unix_, &tcp_}) {

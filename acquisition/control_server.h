@@ -1,7 +1,8 @@
 // The control API (acquisition/control_api.h) served over HTTP on a Unix
 // domain socket, and optionally on a loopback TCP port with a bearer token,
 // by libmicrohttpd: one thread per connection, so an event stream may block
-// waiting for the next event; a connection limit, an idle timeout and a
+// waiting for the next event; a connection limit, an idle timeout, a time
+// limit on each request's arrival, a limit on event streams and a
 // request-body limit bound what hostile or slow clients cost.
 //
 // One libmicrohttpd daemon per listening socket: it takes one listening
@@ -11,12 +12,17 @@
 
 #include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <cstdint>
 #include <filesystem>
+#include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
+#include <thread>
 
 #include "acquisition/capture_daemon.h"
+#include "acquisition/connection_watch.h"
 #include "core/error.h"
 
 struct MHD_Daemon;
@@ -31,8 +37,14 @@ struct ControlServerOptions {
   // What a request over TCP must carry (acquisition/bearer_token.h);
   // required with tcp_port.
   std::string bearer_token;
-  unsigned connection_limit = 64;  // per listening socket
+  // Per listening socket: at most half of them wait for a request (a new
+  // connection closes the one that waited longest) and a quarter are event
+  // streams (acquisition/connection_watch.h).
+  unsigned connection_limit = 64;
   std::chrono::seconds idle_timeout{15};
+  // From a connection's accept (or its previous answer) to its complete
+  // request; a connection still sending is closed after it.
+  std::chrono::milliseconds request_timeout{5000};
 
   core::CheckResult Check() const;
 };
@@ -65,19 +77,26 @@ class ControlServer {
     bool tcp = false;
     int fd = -1;  // until `http` takes it
     MHD_Daemon* http = nullptr;
+    std::unique_ptr<ConnectionWatch> watch;
   };
 
  private:
   void ListenOnUnixSocket();
   void ListenOnLoopback();
   void Serve(Listener& listener, const std::string& name);
+  // Closes the connections that waited too long for their request, a few
+  // times a second, until Stop().
+  void WatchConnections();
 
   CaptureDaemon& daemon_;
   ControlServerOptions options_;
-  Listener unix_{this, false}, tcp_{this, true};
+  Listener unix_{this, false, -1, nullptr, nullptr}, tcp_{this, true, -1, nullptr, nullptr};
   std::uint16_t tcp_port_ = 0;
   bool socket_bound_ = false;  // the socket file is this server's to remove
   std::atomic<bool> stopping_{false};
+  std::mutex watchdog_mutex_;
+  std::condition_variable watchdog_wake_;
+  std::thread watchdog_;
 };
 
 }  // namespace mesocap::acquisition

@@ -5,8 +5,9 @@
 //    of the factors and sigma_K / sigma_1 of the luminance-like first
 //    channel. The full spectrum and error per rank are printed as a table.
 //  - PaperSize: a paper-rig-sized BTF (128 x 128 texels, 96 x 96 directions,
-//    RGB: 1.5 GB of floats; synthetic smooth data plus noise, since a
-//    ground truth of that size takes minutes to render) factored at rank 4;
+//    RGB floats: its size is in docs/FORMATS.md; synthetic smooth data plus
+//    noise, since a ground truth of that size takes minutes to render)
+//    factored at rank 4;
 //    counters: achieved GFLOP/s of the streamed QR + factor products
 //    (2 m n^2 + 2 m n K per channel) and its ratio to a double-precision
 //    matrix multiply (Eigen GEMM, 1024^2) measured in the same run, and the
@@ -138,7 +139,7 @@ void ReportPaperSize(benchmark::State& state, const btf::BtfCompressionReport& r
   state.counters["relative_rms"] = r.measured_relative_rms_error;
 }
 
-// The whole synthetic paper-size BTF in memory (1.5 GB).
+// The whole synthetic paper-size BTF in memory.
 core::FullBtf PaperSizeBtf() {
   const core::SamplingSet set = core::SamplingSet::Named("paper12x8");
   core::FullBtf btf = core::MakeFullBtf(128, 128, set, set);
@@ -180,7 +181,7 @@ void PaperSizePerTexel(benchmark::State& state) {
 // The same BTF written to a material package view by view (never whole in
 // memory) and compressed from its files, as `mesocap compress` does: the
 // peak memory of the compression is the band, the factors and the workers'
-// blocks, not the 1.5 GB BTF.
+// blocks, not the whole BTF.
 void PaperSizeFromPackage(benchmark::State& state) {
   const core::SamplingSet set = core::SamplingSet::Named("paper12x8");
   const std::filesystem::path dir =

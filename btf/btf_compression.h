@@ -41,8 +41,9 @@
 // over the BTF: one for R, one for the remaining factor, one for the measured
 // error (and two more per rank the ycbcr budget search adds). A choice of
 // representation, or the clustered layout, reads the BTF once and holds it
-// in memory (float) up to 2 GiB, the size of a paper-rig BTF at 128 x 128
-// texels; beyond, the choice streams and leaves the clustered layout out.
+// in memory (float) up to kMaxInMemoryBtfBytes (btf_compression.cc), under
+// which a paper rig's BTF (docs/FORMATS.md) fits; beyond, the choice streams
+// and leaves the clustered layout out.
 #pragma once
 
 #include <Eigen/Core>

@@ -12,8 +12,8 @@
 // Catmull-Rom bicubic interpolation (4 x 4 taps). A pixel of the camera
 // already integrates over its area; bilinear reconstruction adds a second,
 // 2-pixel-wide tent blur on top, which on the weave cost 1.5 dB at 8 x 8
-// texels and 2.7 dB at 16 x 16 on the tiny rig (docs/BENCHMARKS.md "BTF
-// rectification"). Catmull-Rom is interpolating and exact for quadratics; its
+// texels and 2.7 dB at 16 x 16 on the tiny rig (docs/BENCHMARKS.md "Rectification
+// and resampling"). Catmull-Rom is interpolating and exact for quadratics; its
 // negative lobes raise pixel noise by ~1 dB (0.64 vs 0.5 noise power at
 // half-pixel offsets) and can leave slightly negative values beside black
 // edges, kept unclamped so that noise averages out unbiased.

@@ -2,7 +2,7 @@
 // precision: OpenCV's chessboard detector (findChessboardCornersSB) or its
 // ArUco marker detector with ChArUco corner interpolation (whose marker ids
 // make partial views usable), then cv::cornerSubPix on the linear image.
-// Pixel centres are at integer coordinates (core/calibration conventions).
+// Pixel centres are at integer coordinates, as in OpenCV and the calibration file.
 #pragma once
 
 #include <Eigen/Core>

@@ -1,5 +1,5 @@
 // The rays of a calibrated camera (OpenCV pinhole + Brown-Conrady model,
-// core/calibration.h), precomputed once per camera for every pixel so the
+// formats/calibration.h), precomputed once per camera for every pixel so the
 // per-frame work of Sec. 3.2 (laser line detection, space-time
 // triangulation) never undistorts a point.
 #pragma once

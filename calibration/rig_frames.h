@@ -20,7 +20,7 @@ Eigen::Vector3d LightArcDirectionToWorld(const formats::LightArcCalibration& arc
                                          const Eigen::Vector3d& d);
 
 // A laser mount at a light-arc angle and emitter tilt, in the world frame
-// (core/calibration.h: the tilt turns the plane's normal about tilt_axis).
+// (formats/calibration.h: the tilt turns the plane's normal about tilt_axis).
 struct LaserMountPose {
   Eigen::Vector3d source = Eigen::Vector3d::Zero();
   Eigen::Vector3d tilt_axis = Eigen::Vector3d::UnitY();

@@ -52,8 +52,8 @@ struct FullBtf {
 };
 
 // The full BTF read a range of view-image rows at a time, so that a pass
-// over a BTF larger than memory (compression, its error: a paper-rig BTF at
-// 128 x 128 is 1.5 GB of float RGB) holds only the rows it works on. From a
+// over a BTF larger than memory (compression, its error: a paper rig's,
+// docs/FORMATS.md "The full BTF") holds only the rows it works on. From a
 // FullBtf in memory (InMemoryFullBtfReader) or from a material package's view
 // files (material_package.h: PackageFullBtfReader). ReadRows may run
 // concurrently for different views (a band is read view by view in

@@ -68,8 +68,8 @@ bool Supports(Container c, PixelEncoding e) {
 
 // OpenImageIO refuses images whose header declares more pixel data than
 // this; a corrupt or hostile header then fails fast instead of allocating.
-// 8 GB is far above any image mesocap writes (ReadImage's own default limit
-// is 1 GiB of floats).
+// 8 GB is far above any image mesocap writes, and above ReadImage's own
+// default limit (ImageReadOptions::max_values).
 void LimitDeclaredImageSize() {
   static std::once_flag once;
   std::call_once(once, [] { OIIO::attribute("limits:imagesize_MB", 8192); });

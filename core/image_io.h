@@ -55,7 +55,7 @@ std::string EncodePreviewPng(const Image& image);
 std::string ImageLibraryMessage(const std::string& error);
 
 // Reads an image a range of rows at a time, the file kept open between
-// reads: how a pass over data larger than memory (a paper-rig BTF, 1.5 GB)
+// reads: how a pass over data larger than memory (a paper-rig BTF)
 // holds only the rows it works on. Opening checks the header against
 // `expected` (sizes, channel count; 0 = any) before any pixel is read.
 class ImageRowReader {

@@ -58,7 +58,7 @@ inline constexpr double kMaxCameraGain = 1e30;
 
 // A camera's radiometric gain G: its linear signal (fraction of full scale)
 // is L t G for radiance L (the rig's relative units, lamp intensity / mm^2)
-// and exposure t (processing/btf_assembly.h, "Radiometry").
+// and exposure t (btf/btf_assembly.h, "Radiometry").
 struct CameraRadiometry {
   double signal_per_radiance_second = 1;  // G, in [kMinCameraGain, kMaxCameraGain]
   struct Uncertainty {
@@ -139,7 +139,7 @@ void WriteCalibration(const std::filesystem::path& file, const Calibration& cali
 std::string CalibrationText(const Calibration& calibration);
 nlohmann::json ToJson(const Calibration& calibration);
 
-// Ids of rig parts (and of capture steps, core/capture_session.h): 1 to 128
+// Ids of rig parts (and of capture steps, formats/capture_session.h): 1 to 128
 // characters from A-Z a-z 0-9 '.' '_' '-', so they are safe in frame names
 // and file names.
 bool IsValidId(std::string_view id);

@@ -1,7 +1,7 @@
 // A capture session on disk (docs/ARCHITECTURE.md "On disk"; docs/FORMATS.md "Capture
 // session"): a folder holding
 //   manifest.json   what is captured: rig snapshot, calibration, plan, version
-//   journal.jsonl   the steps completed so far (core/capture_journal.h)
+//   journal.jsonl   the steps completed so far (formats/capture_journal.h)
 //   ...             the captured data, at paths the journal names
 // The manifest is written once, atomically, when the session is created.
 #pragma once
@@ -36,7 +36,7 @@ constexpr auto EnumNamesOf(StepKind) {
 using core::ToString;
 
 struct PlannedStep {
-  std::string id;  // unique in the plan; IsValidId (core/calibration.h)
+  std::string id;  // unique in the plan; IsValidId (formats/calibration.h)
   StepKind kind = StepKind::kOther;
   // The step's other members, kept as written; formats/capture_plan_steps.h
   // reads and writes those of the kinds the rig runs.

@@ -160,7 +160,7 @@ ProcessBtfReport RunProcessBtf(const ProcessBtfOptions& o) {
   formats::MaterialPackageWriter writer(o.out, d, o.replace, {o.session, calibration_file, o.mdf});
 
   // Each assembled view goes to disk as soon as it is made, so assembly
-  // never holds the BTF (1.8 GB of float for a paper rig at 128 x 128); the
+  // never holds the BTF (a paper rig's: docs/FORMATS.md, "The full BTF"); the
   // compression reads it back, whole where it chooses a representation (see
   // btf/btf_compression.h). Without `full` the views go to a
   // scratch package beside the output that is never committed: it is

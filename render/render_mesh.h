@@ -57,7 +57,7 @@ RenderMesh MakeTorusKnot(double radius, double tube_radius, int p, int q, int se
 // of `tiles` per 100 mm.
 RenderMesh MakeBox(const Eigen::Vector3d& min, const Eigen::Vector3d& max, double tiles_per_100mm);
 
-// An OBJ mesh (core/obj_mesh.h) with texture coordinates on every face
+// An OBJ mesh (formats/obj_mesh.h) with texture coordinates on every face
 // corner, scaled by `scale` (to mm); texture coordinates times `tiles`.
 // Corners without normals get area-weighted face normals of their position.
 // Throws FormatError naming the file when a corner has no texture coordinate.

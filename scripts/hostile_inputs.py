@@ -1210,7 +1210,7 @@ def session_edits(base):
     btf = next(i for i, s in enumerate(steps) if s["kind"] == "btf_image")
     cal = next(i for i, s in enumerate(steps) if s["kind"] == "laser_calibration")
     P = ("plan", "steps")
-    E = []  # (op, path, value, description, fields, command: mdf/btf/verify/any)
+    E = []  # (op, path, value, description, fields, command: "mdf", "btf", "verify" or "any")
     for v, d in [(1e300, "1e300"), ("NaN", "'NaN'"), (None, "null"), (Raw("1e400"), "1e400")]:
         E.append(("set", P + (sweep, "tilt_deg", 3), v, "sweep tilt_deg[3] " + d, ["tilt_deg"], "mdf"))
     E += [

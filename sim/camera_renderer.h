@@ -3,7 +3,7 @@
 // sweeping across it, or the stripe on a flat plate for the laser-plane
 // calibration.
 //
-// Geometry (drivers/rig_description.h, sim/true_calibration.h): the sample is
+// Geometry (formats/rig_description.h, sim/true_calibration.h): the sample is
 // the clipped square of side rig.sample_size_mm centred on the sample-frame
 // origin, x_world = Rz(turntable) x_sample, with the tiled mesostructure in
 // -d_max <= z <= 0 inside the square. The sample sits in a pocket of the

@@ -1,4 +1,4 @@
-// An OBJ mesh as a scene (core/obj_mesh.h reads it): only the positions and
+// An OBJ mesh as a scene (formats/obj_mesh.h reads it): only the positions and
 // faces are used.
 #include <Eigen/Geometry>
 #include <cmath>

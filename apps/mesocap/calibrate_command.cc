@@ -30,7 +30,22 @@ void RegisterCalibrateCommand(CLI::App& app) {
   auto rig = std::make_shared<pipelines::CalibrateRigOptions>();
   auto rig_json = std::make_shared<bool>(false);
   CLI::App* group = app.add_subcommand(
-      "calibrate", "Calibrate a rig from its calibration session (--session), or cameras from photos (camera)");
+      "calibrate",
+      "Calibrate a rig from its calibration session (--session), or cameras from photos (camera)\n\n"
+      "mesocap simulate --plan calibration records a rig's calibration session: its calibration_board on each "
+      "holder tilt at each turntable angle, seen by every camera. From it the rig's cameras are calibrated in "
+      "the turntable's frame (z the axis, x the board on the first tilt), with the report of calibrate camera "
+      "plus the holders' poses.\n\n"
+      "From its mirror_sphere (a steel ball in a cup off the turntable's axis, imaged under each lamp at each "
+      "of its arc and turntable angles): the light arc's axis, every lamp's position and the sphere's place "
+      "with their sigmas, fitted to the lamps' highlights (light_arc, lamps in the report), written only when "
+      "no lamp is more uncertain than --max-lamp-sigma-mm and the axis than 0.1 degree; otherwise the "
+      "description's are kept and the report says why.\n\n"
+      "From its white_reference under each lamp: every camera's gain and every lamp's RGB intensity with their "
+      "sigmas (process btf then needs no --gain).\n\n"
+      "From the laser's plates at both ends of each location's sweep: every laser mount's tilt axis, plane and "
+      "source with their sigmas (laser_mounts, laser_mount_fit), written unless a tilt axis is more uncertain "
+      "than --max-mount-axis-sigma-deg or a source than 5 mm.");
   group->require_subcommand(0, 1);
   group->add_option("--session", rig->session, "calibration session (mesocap simulate --plan calibration)");
   group->add_option("--out", rig->out, "calibration file to write");
@@ -56,7 +71,12 @@ void RegisterCalibrateCommand(CLI::App& app) {
   CLI::App* sub = group->add_subcommand(
       "camera",
       "Calibrate one camera, or several jointly with their relative poses, from folders of photos of a "
-      "board (files with the same name in different folders were taken at the same instant)");
+      "board (files with the same name in different folders were taken at the same instant)\n\n"
+      "Corners to sub-pixel (OpenCV), Zhang's start, one Ceres problem over all cameras (k1 k2 p1 p2 k3); "
+      "blurred, saturated and badly fitting photos are set aside and named. Every parameter comes with one "
+      "sigma, with the projection uncertainty and a cross-validation on halves of the photos. Writes a "
+      "calibration whose world is the first camera; prints a table, or one JSON object with --json "
+      "(docs/FORMATS.md, \"Calibration report\").");
   sub->add_option("--images", o->image_folders, "folder of one camera's photos (JPEG, PNG, TIFF); repeat per camera")
       ->required();
   sub->add_option("--board", o->board,

@@ -1,4 +1,4 @@
-// `mesocap capture submit|list|status|watch|pause|resume|cancel|ack`: the
+// `mesocap capture submit|list|status|watch|pause|resume|cancel|ack|forget`: the
 // capture daemon's client (docs/DAEMON.md). Each subcommand is one request to
 // mesocapd's control API over its Unix socket (or its loopback TCP port with
 // --url and --token-file); `watch` follows a job's
@@ -27,6 +27,7 @@ struct CaptureClientOptions {
   bool json_output = false;
   std::string plan = "capture";
   std::string id;
+  bool delete_session = false;
 
   ControlClient Client() const {
     if (url.empty() && token_file.empty()) return ControlClient(ControlEndpoint{socket, {}, {}});
@@ -121,7 +122,7 @@ void RegisterCaptureCommand(CLI::App& app) {
   const auto address = [o](CLI::App* sub) {
     CLI::Option* socket =
         sub->add_option("--socket", o->socket, "mesocapd's control socket ($MESOCAP_SOCKET overrides the default)")
-            ->capture_default_str();
+            ->default_str(kShippedControlSocket);  // the help shows the same default whatever the environment
     CLI::Option* url = sub->add_option("--url", o->url,
                                        "mesocapd's loopback TCP address, http://127.0.0.1:PORT (mesocapd --tcp-port), "
                                        "instead of its socket");
@@ -134,7 +135,9 @@ void RegisterCaptureCommand(CLI::App& app) {
     address(sub);
     sub->add_flag("--json", o->json_output, "print the daemon's JSON answer");
   };
-  const auto job_id = [o](CLI::App* sub) { sub->add_option("id", o->id, "the job's id (job-NNNNNN)")->required(); };
+  const auto job_id = [o](CLI::App* sub) {
+    sub->add_option("id", o->id, "the job's id (job-NNNNNN, more digits past 999999)")->required();
+  };
 
   CLI::App* submit = group->add_subcommand("submit", "Queue a capture session; prints its job id");
   common(submit);
@@ -179,6 +182,20 @@ void RegisterCaptureCommand(CLI::App& app) {
       Print(job, o->json_output, Summary(job));
     });
   }
+
+  CLI::App* forget = group->add_subcommand(
+      "forget",
+      "Forget a finished (done, failed or cancelled) job: its record goes from the queue; its session stays in "
+      "STATE/sessions/ID unless --delete-session is given. Its number is not given to a later job while the "
+      "session stays");
+  address(forget);
+  job_id(forget);
+  forget->add_flag("--delete-session", o->delete_session, "delete the job's capture session too");
+  forget->callback([o] {
+    const json answer = o->Client().Delete("/v1/jobs/" + o->id + (o->delete_session ? "?delete_session=1" : ""));
+    std::cout << answer.value("forgotten", o->id) << " forgotten; its session "
+              << (answer.value("session", "") == "deleted" ? "deleted" : "stays in STATE/sessions/" + o->id) << "\n";
+  });
 
   CLI::App* watch = group->add_subcommand("watch", "Follow a job's progress until it ends (exit 0 when done)");
   address(watch);

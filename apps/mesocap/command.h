@@ -4,6 +4,7 @@
 
 #include <CLI/CLI.hpp>
 #include <filesystem>
+#include <map>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -54,6 +55,17 @@ inline CLI::Validator InRange(double min, double max) {
         return {};
       },
       "in " + range);
+}
+
+// The check that a flag's word (any case) is one of `names`; the help lists
+// the words alone, where CLI11's own would also show the values they map to.
+template <typename T>
+CLI::CheckedTransformer NamedChoice(const std::map<std::string, T>& names) {
+  std::string listed;
+  for (const auto& entry : names) listed += (listed.empty() ? "" : ",") + entry.first;
+  CLI::CheckedTransformer check(names, CLI::ignore_case);
+  check.description("{" + listed + "}");
+  return check;
 }
 
 // A subcommand's output file (an image, a report) is replaced only with

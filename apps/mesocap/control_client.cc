@@ -60,6 +60,12 @@ Curl Open(const ControlEndpoint& endpoint, const std::string& path) {
 }
 
 std::string Unreachable(const ControlEndpoint& endpoint, CURLcode code) {
+  if (code == CURLE_GOT_NOTHING) {
+    return "mesocapd at " + endpoint.Name() +
+           " closed the connection without an answer: it was at its connection limit (it closes requests not "
+           "complete a few seconds after they connect, and the oldest unfinished one when every slot is taken); "
+           "try again";
+  }
   return "cannot reach mesocapd at " + endpoint.Name() + ": " + curl_easy_strerror(code) +
          (endpoint.url.empty() ? " (is it running? --socket or MESOCAP_SOCKET names its socket)"
                                : " (is it running with --tcp-port? its port is in STATE/control.port)");
@@ -106,7 +112,7 @@ std::size_t FeedEvents(char* data, std::size_t size, std::size_t count, void* pa
 
 std::filesystem::path DefaultControlSocket() {
   if (const char* env = std::getenv("MESOCAP_SOCKET"); env != nullptr && *env != '\0') return env;
-  return "/var/lib/mesocapd/control.sock";
+  return kShippedControlSocket;
 }
 
 ControlEndpoint LoopbackControlEndpoint(const std::string& url, const std::filesystem::path& token_file) {
@@ -143,6 +149,8 @@ json ControlClient::Post(const std::string& path, const json& body) const {
   return Request("POST", path, &text);
 }
 
+json ControlClient::Delete(const std::string& path) const { return Request("DELETE", path, nullptr); }
+
 json ControlClient::Request(const std::string& method, const std::string& path, const std::string* body) const {
   Curl curl = Open(endpoint_, path);
   std::string response;
@@ -153,6 +161,8 @@ json ControlClient::Request(const std::string& method, const std::string& path, 
     curl.AddHeader("Content-Type: application/json");
     curl_easy_setopt(curl.get(), CURLOPT_POSTFIELDS, body->c_str());
     curl_easy_setopt(curl.get(), CURLOPT_POSTFIELDSIZE, static_cast<long>(body->size()));
+  } else if (method != "GET") {
+    curl_easy_setopt(curl.get(), CURLOPT_CUSTOMREQUEST, method.c_str());
   }
   if (const CURLcode code = curl_easy_perform(curl.get()); code != CURLE_OK) {
     throw core::Error(Unreachable(endpoint_, code));

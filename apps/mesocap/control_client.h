@@ -35,6 +35,7 @@ class ControlClient {
   // be reached.
   nlohmann::json Get(const std::string& path) const;
   nlohmann::json Post(const std::string& path, const nlohmann::json& body) const;
+  nlohmann::json Delete(const std::string& path) const;
   // Reads the server-sent events of GET `path`, calling `on_event(type,
   // data)` for each, until it returns false or the daemon ends the stream.
   void Stream(const std::string& path,
@@ -45,8 +46,11 @@ class ControlClient {
   ControlEndpoint endpoint_;
 };
 
-// The socket a client uses without --socket: $MESOCAP_SOCKET, or the one
-// the shipped unit file makes.
+// The socket the shipped unit file makes.
+inline constexpr const char* kShippedControlSocket = "/var/lib/mesocapd/control.sock";
+
+// The socket a client uses without --socket: $MESOCAP_SOCKET, or the
+// shipped one.
 std::filesystem::path DefaultControlSocket();
 
 }  // namespace mesocap

@@ -16,7 +16,12 @@ void RegisterExportBonnCommand(CLI::App& app) {
   auto o = std::make_shared<pipelines::ExportBonnOptions>();
   CLI::App* group = GroupCommand(app, "export", "Write a material package in another tool's format");
   CLI::App* sub = group->add_subcommand(
-      "bonn", "Write a package's BTF as a Bonn BTF database form: UBO2003 images, or a UBO2014 FMF/DFMF file");
+      "bonn",
+      "Write a package's BTF as a Bonn BTF database form: UBO2003 images, or a UBO2014 FMF/DFMF file\n\n"
+      "A UBO2003 image folder (tl015_pl060_tv030_pv090.png, 8-bit sRGB, or --encoding exr, linear half), or a "
+      "UBO2014 binary FMF or DFMF file laid out as the database's own: btflib reads it, and the Free BTF "
+      "Library when there are as many views as lights. FMF and DFMF are factored here (--rank or --max-error, "
+      "--color) unless the package holds per_texel factors.");
   sub->add_option("--in", o->in, "material package holding a BTF (full or factored)")
       ->required()
       ->check(CLI::ExistingDirectory);
@@ -26,11 +31,11 @@ void RegisterExportBonnCommand(CLI::App& app) {
   sub->add_option("--form", o->form,
                   "ubo2003 (image folder tl..._pl..._tv..._pv...), fmf (!FMF12FCER) or dfmf (!DFMF08FCR)")
       ->required()
-      ->transform(CLI::CheckedTransformer(forms, CLI::ignore_case));
+      ->transform(NamedChoice(forms));
   const std::map<std::string, bonn::Ubo2003Encoding> encodings{{"png", bonn::Ubo2003Encoding::kSrgb8Png},
                                                                {"exr", bonn::Ubo2003Encoding::kHalfExr}};
   sub->add_option("--encoding", o->encoding, "ubo2003 images: png (8-bit sRGB) or exr (linear half)")
-      ->transform(CLI::CheckedTransformer(encodings, CLI::ignore_case))
+      ->transform(NamedChoice(encodings))
       ->default_str("png");
   sub->add_option("--scale", o->scale, "ubo2003 images: image value = reflectance x scale")
       ->check(InRange(bonn::kMinUbo2003Scale, bonn::kMaxUbo2003Scale))
@@ -38,7 +43,7 @@ void RegisterExportBonnCommand(CLI::App& app) {
   const std::map<std::string, bonn::BonnScalar> scalars{{"half", bonn::BonnScalar::kHalf},
                                                         {"float", bonn::BonnScalar::kFloat}};
   sub->add_option("--scalar", o->scalar, "fmf/dfmf factor values: half (as btflib writes) or float")
-      ->transform(CLI::CheckedTransformer(scalars, CLI::ignore_case))
+      ->transform(NamedChoice(scalars))
       ->default_str("half");
   auto* rank =
       sub->add_option("--rank", o->compression.rank, "fmf/dfmf when factoring here: number of SVD components, 1..100")
@@ -53,7 +58,7 @@ void RegisterExportBonnCommand(CLI::App& app) {
   sub->add_option_function<core::BtfFactorColor>(
          "--color", [o](const core::BtfFactorColor& color) { o->compression.color = color; },
          "dfmf when factoring here: rgb (colour model 0) or ycbcr (written as the PCA model 3)")
-      ->transform(CLI::CheckedTransformer(colors, CLI::ignore_case))
+      ->transform(NamedChoice(colors))
       ->default_str("rgb");
   sub->add_flag("--replace", o->replace, "replace an existing file or folder at --out");
   sub->callback([o] {

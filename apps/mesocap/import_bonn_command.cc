@@ -18,7 +18,10 @@ void RegisterImportBonnCommand(CLI::App& app) {
   auto parts = std::make_shared<pipelines::BonnImportParts>(pipelines::BonnImportParts::kFactored);
   CLI::App* group = GroupCommand(app, "import", "Read another tool's format into a material package");
   CLI::App* sub = group->add_subcommand(
-      "bonn", "Read a Bonn BTF database form (UBO2003 image folder, UBO2014 FMF/DFMF file) into a material package");
+      "bonn",
+      "Read a Bonn BTF database form (UBO2003 image folder, UBO2014 FMF/DFMF file) into a material package\n\n"
+      "The package holds the factored BTF (exact) or, with --btf, the full one or both, and the ambient term; "
+      "--flat-mdf adds an MDF for rendering. --size-mm is required for images.");
   sub->add_option("--in", o->in, "image folder (tl..._pl..._tv..._pv....png/.exr) or FMF/DFMF file")
       ->required()
       ->check(CLI::ExistingPath);
@@ -37,7 +40,7 @@ void RegisterImportBonnCommand(CLI::App& app) {
       sub->add_option("--btf", *parts,
                       "BTF forms to write: factored (default for FMF/DFMF), full (default and only choice for images) "
                       "or both")
-          ->transform(CLI::CheckedTransformer(part_names, CLI::ignore_case));
+          ->transform(NamedChoice(part_names));
   sub->add_option("--scale", o->scale, "images: reflectance = image value / scale")
       ->check(InRange(bonn::kMinUbo2003Scale, bonn::kMaxUbo2003Scale))
       ->capture_default_str();

@@ -11,7 +11,10 @@ namespace mesocap {
 void RegisterVerifyCommand(CLI::App& app) {
   auto o = std::make_shared<pipelines::VerifyOptions>();
   CLI::App* sub = app.add_subcommand(
-      "verify", "Check every file of a capture session or material package against its recorded size and hash");
+      "verify",
+      "Check every file of a capture session or material package against its recorded size and hash\n\n"
+      "Every data file against the size and XXH3 hash recorded when it was written (journal, manifest); names "
+      "each damaged file and exits 1 if there is one; also says whether a session is complete.");
   sub->add_option("path", o->path, "capture session or material package folder")->required();
   sub->callback([o] {
     const pipelines::VerifyReport r = pipelines::RunVerify(*o);

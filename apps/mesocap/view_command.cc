@@ -87,7 +87,11 @@ void RunView(const RenderSceneOptions& o) {
 
 void RegisterViewCommand(CLI::App& app) {
   auto o = std::make_shared<RenderSceneOptions>();
-  CLI::App* sub = app.add_subcommand("view", "Interactive viewer (needs a display): orbit, light, modes, frame time");
+  CLI::App* sub = app.add_subcommand(
+      "view",
+      "Interactive viewer (needs a display): orbit, light, modes, frame time\n\n"
+      "A GLFW window: left drag orbits the camera, right drag the light, keys 1/2/3 pick the mode, P toggles "
+      "adaptive/fixed passes (+/- change the fixed count), Escape closes; the title shows frame time and passes.");
   AddRenderSceneOptions(sub, o.get());
   sub->callback([o] { RunView(*o); });
 }

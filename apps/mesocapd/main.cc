@@ -7,6 +7,7 @@
 // journal, then exits; the next start resumes that job.
 #include <signal.h>
 #include <spdlog/spdlog.h>
+#include <sys/stat.h>
 #include <systemd/sd-daemon.h>
 
 #include <CLI/CLI.hpp>
@@ -43,6 +44,7 @@ struct DaemonCommandOptions {
   std::optional<std::uint16_t> tcp_port;  // 0: one the kernel picks
   double fault_retry_s = 30;
   bool prompt_operator = false;
+  bool rotate_token = false;
 };
 
 // Waits for SIGTERM or SIGINT, pinging systemd's watchdog at half its
@@ -87,6 +89,12 @@ void RunDaemon(const DaemonCommandOptions& o, const sigset_t& signals) {
   const fs::path token_file = o.state / "control.token", port_file = o.state / "control.port";
   std::error_code ec;
   fs::remove(port_file, ec);  // a killed daemon's; clients find no port while none listens
+  const fs::path url_file = o.state / "control.url";
+  fs::remove(url_file, ec);
+  if (o.rotate_token) {
+    acquisition::RotateBearerTokenFile(token_file);
+    spdlog::info("a new bearer token is in {}", token_file.string());
+  }
   if (o.tcp_port) {
     server_options.tcp_port = *o.tcp_port;
     server_options.bearer_token = acquisition::OpenOrCreateBearerTokenFile(token_file);
@@ -98,7 +106,11 @@ void RunDaemon(const DaemonCommandOptions& o, const sigset_t& signals) {
     core::WriteTextFileAtomically(port_file, std::to_string(server.tcp_port()) + "\n");
     spdlog::info("serving the control API on 127.0.0.1:{} (bearer token in {})", server.tcp_port(),
                  token_file.string());
-    spdlog::info("status page: http://127.0.0.1:{}/#token={}", server.tcp_port(), server_options.bearer_token);
+    // The address carries the token: it goes to a file only this user may
+    // read, never to the log, which others (the journal's readers) may.
+    acquisition::WriteSecretFile(url_file, "http://127.0.0.1:" + std::to_string(server.tcp_port()) +
+                                               "/#token=" + server_options.bearer_token + "\n");
+    spdlog::info("status page: its address (with the token) is in {}", url_file.string());
   }
   sd_notify(0, "READY=1");
   const int signal = WaitForStop(signals);
@@ -106,6 +118,7 @@ void RunDaemon(const DaemonCommandOptions& o, const sigset_t& signals) {
   sd_notify(0, "STOPPING=1");
   server.Stop();
   fs::remove(port_file, ec);
+  fs::remove(url_file, ec);
   daemon.Stop();
   spdlog::info("stopped");
 }
@@ -113,6 +126,10 @@ void RunDaemon(const DaemonCommandOptions& o, const sigset_t& signals) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // Before any thread: what the daemon writes under its state folder is
+  // 0750/0640 whatever umask it was started under (files made 0600, the
+  // token's, stay so). The control socket's mode is set by chmod, not this.
+  ::umask(027);
   sigset_t signals;
   sigemptyset(&signals);
   sigaddset(&signals, SIGTERM);
@@ -149,6 +166,9 @@ int main(int argc, char** argv) {
   app.add_flag("--prompt-operator", o.prompt_operator,
                "pause at each operator step (plates, laser mounts, board tilts) until a client acknowledges it "
                "(mesocap capture ack); without it the simulated operator acts at once");
+  app.add_flag("--rotate-token", o.rotate_token,
+               "replace STATE/control.token with a new bearer token before serving (clients of the old one are "
+               "refused; the status page's new address is in STATE/control.url)");
   app.add_option("--fault-retry-s", o.fault_retry_s, "seconds before a job paused on a fault is tried again")
       ->check(CLI::Range(0.0, 86400.0))
       ->capture_default_str();

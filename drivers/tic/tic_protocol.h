@@ -2,8 +2,9 @@
 // error bits and products, and the pure functions that turn a command into a
 // control transfer's setup packet and the variables block into a struct.
 //
-// Where the facts come from (repository pololu/pololu-tic-software):
-// - include/tic_protocol.h: the vendor and product ids, command codes,
+// Where the facts come from (repository pololu/pololu-tic-software: headers in
+// include/, sources in lib/):
+// - Pololu's tic_protocol.h: the vendor and product ids, command codes,
 //   variable offsets, error bits, operation states, misc flags bits
 //   (energized 0, position uncertain 1, forward/reverse limit 2/3, homing
 //   active 4), step mode codes, go-home directions, speed units (steps per
@@ -12,18 +13,18 @@
 //   copy of that file predates go home, the T249/36v4 ids and the homing
 //   bits; those were read from the same file as vendored in
 //   indilib/indi-3rdparty (indi-TicFocuser-ng/pololu-tic-software/include/)
-//   and agree with lib/tic_handle.c, lib/tic_device.c, lib/tic_variables.c.
-// - lib/tic_handle.c: a command is a vendor control transfer (bmRequestType
+//   and agree with tic_handle.c, tic_device.c, tic_variables.c.
+// - tic_handle.c: a command is a vendor control transfer (bmRequestType
 //   0x40) with a 32-bit argument split into wValue (low half) and wIndex
 //   (high half), a 7-bit argument in wValue, and no data stage; variables
 //   are read with bmRequestType 0xC0, the offset in wIndex, the length in
 //   wLength; go home takes its direction in wValue.
-// - lib/tic_internal.h: multi-byte variables are little-endian.
-// - lib/tic_variables.c: the general variables block ends after "input
+// - tic_internal.h: multi-byte variables are little-endian.
+// - tic_variables.c: the general variables block ends after "input
 //   after scaling" (offset 0x51 + 4).
-// - lib/tic_device.c, lib/tic_names.c: which product ids are Tics, their
+// - tic_device.c, tic_names.c: which product ids are Tics, their
 //   names, and the error names.
-// - lib/tic_settings_fix.c: which step modes each product allows.
+// - tic_settings_fix.c: which step modes each product allows.
 #pragma once
 
 #include <cstdint>

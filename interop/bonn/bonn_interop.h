@@ -7,7 +7,7 @@
 // those databases.
 //
 // How the data map (docs/FORMATS.md "Bonn BTF database forms"):
-// - Directions: the same frame and angles (core/bonn_btf_file.h); index
+// - Directions: the same frame and angles (interop/bonn/bonn_btf_file.h); index
 //   orders are kept as the file has them (binary) or ring by ring (images).
 // - Values: mesocap's linear RGB reflectance T, unscaled, = what btflib
 //   decodes (after undoing the colour model, the dynamic-range reduction and,

@@ -15,7 +15,7 @@
 // - The 8-bit images are sRGB-encoded (UTIA: "PNG format (colour space sRGB
 //   8-bits/channel)").
 // - theta is the polar angle from the sample normal, phi the azimuth, in the
-//   same frame as the binary forms (core/bonn_btf_file.h): mesocap's frame.
+//   same frame as the binary forms (interop/bonn/bonn_btf_file.h): mesocap's frame.
 //
 // mesocap writes: whole degrees as three digits, other angles with up to six
 // decimals ("tl005.625_..."); a flat folder; PNG 8-bit sRGB or OpenEXR half

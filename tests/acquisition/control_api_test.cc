@@ -131,11 +131,11 @@ TEST_F(SimulatedDaemonTest, ErrorsNameTheFieldOrThePath) {
   expect(Call(*daemon, "POST", "/v1/jobs", "[1]"), 400,
          "request body: expected a JSON object such as {\"plan\": \"capture\"}");
   expect(Call(*daemon, "GET", "/v1/jobs/../../etc/passwd"), 404,
-         "path \"/v1/jobs/../../etc/passwd\": not an endpoint (GET /, GET /v1/rig, GET|POST /v1/jobs, GET "
+         "path \"/v1/jobs/../../etc/passwd\": not an endpoint (GET /, GET /v1/rig, GET|POST /v1/jobs, GET|DELETE "
          "/v1/jobs/ID, POST /v1/jobs/ID/pause|resume|cancel|ack, GET /v1/cameras/ID/preview.png, GET /v1/events, "
          "GET /v1/log)");
   expect(Call(*daemon, "GET", "/v1/jobs/..%2F..%2Fetc"), 404,
-         "job id \"..%2F..%2Fetc\": expected \"job-\" and six digits");
+         "job id \"..%2F..%2Fetc\": expected \"job-\" and at least six digits");
   expect(Call(*daemon, "GET", "/v1/jobs/job-000042"), 404, "no job \"job-000042\"");
   expect(Call(*daemon, "DELETE", "/v1/jobs"), 405, "DELETE /v1/jobs: method not allowed (use GET or POST)");
   expect(Call(*daemon, "GET", "/v1/events", "", "after=-1"), 400, "query after: expected an event number, got \"-1\"");

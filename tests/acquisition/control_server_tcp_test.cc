@@ -14,14 +14,14 @@
 #include "acquisition/control_server.h"
 #include "acquisition/status_page.h"
 #include "tests/acquisition/raw_http.h"
-#include "tests/acquisition/simulated_daemon.h"
+#include "tests/acquisition/served_daemon.h"
 
 namespace mesocap::acquisition {
 namespace {
 
 using nlohmann::json;
 
-const std::string kTcpToken = "0123456789abcdef0123456789abcdef0123456789abcdef0123456789abcdef";
+const std::string& kTcpToken = kServedToken;
 
 std::string Get(std::uint16_t port, const std::string& path, const std::string& extra_headers = "") {
   return SendRaw(ConnectTcp(port),
@@ -49,16 +49,7 @@ std::vector<std::string> ListeningAddresses(const std::string& table, std::uint1
   return out;
 }
 
-class ControlServerTcpTest : public SimulatedDaemonTest {
- protected:
-  ControlServerOptions Options() const {
-    ControlServerOptions o;
-    o.socket = state_ / "control.sock";
-    o.tcp_port = 0;
-    o.bearer_token = kTcpToken;
-    return o;
-  }
-};
+using ControlServerTcpTest = ServedDaemonTest;
 
 TEST_F(ControlServerTcpTest, ATokenGetsTheAnswerAndNoneOrAWrongOneGets401) {
   auto daemon = MakeDaemon();

@@ -12,6 +12,7 @@
 // scripts/in-network-namespace.sh).
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -282,10 +283,18 @@ TEST_F(MesocapdTest, OverLoopbackTcpTheClientSteersTheDaemonWithTheTokenFile) {
     EXPECT_EQ(watched.exit_code, 0) << watched.err;
     EXPECT_NE(watched.out.find("job-000001 done (capture) 34/34 steps"), std::string::npos) << watched.out;
     EXPECT_EQ(Differences(state, "job-000001"), "");
-    // The daemon logged the port and the status page's address, the token in its fragment.
+    // The daemon logged (at info level) the port, never the token: the
+    // status page's address, the token in its fragment, is in a file only
+    // the daemon's user may read.
     const std::string log = testing::Slurp(daemon.log());
     EXPECT_NE(log.find("serving the control API on 127.0.0.1:" + std::to_string(number)), std::string::npos) << log;
-    EXPECT_NE(log.find("status page: " + url + "/#token=" + token), std::string::npos) << log;
+    EXPECT_NE(log.find("status page: its address (with the token) is in " + (state / "control.url").string()),
+              std::string::npos)
+        << log;
+    EXPECT_EQ(log.find(token), std::string::npos) << log;
+    EXPECT_EQ(testing::Slurp(state / "control.url"), url + "/#token=" + token + "\n");
+    EXPECT_EQ(fs::status(state / "control.url").permissions() & fs::perms::all,
+              fs::perms::owner_read | fs::perms::owner_write);
 
     // Another token: refused with the daemon's message.
     std::ofstream(work_ / "wrong.token") << std::string(64, '0') << "\n";
@@ -296,7 +305,8 @@ TEST_F(MesocapdTest, OverLoopbackTcpTheClientSteersTheDaemonWithTheTokenFile) {
               std::string::npos)
         << wrong.err;
     EXPECT_EQ(daemon.Kill(SIGTERM), 0);
-    EXPECT_FALSE(fs::exists(port_file));  // no port while none listens
+    EXPECT_FALSE(fs::exists(port_file));  // no port or address while none listens
+    EXPECT_FALSE(fs::exists(state / "control.url"));
     const testing::CommandResult gone = Mesocap("capture list" + over_tcp);
     EXPECT_EQ(gone.exit_code, 1);
     EXPECT_NE(gone.err.find("cannot reach mesocapd at " + url + ": "), std::string::npos) << gone.err;
@@ -305,6 +315,25 @@ TEST_F(MesocapdTest, OverLoopbackTcpTheClientSteersTheDaemonWithTheTokenFile) {
     // A restart reuses the token.
     Daemon daemon(state, {"-q", "--tcp-port", "0"});
     EXPECT_EQ(testing::Slurp(token_file), token + "\n");
+    EXPECT_EQ(daemon.Kill(SIGTERM), 0);
+  }
+  {
+    // --rotate-token makes a new one; the old one is refused.
+    fs::copy_file(token_file, work_ / "old.token");
+    Daemon daemon(state, {"--tcp-port", "0", "--rotate-token"});
+    const std::string rotated = testing::Slurp(token_file);
+    EXPECT_NE(rotated, token + "\n");
+    EXPECT_EQ(rotated.size(), 65u);
+    EXPECT_EQ(fs::status(token_file).permissions() & fs::perms::all, fs::perms::owner_read | fs::perms::owner_write);
+    const std::string url = "http://127.0.0.1:" + std::to_string(std::atoi(testing::Slurp(port_file).c_str()));
+    const testing::CommandResult old =
+        Mesocap("capture list --url " + url + " --token-file " + (work_ / "old.token").string());
+    EXPECT_EQ(old.exit_code, 1);
+    EXPECT_NE(old.err.find("mesocapd: wrong bearer token"), std::string::npos) << old.err;
+    EXPECT_EQ(Mesocap("capture list --url " + url + " --token-file " + token_file.string()).exit_code, 0);
+    EXPECT_EQ(testing::Slurp(state / "control.url"), url + "/#token=" + rotated);
+    const std::string log = testing::Slurp(daemon.log());
+    EXPECT_EQ(log.find(rotated.substr(0, 64)), std::string::npos) << log;
     EXPECT_EQ(daemon.Kill(SIGTERM), 0);
   }
   // A token file others may read is refused, by name.
@@ -316,6 +345,58 @@ TEST_F(MesocapdTest, OverLoopbackTcpTheClientSteersTheDaemonWithTheTokenFile) {
   EXPECT_EQ(testing::Slurp(log), "mesocapd: error: " + token_file.string() +
                                      ": mode 0644, expected 0600 (only mesocapd's user may read the bearer token); "
                                      "remove it and mesocapd makes a new one\n");
+}
+
+// Every folder 0750 and every file 0640 under the state folder (but the
+// token, 0600), whatever the umask mesocapd was started under.
+std::vector<std::string> WrongModes(const fs::path& state) {
+  std::vector<std::string> wrong;
+  const auto check = [&](const fs::path& path) {
+    const fs::file_status status = fs::symlink_status(path);
+    const fs::perms expected =
+        fs::is_directory(status) ? fs::perms(0750) : fs::perms(path.filename() == "control.token" ? 0600 : 0640);
+    if ((status.permissions() & fs::perms::all) != expected) wrong.push_back(path.string());
+  };
+  check(state);
+  for (const fs::directory_entry& entry : fs::recursive_directory_iterator(state)) check(entry.path());
+  return wrong;
+}
+
+TEST_F(MesocapdTest, TheStateFolderIs0750And0640WhateverTheUmask) {
+  for (const mode_t mask : {mode_t{022}, mode_t{077}}) {
+    const fs::path state = work_ / ("state-" + std::to_string(mask));
+    const mode_t old = ::umask(mask);
+    Daemon daemon(state, {"-q", "--tcp-port", "0"});
+    ::umask(old);
+    EXPECT_EQ(fs::status(daemon.socket()).permissions() & fs::perms::all, fs::perms(0660));
+    EXPECT_EQ(daemon.Client("submit").exit_code, 0);
+    EXPECT_EQ(daemon.Client("watch job-000001").exit_code, 0);
+    EXPECT_EQ(daemon.Kill(SIGTERM), 0);
+    EXPECT_EQ(WrongModes(state), std::vector<std::string>{}) << "umask 0" << std::oct << mask;
+  }
+}
+
+TEST_F(MesocapdTest, ForgetRemovesAFinishedJobAndKeepsItsSessionUnlessAsked) {
+  const fs::path state = work_ / "state";
+  Daemon daemon(state);
+  ASSERT_EQ(daemon.Client("submit").out, "job-000001\n");
+  ASSERT_EQ(daemon.Client("watch job-000001").exit_code, 0);
+  ASSERT_EQ(daemon.Client("submit").out, "job-000002\n");
+  ASSERT_EQ(daemon.Client("watch job-000002").exit_code, 0);
+  testing::CommandResult r = daemon.Client("forget job-000001");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.out, "job-000001 forgotten; its session stays in STATE/sessions/job-000001\n");
+  EXPECT_EQ(Differences(state, "job-000001"), "");
+  r = daemon.Client("forget job-000002 --delete-session");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.out, "job-000002 forgotten; its session deleted\n");
+  EXPECT_FALSE(fs::exists(state / "sessions" / "job-000002"));
+  EXPECT_EQ(daemon.Client("list").out, "no jobs\n");
+  r = daemon.Client("forget job-000001");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("mesocapd: no job \"job-000001\""), std::string::npos) << r.err;
+  // The kept session keeps its number: the next job is not job-000001.
+  ASSERT_EQ(daemon.Client("submit").out, "job-000003\n");
 }
 
 TEST_F(MesocapdTest, BadAddressFlagsGetClearErrors) {

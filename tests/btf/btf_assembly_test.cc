@@ -194,7 +194,7 @@ TEST_F(BtfAssemblyTest, FlatSampleMatchesTruthAndCountsPairs) {
 // What remains is the tiny rig's cameras (each pixel 3 x 3 point samples of
 // a 0.43 mm square): the same pipeline on cameras of twice the resolution
 // reaches 40.6 dB even at 16 x 16 texels, where the tiny rig's 0.85 pixels
-// per texel give 31.4 dB (docs/BENCHMARKS.md "BTF rectification"). The near
+// per texel give 31.4 dB (docs/BENCHMARKS.md "Rectification and resampling"). The near
 // lamps and cameras (450 and 300 mm) are not what limits it: the truth taken
 // along each texel's own camera ray and lamp direction differs from the
 // grid-direction truth by 48 dB.

@@ -26,7 +26,7 @@ constexpr double kPi = std::numbers::pi;
 // ---- Protocol: expected numbers from pololu/pololu-tic-software ----
 
 TEST(TicProtocolTest, CommandCodesAreThoseOfPololusProtocolHeader) {
-  // include/tic_protocol.h, TIC_CMD_*.
+  // Pololu's tic_protocol.h, TIC_CMD_*.
   const std::pair<TicCommand, int> expected[] = {
       {TicCommand::kSetTargetPosition, 0xE0},
       {TicCommand::kSetTargetVelocity, 0xE3},
@@ -52,7 +52,7 @@ TEST(TicProtocolTest, CommandCodesAreThoseOfPololusProtocolHeader) {
 }
 
 TEST(TicProtocolTest, CommandsWithoutArgumentAreBareVendorRequests) {
-  // lib/tic_handle.c: bmRequestType 0x40, wValue 0, wIndex 0, no data.
+  // Pololu's tic_handle.c: bmRequestType 0x40, wValue 0, wIndex 0, no data.
   for (TicCommand command :
        {TicCommand::kHaltAndHold, TicCommand::kResetCommandTimeout, TicCommand::kDeenergize, TicCommand::kEnergize,
         TicCommand::kExitSafeStart, TicCommand::kEnterSafeStart, TicCommand::kReset, TicCommand::kClearDriverError}) {
@@ -61,7 +61,7 @@ TEST(TicProtocolTest, CommandsWithoutArgumentAreBareVendorRequests) {
 }
 
 TEST(TicProtocolTest, ThirtyTwoBitArgumentsSplitIntoValueAndIndex) {
-  // lib/tic_handle.c: wValue = low 16 bits, wIndex = high 16 bits.
+  // Pololu's tic_handle.c: wValue = low 16 bits, wIndex = high 16 bits.
   EXPECT_EQ(EncodeSetTargetPosition(0x12345678), (ControlSetup{0x40, 0xE0, 0x5678, 0x1234, 0}));
   EXPECT_EQ(EncodeSetTargetPosition(-2), (ControlSetup{0x40, 0xE0, 0xFFFE, 0xFFFF, 0}));
   EXPECT_EQ(EncodeHaltAndSetPosition(0), (ControlSetup{0x40, 0xEC, 0, 0, 0}));
@@ -73,8 +73,8 @@ TEST(TicProtocolTest, ThirtyTwoBitArgumentsSplitIntoValueAndIndex) {
 }
 
 TEST(TicProtocolTest, SevenBitArgumentsGoInValue) {
-  // lib/tic_handle.c: set step mode and go home put their byte in wValue;
-  // include/tic_protocol.h: TIC_GO_HOME_REVERSE 0, TIC_GO_HOME_FORWARD 1.
+  // Pololu's tic_handle.c: set step mode and go home put their byte in wValue;
+  // Pololu's tic_protocol.h: TIC_GO_HOME_REVERSE 0, TIC_GO_HOME_FORWARD 1.
   EXPECT_EQ(EncodeGoHome(HomingDirection::kReverse), (ControlSetup{0x40, 0x97, 0, 0, 0}));
   EXPECT_EQ(EncodeGoHome(HomingDirection::kForward), (ControlSetup{0x40, 0x97, 1, 0, 0}));
   EXPECT_EQ(EncodeCommand(TicCommand::kSetStepMode, 3), (ControlSetup{0x40, 0x94, 3, 0, 0}));
@@ -83,27 +83,27 @@ TEST(TicProtocolTest, SevenBitArgumentsGoInValue) {
 }
 
 TEST(TicProtocolTest, StepModeCodes) {
-  // include/tic_protocol.h: TIC_STEP_MODE_MICROSTEP1..32 = 0..5,
+  // Pololu's tic_protocol.h: TIC_STEP_MODE_MICROSTEP1..32 = 0..5,
   // MICROSTEP2_100P = 6, MICROSTEP64/128/256 = 7/8/9.
   const std::pair<int, int> expected[] = {{1, 0},  {2, 1},  {4, 2},   {8, 3},  {16, 4},
                                           {32, 5}, {64, 7}, {128, 8}, {256, 9}};
   for (const auto& [microsteps, code] : expected) EXPECT_EQ(StepModeCode(microsteps), code) << microsteps;
   EXPECT_FALSE(StepModeCode(3));
   EXPECT_FALSE(StepModeCode(512));
-  // lib/tic_settings_fix.c: the T500 goes to 1/8, the 36v4 to 1/256.
+  // Pololu's tic_settings_fix.c: the T500 goes to 1/8, the 36v4 to 1/256.
   EXPECT_EQ(MaxMicrosteps(TicProduct::kT500), 8);
   EXPECT_EQ(MaxMicrosteps(TicProduct::kT825), 32);
   EXPECT_EQ(MaxMicrosteps(TicProduct::k36v4), 256);
 }
 
 TEST(TicProtocolTest, GetVariablesReadsFromOffsetInIndex) {
-  // lib/tic_handle.c: bmRequestType 0xC0, wValue 0, wIndex = offset, wLength.
+  // Pololu's tic_handle.c: bmRequestType 0xC0, wValue 0, wIndex = offset, wLength.
   EXPECT_EQ(EncodeGetVariables(0, 0x55, false), (ControlSetup{0xC0, 0xA1, 0, 0, 0x55}));
   EXPECT_EQ(EncodeGetVariables(0x22, 4, true), (ControlSetup{0xC0, 0xA2, 0, 0x22, 4}));
 }
 
 TEST(TicProtocolTest, UsbIdsAndProductNames) {
-  // include/tic_protocol.h TIC_VENDOR_ID, TIC_PRODUCT_ID_*; lib/tic_names.c.
+  // Pololu's tic_protocol.h TIC_VENDOR_ID, TIC_PRODUCT_ID_*; tic_names.c.
   EXPECT_EQ(kPololuVendorId, 0x1FFB);
   EXPECT_EQ(ProductFromUsbId(0x00B3), TicProduct::kT825);
   EXPECT_EQ(ProductFromUsbId(0x00B5), TicProduct::kT834);
@@ -117,7 +117,7 @@ TEST(TicProtocolTest, UsbIdsAndProductNames) {
 }
 
 TEST(TicProtocolTest, VariableOffsetsAndFlags) {
-  // include/tic_protocol.h TIC_VAR_*, TIC_MISC_FLAGS1_*; lib/tic_variables.c
+  // Pololu's tic_protocol.h TIC_VAR_*, TIC_MISC_FLAGS1_*; tic_variables.c
   // reads the general block up to TIC_VAR_INPUT_AFTER_SCALING + 4.
   namespace at = variable_offset;
   EXPECT_EQ(at::kOperationState, 0x00);
@@ -145,7 +145,7 @@ TEST(TicProtocolTest, VariableOffsetsAndFlags) {
 }
 
 TEST(TicProtocolTest, ErrorBitsAndNames) {
-  // include/tic_protocol.h TIC_ERROR_*; lib/tic_names.c tic_error_names_ui.
+  // Pololu's tic_protocol.h TIC_ERROR_*; tic_names.c tic_error_names_ui.
   EXPECT_EQ(ErrorMask(TicErrorBit::kIntentionallyDeenergized), 1u << 0);
   EXPECT_EQ(ErrorMask(TicErrorBit::kMotorDriverError), 1u << 1);
   EXPECT_EQ(ErrorMask(TicErrorBit::kLowVin), 1u << 2);
@@ -162,7 +162,7 @@ TEST(TicProtocolTest, ErrorBitsAndNames) {
 }
 
 TEST(TicProtocolTest, DecodesLittleEndianVariables) {
-  // lib/tic_internal.h read_u16/read_u32: little-endian.
+  // Pololu's tic_internal.h read_u16/read_u32: little-endian.
   std::array<std::uint8_t, kVariablesBlockSize> block{};
   block[0x00] = 10;       // normal
   block[0x01] = 0b10011;  // energized, position uncertain, homing active

@@ -129,7 +129,7 @@ TEST_F(HostilePackage, SingleByteMutationsOfTheManifest) {
 }
 
 // No allocation bound here: a mutated EXR header (a huge data window) makes
-// OpenEXR allocate up to ~2 GiB inside OpenImageIO's open(), before any
+// OpenEXR allocate (docs/FUZZING.md) inside OpenImageIO's open(), before any
 // mesocap code sees the header. The manifest-driven checks above bound what
 // mesocap itself allocates. Under the address sanitizer such an allocation
 // takes most of a second, so its preset runs fewer

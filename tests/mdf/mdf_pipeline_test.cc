@@ -86,7 +86,7 @@ TEST(MdfPipelineTest, AcceptanceBlocksSmallRig) {
   const ScanResult r = RunSimulatedScan(SmallRig("blocks", kAcceptanceCameras, {}));
   const MdfErrorRow row = Row(r, 60);
   // The MDF acceptance on the small rig; the measured figures are in
-  // docs/BENCHMARKS.md ("MDF from laser scans").
+  // docs/BENCHMARKS.md ("Process mdf").
   EXPECT_LE(row.median_texels, 0.25);
   EXPECT_LE(row.p95_texels, 1.0);
   EXPECT_GE(row.coverage, 0.98);
