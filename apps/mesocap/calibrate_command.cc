@@ -57,7 +57,10 @@ void RegisterCalibrateCommand(CLI::App& app) {
       "camera",
       "Calibrate one camera, or several jointly with their relative poses, from folders of photos of a "
       "board (files with the same name in different folders were taken at the same instant)");
-  sub->add_option("--images", o->image_folders, "folder of one camera's photos (JPEG, PNG, TIFF); repeat per camera")
+  sub->add_option("--images", o->image_folders,
+                  "folder of one camera's photos, all of one size: .jpg/.jpeg (baseline or progressive), .png, "
+                  ".tif/.tiff, 8 or 16 bits, grey or colour, turned upright as their EXIF orientation says; repeat "
+                  "per camera")
       ->required();
   sub->add_option("--board", o->board,
                   "the board: chessboard:COLSxROWS:SQUARE_MM (inner corners) or "

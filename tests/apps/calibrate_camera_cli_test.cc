@@ -1,6 +1,8 @@
 // `mesocap calibrate camera` as a user runs it: folders of PNG photos of a
 // ChArUco board from two cameras with known intrinsics and relative pose
 // (rendered with exact truth, tests/common/board_photos.h), and bad input.
+#include <OpenImageIO/imagebuf.h>
+#include <OpenImageIO/imagebufalgo.h>
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
@@ -103,6 +105,42 @@ TEST_F(CalibrateCameraCli, TwoCamerasJointlyWithTheirRelativePose) {
   EXPECT_NEAR(written.cameras[1].pose.transform.translation.x(), 100.0, 1.0);
 }
 
+// The left camera's photos as a camera writes them: 8-bit JPEG, some
+// progressive, and some taken with the camera on its side (stored turned by
+// 90 degrees, EXIF orientation 6 says to turn them back). Read upright, they
+// give the camera's intrinsics within 4 sigma.
+TEST_F(CalibrateCameraCli, JpegPhotosWithExifOrientationAreCalibrated) {
+  TemporaryDirectory scratch;
+  std::filesystem::create_directories(scratch / "jpeg");
+  int index = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(Folder(0))) {
+    const core::Image photo = core::ReadImage(entry.path());
+    OIIO::ImageBuf upright(OIIO::ImageSpec(photo.width(), photo.height(), photo.channels(), OIIO::TypeDesc::FLOAT),
+                           const_cast<float*>(photo.data()));
+    const bool on_its_side = index % 3 == 0;
+    // EXIF 6 displays the stored image turned 90 degrees clockwise: store it turned counter-clockwise.
+    OIIO::ImageBuf stored = on_its_side ? OIIO::ImageBufAlgo::rotate270(upright) : upright;
+    stored.specmod().attribute("Orientation", on_its_side ? 6 : 1);
+    stored.specmod().attribute("jpeg:progressive", index % 2);
+    stored.specmod().attribute("Compression", "jpeg:95");
+    const std::filesystem::path file = scratch / "jpeg" / entry.path().filename().replace_extension(".jpg");
+    ASSERT_TRUE(stored.write(file.string(), OIIO::TypeDesc::UINT8)) << stored.geterror();
+    ++index;
+  }
+  const auto r = Mesocap("calibrate camera --images " + (scratch / "jpeg").string() + " --board " + kBoard + " --out " +
+                         (scratch / "c.json").string() + " --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json camera = nlohmann::json::parse(r.out)["cameras"][0];
+  const formats::CameraCalibration truth = testing::TestCamera("left");
+  EXPECT_EQ(camera["images_used"], 12);
+  EXPECT_EQ(camera["width"], 640);
+  const double expected[4] = {truth.intrinsics.fx, truth.intrinsics.fy, truth.intrinsics.cx, truth.intrinsics.cy};
+  const char* names[4] = {"fx", "fy", "cx", "cy"};
+  for (int i = 0; i < 4; ++i) {
+    EXPECT_NEAR(camera[names[i]].get<double>(), expected[i], 4 * camera["std"][names[i]].get<double>()) << names[i];
+  }
+}
+
 TEST_F(CalibrateCameraCli, PrintsATableWithoutJson) {
   TemporaryDirectory out;
   const auto r = Mesocap("calibrate camera --images " + Folder(0).string() + " --board " + kBoard + " --out " +
@@ -132,6 +170,8 @@ TEST_F(CalibrateCameraCli, BadInputNamesTheFileOrFlagAndWritesNothing) {
       {"--images " + (scratch / "missing").string() + " --board " + kBoard, "not a folder"},
       {"--images " + (scratch / "broken").string() + " --board " + kBoard, "shot99.png"},
       {"--images " + (scratch / "mixed").string() + " --board " + kBoard, "differs from the folder's first photo"},
+      {"--images " + (scratch / "mixed").string() + " --board " + kBoard, "shot99.png: field 'size': 320x240"},
+      {"--images " + (scratch / "mixed").string() + " --board " + kBoard, "shot10.png"},
       {"--images " + Folder(0).string() + " --board charuco:8x6:20", "expected chessboard:COLSxROWS:SQUARE_MM"},
       {"--images " + Folder(0).string() + " --board charuco:8y6:20:15:DICT_5X5_100", "is not COLSxROWS"},
       {"--images " + Folder(0).string() + " --board charuco:8x6:20:25:DICT_5X5_100", "smaller than the square"},
