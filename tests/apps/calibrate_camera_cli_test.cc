@@ -68,6 +68,7 @@ TEST_F(CalibrateCameraCli, TwoCamerasJointlyWithTheirRelativePose) {
   const nlohmann::json report = nlohmann::json::parse(r.out);
   ASSERT_EQ(report["cameras"].size(), 2u);
   const formats::CameraCalibration truth[2] = {testing::TestCamera("left"), SecondCamera()};
+  int chosen_rungs = 0;
   for (int c = 0; c < 2; ++c) {
     const nlohmann::json& camera = report["cameras"][static_cast<std::size_t>(c)];
     EXPECT_EQ(camera["id"], c == 0 ? "left" : "right");
@@ -82,11 +83,32 @@ TEST_F(CalibrateCameraCli, TwoCamerasJointlyWithTheirRelativePose) {
       EXPECT_LT(sigma, 2.0) << name;
     }
     EXPECT_NEAR(camera["k1"].get<double>(), truth[c].distortion.k1, 4 * camera["std"]["k1"].get<double>() + 1e-4);
+    // The distortion terms as the ladder chose them: those left out are 0
+    // with sigma 0; an estimated one whose sigma exceeds it is listed.
+    int terms = 0;
+    for (const nlohmann::json& rung : camera["distortion_ladder"]) {
+      if (rung["chosen"].get<bool>()) terms = rung["terms"].get<int>(), ++chosen_rungs;
+    }
+    const char* distortion_names[5] = {"k1", "k2", "p1", "p2", "k3"};
+    for (int i = 0; i < 5; ++i) {
+      const double value = camera[distortion_names[i]].get<double>();
+      const double sigma = camera["std"][distortion_names[i]].get<double>();
+      const nlohmann::json& undetermined = camera["undetermined_terms"];
+      const bool listed =
+          std::find(undetermined.begin(), undetermined.end(), distortion_names[i]) != undetermined.end();
+      if (i >= terms) {
+        EXPECT_EQ(value, 0.0) << distortion_names[i];
+        EXPECT_EQ(sigma, 0.0) << distortion_names[i];
+      } else {
+        EXPECT_EQ(listed, sigma > std::abs(value)) << distortion_names[i];
+      }
+    }
     EXPECT_GT(camera["projection_uncertainty_px"].get<double>(), 0);
     EXPECT_LT(camera["projection_uncertainty_px"].get<double>(), 2.0);
     EXPECT_TRUE(camera["cross_validation_px"].is_number());
     EXPECT_LT(camera["cross_validation_px"].get<double>(), 3.0);
   }
+  EXPECT_EQ(chosen_rungs, 2) << "one model chosen per camera";
   ASSERT_EQ(report["relative_poses"].size(), 1u);
   const nlohmann::json& pose = report["relative_poses"][0];
   EXPECT_EQ(pose["from"], "left");

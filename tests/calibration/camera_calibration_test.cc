@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include "calibration/calibration_report.h"
+
 #include <map>
 
 #include <opencv2/imgproc.hpp>
@@ -149,6 +151,40 @@ TEST(CameraCalibrationHardCases, ADistortionFreeLensGetsNoneOrK1) {
   EXPECT_NEAR(k.fx, truth.intrinsics.fx, 4 * *k.uncertainty.fx);
   EXPECT_NEAR(k.cx, truth.intrinsics.cx, 4 * *k.uncertainty.cx);
   EXPECT_NEAR(camera.calibration.distortion.k1, 0.0, 4 * camera.calibration.distortion.uncertainty.k1.value_or(0));
+}
+
+// The report prints a term whose sigma exceeds it as undetermined, never as
+// a value; a term the model leaves out as fixed.
+TEST(CalibrationReport, AnUndeterminedTermIsNotPrintedAsAnEstimate) {
+  CalibrationReport report;
+  report.board = "charuco:5x4:8:6:DICT_4X4_50";
+  CalibratedCamera camera;
+  camera.calibration.id = "cam0";
+  camera.calibration.intrinsics.fx = 714.0;
+  camera.calibration.intrinsics.uncertainty.fx = 18.0;
+  camera.calibration.distortion.k1 = -0.4201;
+  camera.calibration.distortion.k2 = 30.3002;
+  camera.calibration.distortion.uncertainty = {0.13, 70.8, 0.0, 0.0, 0.0};
+  camera.distortion_model = DistortionModel::kK1K2;
+  camera.undetermined_terms = {"k2"};
+  for (const DistortionModel model : kDistortionLadder) camera.distortion_ladder.push_back({model, 0.15, 700.0});
+  report.cameras.cameras.push_back(camera);
+  const std::string table = FormatCalibrationReport(report);
+  EXPECT_EQ(table.find("30.3"), std::string::npos) << table;
+  EXPECT_NE(table.find("undet."), std::string::npos) << table;
+  EXPECT_NE(table.find("k2 undetermined"), std::string::npos) << table;
+  EXPECT_NE(table.find("-0.4201"), std::string::npos) << table;
+  EXPECT_NE(table.find("cam0 distortion: k1 k2 (ladder:"), std::string::npos) << table;
+  const nlohmann::json json = ToJson(report)["cameras"][0];
+  EXPECT_EQ(json["distortion_model"], "k1 k2");
+  EXPECT_EQ(json["undetermined_terms"], nlohmann::json::array({"k2"}));
+  ASSERT_EQ(json["distortion_ladder"].size(), 4u);
+  EXPECT_TRUE(json["distortion_ladder"][2]["chosen"].get<bool>());
+  EXPECT_FALSE(json["distortion_ladder"][3]["chosen"].get<bool>());
+
+  report.cameras.cameras[0].distortion_model = DistortionModel::kK1;
+  report.cameras.cameras[0].undetermined_terms.clear();
+  EXPECT_NE(FormatCalibrationReport(report).find("0 (fixed)"), std::string::npos);
 }
 
 // A model given, not chosen: the terms it leaves out are zero, not estimated.
