@@ -191,9 +191,14 @@ Pose HolderPose(const Unknowns& u, std::size_t holder) {
 BoardProblem::BoardProblem(Unknowns* unknowns, const std::vector<Observation>& observations, double huber_px,
                            const std::vector<double>& corner_radius)
     : unknowns_(unknowns), scaled_(*unknowns) {
+  scaled_.models.resize(scaled_.intrinsics.size(), DistortionModel::kFull);
   for (std::size_t c = 0; c < scaled_.intrinsics.size(); ++c) {
     units_.push_back(UnitsOf(unknowns_->intrinsics[c], corner_radius[c]));
     for (std::size_t i = 0; i < kIntrinsicCount; ++i) scaled_.intrinsics[c][i] /= units_[c][i];
+    for (std::size_t i = kPinholeCount + static_cast<std::size_t>(TermCount(scaled_.models[c])); i < kIntrinsicCount;
+         ++i) {
+      scaled_.intrinsics[c][i] = 0;
+    }
   }
   for (Pose& pose : scaled_.cameras) {
     for (double& t : pose.t) t /= kLengthUnitMm;
@@ -236,13 +241,14 @@ BoardProblem::BoardProblem(Unknowns* unknowns, const std::vector<Observation>& o
         new ceres::AutoDiffCostFunction<DistortionPrior, 5, kIntrinsicCount>(new DistortionPrior), nullptr,
         scaled_.intrinsics[c].data());
     problem_->SetManifold(camera.q.data(), &quaternion_);
+    if (ceres::Manifold* held = HeldTerms(scaled_.models[c])) problem_->SetManifold(scaled_.intrinsics[c].data(), held);
     if (c == 0 && !scaled_.motion) {  // the reference frame: the gauge
       problem_->SetParameterBlockConstant(camera.q.data());
       problem_->SetParameterBlockConstant(camera.t.data());
     } else {
       summary_.tangent_parameters += 6;
     }
-    summary_.tangent_parameters += kIntrinsicCount;
+    summary_.tangent_parameters += kPinholeCount + TermCount(scaled_.models[c]);
   }
   for (Pose& board : scaled_.boards) {
     if (!problem_->HasParameterBlock(board.q.data())) continue;
@@ -259,6 +265,20 @@ BoardProblem::BoardProblem(Unknowns* unknowns, const std::vector<Observation>& o
     problem_->SetManifold(scaled_.holder_t[h].data(), &fixed_third_);
     summary_.tangent_parameters -= 2;
   }
+}
+
+ceres::Manifold* BoardProblem::HeldTerms(DistortionModel model) {
+  switch (model) {
+    case DistortionModel::kNone:
+      return &no_distortion_;
+    case DistortionModel::kK1:
+      return &k1_only_;
+    case DistortionModel::kK1K2:
+      return &k1_k2_only_;
+    case DistortionModel::kFull:
+      return nullptr;
+  }
+  return nullptr;
 }
 
 SolveSummary BoardProblem::Solve() {
@@ -330,7 +350,11 @@ bool BoardProblem::Covariances(std::vector<CameraCovariance>* out) {
       const double* q = scaled_.cameras[c].q.data();
       const double* t = scaled_.cameras[c].t.data();
       Eigen::Matrix<double, 3, 3, Eigen::RowMajor> qq, tt, qt;
+      // The intrinsics' tangent: the pinhole's and the model's terms, the
+      // first of the nine; the terms held at zero covary with nothing.
       Eigen::Matrix<double, kIntrinsicCount, 3, Eigen::RowMajor> kq, kt;
+      kq.setZero();
+      kt.setZero();
       covariance.GetCovarianceBlockInTangentSpace(q, q, qq.data());
       covariance.GetCovarianceBlock(t, t, tt.data());
       covariance.GetCovarianceBlockInTangentSpace(k, q, kq.data());

@@ -19,6 +19,7 @@
 namespace mesocap::calibration::board_adjustment {
 
 constexpr int kIntrinsicCount = 9;  // fx fy cx cy k1 k2 p1 p2 k3
+constexpr int kPinholeCount = 4;    // fx fy cx cy, then the distortion terms
 using Intrinsics = std::array<double, kIntrinsicCount>;
 constexpr double kRadToDeg = 180.0 / 3.14159265358979323846;
 
@@ -61,6 +62,8 @@ struct Observation {
 // (the first camera is the reference), per instant reference <- board.
 struct Unknowns {
   std::vector<Intrinsics> intrinsics;
+  // Per camera; empty: every term. The terms a model leaves out are held at zero.
+  std::vector<DistortionModel> models;
   std::vector<Pose> cameras;
   std::vector<Pose> boards;  // per instant; on a turntable derived from the holders
   std::vector<bool> board_seen;
@@ -110,10 +113,16 @@ class BoardProblem {
   bool Covariances(std::vector<CameraCovariance>* out);
 
  private:
+  ceres::Manifold* HeldTerms(DistortionModel model);  // nullptr: none held
+
   Unknowns* unknowns_;
   Unknowns scaled_;
   std::vector<Intrinsics> units_;  // the solver's unit of each intrinsic
   ceres::QuaternionManifold quaternion_;
+  // The intrinsics with the distortion terms a model leaves out held constant.
+  ceres::SubsetManifold no_distortion_{kIntrinsicCount, {4, 5, 6, 7, 8}};
+  ceres::SubsetManifold k1_only_{kIntrinsicCount, {5, 6, 7, 8}};
+  ceres::SubsetManifold k1_k2_only_{kIntrinsicCount, {6, 7, 8}};
   ceres::SubsetManifold fixed_first_{3, {0}};
   ceres::SubsetManifold fixed_third_{3, {2}};
   std::unique_ptr<ceres::Problem> problem_;

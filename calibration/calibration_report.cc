@@ -1,5 +1,6 @@
 #include "calibration/calibration_report.h"
 
+#include <algorithm>
 #include <cstdarg>
 #include <cstdio>
 #include <sstream>
@@ -29,6 +30,18 @@ std::string Line(const char* format, ...) {
   std::vsnprintf(buffer, sizeof buffer, format, args);
   va_end(args);
   return buffer;
+}
+
+nlohmann::json LadderJson(const CalibratedCamera& camera) {
+  nlohmann::json ladder = nlohmann::json::array();
+  for (const DistortionRung& rung : camera.distortion_ladder) {
+    ladder.push_back({{"model", ToString(rung.model)},
+                      {"terms", TermCount(rung.model)},
+                      {"rms_px", rung.rms_px},
+                      {"aic", rung.aic},
+                      {"chosen", rung.model == camera.distortion_model}});
+  }
+  return ladder;
 }
 
 nlohmann::json CameraEntries(const CalibrationReport& report) {
@@ -66,6 +79,9 @@ nlohmann::json CameraEntries(const CalibrationReport& report) {
           {"p1", OrNull(d.uncertainty.p1)},
           {"p2", OrNull(d.uncertainty.p2)},
           {"k3", OrNull(d.uncertainty.k3)}}},
+        {"distortion_model", ToString(camera.distortion_model)},
+        {"distortion_ladder", LadderJson(camera)},
+        {"undetermined_terms", camera.undetermined_terms},
         {"working_distance_mm", camera.working_distance_mm},
         {"projection_uncertainty_px",
          k.uncertainty.fx ? nlohmann::json(camera.projection_uncertainty_px) : nlohmann::json(nullptr)},
@@ -218,6 +234,36 @@ void ListLeftOut(const std::vector<LeftOut>& left_out, const char* what, std::os
   }
 }
 
+// The model a camera's distortion ladder chose, and the others' figures.
+void FormatLadder(const CalibratedCamera& camera, std::ostringstream& out) {
+  out << camera.calibration.id << " distortion: " << ToString(camera.distortion_model);
+  if (camera.distortion_ladder.empty()) {
+    out << " (as given)";
+  } else {
+    out << " (ladder:";
+    for (const DistortionRung& rung : camera.distortion_ladder) {
+      out << Line(" %s: rms %.3f px, AIC %.1f;", ToString(rung.model), rung.rms_px, rung.aic);
+    }
+    out.seekp(-1, std::ios_base::cur);
+    out << ")";
+  }
+  const formats::Distortion& d = camera.calibration.distortion;
+  const double values[5] = {d.k1, d.k2, d.p1, d.p2, d.k3};
+  const char* names[5] = {"k1", "k2", "p1", "p2", "k3"};
+  const std::optional<double> sigmas[5] = {d.uncertainty.k1, d.uncertainty.k2, d.uncertainty.p1, d.uncertainty.p2,
+                                           d.uncertainty.k3};
+  for (int i = 0; i < TermCount(camera.distortion_model); ++i) {
+    const auto& u = camera.undetermined_terms;
+    if (std::find(u.begin(), u.end(), names[i]) != u.end()) {
+      out << Line(", %s undetermined (sigma %.3g)", names[i], sigmas[i].value_or(0.0));
+    } else {
+      out << Line(", %s %.5g", names[i], values[i]);
+      if (sigmas[i]) out << Line(" +- %.2g", *sigmas[i]);
+    }
+  }
+  out << "\n";
+}
+
 }  // namespace
 
 std::string FormatCalibrationReport(const CalibrationReport& report) {
@@ -228,18 +274,28 @@ std::string FormatCalibrationReport(const CalibrationReport& report) {
   const auto with_std = [](double value, const std::optional<double>& std) {
     return std ? Line("%.2f +- %.2f", value, *std) : Line("%.2f", value);
   };
+  // A term the model leaves out is 0 by construction; one whose sigma
+  // exceeds it is not an estimate.
+  const auto term = [](const CalibratedCamera& camera, int index, const char* name, double value) {
+    if (index >= TermCount(camera.distortion_model)) return std::string("0 (fixed)");
+    const auto& u = camera.undetermined_terms;
+    if (std::find(u.begin(), u.end(), name) != u.end()) return std::string("undet.");
+    return Line("%.4f", value);
+  };
   for (std::size_t c = 0; c < report.cameras.cameras.size(); ++c) {
     const CalibratedCamera& camera = report.cameras.cameras[c];
     const formats::Intrinsics& k = camera.calibration.intrinsics;
     const std::string xval =
         report.cross_validation ? Line("%.3f", (*report.cross_validation)[c].rms_px) : std::string("-");
     const std::string projection = k.uncertainty.fx ? Line("%.3f", camera.projection_uncertainty_px) : "-";
-    out << Line("%-12s %6d %7d %9.3f %18s %18s %18s %18s %9.4f %9.4f %10s %10s\n", camera.calibration.id.c_str(),
+    out << Line("%-12s %6d %7d %9.3f %18s %18s %18s %18s %9s %9s %10s %10s\n", camera.calibration.id.c_str(),
                 camera.images_used, camera.corners_used, camera.rms_px, with_std(k.fx, k.uncertainty.fx).c_str(),
                 with_std(k.fy, k.uncertainty.fy).c_str(), with_std(k.cx, k.uncertainty.cx).c_str(),
-                with_std(k.cy, k.uncertainty.cy).c_str(), camera.calibration.distortion.k1,
-                camera.calibration.distortion.k2, projection.c_str(), xval.c_str());
+                with_std(k.cy, k.uncertainty.cy).c_str(),
+                term(camera, 0, "k1", camera.calibration.distortion.k1).c_str(),
+                term(camera, 1, "k2", camera.calibration.distortion.k2).c_str(), projection.c_str(), xval.c_str());
   }
+  for (const CalibratedCamera& camera : report.cameras.cameras) FormatLadder(camera, out);
   for (const RelativePose& p : report.cameras.relative_poses) {
     if (!p.has_std) {
       out << Line("%s -> %s: rotation %.4f deg, translation %.3f %.3f %.3f mm\n", p.from.c_str(), p.to.c_str(),

@@ -26,6 +26,7 @@ using board_adjustment::InitTurntable;
 using board_adjustment::Inverse;
 using board_adjustment::kCameraParameters;
 using board_adjustment::kIntrinsicCount;
+using board_adjustment::kPinholeCount;
 using board_adjustment::kRadToDeg;
 using board_adjustment::Observation;
 using board_adjustment::Pose;
@@ -122,6 +123,40 @@ double ProjectionSigma(const Unknowns& u, std::size_t c,
 
 }  // namespace
 
+const char* ToString(DistortionModel model) {
+  switch (model) {
+    case DistortionModel::kNone:
+      return "none";
+    case DistortionModel::kK1:
+      return "k1";
+    case DistortionModel::kK1K2:
+      return "k1 k2";
+    case DistortionModel::kFull:
+      return "k1 k2 p1 p2 k3";
+  }
+  return "?";
+}
+
+int TermCount(DistortionModel model) {
+  switch (model) {
+    case DistortionModel::kNone:
+      return 0;
+    case DistortionModel::kK1:
+      return 1;
+    case DistortionModel::kK1K2:
+      return 2;
+    case DistortionModel::kFull:
+      return 5;
+  }
+  return 5;
+}
+
+std::vector<DistortionModel> ChosenDistortionModels(const CameraCalibrationResult& result) {
+  std::vector<DistortionModel> models;
+  for (const CalibratedCamera& camera : result.cameras) models.push_back(camera.distortion_model);
+  return models;
+}
+
 Eigen::Vector2d ProjectInCamera(const formats::CameraCalibration& camera, const Eigen::Vector3d& point) {
   const std::array<double, kIntrinsicCount> k = IntrinsicArray(camera);
   double uv[2];
@@ -196,6 +231,10 @@ using CameraFromBoard = std::vector<std::map<std::size_t, Pose>>;  // per camera
 void CheckCalibrationInputs(const std::vector<CameraViews>& cameras, const CameraCalibrationOptions& options) {
   core::ThrowIfInvalid(options.Check(), "camera calibration");
   if (cameras.empty()) throw core::Error("camera calibration: no camera");
+  if (options.distortion_models.size() > 1 && options.distortion_models.size() != cameras.size()) {
+    throw core::Error("camera calibration: " + std::to_string(options.distortion_models.size()) +
+                      " distortion models for " + std::to_string(cameras.size()) + " cameras");
+  }
   const std::size_t instants = cameras[0].detections.size();
   for (const CameraViews& c : cameras) {
     if (c.detections.size() != instants || c.names.size() != instants ||
@@ -463,6 +502,99 @@ InlierSolution SolveOnInliers(Unknowns* unknowns, const std::vector<Observation>
   return solution;
 }
 
+// One rung of the ladder solved for every camera at once on the inlier
+// corners: the solution, each camera's RSS and, when asked, its intrinsics'
+// sigmas (infinite where the covariance cannot be computed or was not asked
+// for: the simplest rung's are never needed).
+struct SolvedRung {
+  Unknowns solution;
+  std::vector<double> rss;
+  std::vector<Eigen::Matrix<double, kIntrinsicCount, 1>> sigma;
+  double variance = 0;
+};
+
+SolvedRung SolveRung(Unknowns start, DistortionModel model, const std::vector<Observation>& observations,
+                     const std::vector<double>& corner_radius, bool with_sigmas) {
+  const std::size_t count = start.intrinsics.size();
+  start.models.assign(count, model);
+  BoardProblem problem(&start, observations, 0.0, corner_radius);
+  const SolveSummary solved = problem.Solve();
+  SolvedRung rung;
+  rung.variance = std::max(2 * solved.cost / std::max(1, solved.residuals - solved.tangent_parameters), 1e-12);
+  rung.rss.assign(count, 0.0);
+  for (const Observation& o : observations) {
+    if (o.inlier) rung.rss[static_cast<std::size_t>(o.camera)] += Residual(start, o).squaredNorm();
+  }
+  std::vector<CameraCovariance> covariances;
+  const bool known = with_sigmas && problem.Covariances(&covariances);
+  for (std::size_t c = 0; c < count; ++c) {
+    rung.sigma.push_back(known ? Eigen::Matrix<double, kIntrinsicCount, 1>(
+                                     (rung.variance * covariances[c].intrinsics().diagonal()).cwiseSqrt())
+                               : Eigen::Matrix<double, kIntrinsicCount, 1>::Constant(HUGE_VAL));
+  }
+  rung.solution = std::move(start);
+  return rung;
+}
+
+// The rule of camera_calibration.h: may camera c leave out what rung r + 1
+// adds to rung r?
+bool MayStepDown(const std::vector<SolvedRung>& rungs, const std::vector<DistortionRung>& ladder, std::size_t c,
+                 std::size_t r) {
+  const auto& richer = rungs[r + 1].solution.intrinsics[c];
+  const auto& simpler = rungs[r].solution.intrinsics[c];
+  const auto& sigma = rungs[r + 1].sigma[c];
+  bool undetermined = true;
+  for (int i = kPinholeCount + TermCount(kDistortionLadder[r]); i < kPinholeCount + TermCount(kDistortionLadder[r + 1]);
+       ++i) {
+    undetermined = undetermined && sigma[i] > std::abs(richer[static_cast<std::size_t>(i)]);
+  }
+  if (!(ladder[r].aic <= ladder[r + 1].aic || undetermined)) return false;
+  for (int i = 0; i < kPinholeCount; ++i) {
+    if (std::abs(simpler[static_cast<std::size_t>(i)] - richer[static_cast<std::size_t>(i)]) > sigma[i]) return false;
+  }
+  return true;
+}
+
+// Each camera's distortion model: given, or chosen by the ladder (the rule
+// in camera_calibration.h). Every rung is solved for all cameras at once,
+// richest first, each warm-started from the one above; the unknowns come
+// back at the chosen rung's solution.
+void ChooseDistortionModels(const std::vector<CameraViews>& cameras, const CameraCalibrationOptions& options,
+                            const std::vector<Observation>& observations, const std::vector<double>& corner_radius,
+                            Unknowns* unknowns, CameraCalibrationResult* result) {
+  const std::size_t count = cameras.size();
+  if (!options.distortion_models.empty()) {
+    unknowns->models = options.distortion_models;
+    unknowns->models.resize(count, options.distortion_models.front());
+    for (std::size_t c = 0; c < count; ++c) result->cameras[c].distortion_model = unknowns->models[c];
+    return;
+  }
+  constexpr std::size_t kRungs = std::size(kDistortionLadder);
+  std::vector<SolvedRung> rungs(kRungs);
+  for (std::size_t r = kRungs; r-- > 0;) {
+    rungs[r] = SolveRung(r + 1 == kRungs ? *unknowns : rungs[r + 1].solution, kDistortionLadder[r], observations,
+                         corner_radius, r > 0);
+  }
+  std::vector<double> corners(count, 0.0);
+  for (const Observation& o : observations) corners[static_cast<std::size_t>(o.camera)] += o.inlier ? 1 : 0;
+  std::vector<std::size_t> chosen(count, kRungs - 1);
+  for (std::size_t c = 0; c < count; ++c) {
+    CalibratedCamera& out = result->cameras[c];
+    for (std::size_t r = 0; r < kRungs; ++r) {
+      const double rss = rungs[r].rss[c];
+      const double aic = rss / rungs[kRungs - 1].variance + 2.0 * TermCount(kDistortionLadder[r]);
+      out.distortion_ladder.push_back({kDistortionLadder[r], std::sqrt(rss / std::max(1.0, corners[c])), aic});
+    }
+    while (chosen[c] > 0 && MayStepDown(rungs, out.distortion_ladder, c, chosen[c] - 1)) --chosen[c];
+    out.distortion_model = kDistortionLadder[chosen[c]];
+  }
+  // One rung for every camera: its solution. Mixed: the richest's, which
+  // the final solve takes on from there.
+  const bool same = std::all_of(chosen.begin(), chosen.end(), [&](std::size_t r) { return r == chosen[0]; });
+  *unknowns = rungs[same ? chosen[0] : kRungs - 1].solution;
+  unknowns->models = ChosenDistortionModels(*result);
+}
+
 // Camera c's calibration, fit and uncertainties as the report gives them.
 void DescribeCamera(std::size_t c, const std::vector<CameraViews>& cameras, const CameraCalibrationOptions& options,
                     const Unknowns& unknowns, const std::vector<Observation>& observations, const Usable& usable,
@@ -488,6 +620,12 @@ void DescribeCamera(std::size_t c, const std::vector<CameraViews>& cameras, cons
   formats::CameraCalibration& cal = out.calibration;
   cal.intrinsics.uncertainty = {k_std[0], k_std[1], k_std[2], k_std[3]};
   cal.distortion.uncertainty = {k_std[4], k_std[5], k_std[6], k_std[7], k_std[8]};
+  for (int term = 0; term < TermCount(out.distortion_model); ++term) {
+    const auto i = static_cast<std::size_t>(4 + term);
+    if (k_std[static_cast<int>(i)] > std::abs(unknowns.intrinsics[c][i])) {
+      out.undetermined_terms.push_back(kIntrinsicNames[i]);
+    }
+  }
   out.projection_uncertainty_px =
       ProjectionSigma(unknowns, c, variance * covariance.joint, on_turntable, out.working_distance_mm);
   for (const int f : {0, 1}) {
@@ -576,6 +714,7 @@ CameraCalibrationResult CalibrateCameras(const CalibrationBoard& board, const st
   BoardProblem(&unknowns, observations, options.huber_px, corner_radius).Solve();
   const std::vector<double> squared = SetAsideOutlierCorners(board, options, unknowns, &observations, &result);
   SetAsideOutlierPhotos(cameras, options, squared, &observations, &usable, &result);
+  ChooseDistortionModels(cameras, options, observations, corner_radius, &unknowns, &result);
   const InlierSolution solution = SolveOnInliers(&unknowns, observations, corner_radius, &result);
   for (std::size_t c = 0; c < cameras.size(); ++c) {
     DescribeCamera(c, cameras, options, unknowns, observations, usable, solution, motion != nullptr, &result);

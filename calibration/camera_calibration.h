@@ -16,6 +16,20 @@
 // Conditioning: with every view nearly fronto-parallel the focal length and
 // the board's distance trade off, J^T J is near singular and the focal
 // length's sigma grows; a warning says so rather than a confident value.
+//
+// Only the distortion terms the photos determine are estimated. Each camera
+// has a ladder of models: none, k1, k1 k2, k1 k2 p1 p2 k3 (the terms a model
+// leaves out are held at zero). Every rung is solved; the camera starts at
+// the richest and steps down from rung r + 1 to rung r while both hold:
+//  - the fit does not need the terms r + 1 adds: rung r's AIC (Akaike's
+//    criterion with the noise known, RSS / sigma^2 + 2 k: RSS the camera's
+//    sum of squared corner residuals, k its distortion terms, sigma^2 the
+//    richest rung's residual variance) is not above rung r + 1's, or every
+//    added term is undetermined there (its sigma above its magnitude);
+//  - leaving them out moves none of fx, fy, cx, cy by more than its sigma
+//    under rung r + 1: a decentering term (p1 p2) that barely changes the
+//    fit may still hold the principal point, and leaving it out would make
+//    a confident wrong one.
 #pragma once
 
 #include <Eigen/Core>
@@ -31,6 +45,15 @@
 #include "formats/calibration.h"
 
 namespace mesocap::calibration {
+
+// The distortion terms a model estimates, fewest first; the others are zero.
+enum class DistortionModel { kNone, kK1, kK1K2, kFull };
+inline constexpr DistortionModel kDistortionLadder[] = {DistortionModel::kNone, DistortionModel::kK1,
+                                                        DistortionModel::kK1K2, DistortionModel::kFull};
+// "none", "k1", "k1 k2", "k1 k2 p1 p2 k3"
+const char* ToString(DistortionModel model);
+// 0, 1, 2, 5: the model estimates OpenCV's first TermCount of k1 k2 p1 p2 k3.
+int TermCount(DistortionModel model);
 
 struct CameraCalibrationOptions {
   // A view needs this many corners to be used (6 is the least Zhang's
@@ -54,6 +77,9 @@ struct CameraCalibrationOptions {
   double max_outlier_fraction = 0.3;
   // A relative focal-length sigma above this gets a warning (poorly observed).
   double warn_relative_focal_sigma = 0.005;
+  // Empty: each camera's model chosen by the ladder (above). One: that
+  // model for every camera; else one per camera.
+  std::vector<DistortionModel> distortion_models;
   core::CheckResult Check() const;
 };
 
@@ -95,6 +121,13 @@ struct SetAsideImage {
   std::string reason;
 };
 
+// One rung of a camera's distortion ladder, on the same inlier corners.
+struct DistortionRung {
+  DistortionModel model = DistortionModel::kFull;
+  double rms_px = 0;
+  double aic = 0;
+};
+
 struct CalibratedCamera {
   formats::CameraCalibration calibration;  // pose: reference <- camera, uncertainties filled
   int images_used = 0;
@@ -108,6 +141,10 @@ struct CalibratedCamera {
   // from the intrinsics' covariance (largest axis of the 2D ellipse).
   double projection_uncertainty_px = 0;
   double working_distance_mm = 0;  // median distance of the board's corners
+  DistortionModel distortion_model = DistortionModel::kFull;
+  std::vector<DistortionRung> distortion_ladder;  // fewest terms first; empty: the model was given
+  // Estimated terms whose sigma exceeds their magnitude ("k1", "p2", ...).
+  std::vector<std::string> undetermined_terms;
 };
 
 // Camera `to` relative to camera `from`: from <- to.
@@ -136,6 +173,10 @@ struct CameraCalibrationResult {
 CameraCalibrationResult CalibrateCameras(const CalibrationBoard& board, const std::vector<CameraViews>& cameras,
                                          const CameraCalibrationOptions& options,
                                          const TurntableMotion* motion = nullptr);
+
+// Each camera's distortion model, in order: what cross-validation's halves
+// are calibrated with (CameraCalibrationOptions::distortion_models).
+std::vector<DistortionModel> ChosenDistortionModels(const CameraCalibrationResult& result);
 
 // The pixel where a camera-frame point projects through the OpenCV model.
 Eigen::Vector2d ProjectInCamera(const formats::CameraCalibration& camera, const Eigen::Vector3d& point);

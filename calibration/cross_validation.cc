@@ -29,11 +29,14 @@ std::vector<CameraViews> Half(const std::vector<CameraViews>& cameras, std::size
 std::optional<std::vector<CrossValidationDifference>> CrossValidate(const CalibrationBoard& board,
                                                                     const std::vector<CameraViews>& cameras,
                                                                     const CameraCalibrationOptions& options,
+                                                                    const CameraCalibrationResult& calibrated,
                                                                     std::string* why, const TurntableMotion* motion) {
+  CameraCalibrationOptions fixed = options;
+  fixed.distortion_models = ChosenDistortionModels(calibrated);
   CameraCalibrationResult halves[2];
   for (std::size_t parity = 0; parity < 2; ++parity) {
     try {
-      halves[parity] = CalibrateCameras(board, Half(cameras, parity), options, motion);
+      halves[parity] = CalibrateCameras(board, Half(cameras, parity), fixed, motion);
     } catch (const core::Error& e) {
       if (why) *why = std::string(parity == 0 ? "first" : "second") + " half: " + e.what();
       return std::nullopt;

@@ -30,11 +30,11 @@ struct CrossValidationDifference {
 };
 
 // One entry per camera, or nullopt (with `why` set) when a half has too few
-// photos to calibrate on its own.
-std::optional<std::vector<CrossValidationDifference>> CrossValidate(const CalibrationBoard& board,
-                                                                    const std::vector<CameraViews>& cameras,
-                                                                    const CameraCalibrationOptions& options,
-                                                                    std::string* why,
-                                                                    const TurntableMotion* motion = nullptr);
+// photos to calibrate on its own. The halves keep the distortion models
+// `calibrated` (the whole set's calibration) chose: the figure is that
+// calibration's, and no half climbs the ladder again.
+std::optional<std::vector<CrossValidationDifference>> CrossValidate(
+    const CalibrationBoard& board, const std::vector<CameraViews>& cameras, const CameraCalibrationOptions& options,
+    const CameraCalibrationResult& calibrated, std::string* why, const TurntableMotion* motion = nullptr);
 
 }  // namespace mesocap::calibration

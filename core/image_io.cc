@@ -21,15 +21,17 @@ namespace mesocap::core {
 namespace fs = std::filesystem;
 namespace {
 
-enum class Container { kExr, kPng, kTiff };
+enum class Container { kExr, kJpeg, kPng, kTiff };
 
 Container ContainerOf(const fs::path& file) {
   std::string ext = file.extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
   if (ext == ".exr") return Container::kExr;
+  if (ext == ".jpg" || ext == ".jpeg") return Container::kJpeg;
   if (ext == ".png") return Container::kPng;
   if (ext == ".tif" || ext == ".tiff") return Container::kTiff;
-  throw Error(file.string() + ": unsupported image extension " + Quoted(ext) + "; expected .exr, .png, .tif or .tiff");
+  throw Error(file.string() + ": unsupported image extension " + Quoted(ext) +
+              "; expected .exr, .jpg, .jpeg, .png, .tif or .tiff");
 }
 
 OIIO::TypeDesc TypeOf(PixelEncoding e) {
@@ -58,6 +60,8 @@ bool Supports(Container c, PixelEncoding e) {
   switch (c) {
     case Container::kExr:
       return e == PixelEncoding::kFloat32 || e == PixelEncoding::kHalf;
+    case Container::kJpeg:
+      return e == PixelEncoding::kUInt8;
     case Container::kPng:
       return e == PixelEncoding::kUInt8 || e == PixelEncoding::kUInt16;
     case Container::kTiff:
@@ -94,7 +98,20 @@ std::unique_ptr<OIIO::ImageInput> OpenInput(const fs::path& file) {
   return in;
 }
 
+// The EXIF orientation (1: rows top to bottom, columns left to right, as
+// stored; 2 to 8: mirrored and/or turned by 90-degree steps, as phones and
+// cameras write a photo taken upright or on its side).
+int OrientationOf(const fs::path& file, const OIIO::ImageSpec& spec) {
+  const int orientation = spec.get_int_attribute("Orientation", 1);
+  if (orientation < 1 || orientation > 8) {
+    throw FormatError(file, "Orientation", "expected an EXIF orientation 1 to 8, got " + std::to_string(orientation));
+  }
+  return orientation;
+}
+
+// The size as displayed: orientations 5 to 8 turn the stored image by 90 degrees.
 ImageHeader HeaderOf(const fs::path& file, const OIIO::ImageSpec& spec) {
+  const bool turned = OrientationOf(file, spec) >= 5;
   if (spec.width <= 0 || spec.height <= 0 || spec.depth != 1) {
     throw FormatError(
         file, "size",
@@ -103,7 +120,8 @@ ImageHeader HeaderOf(const fs::path& file, const OIIO::ImageSpec& spec) {
   if (spec.nchannels < 1 || spec.nchannels > 4) {
     throw FormatError(file, "channels", "expected 1 to 4, got " + std::to_string(spec.nchannels));
   }
-  return {spec.width, spec.height, spec.nchannels, EncodingOf(file, spec.format)};
+  return {turned ? spec.height : spec.width, turned ? spec.width : spec.height, spec.nchannels,
+          EncodingOf(file, spec.format)};
 }
 
 void ExpectDimension(const fs::path& file, const char* field, int expected, int actual) {
@@ -147,10 +165,25 @@ Image ReadImage(const fs::path& file, const ImageReadOptions& options) {
                           std::to_string(header.channels) + " values exceed the limit of " +
                           std::to_string(options.max_values));
   }
-  Image image(header.width, header.height, header.channels);
-  const bool ok = in->read_image(0, 0, 0, header.channels, OIIO::TypeDesc::FLOAT, image.data());
+  const OIIO::ImageSpec& spec = in->spec();
+  Image stored(spec.width, spec.height, header.channels);
+  const bool ok = in->read_image(0, 0, 0, header.channels, OIIO::TypeDesc::FLOAT, stored.data());
   if (!ok || in->has_error()) ThrowReadFailure(file, *in);
+  const int orientation = OrientationOf(file, spec);
   in->close();
+  if (orientation == 1) return stored;
+  // Turned and mirrored as the EXIF orientation says, by the image library.
+  OIIO::ImageBuf source(OIIO::ImageSpec(stored.width(), stored.height(), stored.channels(), OIIO::TypeDesc::FLOAT),
+                        stored.data());
+  source.specmod().attribute("Orientation", orientation);
+  const OIIO::ImageBuf upright = OIIO::ImageBufAlgo::reorient(source);
+  Image image(header.width, header.height, header.channels);
+  if (upright.has_error() || upright.spec().width != header.width || upright.spec().height != header.height ||
+      !upright.get_pixels(upright.roi(), OIIO::TypeDesc::FLOAT, image.data())) {
+    throw FormatError(file, "Orientation",
+                      "cannot apply EXIF orientation " + std::to_string(orientation) + ": " +
+                          ImageLibraryMessage(upright.geterror()));
+  }
   return image;
 }
 
@@ -162,6 +195,12 @@ ImageRowReader::ImageRowReader(const fs::path& file, const ImageReadOptions& exp
     : file_(file), input_(std::make_unique<Input>()) {
   input_->in = OpenInput(file);
   header_ = ExpectedHeader(file, *input_->in, expected);
+  // Rows are read as stored: a turned or mirrored image would need all of it.
+  if (const int orientation = OrientationOf(file, input_->in->spec()); orientation != 1) {
+    throw FormatError(
+        file, "Orientation",
+        "expected 1 (rows as stored) for a read by rows, got EXIF orientation " + std::to_string(orientation));
+  }
 }
 
 ImageRowReader::~ImageRowReader() = default;

@@ -1,6 +1,8 @@
 // Reading and writing images through OpenImageIO: OpenEXR (half or float),
-// PNG (8 or 16 bit), TIFF (8, 16 bit or float). Writes are atomic; reads name
-// the file and the property they reject.
+// JPEG (8 bit, baseline or progressive), PNG (8 or 16 bit), TIFF (8, 16 bit
+// or float). Writes are atomic; reads name the file and the property they
+// reject. Reads honour the EXIF orientation a camera writes (the image comes
+// back upright, its size as displayed), except by rows, which refuse it.
 #pragma once
 
 #include <cstddef>
@@ -15,7 +17,7 @@ namespace mesocap::core {
 
 // How pixel values are stored in the file. Integer encodings map [0, 1] to
 // the full code range (values outside are clamped); the container is chosen
-// by the file extension (.exr, .png, .tif/.tiff).
+// by the file extension (.exr, .jpg/.jpeg, .png, .tif/.tiff).
 enum class PixelEncoding { kFloat32, kHalf, kUInt8, kUInt16 };
 
 struct ImageHeader {
@@ -37,7 +39,8 @@ struct ImageReadOptions {
 
 ImageHeader ReadImageHeader(const std::filesystem::path& file);
 Image ReadImage(const std::filesystem::path& file, const ImageReadOptions& options = {});
-// Throws Error when the container cannot store `encoding` (PNG float, EXR 8-bit).
+// Throws Error when the container cannot store `encoding` (PNG float, EXR
+// 8-bit, JPEG anything but 8-bit).
 void WriteImage(const std::filesystem::path& file, const Image& image,
                 PixelEncoding encoding = PixelEncoding::kFloat32);
 

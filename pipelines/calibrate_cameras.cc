@@ -126,8 +126,8 @@ calibration::CalibrationReport RunCalibrateCameras(const CalibrateCamerasOptions
   report.board = board.Spec();
   report.cameras = calibration::CalibrateCameras(board, cameras, options.calibration);
   if (options.cross_validate) {
-    report.cross_validation =
-        calibration::CrossValidate(board, cameras, options.calibration, &report.cross_validation_skipped);
+    report.cross_validation = calibration::CrossValidate(board, cameras, options.calibration, report.cameras,
+                                                         &report.cross_validation_skipped);
   } else {
     report.cross_validation_skipped = "not asked for";
   }

@@ -236,8 +236,8 @@ calibration::CalibrationReport CalibrateCamerasAndTurntable(const calibration::C
   report.board = board.Spec();
   report.cameras = calibration::CalibrateCameras(board, cameras, options.calibration, &motion);
   if (options.cross_validate) {
-    report.cross_validation =
-        calibration::CrossValidate(board, cameras, options.calibration, &report.cross_validation_skipped, &motion);
+    report.cross_validation = calibration::CrossValidate(board, cameras, options.calibration, report.cameras,
+                                                         &report.cross_validation_skipped, &motion);
   } else {
     report.cross_validation_skipped = "not asked for";
   }

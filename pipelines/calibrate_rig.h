@@ -37,7 +37,11 @@ struct CalibrateRigOptions {
   std::filesystem::path out;  // calibration.json
   bool replace = false;
   bool cross_validate = true;
-  calibration::CameraCalibrationOptions calibration;
+  // Every distortion term by default: on the simulated rigs the full model
+  // takes up a systematic error of the board's corners that the ladder's
+  // simpler models leave to the laser mounts' and the MDF's fits (`--distortion
+  // auto` chooses as `calibrate camera` does).
+  calibration::CameraCalibrationOptions calibration = {.distortion_models = {calibration::DistortionModel::kFull}};
   // Its limits on the fit's sigmas (the sphere's size and place come from
   // the session's rig).
   calibration::LightArcOptions light_arc;

@@ -7,6 +7,9 @@
 #include <spdlog/spdlog.h>
 
 #include <cstdio>
+#include <map>
+#include <string>
+#include <vector>
 
 #include "apps/mesocap/command.h"
 #include "pipelines/calibrate_cameras.h"
@@ -22,6 +25,28 @@ void PrintReport(const calibration::CalibrationReport& report, bool json) {
   } else {
     std::printf("%s", calibration::FormatCalibrationReport(report).c_str());
   }
+}
+
+// --distortion: the ladder's choice (auto) or one model for every camera.
+void AddDistortionOption(CLI::App* command, std::vector<calibration::DistortionModel>* models,
+                         const std::string& default_name) {
+  command
+      ->add_option_function<std::string>(
+          "--distortion",
+          [models](const std::string& name) {
+            using calibration::DistortionModel;
+            const std::map<std::string, DistortionModel> by_name = {{"none", DistortionModel::kNone},
+                                                                    {"k1", DistortionModel::kK1},
+                                                                    {"k1k2", DistortionModel::kK1K2},
+                                                                    {"full", DistortionModel::kFull}};
+            models->clear();
+            if (name != "auto") models->push_back(by_name.at(name));
+          },
+          "distortion terms to estimate: auto (each camera the fewest its photos determine, from none, k1, k1 k2 "
+          "and k1 k2 p1 p2 k3; the rule in docs/FORMATS.md, \"Calibration report\"), or none, k1, k1k2, full for "
+          "every camera; terms left out are written as 0")
+      ->check(CLI::IsMember({"auto", "none", "k1", "k1k2", "full"}))
+      ->default_str(default_name);
 }
 
 }  // namespace
@@ -57,6 +82,7 @@ void RegisterCalibrateCommand(CLI::App& app) {
   group->add_option("--max-mount-axis-sigma-deg", rig->laser_mounts.max_axis_sigma_deg,
                     "keep the rig description's laser mounts when the plates' fit leaves any mount's tilt axis more "
                     "uncertain than this, degrees at one sigma (default 1)");
+  AddDistortionOption(group, &rig->calibration.distortion_models, "full");
   group->callback([group, rig, rig_json] {
     if (!group->get_subcommands().empty()) return;
     if (rig->session.empty() || rig->out.empty()) {
@@ -72,12 +98,16 @@ void RegisterCalibrateCommand(CLI::App& app) {
       "camera",
       "Calibrate one camera, or several jointly with their relative poses, from folders of photos of a "
       "board (files with the same name in different folders were taken at the same instant)\n\n"
-      "Corners to sub-pixel (OpenCV), Zhang's start, one Ceres problem over all cameras (k1 k2 p1 p2 k3); "
+      "Corners to sub-pixel (OpenCV), Zhang's start, one Ceres problem over all cameras with the distortion terms the "
+      "photos determine (--distortion); "
       "blurred, saturated and badly fitting photos are set aside and named. Every parameter comes with one "
       "sigma, with the projection uncertainty and a cross-validation on halves of the photos. Writes a "
       "calibration whose world is the first camera; prints a table, or one JSON object with --json "
       "(docs/FORMATS.md, \"Calibration report\").");
-  sub->add_option("--images", o->image_folders, "folder of one camera's photos (JPEG, PNG, TIFF); repeat per camera")
+  sub->add_option("--images", o->image_folders,
+                  "folder of one camera's photos, all of one size: .jpg/.jpeg (baseline or progressive), .png, "
+                  ".tif/.tiff, 8 or 16 bits, grey or colour, turned upright as their EXIF orientation says; repeat "
+                  "per camera")
       ->required();
   sub->add_option("--board", o->board,
                   "the board: chessboard:COLSxROWS:SQUARE_MM (inner corners) or "
@@ -90,6 +120,7 @@ void RegisterCalibrateCommand(CLI::App& app) {
                   "refuse the board when the photos' reprojection RMS exceeds this")
       ->check(InRange(1e-3, 100))
       ->capture_default_str();
+  AddDistortionOption(sub, &o->calibration.distortion_models, "auto");
   sub->callback([o, json] {
     PrintReport(pipelines::RunCalibrateCameras(*o), *json);
     spdlog::info("wrote {}", o->out.string());

@@ -1,6 +1,8 @@
 // `mesocap calibrate camera` as a user runs it: folders of PNG photos of a
 // ChArUco board from two cameras with known intrinsics and relative pose
 // (rendered with exact truth, tests/common/board_photos.h), and bad input.
+#include <OpenImageIO/imagebuf.h>
+#include <OpenImageIO/imagebufalgo.h>
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
@@ -66,6 +68,7 @@ TEST_F(CalibrateCameraCli, TwoCamerasJointlyWithTheirRelativePose) {
   const nlohmann::json report = nlohmann::json::parse(r.out);
   ASSERT_EQ(report["cameras"].size(), 2u);
   const formats::CameraCalibration truth[2] = {testing::TestCamera("left"), SecondCamera()};
+  int chosen_rungs = 0;
   for (int c = 0; c < 2; ++c) {
     const nlohmann::json& camera = report["cameras"][static_cast<std::size_t>(c)];
     EXPECT_EQ(camera["id"], c == 0 ? "left" : "right");
@@ -80,11 +83,32 @@ TEST_F(CalibrateCameraCli, TwoCamerasJointlyWithTheirRelativePose) {
       EXPECT_LT(sigma, 2.0) << name;
     }
     EXPECT_NEAR(camera["k1"].get<double>(), truth[c].distortion.k1, 4 * camera["std"]["k1"].get<double>() + 1e-4);
+    // The distortion terms as the ladder chose them: those left out are 0
+    // with sigma 0; an estimated one whose sigma exceeds it is listed.
+    int terms = 0;
+    for (const nlohmann::json& rung : camera["distortion_ladder"]) {
+      if (rung["chosen"].get<bool>()) terms = rung["terms"].get<int>(), ++chosen_rungs;
+    }
+    const char* distortion_names[5] = {"k1", "k2", "p1", "p2", "k3"};
+    for (int i = 0; i < 5; ++i) {
+      const double value = camera[distortion_names[i]].get<double>();
+      const double sigma = camera["std"][distortion_names[i]].get<double>();
+      const nlohmann::json& undetermined = camera["undetermined_terms"];
+      const bool listed =
+          std::find(undetermined.begin(), undetermined.end(), distortion_names[i]) != undetermined.end();
+      if (i >= terms) {
+        EXPECT_EQ(value, 0.0) << distortion_names[i];
+        EXPECT_EQ(sigma, 0.0) << distortion_names[i];
+      } else {
+        EXPECT_EQ(listed, sigma > std::abs(value)) << distortion_names[i];
+      }
+    }
     EXPECT_GT(camera["projection_uncertainty_px"].get<double>(), 0);
     EXPECT_LT(camera["projection_uncertainty_px"].get<double>(), 2.0);
     EXPECT_TRUE(camera["cross_validation_px"].is_number());
     EXPECT_LT(camera["cross_validation_px"].get<double>(), 3.0);
   }
+  EXPECT_EQ(chosen_rungs, 2) << "one model chosen per camera";
   ASSERT_EQ(report["relative_poses"].size(), 1u);
   const nlohmann::json& pose = report["relative_poses"][0];
   EXPECT_EQ(pose["from"], "left");
@@ -101,6 +125,42 @@ TEST_F(CalibrateCameraCli, TwoCamerasJointlyWithTheirRelativePose) {
   EXPECT_TRUE(written.cameras[0].intrinsics.uncertainty.fx.has_value());
   EXPECT_TRUE(written.cameras[1].pose.uncertainty.translation_mm.has_value());
   EXPECT_NEAR(written.cameras[1].pose.transform.translation.x(), 100.0, 1.0);
+}
+
+// The left camera's photos as a camera writes them: 8-bit JPEG, some
+// progressive, and some taken with the camera on its side (stored turned by
+// 90 degrees, EXIF orientation 6 says to turn them back). Read upright, they
+// give the camera's intrinsics within 4 sigma.
+TEST_F(CalibrateCameraCli, JpegPhotosWithExifOrientationAreCalibrated) {
+  TemporaryDirectory scratch;
+  std::filesystem::create_directories(scratch / "jpeg");
+  int index = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(Folder(0))) {
+    const core::Image photo = core::ReadImage(entry.path());
+    OIIO::ImageBuf upright(OIIO::ImageSpec(photo.width(), photo.height(), photo.channels(), OIIO::TypeDesc::FLOAT),
+                           const_cast<float*>(photo.data()));
+    const bool on_its_side = index % 3 == 0;
+    // EXIF 6 displays the stored image turned 90 degrees clockwise: store it turned counter-clockwise.
+    OIIO::ImageBuf stored = on_its_side ? OIIO::ImageBufAlgo::rotate270(upright) : upright;
+    stored.specmod().attribute("Orientation", on_its_side ? 6 : 1);
+    stored.specmod().attribute("jpeg:progressive", index % 2);
+    stored.specmod().attribute("Compression", "jpeg:95");
+    const std::filesystem::path file = scratch / "jpeg" / entry.path().filename().replace_extension(".jpg");
+    ASSERT_TRUE(stored.write(file.string(), OIIO::TypeDesc::UINT8)) << stored.geterror();
+    ++index;
+  }
+  const auto r = Mesocap("calibrate camera --images " + (scratch / "jpeg").string() + " --board " + kBoard + " --out " +
+                         (scratch / "c.json").string() + " --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json camera = nlohmann::json::parse(r.out)["cameras"][0];
+  const formats::CameraCalibration truth = testing::TestCamera("left");
+  EXPECT_EQ(camera["images_used"], 12);
+  EXPECT_EQ(camera["width"], 640);
+  const double expected[4] = {truth.intrinsics.fx, truth.intrinsics.fy, truth.intrinsics.cx, truth.intrinsics.cy};
+  const char* names[4] = {"fx", "fy", "cx", "cy"};
+  for (int i = 0; i < 4; ++i) {
+    EXPECT_NEAR(camera[names[i]].get<double>(), expected[i], 4 * camera["std"][names[i]].get<double>()) << names[i];
+  }
 }
 
 TEST_F(CalibrateCameraCli, PrintsATableWithoutJson) {
@@ -132,6 +192,8 @@ TEST_F(CalibrateCameraCli, BadInputNamesTheFileOrFlagAndWritesNothing) {
       {"--images " + (scratch / "missing").string() + " --board " + kBoard, "not a folder"},
       {"--images " + (scratch / "broken").string() + " --board " + kBoard, "shot99.png"},
       {"--images " + (scratch / "mixed").string() + " --board " + kBoard, "differs from the folder's first photo"},
+      {"--images " + (scratch / "mixed").string() + " --board " + kBoard, "shot99.png: field 'size': 320x240"},
+      {"--images " + (scratch / "mixed").string() + " --board " + kBoard, "shot10.png"},
       {"--images " + Folder(0).string() + " --board charuco:8x6:20", "expected chessboard:COLSxROWS:SQUARE_MM"},
       {"--images " + Folder(0).string() + " --board charuco:8y6:20:15:DICT_5X5_100", "is not COLSxROWS"},
       {"--images " + Folder(0).string() + " --board charuco:8x6:20:25:DICT_5X5_100", "smaller than the square"},

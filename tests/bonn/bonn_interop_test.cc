@@ -51,11 +51,12 @@ void ExpectFloatRoundTrip(const std::filesystem::path& path, const BonnBtfFile& 
                 truth, [&](int v) { return btf::ReconstructBtfView(back, v); }, bound),
             1.0)
       << path;
-  if (bonn_view)
+  if (bonn_view) {
     EXPECT_LE(WorstRatio(
                   truth, [&](int v) { return BonnBtfView(read, v); }, bound),
               1.0)
         << path;
+  }
 }
 
 TEST(BonnInterop, DfmfRoundTripFromPerTexelFactors) {

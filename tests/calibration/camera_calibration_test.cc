@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include "calibration/calibration_report.h"
+
 #include <map>
 
 #include <opencv2/imgproc.hpp>
@@ -88,6 +90,29 @@ TEST(CameraCalibrationHardCases, ThreePhotosOnly) {
   std::printf("three photos: fx sigma %.2f px\n", *result.cameras[0].calibration.intrinsics.uncertainty.fx);
 }
 
+// The ladder's rule as camera_calibration.h states it, on one camera's figures.
+void ExpectLeastBicChosenAndTheRestZero(const CalibratedCamera& camera) {
+  ASSERT_EQ(camera.distortion_ladder.size(), 4u);
+  const DistortionRung* least = &camera.distortion_ladder[0];
+  for (std::size_t r = 0; r < 4; ++r) {
+    const DistortionRung& rung = camera.distortion_ladder[r];
+    EXPECT_EQ(rung.model, kDistortionLadder[r]);
+    if (r > 0) {
+      EXPECT_LE(rung.rms_px, camera.distortion_ladder[r - 1].rms_px * (1 + 1e-6)) << "nested models";
+    }
+    if (rung.aic < least->aic) least = &rung;
+  }
+  EXPECT_EQ(camera.distortion_model, least->model);
+  const formats::Distortion& d = camera.calibration.distortion;
+  const double values[5] = {d.k1, d.k2, d.p1, d.p2, d.k3};
+  const std::optional<double> sigmas[5] = {d.uncertainty.k1, d.uncertainty.k2, d.uncertainty.p1, d.uncertainty.p2,
+                                           d.uncertainty.k3};
+  for (int i = TermCount(camera.distortion_model); i < 5; ++i) {
+    EXPECT_EQ(values[i], 0.0) << "term " << i << " left out";
+    EXPECT_EQ(sigmas[i].value_or(-1), 0.0) << "term " << i << " left out";
+  }
+}
+
 TEST(CameraCalibrationHardCases, StrongBarrelDistortion) {
   const BoardPrint print(kCharuco);
   formats::CameraCalibration truth = testing::TestCamera("cam0", -0.3);
@@ -98,6 +123,88 @@ TEST(CameraCalibrationHardCases, StrongBarrelDistortion) {
   const CameraCalibrationResult result = CalibrateCameras(kCharuco, {views}, {});
   ExpectWithinSigmas(result.cameras[0].calibration, truth, 4);
   EXPECT_LT(result.cameras[0].rms_px, 1.2 * floor.rms_px);
+  // k1 alone leaves k2's 2 px at the image's corner: the ladder goes higher.
+  const DistortionModel model = result.cameras[0].distortion_model;
+  std::printf("strong barrel: model %s\n", ToString(model));
+  ExpectLeastBicChosenAndTheRestZero(result.cameras[0]);
+  EXPECT_TRUE(model == DistortionModel::kK1K2 || model == DistortionModel::kFull) << ToString(model);
+  EXPECT_NEAR(result.cameras[0].calibration.distortion.k2, truth.distortion.k2,
+              4 * *result.cameras[0].calibration.distortion.uncertainty.k2);
+}
+
+// A lens without distortion: the ladder estimates no term the photos cannot
+// tell from zero, and the pinhole stays within its sigmas.
+TEST(CameraCalibrationHardCases, ADistortionFreeLensGetsNoneOrK1) {
+  const BoardPrint print(kCharuco);
+  formats::CameraCalibration truth = testing::TestCamera("cam0", 0.0);
+  truth.distortion = {};
+  const CameraViews views = testing::Photograph(print, truth, testing::BoardPoses(kCharuco, 12, 400, 0.6, 6), 600);
+  const CameraCalibrationResult result = CalibrateCameras(kCharuco, {views}, {});
+  const CalibratedCamera& camera = result.cameras[0];
+  std::printf("distortion-free: model %s, AIC", ToString(camera.distortion_model));
+  for (const DistortionRung& rung : camera.distortion_ladder) std::printf(" %.1f", rung.aic);
+  std::printf("\n");
+  EXPECT_TRUE(camera.distortion_model == DistortionModel::kNone || camera.distortion_model == DistortionModel::kK1)
+      << ToString(camera.distortion_model);
+  ExpectLeastBicChosenAndTheRestZero(camera);
+  const formats::Intrinsics& k = camera.calibration.intrinsics;
+  EXPECT_NEAR(k.fx, truth.intrinsics.fx, 4 * *k.uncertainty.fx);
+  EXPECT_NEAR(k.cx, truth.intrinsics.cx, 4 * *k.uncertainty.cx);
+  EXPECT_NEAR(camera.calibration.distortion.k1, 0.0, 4 * camera.calibration.distortion.uncertainty.k1.value_or(0));
+}
+
+// The report prints a term whose sigma exceeds it as undetermined, never as
+// a value; a term the model leaves out as fixed.
+TEST(CalibrationReport, AnUndeterminedTermIsNotPrintedAsAnEstimate) {
+  CalibrationReport report;
+  report.board = "charuco:5x4:8:6:DICT_4X4_50";
+  CalibratedCamera camera;
+  camera.calibration.id = "cam0";
+  camera.calibration.intrinsics.fx = 714.0;
+  camera.calibration.intrinsics.uncertainty.fx = 18.0;
+  camera.calibration.distortion.k1 = -0.4201;
+  camera.calibration.distortion.k2 = 30.3002;
+  camera.calibration.distortion.uncertainty = {0.13, 70.8, 0.0, 0.0, 0.0};
+  camera.distortion_model = DistortionModel::kK1K2;
+  camera.undetermined_terms = {"k2"};
+  for (const DistortionModel model : kDistortionLadder) camera.distortion_ladder.push_back({model, 0.15, 700.0});
+  report.cameras.cameras.push_back(camera);
+  const std::string table = FormatCalibrationReport(report);
+  EXPECT_EQ(table.find("30.3"), std::string::npos) << table;
+  EXPECT_NE(table.find("undet."), std::string::npos) << table;
+  EXPECT_NE(table.find("k2 undetermined"), std::string::npos) << table;
+  EXPECT_NE(table.find("-0.4201"), std::string::npos) << table;
+  EXPECT_NE(table.find("cam0 distortion: k1 k2 (ladder:"), std::string::npos) << table;
+  const nlohmann::json json = ToJson(report)["cameras"][0];
+  EXPECT_EQ(json["distortion_model"], "k1 k2");
+  EXPECT_EQ(json["undetermined_terms"], nlohmann::json::array({"k2"}));
+  ASSERT_EQ(json["distortion_ladder"].size(), 4u);
+  EXPECT_TRUE(json["distortion_ladder"][2]["chosen"].get<bool>());
+  EXPECT_FALSE(json["distortion_ladder"][3]["chosen"].get<bool>());
+
+  report.cameras.cameras[0].distortion_model = DistortionModel::kK1;
+  report.cameras.cameras[0].undetermined_terms.clear();
+  EXPECT_NE(FormatCalibrationReport(report).find("0 (fixed)"), std::string::npos);
+}
+
+// A model given, not chosen: the terms it leaves out are zero, not estimated.
+TEST(CameraCalibration, AGivenDistortionModelHoldsTheOtherTermsAtZero) {
+  const BoardPrint print(kCharuco);
+  formats::CameraCalibration truth = testing::TestCamera("cam0", -0.1);
+  truth.distortion = {};
+  truth.distortion.k1 = -0.1;
+  const CameraViews views = testing::Photograph(print, truth, testing::BoardPoses(kCharuco, 8, 400, 0.6, 7), 700);
+  CameraCalibrationOptions options;
+  options.distortion_models = {DistortionModel::kK1};
+  const CalibratedCamera camera = CalibrateCameras(kCharuco, {views}, options).cameras[0];
+  EXPECT_EQ(camera.distortion_model, DistortionModel::kK1);
+  EXPECT_TRUE(camera.distortion_ladder.empty());
+  const formats::Distortion& d = camera.calibration.distortion;
+  EXPECT_NEAR(d.k1, -0.1, 4 * *d.uncertainty.k1);
+  EXPECT_GT(*d.uncertainty.k1, 0.0);
+  for (const double v : {d.k2, d.p1, d.p2, d.k3}) EXPECT_EQ(v, 0.0);
+  EXPECT_EQ(*d.uncertainty.k2, 0.0);
+  EXPECT_EQ(*d.uncertainty.k3, 0.0);
 }
 
 // A ChArUco board half hidden (an object over it) in every other photo: the

@@ -1,3 +1,4 @@
+#include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -41,6 +42,11 @@ struct Case {
   float tolerance;
 };
 
+std::string CaseName(const ::testing::TestParamInfo<std::tuple<Case, int>>& info) {
+  const Case& c = std::get<0>(info.param);
+  return std::string(c.ext + 1) + "_" + ToString(c.encoding) + "_" + std::to_string(std::get<1>(info.param)) + "ch";
+}
+
 class ImageRoundTrip : public ::testing::TestWithParam<std::tuple<Case, int>> {};
 
 TEST_P(ImageRoundTrip, ValuesSurviveWithinQuantization) {
@@ -66,10 +72,13 @@ INSTANTIATE_TEST_SUITE_P(
                                          Case{".tif", PixelEncoding::kFloat32, 0.0f},
                                          Case{".tiff", PixelEncoding::kUInt16, 0.5f / 65535 + 1e-7f}),
                        ::testing::Values(1, 3, 4)),
-    [](const auto& info) {
-      const Case& c = std::get<0>(info.param);
-      return std::string(c.ext + 1) + "_" + ToString(c.encoding) + "_" + std::to_string(std::get<1>(info.param)) + "ch";
-    });
+    CaseName);
+// JPEG holds grey or colour, 8 bits, lossy (colour subsampled): within 5 codes.
+INSTANTIATE_TEST_SUITE_P(Jpeg, ImageRoundTrip,
+                         ::testing::Combine(::testing::Values(Case{".jpg", PixelEncoding::kUInt8, 5.0f / 255},
+                                                              Case{".jpeg", PixelEncoding::kUInt8, 5.0f / 255}),
+                                            ::testing::Values(1, 3)),
+                         CaseName);
 
 TEST(ImageIo, FloatExrKeepsInfinityAndNan) {
   // The MDF's "no hit" (+inf) and "unknown" (NaN) codes must survive storage.
@@ -187,6 +196,56 @@ TEST(ImageIo, OverwriteIsAtomicAndKeepsOldFileOnFailure) {
   int files = 0;
   for ([[maybe_unused]] const auto& e : std::filesystem::directory_iterator(dir.path())) ++files;
   EXPECT_EQ(files, 1) << "temporary files left behind";
+}
+
+// A JPEG written by the image library itself, with the attributes a camera
+// sets (progressive coding, EXIF orientation).
+void WriteJpeg(const std::filesystem::path& file, const Image& image, int orientation, bool progressive) {
+  auto out = OIIO::ImageOutput::create(file.string());
+  ASSERT_TRUE(out);
+  OIIO::ImageSpec spec(image.width(), image.height(), image.channels(), OIIO::TypeDesc::UINT8);
+  spec.attribute("Orientation", orientation);
+  spec.attribute("jpeg:progressive", progressive ? 1 : 0);
+  spec.attribute("Compression", "jpeg:100");
+  ASSERT_TRUE(out->open(file.string(), spec));
+  ASSERT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, image.data()));
+  ASSERT_TRUE(out->close());
+}
+
+TEST(ImageIo, ProgressiveJpegIsRead) {
+  testing::TemporaryDirectory dir;
+  const Image img = Gradient(40, 24, 3);
+  WriteJpeg(dir / "p.jpeg", img, 1, true);
+  const Image back = ReadImage(dir / "p.jpeg");
+  ASSERT_EQ(back.width(), 40);
+  ASSERT_EQ(back.height(), 24);
+  EXPECT_LE(MaxAbsDiff(img, back), 5.0f / 255);
+}
+
+// A photo taken with the camera on its side: stored 4 x 2, tagged "turn 90
+// degrees clockwise to display" (EXIF 6). It reads back upright, 2 x 4, the
+// stored top-left pixel at the top right.
+TEST(ImageIo, ExifOrientationIsHonoured) {
+  testing::TemporaryDirectory dir;
+  Image stored(4, 2, 1, 0.0f);
+  stored.at(0, 0) = 1.0f;
+  WriteJpeg(dir / "turned.jpg", stored, 6, false);
+  const ImageHeader header = ReadImageHeader(dir / "turned.jpg");
+  EXPECT_EQ(header.width, 2);
+  EXPECT_EQ(header.height, 4);
+  const Image upright = ReadImage(dir / "turned.jpg");
+  ASSERT_EQ(upright.width(), 2);
+  ASSERT_EQ(upright.height(), 4);
+  EXPECT_GT(upright.at(1, 0), 0.5f);
+  EXPECT_LT(upright.at(0, 0), 0.5f);
+  EXPECT_LT(upright.at(1, 3), 0.5f);
+  // Reading by rows would see the stored rows: refused, naming the field.
+  try {
+    ImageRowReader rows(dir / "turned.jpg", {});
+    FAIL() << "a turned image was read by rows";
+  } catch (const FormatError& e) {
+    EXPECT_NE(std::string(e.what()).find("Orientation"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace
