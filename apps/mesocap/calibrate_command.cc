@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "apps/mesocap/command.h"
+#include "apps/mesocap/help_text.h"
 #include "pipelines/calibrate_cameras.h"
 #include "pipelines/calibrate_rig.h"
 
@@ -54,23 +55,7 @@ void AddDistortionOption(CLI::App* command, std::vector<calibration::DistortionM
 void RegisterCalibrateCommand(CLI::App& app) {
   auto rig = std::make_shared<pipelines::CalibrateRigOptions>();
   auto rig_json = std::make_shared<bool>(false);
-  CLI::App* group = app.add_subcommand(
-      "calibrate",
-      "Calibrate a rig from its calibration session (--session), or cameras from photos (camera)\n\n"
-      "mesocap simulate --plan calibration records a rig's calibration session: its calibration_board on each "
-      "holder tilt at each turntable angle, seen by every camera. From it the rig's cameras are calibrated in "
-      "the turntable's frame (z the axis, x the board on the first tilt), with the report of calibrate camera "
-      "plus the holders' poses.\n\n"
-      "From its mirror_sphere (a steel ball in a cup off the turntable's axis, imaged under each lamp at each "
-      "of its arc and turntable angles): the light arc's axis, every lamp's position and the sphere's place "
-      "with their sigmas, fitted to the lamps' highlights (light_arc, lamps in the report), written only when "
-      "no lamp is more uncertain than --max-lamp-sigma-mm and the axis than 0.1 degree; otherwise the "
-      "description's are kept and the report says why.\n\n"
-      "From its white_reference under each lamp: every camera's gain and every lamp's RGB intensity with their "
-      "sigmas (process btf then needs no --gain).\n\n"
-      "From the laser's plates at both ends of each location's sweep: every laser mount's tilt axis, plane and "
-      "source with their sigmas (laser_mounts, laser_mount_fit), written unless a tilt axis is more uncertain "
-      "than --max-mount-axis-sigma-deg or a source than 5 mm.");
+  CLI::App* group = app.add_subcommand("calibrate", HelpText("calibrate"));
   group->require_subcommand(0, 1);
   group->add_option("--session", rig->session, "calibration session (mesocap simulate --plan calibration)");
   group->add_option("--out", rig->out, "calibration file to write");
@@ -94,16 +79,7 @@ void RegisterCalibrateCommand(CLI::App& app) {
 
   auto o = std::make_shared<pipelines::CalibrateCamerasOptions>();
   auto json = std::make_shared<bool>(false);
-  CLI::App* sub = group->add_subcommand(
-      "camera",
-      "Calibrate one camera, or several jointly with their relative poses, from folders of photos of a "
-      "board (files with the same name in different folders were taken at the same instant)\n\n"
-      "Corners to sub-pixel (OpenCV), Zhang's start, one Ceres problem over all cameras with the distortion terms the "
-      "photos determine (--distortion); "
-      "blurred, saturated and badly fitting photos are set aside and named. Every parameter comes with one "
-      "sigma, with the projection uncertainty and a cross-validation on halves of the photos. Writes a "
-      "calibration whose world is the first camera; prints a table, or one JSON object with --json "
-      "(docs/FORMATS.md, \"Calibration report\").");
+  CLI::App* sub = group->add_subcommand("camera", HelpText("calibrate_camera"));
   sub->add_option("--images", o->image_folders,
                   "folder of one camera's photos, all of one size: .jpg/.jpeg (baseline or progressive), .png, "
                   ".tif/.tiff, 8 or 16 bits, grey or colour, turned upright as their EXIF orientation says; repeat "

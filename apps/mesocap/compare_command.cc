@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "apps/mesocap/command.h"
+#include "apps/mesocap/help_text.h"
 #include "apps/mesocap/render_scene_option.h"
 #include "core/error.h"
 #include "core/image_io.h"
@@ -105,11 +106,7 @@ void RunCompare(const CompareCommandOptions& o) {
 
 void RegisterCompareCommand(CLI::App& app) {
   auto o = std::make_shared<CompareCommandOptions>();
-  CLI::App* sub = app.add_subcommand(
-      "compare",
-      "Render every mode and the CPU reference; print coverage/shadow IoU, PSNR, frame time, passes\n\n"
-      "The CPU reference is Embree on the real displaced geometry. Per mode: coverage IoU, shadow-mask IoU, "
-      "PSNR, median frame time and passes.");
+  CLI::App* sub = app.add_subcommand("compare", HelpText("compare"));
   AddRenderSceneOptions(sub, &o->scene);
   sub->add_flag("--json", o->json, "print one JSON object with a member per mode (btf, silhouette, full)");
   sub->add_option("--repeat", o->repeat, "frames timed per mode (the median is reported)")

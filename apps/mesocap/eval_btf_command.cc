@@ -7,6 +7,7 @@
 #include <utility>
 
 #include "apps/mesocap/command.h"
+#include "apps/mesocap/help_text.h"
 #include "pipelines/evaluate_btf.h"
 
 namespace mesocap {
@@ -74,15 +75,7 @@ void RunEvalBtf(const EvalBtfCommandOptions& o) {
 void RegisterEvalBtfCommand(CLI::App& app) {
   auto o = std::make_shared<EvalBtfCommandOptions>();
   CLI::App* eval = GroupCommand(app, "eval", "Compare a measured material with ground truth");
-  CLI::App* sub = eval->add_subcommand(
-      "btf",
-      "Error of a material's BTF (and ambient term) against a true BTF\n\n"
-      "The true full BTF must be on the same grid. PSNR and relative RMS overall and by view polar angle (15 "
-      "degree bands), and, for a package process btf made, apart for the pairs an image captured, those "
-      "interpolated from a view's captured lights, the views whose texels are finer than a camera pixel "
-      "(unresolved), and the captured pairs with view and light within 60 degrees. --json prints overall, "
-      "by_polar_angle, rank, captured, interpolated, unresolved, captured_within_60deg (null without the "
-      "record).");
+  CLI::App* sub = eval->add_subcommand("btf", HelpText("eval_btf"));
   sub->add_option("--truth", o->evaluation.truth, "material package with the true full BTF (mesocap groundtruth)")
       ->required()
       ->check(CLI::ExistingDirectory);

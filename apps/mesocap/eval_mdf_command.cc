@@ -5,6 +5,7 @@
 #include <memory>
 
 #include "apps/mesocap/command.h"
+#include "apps/mesocap/help_text.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "formats/material_manifest.h"
@@ -48,12 +49,7 @@ void RunEvalMdf(const EvalMdfOptions& o) {
 void RegisterEvalMdfCommand(CLI::App& app) {
   auto o = std::make_shared<EvalMdfOptions>();
   CLI::App* group = GroupCommand(app, "eval", "Compare processed material parts with ground truth");
-  CLI::App* sub = group->add_subcommand(
-      "mdf",
-      "Error table of a measured MDF against the true one\n\n"
-      "Per 15-degree polar-angle bucket and overall: median and p95 of |D - D_true| in mm and texels, "
-      "coverage, false \"no hit\" and false hit rates, and no-hit coverage (true no-hits measured as no "
-      "hit).");
+  CLI::App* sub = group->add_subcommand("mdf", HelpText("eval_mdf"));
   sub->add_option("--truth", o->truth, "material package holding the true MDF (mesocap groundtruth)")->required();
   sub->add_option("--estimate", o->estimate, "material package holding the measured MDF")->required();
   sub->add_flag("--json", o->json, "print the table as one JSON object");

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "apps/mesocap/command.h"
+#include "apps/mesocap/help_text.h"
 #include "pipelines/export_bonn.h"
 
 namespace mesocap {
@@ -15,13 +16,7 @@ namespace mesocap {
 void RegisterExportBonnCommand(CLI::App& app) {
   auto o = std::make_shared<pipelines::ExportBonnOptions>();
   CLI::App* group = GroupCommand(app, "export", "Write a material package in another tool's format");
-  CLI::App* sub = group->add_subcommand(
-      "bonn",
-      "Write a package's BTF as a Bonn BTF database form: UBO2003 images, or a UBO2014 FMF/DFMF file\n\n"
-      "A UBO2003 image folder (tl015_pl060_tv030_pv090.png, 8-bit sRGB, or --encoding exr, linear half), or a "
-      "UBO2014 binary FMF or DFMF file laid out as the database's own: btflib reads it, and the Free BTF "
-      "Library when there are as many views as lights. FMF and DFMF are factored here (--rank or --max-error, "
-      "--color) unless the package holds per_texel factors.");
+  CLI::App* sub = group->add_subcommand("bonn", HelpText("export_bonn"));
   sub->add_option("--in", o->in, "material package holding a BTF (full or factored)")
       ->required()
       ->check(CLI::ExistingDirectory);

@@ -4,6 +4,7 @@
 #include <spdlog/spdlog.h>
 
 #include "apps/mesocap/command.h"
+#include "apps/mesocap/help_text.h"
 #include "apps/mesocap/scene_option.h"
 #include "formats/material_manifest.h"
 #include "pipelines/ground_truth.h"
@@ -12,15 +13,7 @@ namespace mesocap {
 
 void RegisterGroundTruthCommand(CLI::App& app) {
   auto o = std::make_shared<pipelines::GroundTruthOptions>();
-  CLI::App* sub = app.add_subcommand("groundtruth",
-                                     "Write the exact material package (MDF, BTF, ambient term, true calibration) of "
-                                     "a simulated scene\n\n"
-                                     "The MDF is ray cast from the reference plane (\"no hit\" through holes); the "
-                                     "BTF is rendered in texture space with mesoscale shadows; the package also holds "
-                                     "the ambient term and the rig's true calibration. The BTF and ambient term of "
-                                     "each texel are the mean over n x n points of its area "
-                                     "(--texel-samples-per-side), as a camera pixel averages its footprint. An OBJ "
-                                     "scene takes --scale, a height map image --tile-size-mm and --depth-mm.");
+  CLI::App* sub = app.add_subcommand("groundtruth", HelpText("groundtruth"));
   AddSceneOptions(sub, &o->scene);
   sub->add_option("--rig", o->rig, "shipped rig (tiny, small, paper) or a rig description file")->capture_default_str();
   sub->add_option("--out", o->out, "material package folder to write")->required();

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "apps/mesocap/command.h"
+#include "apps/mesocap/help_text.h"
 #include "formats/material_manifest.h"
 #include "pipelines/import_bonn.h"
 
@@ -17,11 +18,7 @@ void RegisterImportBonnCommand(CLI::App& app) {
   auto o = std::make_shared<pipelines::ImportBonnOptions>();
   auto parts = std::make_shared<pipelines::BonnImportParts>(pipelines::BonnImportParts::kFactored);
   CLI::App* group = GroupCommand(app, "import", "Read another tool's format into a material package");
-  CLI::App* sub = group->add_subcommand(
-      "bonn",
-      "Read a Bonn BTF database form (UBO2003 image folder, UBO2014 FMF/DFMF file) into a material package\n\n"
-      "The package holds the factored BTF (exact) or, with --btf, the full one or both, and the ambient term; "
-      "--flat-mdf adds an MDF for rendering. --size-mm is required for images.");
+  CLI::App* sub = group->add_subcommand("bonn", HelpText("import_bonn"));
   sub->add_option("--in", o->in, "image folder (tl..._pl..._tv..._pv....png/.exr) or FMF/DFMF file")
       ->required()
       ->check(CLI::ExistingPath);

@@ -13,6 +13,7 @@
 #include <tuple>
 
 #include "apps/mesocap/command.h"
+#include "apps/mesocap/help_text.h"
 #include "calibration/nominal_geometry.h"
 #include "core/error.h"
 #include "core/image_io.h"
@@ -236,14 +237,7 @@ void RunInfo(const InfoOptions& options) {
 
 void RegisterInfoCommand(CLI::App& app) {
   auto options = std::make_shared<InfoOptions>();
-  CLI::App* sub = app.add_subcommand(
-      "info",
-      "Summarize (and validate) a calibration, rig description, capture session, material package or image\n\n"
-      "A readable summary of a calibration, a rig description, a capture session folder, a material package "
-      "folder or an image, checked as it is read. For a rig description it also gives how well each laser "
-      "location triangulates with each camera: the sine between the camera's ray and the laser plane at the "
-      "sample centre (laser_ray_sines, location by camera), and the worst pair (smallest_laser_ray_sine), flagged "
-      "when it is under the MDF triangulation's limit (0.03).");
+  CLI::App* sub = app.add_subcommand("info", HelpText("info"));
   sub->add_option("path", options->path, "file or folder to describe")->required();
   sub->add_flag("--json", options->json, "print one JSON object instead of text");
   sub->callback([options] { RunInfo(*options); });

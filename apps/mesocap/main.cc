@@ -13,6 +13,7 @@
 
 #include "apps/mesocap/command.h"
 #include "apps/mesocap/help_formatter.h"
+#include "apps/mesocap/help_text.h"
 #include "core/error.h"
 #include "core/logging.h"
 #include "core/version.h"
@@ -26,11 +27,7 @@ int main(int argc, char** argv) {
   mallopt(M_MMAP_THRESHOLD, 32 << 20);
   mallopt(M_TRIM_THRESHOLD, 512 << 20);
   // Named here, not after argv[0], so that the help is the same whatever path runs it.
-  CLI::App app{
-      "mesocap: capture, process and render measured mesostructure (BTF + MDF)\n\n"
-      "mesocap SUBCOMMAND --help prints a subcommand's help. Logs go to stderr, results (tables, JSON) to "
-      "stdout; long work shows a progress bar on a terminal and one JSON line per update otherwise.",
-      "mesocap"};
+  CLI::App app{mesocap::HelpText("mesocap"), "mesocap"};
   app.formatter(std::make_shared<mesocap::HelpFormatter>());  // before the subcommands, which share it
   app.set_version_flag("--version", std::string("mesocap ") + mesocap::core::Version());
   app.require_subcommand(1);

@@ -8,6 +8,7 @@
 
 #include "apps/mesocap/command.h"
 #include "apps/mesocap/compression_options.h"
+#include "apps/mesocap/help_text.h"
 #include "formats/calibration.h"
 #include "pipelines/process_btf.h"
 
@@ -16,20 +17,7 @@ namespace mesocap {
 void RegisterProcessBtfCommand(CLI::App& app) {
   auto o = std::make_shared<pipelines::ProcessBtfOptions>();
   CLI::App* process = GroupCommand(app, "process", "Turn a capture session into a material");
-  CLI::App* sub = process->add_subcommand(
-      "btf",
-      "BTF, its SVD factors and ambient term from a capture session\n\n"
-      "Every BTF image is rectified into texture space (calibrated reference-plane projection with lens "
-      "distortion, box prefilter over each texel's footprint), divided by its lamp's irradiance (intensity, "
-      "inverse square, cosine, per texel) and placed on the session's view and light sets; pairs the rig never "
-      "captures are interpolated from the view's measured lights and counted in the error report. The BTF is "
-      "SVD-factored, the representation chosen by the budget as compress does; the package also holds the "
-      "ambient term.\n\n"
-      "Each assembled view goes to disk as it is made, so assembly never holds the BTF (on the grid; --resample "
-      "holds about one BTF of intermediate images); the compression reads it back as compress does.\n\n"
-      "Each camera's gain is its radiometry in the calibration (version 2), which mesocap calibrate --session "
-      "writes from the rig's white reference and a simulated session's calibration carries; --gain overrides "
-      "it, and a camera with neither is an error.");
+  CLI::App* sub = process->add_subcommand("btf", HelpText("process_btf"));
   sub->add_option("--session", o->session, "capture session folder")->required()->check(CLI::ExistingDirectory);
   sub->add_option("--calibration", o->calibration, "calibration file (default: the one the session names)")
       ->check(CLI::ExistingFile);

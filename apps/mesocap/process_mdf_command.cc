@@ -5,6 +5,7 @@
 #include <spdlog/spdlog.h>
 
 #include "apps/mesocap/command.h"
+#include "apps/mesocap/help_text.h"
 #include "pipelines/process_mdf.h"
 
 namespace mesocap {
@@ -12,14 +13,7 @@ namespace mesocap {
 void RegisterProcessMdfCommand(CLI::App& app) {
   auto o = std::make_shared<pipelines::ProcessMdfOptions>();
   CLI::App* group = GroupCommand(app, "process", "Process a capture session into material package parts");
-  CLI::App* sub = group->add_subcommand(
-      "mdf",
-      "The MDF from a session's laser scans (space-time analysis)\n\n"
-      "Wang et al. 2005 Sec. 3.2: the laser-plane angle from the two-height frames, per-frame laser planes "
-      "from the stripe in the reference region, streaming space-time analysis, triangulation, displacement "
-      "images in texture space merged with the paper's tetrahedron weights; \"no hit\" where the stripe was "
-      "seen on the rig's backing board through a hole (sample.backing of the rig description). Writes the MDF "
-      "in float and 8-bit form (and the calibration) into a new package.");
+  CLI::App* sub = group->add_subcommand("mdf", HelpText("process_mdf"));
   sub->add_option("--session", o->session, "capture session folder")->required();
   sub->add_option("--calibration", o->calibration, "rig calibration file (default: the one the session names)");
   sub->add_option("--out", o->out, "material package folder to write")->required();

@@ -5,6 +5,7 @@
 #include <filesystem>
 
 #include "apps/mesocap/command.h"
+#include "apps/mesocap/help_text.h"
 #include "apps/mesocap/render_scene_option.h"
 #include "core/error.h"
 #include "core/image_io.h"
@@ -51,12 +52,7 @@ void RunRender(const RenderCommandOptions& o) {
 
 void RegisterRenderCommand(CLI::App& app) {
   auto o = std::make_shared<RenderCommandOptions>();
-  CLI::App* sub = app.add_subcommand(
-      "render",
-      "Render a scene headless with BTF shading and MDF silhouettes/shadows\n\n"
-      "One frame, headless (EGL: Mesa llvmpipe or a GPU), of a render scene (render/scenes/*.json; "
-      "docs/FORMATS.md, \"Render scene\"): BTF shading from the SVD factors, MDF object silhouettes by depth "
-      "peeling, MDF shadow silhouettes and shadow casting.");
+  CLI::App* sub = app.add_subcommand("render", HelpText("render"));
   AddRenderSceneOptions(sub, &o->scene);
   sub->add_option("--out", o->out, "image to write (.png, .tif: 8-bit; .exr: linear float)")->required();
   sub->add_option("--mode", o->mode, "btf, silhouette (+ MDF object silhouettes) or full (+ MDF shadows)")

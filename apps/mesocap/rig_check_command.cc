@@ -6,6 +6,7 @@
 #include <cstdio>
 
 #include "apps/mesocap/command.h"
+#include "apps/mesocap/help_text.h"
 #include "pipelines/rig_check.h"
 
 namespace mesocap {
@@ -13,11 +14,7 @@ namespace mesocap {
 void RegisterRigCheckCommand(CLI::App& app) {
   auto o = std::make_shared<pipelines::RigCheckOptions>();
   CLI::App* group = GroupCommand(app, "rig", "Check a rig's devices");
-  CLI::App* sub = group->add_subcommand(
-      "check",
-      "Open every device of a rig, read its state, one line per device\n\n"
-      "Every real device of the rig description is opened through its backend (aravis, tic, gpiod); exits 1 "
-      "when one fails (docs/DEVICES.md).");
+  CLI::App* sub = group->add_subcommand("check", HelpText("rig_check"));
   sub->add_option("rig", o->rig, "rig description file")->required()->check(CLI::ExistingFile);
   sub->callback([o] {
     const auto checks = pipelines::RunRigCheck(*o);
@@ -33,11 +30,7 @@ void RegisterRigCheckCommand(CLI::App& app) {
     }
   });
 
-  CLI::App* devices = app.add_subcommand(
-      "devices",
-      "List the cameras, Tic controllers and GPIO chips found here\n\n"
-      "The GenICam cameras (id, model, serial, address), Tic controllers and GPIO chips the real backends "
-      "find.");
+  CLI::App* devices = app.add_subcommand("devices", HelpText("devices"));
   devices->callback([] {
     const auto found = pipelines::FindDevices();
     for (const auto& d : found) {

@@ -7,6 +7,7 @@
 #include <spdlog/spdlog.h>
 
 #include "apps/mesocap/command.h"
+#include "apps/mesocap/help_text.h"
 #include "apps/mesocap/scene_option.h"
 #include "core/angles.h"
 #include "sim/camera_renderer.h"
@@ -66,12 +67,7 @@ void RunServeCameras(const ServeCamerasOptions& o) {
 void RegisterServeCamerasCommand(CLI::App& app) {
   auto o = std::make_shared<ServeCamerasOptions>();
   CLI::App* group = GroupCommand(app, "sim", "The simulated rig's devices");
-  CLI::App* sub = group->add_subcommand(
-      "serve-cameras",
-      "Serve the simulated rig's cameras as GigE Vision devices on this host's addresses\n\n"
-      "On 127.0.0.1, 127.0.0.2, ... until Ctrl-C, at the rig state --turntable-deg, --arc-deg and --lamp "
-      "give; any GenICam client connects. simulate --serve-cameras records a session through them and the "
-      "Aravis backend, byte-identical to the direct one.");
+  CLI::App* sub = group->add_subcommand("serve-cameras", HelpText("sim_serve_cameras"));
   AddSceneOptions(sub, &o->scene);
   sub->add_option("--rig", o->rig, "shipped rig (tiny, small, paper) or a rig description file")->capture_default_str();
   sub->add_option("--turntable-deg", o->turntable_deg, "turntable angle")->check(InRange(-360, 360));

@@ -25,6 +25,7 @@
 #include "acquisition/capture_plan.h"
 #include "acquisition/capture_session_runner.h"
 #include "apps/mesocap/command.h"
+#include "apps/mesocap/help_text.h"
 #include "apps/mesocap/scene_option.h"
 #include "core/error.h"
 #include "formats/capture_session.h"
@@ -96,19 +97,7 @@ void RunSimulate(const SimulateCommandOptions& o) {
 
 void RegisterSimulateCommand(CLI::App& app) {
   auto o = std::make_shared<SimulateCommandOptions>();
-  CLI::App* sub = app.add_subcommand(
-      "simulate",
-      "Record a capture session (BTF images, laser calibration, laser sweeps) on the simulated rig\n\n"
-      "Records the session as the real rig would: BTF images per turntable angle, arc angle, lamp and camera "
-      "(16-bit PNG); laser-plane calibration frames on two heights; laser sweeps per turntable angle, laser "
-      "location and camera (multi-frame 16-bit TIFF, or, for a rig with \"sweep_storage\": \"analysis\" such "
-      "as paper, each sweep's space-time analysis made while its frames arrive, which process mdf reads in place "
-      "of the frames). The images carry shot and read noise, quantization and saturation; with "
-      "--interreflection-rays the laser light that reaches the camera after one bounce off the mesostructure "
-      "makes ghost peaks in the sweeps.\n\n"
-      "The capture runs through the same runner and device interfaces a real rig uses. --faults makes the "
-      "simulated devices drop frames, time out, disconnect, stall or lose a lamp: retries cure what they can, "
-      "the rest stops the run, and --resume completes it (and captures damaged steps again).");
+  CLI::App* sub = app.add_subcommand("simulate", HelpText("simulate"));
   AddSceneOptions(sub, &o->station.scene);
   sub->add_option("--rig", o->station.rig, "shipped rig (tiny, small, paper) or a rig description file")
       ->capture_default_str();

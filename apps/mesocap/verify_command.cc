@@ -4,17 +4,14 @@
 #include <spdlog/spdlog.h>
 
 #include "apps/mesocap/command.h"
+#include "apps/mesocap/help_text.h"
 #include "pipelines/verify.h"
 
 namespace mesocap {
 
 void RegisterVerifyCommand(CLI::App& app) {
   auto o = std::make_shared<pipelines::VerifyOptions>();
-  CLI::App* sub = app.add_subcommand(
-      "verify",
-      "Check every file of a capture session or material package against its recorded size and hash\n\n"
-      "Every data file against the size and XXH3 hash recorded when it was written (journal, manifest); names "
-      "each damaged file and exits 1 if there is one; also says whether a session is complete.");
+  CLI::App* sub = app.add_subcommand("verify", HelpText("verify"));
   sub->add_option("path", o->path, "capture session or material package folder")->required();
   sub->callback([o] {
     const pipelines::VerifyReport r = pipelines::RunVerify(*o);

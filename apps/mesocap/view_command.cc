@@ -13,6 +13,7 @@
 #include <numbers>
 
 #include "apps/mesocap/command.h"
+#include "apps/mesocap/help_text.h"
 #include "apps/mesocap/render_scene_option.h"
 #include "core/angles.h"
 #include "render/gl_context.h"
@@ -87,11 +88,7 @@ void RunView(const RenderSceneOptions& o) {
 
 void RegisterViewCommand(CLI::App& app) {
   auto o = std::make_shared<RenderSceneOptions>();
-  CLI::App* sub = app.add_subcommand(
-      "view",
-      "Interactive viewer (needs a display): orbit, light, modes, frame time\n\n"
-      "A GLFW window: left drag orbits the camera, right drag the light, keys 1/2/3 pick the mode, P toggles "
-      "adaptive/fixed passes (+/- change the fixed count), Escape closes; the title shows frame time and passes.");
+  CLI::App* sub = app.add_subcommand("view", HelpText("view"));
   AddRenderSceneOptions(sub, o.get());
   sub->callback([o] { RunView(*o); });
 }

@@ -8,6 +8,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
@@ -101,28 +102,33 @@ TEST_F(MdfCliTest, ProcessAndEvaluate) {
   EXPECT_NE(text.out.find("overall"), std::string::npos);
 }
 
-TEST_F(MdfCliTest, CalibrationMissingACameraWritesNothing) {
+// `process mdf` with the session's calibration edited by `edit`: refused with
+// an error holding `expected`, and nothing written.
+void ExpectCalibrationRefused(const fs::path& session, const std::function<void(nlohmann::json&)>& edit,
+                              const std::string& expected) {
   testing::TemporaryDirectory out;
-  nlohmann::json calibration = core::ReadJsonFile(session_ / "calibration.json");
-  calibration["cameras"].erase(1);
+  nlohmann::json calibration = core::ReadJsonFile(session / "calibration.json");
+  edit(calibration);
   std::ofstream(out / "calibration.json") << calibration.dump();
-  const CommandResult p = Mesocap("process mdf --session " + session_.string() + " --calibration " +
+  const CommandResult p = Mesocap("process mdf --session " + session.string() + " --calibration " +
                                   (out / "calibration.json").string() + " --out " + (out / "m").string());
   EXPECT_NE(p.exit_code, 0);
-  EXPECT_NE(p.err.find("cam1"), std::string::npos) << p.err;
+  EXPECT_NE(p.err.find(expected), std::string::npos) << p.err;
   EXPECT_FALSE(fs::exists(out / "m"));
 }
 
+TEST_F(MdfCliTest, CalibrationMissingACameraWritesNothing) {
+  ExpectCalibrationRefused(
+      session_, [](nlohmann::json& c) { c["cameras"].erase(1); }, "cam1");
+}
+
 TEST_F(MdfCliTest, CalibrationOfAnotherRigWritesNothing) {
-  testing::TemporaryDirectory out;
-  nlohmann::json calibration = core::ReadJsonFile(session_ / "calibration.json");
-  for (auto& camera : calibration["cameras"]) camera["image_size"] = {320, 240};  // the small rig's
-  std::ofstream(out / "calibration.json") << calibration.dump();
-  const CommandResult p = Mesocap("process mdf --session " + session_.string() + " --calibration " +
-                                  (out / "calibration.json").string() + " --out " + (out / "m").string());
-  EXPECT_NE(p.exit_code, 0);
-  EXPECT_NE(p.err.find("another rig"), std::string::npos) << p.err;
-  EXPECT_FALSE(fs::exists(out / "m"));
+  ExpectCalibrationRefused(
+      session_,
+      [](nlohmann::json& c) {
+        for (auto& camera : c["cameras"]) camera["image_size"] = {320, 240};  // the small rig's
+      },
+      "another rig");
 }
 
 TEST_F(MdfCliTest, SequenceWithWrongFrameSizeWritesNothingAndKeepsExistingOutput) {
