@@ -46,7 +46,7 @@ part on pipelines/ (from the bold `pipelines/` to the next bold name or
 heading).
 
 (c) Nothing cites a file outside the repository: no relative path climbs
-out of it (`../shared/...`), and no comment or doc names DESIGN.md, the
+out of it (a path starting with `../`), and no comment or doc names DESIGN.md, the
 design document that once lay beside it.
 """
 import argparse
