@@ -124,6 +124,9 @@ class SessionRun {
         spdlog::warn("{}: switching lamps and laser off: {}", dir_.string(), e.what());
       }
       throw;
+    } catch (const core::Error& e) {
+      // Not the devices (out of memory, a full disk): the steps journaled are kept all the same.
+      throw core::Error(Stopped(s, e.what()));
     }
     progress.Finish();
     return report_;

@@ -36,7 +36,7 @@ Photos Photograph(const std::string& rig_name, int angles, int tilts) {
   const formats::RigDescription rig = sim::LoadRig(rig_name);
   Photos p;
   p.truth = sim::TrueCalibration(rig);
-  p.board = calibration::ParseBoardSpec(rig.calibration_board->board);
+  p.board = *calibration::RigCalibrationBoard(rig);
   const calibration::BoardPrint print(p.board);
   const calibration::BoardCornerDetector detector(p.board);
   p.motion.board_height_mm = rig.calibration_board->height_mm;

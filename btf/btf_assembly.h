@@ -113,8 +113,8 @@ std::vector<BtfCaptureImage> SessionBtfImages(const formats::CapturedSession& se
 using BtfViewSink = std::function<void(int view, core::Image&& values)>;
 
 // Reads, rectifies and calibrates every image; throws Error naming the file
-// for a missing or unreadable image, a value that is NaN, infinite or
-// negative, a size that differs from the calibrated camera's, a direction
+// for a missing or unreadable image, one not stored as 16-bit samples (a
+// session's frames: formats::SessionFrameReadOptions), a size that differs from the calibrated camera's, a direction
 // off the sets, two images of the same pair, or a view with no image.
 // Each view is handed to `sink` as soon as it is done, so a large BTF can go
 // to disk without ever being whole in memory: on the grid, views are built

@@ -160,4 +160,13 @@ CalibrationBoard ParseBoardSpec(std::string_view spec) {
   return board;
 }
 
+std::optional<CalibrationBoard> RigCalibrationBoard(const formats::RigDescription& rig) {
+  if (!rig.calibration_board) return std::nullopt;
+  try {
+    return ParseBoardSpec(rig.calibration_board->board);
+  } catch (const core::Error& e) {
+    throw core::FormatError(rig.file, "calibration_board.board", e.what());
+  }
+}
+
 }  // namespace mesocap::calibration

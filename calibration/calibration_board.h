@@ -9,11 +9,13 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
 
 #include "core/error.h"
+#include "formats/rig_description.h"
 
 namespace mesocap::calibration {
 
@@ -54,6 +56,11 @@ struct CalibrationBoard {
 // OpenCV names it, DICT_ optional, any case). Throws Error saying which part
 // of `spec` is wrong and what was expected.
 CalibrationBoard ParseBoardSpec(std::string_view spec);
+
+// The board a rig description names (ParseBoardSpec of its
+// calibration_board.board), nullopt when it names none. FormatError naming
+// rig.file and the field when the spec is not a board.
+std::optional<CalibrationBoard> RigCalibrationBoard(const formats::RigDescription& rig);
 
 // OpenCV's predefined dictionary id for a name such as "DICT_5X5_100" or
 // "5x5_100"; -1 when there is none.

@@ -73,6 +73,13 @@ bool Holds(const fs::path& a, const fs::path& b) {
 
 }  // namespace
 
+void ExpectOutputFolder(const fs::path& target) {
+  const fs::path folder = ParentOrDot(WithoutTrailingSlash(target));
+  std::error_code ec;
+  if (!fs::is_directory(folder, ec))
+    throw Error(target.string() + ": no folder " + folder.string() + " to write it in");
+}
+
 void ExpectReplaceable(const fs::path& target_in, const OutputReplacement& r) {
   const fs::path target = WithoutTrailingSlash(target_in);
   std::error_code ec;
@@ -268,7 +275,13 @@ void WriteTextFileAtomically(const fs::path& target, std::string_view contents) 
   AtomicFile file(target);
   {
     std::ofstream out(file.temp_path(), std::ios::binary);
-    if (!out) throw Error(file.temp_path().string() + ": cannot create file");
+    if (!out) {
+      // Named for the target: the temporary's name means nothing to the user.
+      const int error = errno;
+      ExpectOutputFolder(target);
+      throw Error(target.string() + ": cannot create the file in " + ParentOrDot(target).string() + ": " +
+                  std::strerror(error));
+    }
     out.write(contents.data(), static_cast<std::streamsize>(contents.size()));
     out.flush();
     out.close();

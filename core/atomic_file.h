@@ -51,6 +51,10 @@ struct OutputReplacement {
   std::vector<std::filesystem::path> inputs;
 };
 
+// Throws Error naming `target` when the folder it goes in does not exist:
+// checked before a command works, not when it writes.
+void ExpectOutputFolder(const std::filesystem::path& target);
+
 // Throws Error naming `target` and what is there unless `target` does not
 // exist, or `replacement` allows replacing what it holds.
 void ExpectReplaceable(const std::filesystem::path& target, const OutputReplacement& replacement);

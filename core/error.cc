@@ -1,7 +1,9 @@
 #include "core/error.h"
 
+#include <sys/resource.h>
 #include <unistd.h>
 
+#include <fstream>
 #include <sstream>
 
 namespace mesocap::core {
@@ -12,6 +14,40 @@ std::uint64_t PhysicalMemoryBytes() {
   const long page_size = ::sysconf(_SC_PAGESIZE);
   if (pages <= 0 || page_size <= 0) return UINT64_MAX;
   return static_cast<std::uint64_t>(pages) * static_cast<std::uint64_t>(page_size);
+}
+
+// The process's mapped address space now (/proc/self/statm's first field).
+std::uint64_t MappedBytes() {
+  std::ifstream statm("/proc/self/statm");
+  std::uint64_t pages = 0;
+  statm >> pages;
+  return pages * static_cast<std::uint64_t>(::sysconf(_SC_PAGESIZE));
+}
+
+// What an allocation may take, and the limit that says so: the machine's
+// memory, or less where ulimit -v or -d caps the process (what is mapped
+// already counts against ulimit -v).
+struct MemoryLimit {
+  std::uint64_t available = UINT64_MAX;
+  std::string text;
+};
+
+MemoryLimit CurrentMemoryLimit() {
+  MemoryLimit limit{PhysicalMemoryBytes(), ""};
+  limit.text = std::to_string(limit.available) + " bytes (this machine's memory)";
+  rlimit rl{};
+  if (::getrlimit(RLIMIT_AS, &rl) == 0 && rl.rlim_cur != RLIM_INFINITY) {
+    const std::uint64_t mapped = MappedBytes();
+    const std::uint64_t left = rl.rlim_cur > mapped ? rl.rlim_cur - mapped : 0;
+    if (left < limit.available) {
+      limit = {left, std::to_string(left) + " bytes left of the process's address-space limit of " +
+                         std::to_string(rl.rlim_cur) + " bytes (ulimit -v)"};
+    }
+  }
+  if (::getrlimit(RLIMIT_DATA, &rl) == 0 && rl.rlim_cur != RLIM_INFINITY && rl.rlim_cur < limit.available) {
+    limit = {rl.rlim_cur, std::to_string(rl.rlim_cur) + " bytes (the process's data limit, ulimit -d)"};
+  }
+  return limit;
 }
 
 // A path longer than an echoed value keeps its end, where the file's name is.
@@ -55,12 +91,15 @@ std::string Fixed(double value, int digits) {
 }
 
 void CheckMemoryFor(std::uint64_t bytes, std::string_view what) {
-  if (bytes > PhysicalMemoryBytes()) ThrowOutOfMemory(bytes, what);
+  const MemoryLimit limit = CurrentMemoryLimit();
+  if (bytes > limit.available) {
+    throw Error("needs " + std::to_string(bytes) + " bytes for " + std::string(what) + "; limit " + limit.text);
+  }
 }
 
 void ThrowOutOfMemory(std::uint64_t bytes, std::string_view what) {
-  throw Error("needs " + std::to_string(bytes) + " bytes for " + std::string(what) + "; limit " +
-              std::to_string(PhysicalMemoryBytes()) + " bytes (this machine's memory)");
+  throw Error("could not allocate " + std::to_string(bytes) + " bytes for " + std::string(what) + "; limit " +
+              CurrentMemoryLimit().text + ", less what is in use");
 }
 
 }  // namespace mesocap::core

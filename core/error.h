@@ -57,11 +57,12 @@ std::string Quoted(std::string_view value);
 // A number for a message, with `digits` digits after the point.
 std::string Fixed(double value, int digits);
 
-// An allocation the inputs allow but the machine cannot hold: "needs N bytes
+// An allocation the inputs allow but the process cannot hold: "needs N bytes
 // for WHAT; limit L bytes (this machine's memory)", in place of bad_alloc.
-// Throws when `bytes` exceed the machine's physical memory.
+// The limit is the tightest of the machine's memory, what ulimit -v leaves
+// beside what is mapped already, and ulimit -d; the message names it.
 void CheckMemoryFor(std::uint64_t bytes, std::string_view what);
-// The same message for an allocation of `bytes` that failed.
+// The message for an allocation of `bytes` that failed anyway.
 [[noreturn]] void ThrowOutOfMemory(std::uint64_t bytes, std::string_view what);
 
 }  // namespace mesocap::core

@@ -5,8 +5,10 @@
 #include <OpenImageIO/imagebuf.h>
 #include <OpenImageIO/imagebufalgo.h>
 #include <OpenImageIO/imageio.h>
+#include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstddef>
 #include <mutex>
@@ -94,7 +96,7 @@ std::unique_ptr<OIIO::ImageInput> OpenInput(const fs::path& file) {
   } catch (const std::bad_alloc&) {
     throw FormatError(file, "size", "the header declares a size that cannot be allocated (corrupt file?)");
   }
-  if (!in) throw FormatError(file, "", "not a readable image: " + ImageLibraryMessage(OIIO::geterror()));
+  if (!in) throw FormatError(file, "", "not a readable image: " + ImageDecodeFailure(file, OIIO::geterror()));
   return in;
 }
 
@@ -136,22 +138,43 @@ ImageHeader ExpectedHeader(const fs::path& file, const OIIO::ImageInput& in, con
   ExpectDimension(file, "width", options.expected_width, header.width);
   ExpectDimension(file, "height", options.expected_height, header.height);
   ExpectDimension(file, "channels", options.expected_channels, header.channels);
+  if (options.expected_encoding && header.encoding != *options.expected_encoding) {
+    throw FormatError(
+        file, "pixel type",
+        std::string("expected ") + ToString(*options.expected_encoding) + ", got " + ToString(header.encoding));
+  }
   return header;
 }
 
 [[noreturn]] void ThrowReadFailure(const fs::path& file, OIIO::ImageInput& in) {
-  std::string why = ImageLibraryMessage(in.geterror());
-  if (why.empty()) why = "read failed";
-  throw FormatError(file, "pixels", "cannot read (truncated or corrupt?): " + why);
+  throw FormatError(file, "pixels", "cannot read: " + ImageDecodeFailure(file, in.geterror()));
 }
 
 }  // namespace
 
 std::string ImageLibraryMessage(const std::string& error) { return Cut(error.substr(0, error.find('\n'))); }
 
+std::string ImageDecodeFailure(const fs::path& file, const std::string& library_error) {
+  spdlog::debug("{}: the image library says: {}", file.string(), ImageLibraryMessage(library_error));
+  std::string extension = file.extension().string();
+  for (char& c : extension) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  return "the file is damaged, cut short or not " +
+         (extension.size() > 1 ? extension.substr(1) : std::string("an image")) +
+         " (mesocap -v logs the decoder's own words)";
+}
+
 ImageHeader ReadImageHeader(const fs::path& file) {
   auto in = OpenInput(file);
   return HeaderOf(file, in->spec());
+}
+
+bool IsImageFile(const fs::path& file) {
+  try {
+    ReadImageHeader(file);
+    return true;
+  } catch (const Error&) {
+    return false;
+  }
 }
 
 Image ReadImage(const fs::path& file, const ImageReadOptions& options) {
@@ -182,7 +205,7 @@ Image ReadImage(const fs::path& file, const ImageReadOptions& options) {
       !upright.get_pixels(upright.roi(), OIIO::TypeDesc::FLOAT, image.data())) {
     throw FormatError(file, "Orientation",
                       "cannot apply EXIF orientation " + std::to_string(orientation) + ": " +
-                          ImageLibraryMessage(upright.geterror()));
+                          ImageDecodeFailure(file, upright.geterror()));
   }
   return image;
 }

@@ -8,6 +8,7 @@
 #include <cstddef>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "core/enum_text.h"
@@ -35,9 +36,14 @@ struct ImageReadOptions {
   int expected_width = 0;
   int expected_height = 0;
   int expected_channels = 0;
+  // When set, the file must store its samples so (a session's 16-bit frames).
+  std::optional<PixelEncoding> expected_encoding;
 };
 
 ImageHeader ReadImageHeader(const std::filesystem::path& file);
+// Whether `file` is an image ReadImageHeader reads: what --replace of an
+// image output may replace.
+bool IsImageFile(const std::filesystem::path& file);
 Image ReadImage(const std::filesystem::path& file, const ImageReadOptions& options = {});
 // Throws Error when the container cannot store `encoding` (PNG float, EXR
 // 8-bit, JPEG anything but 8-bit).
@@ -56,6 +62,10 @@ std::string EncodePreviewPng(const Image& image);
 // An OpenImageIO error for a message: its first line (OpenImageIO appends
 // the image library's own lines, "PNG library error"), cut as core::Cut().
 std::string ImageLibraryMessage(const std::string& error);
+// Why a file could not be decoded, in the project's words ("the file is
+// damaged, cut short or not PNG ..."): a decoder's own ("IDAT: invalid
+// distances set") means nothing to a user, so it goes to the debug log.
+std::string ImageDecodeFailure(const std::filesystem::path& file, const std::string& library_error);
 
 // Reads an image a range of rows at a time, the file kept open between
 // reads: how a pass over data larger than memory (a paper-rig BTF)

@@ -11,7 +11,9 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::string Describe(const nlohmann::json& v) { return std::string(v.type_name()) + " " + JsonExcerpt(v); }
+std::string Describe(const nlohmann::json& v) {
+  return v.is_null() ? std::string("null") : std::string(v.type_name()) + " " + JsonExcerpt(v);
+}
 
 std::string RangeText(double min, double max) {
   std::ostringstream s;
@@ -26,6 +28,17 @@ std::string JsonExcerpt(const nlohmann::json& value) {
   // Replacing invalid UTF-8 keeps dump() from throwing on a string read from
   // a file that is not UTF-8 throughout.
   return Cut(value.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace), 40);
+}
+
+bool JsonFileHolds(const fs::path& file, const std::function<bool(const nlohmann::json&)>& test,
+                   std::uintmax_t max_bytes) {
+  try {
+    return test(ReadJsonFile(file, max_bytes));
+  } catch (const Error&) {
+    return false;
+  } catch (const nlohmann::json::exception&) {
+    return false;
+  }
 }
 
 nlohmann::json ReadJsonFile(const fs::path& file, std::uintmax_t max_bytes, int max_depth) {
@@ -215,7 +228,8 @@ void JsonFieldReader::RejectUnknownMembers(std::initializer_list<std::string_vie
     if (!known) {
       std::string list;
       for (const auto a : allowed) list += (list.empty() ? "" : ", ") + std::string(a);
-      Fail(key, "unknown member; expected only " + list);
+      // The key cut short: with the list of members the line stays readable.
+      Fail(Cut(key, 60), "unknown member; expected only " + list);
     }
   }
 }

@@ -6,6 +6,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <initializer_list>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -21,6 +22,12 @@ namespace mesocap::core {
 // byte offset of the error.
 nlohmann::json ReadJsonFile(const std::filesystem::path& file, std::uintmax_t max_bytes = 64ull << 20,
                             int max_depth = 64);
+
+// Whether `file` is a JSON document (as ReadJsonFile reads it) that `test`
+// accepts; false for anything unreadable. For --replace's check of what an
+// existing output holds.
+bool JsonFileHolds(const std::filesystem::path& file, const std::function<bool(const nlohmann::json&)>& test,
+                   std::uintmax_t max_bytes = 64ull << 20);
 
 // Throws FormatError when `document` nests arrays and objects deeper than
 // `max_depth` (the root counts as 1); `where` is the document's field path.

@@ -121,7 +121,9 @@ std::optional<Eigen::Vector2d> Deviation2(const Deviations& d, std::string_view 
   return Eigen::Vector2d(it->second[0], it->second[1]) * scale;
 }
 
-CalibratedPose ReadPose(const core::JsonFieldReader& fields, const std::string& parent, const std::string& child) {
+// `child_source` says where the expected child frame comes from ("id \"cam0\"").
+CalibratedPose ReadPose(const core::JsonFieldReader& fields, const std::string& parent, const std::string& child,
+                        const std::string& child_source = "") {
   fields.RejectUnknownMembers({"parent", "child", "rotation", "translation_mm", "std"});
   CalibratedPose pose;
   pose.transform = core::ReadRigidTransform(fields);
@@ -129,7 +131,9 @@ CalibratedPose ReadPose(const core::JsonFieldReader& fields, const std::string& 
     fields.Fail("parent", "expected \"" + parent + "\", got " + core::Quoted(pose.transform.parent_frame));
   }
   if (pose.transform.child_frame != child) {
-    fields.Fail("child", "expected " + core::Quoted(child) + ", got " + core::Quoted(pose.transform.child_frame));
+    fields.Fail("child", "expected " + core::Quoted(child) +
+                             (child_source.empty() ? "" : " (from " + child_source + ")") + ", got " +
+                             core::Quoted(pose.transform.child_frame));
   }
   Position(fields, "translation_mm");  // bounds only; ReadRigidTransform read the values
   const auto d = ReadDeviations(fields, {{"rotation_deg", 3, kMaxAngleDeg}, {"translation_mm", 3, kMaxLengthMm}});
@@ -197,7 +201,7 @@ CameraCalibration ReadCamera(const core::JsonFieldReader& fields, int version) {
   c.height = static_cast<int>(size[1]);
   c.intrinsics = ReadIntrinsics(fields.Object("intrinsics"));
   c.distortion = ReadDistortion(fields.Object("distortion"));
-  c.pose = ReadPose(fields.Object("pose"), "world", "camera:" + c.id);
+  c.pose = ReadPose(fields.Object("pose"), "world", "camera:" + c.id, "id " + core::Quoted(c.id));
   if (fields.Has("radiometry")) c.radiometry = ReadRadiometry(fields.Object("radiometry"));
   return c;
 }
@@ -441,6 +445,12 @@ json ToJson(const Calibration& c) {
           {"light_arc", AxisJson(c.light_arc)},
           {"lamps", ListJson(c.lamps, LampJson)},
           {"laser_mounts", ListJson(c.laser_mounts, LaserMountJson)}};
+}
+
+bool IsCalibrationFile(const fs::path& file) {
+  return core::JsonFileHolds(file, [](const json& doc) {
+    return doc.is_object() && doc.contains("format") && doc["format"] == kCalibrationFormat;
+  });
 }
 
 Calibration ReadCalibration(const fs::path& file) {

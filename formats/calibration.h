@@ -131,6 +131,9 @@ inline constexpr std::uintmax_t kMaxCalibrationBytes = 16ull << 20;
 // Validates everything; throws FormatError naming the file, the field path
 // and what was expected.
 Calibration ReadCalibration(const std::filesystem::path& file);
+// Whether `file` says it is a calibration ("format": "mesocap.calibration"):
+// what --replace of a calibration output may replace.
+bool IsCalibrationFile(const std::filesystem::path& file);
 // Validates as ReadCalibration would (so it never writes a file it would
 // reject), then replaces `file` atomically.
 void WriteCalibration(const std::filesystem::path& file, const Calibration& calibration);

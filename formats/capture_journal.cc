@@ -168,9 +168,16 @@ void ForEachLine(const fs::path& file, std::uint64_t size, OnLine on_line) {
 
 }  // namespace
 
+bool JournalExists(const fs::path& file) {
+  std::error_code ec;
+  return fs::symlink_status(file, ec).type() != fs::file_type::not_found;
+}
+
 JournalContents ReadCaptureJournal(const fs::path& file, const SessionManifest* manifest) {
   std::error_code ec;
-  if (!fs::is_regular_file(file, ec)) throw core::FormatError(file, "", "not found or not a regular file");
+  if (!fs::is_regular_file(file, ec)) {
+    throw core::FormatError(file, "", ec ? "cannot read: " + ec.message() : std::string("not a regular file"));
+  }
   // Read only what is there now: a writer may be appending while we read.
   const std::uint64_t size = fs::file_size(file, ec);
   if (ec) throw core::FormatError(file, "", "cannot read size: " + ec.message());

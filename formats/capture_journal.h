@@ -57,6 +57,11 @@ struct JournalContents {
 // be in its plan, and a version 2 session's files must carry their hash.
 JournalContents ReadCaptureJournal(const std::filesystem::path& file, const SessionManifest* manifest = nullptr);
 
+// Whether a session has a journal: anything at `file` counts, a dangling or
+// looping link too, so that reading it reports what is wrong instead of the
+// session reading as one with no step done.
+bool JournalExists(const std::filesystem::path& file);
+
 // The latest record of each step (what counts), by step id.
 std::map<std::string, const JournalRecord*> LatestRecords(const std::vector<JournalRecord>& records);
 

@@ -1,5 +1,6 @@
 #include "formats/capture_plan_steps.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "core/angles.h"
@@ -282,6 +283,15 @@ CaptureStep ReadCaptureStep(const PlannedStep& step, std::size_t index, const Ri
 
 const std::vector<CameraFile>& Files(const CaptureStep& step) {
   return std::visit([](const auto& s) -> const std::vector<CameraFile>& { return s.files; }, step);
+}
+
+void CheckPlanSteps(const SessionManifest& manifest, const fs::path& manifest_file) {
+  const auto runs = [](const PlannedStep& step) { return step.kind != StepKind::kOther; };
+  if (std::none_of(manifest.plan.begin(), manifest.plan.end(), runs)) return;
+  const RigDescription rig = ParseRigDescription(manifest.rig, manifest_file);
+  for (std::size_t s = 0; s < manifest.plan.size(); ++s) {
+    if (runs(manifest.plan[s])) ReadCaptureStep(manifest.plan[s], s, rig, manifest_file);
+  }
 }
 
 }  // namespace mesocap::formats

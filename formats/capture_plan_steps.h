@@ -133,4 +133,11 @@ CaptureStep ReadCaptureStep(const PlannedStep& step, std::size_t index, const Ri
 
 const std::vector<CameraFile>& Files(const CaptureStep& step);
 
+// Every step of a kind the rig runs (all but "other"), read as above against
+// the manifest's own rig: what a reader of a session (verify, info, process,
+// a resumed capture) checks before it trusts the plan. FormatError naming
+// the file and the first broken field; a plan of "other" steps alone needs
+// no rig.
+void CheckPlanSteps(const SessionManifest& manifest, const std::filesystem::path& manifest_file);
+
 }  // namespace mesocap::formats

@@ -229,6 +229,15 @@ void CreateCaptureSession(const fs::path& dir, SessionManifest manifest) {
   core::WriteJsonFileAtomically(manifest_file, document);
 }
 
+core::ImageReadOptions SessionFrameReadOptions(int width, int height, int channels) {
+  core::ImageReadOptions read;
+  read.expected_width = width;
+  read.expected_height = height;
+  read.expected_channels = channels;
+  read.expected_encoding = kSessionFrameEncoding;
+  return read;
+}
+
 SessionManifest ReadSessionManifest(const fs::path& dir) {
   const fs::path file = dir / kSessionManifestName;
   return ParseSessionManifest(core::ReadJsonFile(file, kMaxSessionManifestBytes, kSessionMaxDepth), file);

@@ -17,6 +17,7 @@
 
 #include "core/enum_text.h"
 #include "core/file_checksum.h"
+#include "core/image_io.h"
 #include "core/json_field_reader.h"
 
 namespace mesocap::formats {
@@ -67,6 +68,12 @@ void CreateCaptureSession(const std::filesystem::path& dir, SessionManifest mani
 // Reads and validates dir/manifest.json.
 SessionManifest ReadSessionManifest(const std::filesystem::path& dir);
 nlohmann::json ToJson(const SessionManifest& manifest);
+
+// How a session's camera frames are read: the camera's size, `channels`
+// (1 grey, 3 RGB) and 16 bits per sample, as docs/FORMATS.md "Capture
+// session" requires; an 8-bit frame is refused even behind a matching hash.
+core::ImageReadOptions SessionFrameReadOptions(int width, int height, int channels);
+inline constexpr core::PixelEncoding kSessionFrameEncoding = core::PixelEncoding::kUInt16;
 
 inline constexpr std::int64_t kMaxSessionFileBytes = std::int64_t{1} << 62;
 // {"bytes": N, "xxh3_64": "16 hex digits"} inside `fields` (a calibration

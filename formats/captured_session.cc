@@ -9,6 +9,7 @@
 #include <cstring>
 
 #include "core/error.h"
+#include "formats/capture_plan_steps.h"
 
 namespace mesocap::formats {
 namespace fs = std::filesystem;
@@ -43,9 +44,9 @@ std::string JournalFileProblem(const fs::path& dir, const JournalFile& f) {
 
 CapturedSession::CapturedSession(fs::path dir, const SessionOpenOptions& options)
     : dir_(std::move(dir)), manifest_(ReadSessionManifest(dir_)) {
+  CheckPlanSteps(manifest_, manifest_file());
   const fs::path journal = dir_ / kSessionJournalName;
-  std::error_code ec;
-  if (fs::exists(journal, ec)) {
+  if (JournalExists(journal)) {
     lock_fd_ = ::open(journal.c_str(), O_RDONLY | O_CLOEXEC);
     if (lock_fd_ < 0) throw core::Error(journal.string() + ": cannot open: " + std::strerror(errno));
     if (::flock(lock_fd_, LOCK_SH | LOCK_NB) != 0) {

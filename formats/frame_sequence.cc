@@ -139,7 +139,7 @@ FrameSequenceReader::FrameSequenceReader(fs::path file, int max_frames, std::siz
   if (!IsTiff(file_)) throw core::FormatError(file_, "", "a frame sequence is a .tif or .tiff file");
   input_->in = OIIO::ImageInput::open(file_.string());
   if (!input_->in)
-    throw core::FormatError(file_, "", "not a readable TIFF: " + core::ImageLibraryMessage(OIIO::geterror()));
+    throw core::FormatError(file_, "", "not a readable TIFF: " + core::ImageDecodeFailure(file_, OIIO::geterror()));
   auto& in = *input_->in;
   // Every frame's header up front (headers only, no pixels): the sequence is
   // uniform or it is rejected before anyone reads it.
@@ -192,7 +192,8 @@ FrameSequenceReader::FrameSequenceReader(fs::path file, int max_frames, std::siz
   // to the first frame.
   (void)in.geterror();
   if (!in.seek_subimage(0, 0))
-    throw core::FormatError(file_, FrameField(0, "header"), "cannot seek: " + core::ImageLibraryMessage(in.geterror()));
+    throw core::FormatError(file_, FrameField(0, "header"),
+                            "cannot seek: " + core::ImageDecodeFailure(file_, in.geterror()));
 }
 
 FrameSequenceReader::~FrameSequenceReader() {
@@ -205,9 +206,8 @@ bool FrameSequenceReader::Next(core::Image* frame) {
   core::Image image(header_.width, header_.height, header_.channels);
   if (!in.seek_subimage(next_, 0) ||
       !in.read_image(next_, 0, 0, header_.channels, OIIO::TypeDesc::FLOAT, image.data()) || in.has_error()) {
-    std::string why = core::ImageLibraryMessage(in.geterror());
-    if (why.empty()) why = "read failed";
-    throw core::FormatError(file_, FrameField(next_, "pixels"), "cannot read (truncated or corrupt?): " + why);
+    throw core::FormatError(file_, FrameField(next_, "pixels"),
+                            "cannot read: " + core::ImageDecodeFailure(file_, in.geterror()));
   }
   *frame = std::move(image);
   ++next_;

@@ -34,6 +34,11 @@ formats::SweepAnalysis AnalyseFrames(const fs::path& file, const calibration::Ca
                                 std::to_string(header.height));
   }
   if (header.channels != 1) throw core::FormatError(file, "channels", "1 (grey laser frames)");
+  if (header.encoding != formats::kSessionFrameEncoding) {
+    throw core::FormatError(file, "pixel type",
+                            std::string("expected ") + core::ToString(formats::kSessionFrameEncoding) + ", got " +
+                                core::ToString(header.encoding));
+  }
   if (header.frame_count != static_cast<int>(geometry.delta_tilt_rad.size())) {
     throw core::FormatError(file, "frame count",
                             std::to_string(geometry.delta_tilt_rad.size()) + " (the plan's tilts), found " +

@@ -9,6 +9,7 @@
 #include "core/angles.h"
 #include "core/error.h"
 #include "core/image_io.h"
+#include "formats/capture_session.h"
 
 namespace mesocap::mdf {
 namespace {
@@ -96,11 +97,8 @@ core::Image SessionSweepGeometry::ReadPlateFrame(int location, int plate, int ca
     throw core::FormatError(manifest_file_, "plan",
                             "a laser calibration file of camera " + id + " for location " + std::to_string(location));
   }
-  core::ImageReadOptions read;
-  read.expected_width = rays_[camera].width();
-  read.expected_height = rays_[camera].height();
-  read.expected_channels = 1;
-  return core::ReadImage(files_(f->path), read);
+  return core::ReadImage(files_(f->path),
+                         formats::SessionFrameReadOptions(rays_[camera].width(), rays_[camera].height(), 1));
 }
 
 const core::Plane& SessionSweepGeometry::CalibratedPlane(int location, int camera) {

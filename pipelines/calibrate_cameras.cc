@@ -69,9 +69,7 @@ calibration::CalibrationReport RunCalibrateCameras(const CalibrateCamerasOptions
   {
     std::vector<std::filesystem::path> inputs(options.image_folders.begin(), options.image_folders.end());
     core::RemoveStaleTemporariesOf(options.out);
-    core::ExpectReplaceable(
-        options.out, {options.replace, "a file",
-                      [](const std::filesystem::path& p) { return std::filesystem::is_regular_file(p); }, inputs});
+    core::ExpectReplaceable(options.out, {options.replace, "a calibration file", formats::IsCalibrationFile, inputs});
   }
 
   // The instants: every photo name in any folder.

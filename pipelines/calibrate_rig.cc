@@ -43,9 +43,8 @@ std::vector<calibration::WhiteReferenceImage> ReadWhiteReferenceImages(const for
     if (plan[s].kind != formats::StepKind::kWhiteReference) continue;
     const formats::WhiteReferenceStep step = formats::ReadWhiteReferenceStep(plan[s], s, rig, session.manifest_file());
     for (std::size_t c = 0; c < rig.cameras.size(); ++c) {
-      core::ImageReadOptions read;
-      read.expected_width = rig.cameras[c].width;
-      read.expected_height = rig.cameras[c].height;
+      const core::ImageReadOptions read =
+          formats::SessionFrameReadOptions(rig.cameras[c].width, rig.cameras[c].height, 3);
       calibration::WhiteReferenceImage image;
       image.camera = static_cast<int>(c);
       image.lamp = step.lamp;
@@ -70,9 +69,8 @@ std::vector<calibration::HighlightObservation> FindMirrorSphereHighlights(
     if (plan[s].kind != formats::StepKind::kMirrorSphere) continue;
     const formats::MirrorSphereStep step = formats::ReadMirrorSphereStep(plan[s], s, rig, session.manifest_file());
     for (std::size_t c = 0; c < rig.cameras.size(); ++c) {
-      core::ImageReadOptions read;
-      read.expected_width = rig.cameras[c].width;
-      read.expected_height = rig.cameras[c].height;
+      const core::ImageReadOptions read =
+          formats::SessionFrameReadOptions(rig.cameras[c].width, rig.cameras[c].height, 3);
       const std::string& name = step.files.at(c).path;
       const std::optional<calibration::SphereHighlight> highlight =
           calibration::FindSphereHighlight(core::ReadImage(session.IntactFile(name), read));
@@ -121,10 +119,8 @@ std::vector<calibration::LaserPlaneObservation> MeasureLaserPlates(const formats
     const Eigen::Vector2d scan =
         calibration::MountInWorld(geometry, lower.mount, lower.arc_rad, lower.tilt_rad).normal.head<2>().normalized();
     for (std::size_t c = 0; c < rig.cameras.size(); ++c) {
-      core::ImageReadOptions read;
-      read.expected_width = rig.cameras[c].width;
-      read.expected_height = rig.cameras[c].height;
-      read.expected_channels = 1;
+      const core::ImageReadOptions read =
+          formats::SessionFrameReadOptions(rig.cameras[c].width, rig.cameras[c].height, 1);
       const std::string names = lower.files.at(c).path + " and " + upper.files.at(c).path;
       const core::Image low = core::ReadImage(session.IntactFile(lower.files.at(c).path), read);
       const core::Image high = core::ReadImage(session.IntactFile(upper.files.at(c).path), read);
@@ -157,13 +153,7 @@ calibration::CalibrationBoard ParseRigCalibrationBoard(const formats::RigDescrip
   if (!rig.calibration_board) {
     throw core::FormatError(manifest_file, "rig.calibration_board", "missing: not a calibration session's rig");
   }
-  calibration::CalibrationBoard board;
-  try {
-    board = calibration::ParseBoardSpec(rig.calibration_board->board);
-  } catch (const core::Error& e) {
-    throw core::FormatError(manifest_file, "rig.calibration_board.board", e.what());
-  }
-  return board;
+  return *calibration::RigCalibrationBoard(rig);
 }
 
 // One instant per board step, in plan order.
@@ -212,9 +202,7 @@ std::vector<calibration::CameraViews> DetectBoardInSessionPhotos(const formats::
     views.width = rig.cameras[c].width;
     views.height = rig.cameras[c].height;
     for (const formats::BoardImageStep& step : steps) views.names.push_back(step.files.at(c).path);
-    core::ImageReadOptions read;
-    read.expected_width = views.width;
-    read.expected_height = views.height;
+    const core::ImageReadOptions read = formats::SessionFrameReadOptions(views.width, views.height, 1);
     calibration::DetectBoardInPhotos(
         detector,
         [&](std::size_t i) -> std::optional<core::Image> {
@@ -365,10 +353,7 @@ calibration::CalibrationReport RunCalibrateRig(const CalibrateRigOptions& option
   core::ThrowIfInvalid(options.Check(), "calibrate");
   core::RemoveStaleTemporariesOf(options.out);
   core::ExpectReplaceable(options.out,
-                          {options.replace,
-                           "a file",
-                           [](const std::filesystem::path& p) { return std::filesystem::is_regular_file(p); },
-                           {options.session}});
+                          {options.replace, "a calibration file", formats::IsCalibrationFile, {options.session}});
   formats::SessionOpenOptions open;
   open.command = "calibrate";
   const formats::CapturedSession session(options.session, open);

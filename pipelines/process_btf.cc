@@ -1,6 +1,7 @@
 #include "pipelines/process_btf.h"
 
 #include <spdlog/spdlog.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <optional>
@@ -151,12 +152,17 @@ ProcessBtfReport RunProcessBtf(const ProcessBtfOptions& o) {
     d.d_max_mm = mdf->d_max_mm;
     d.provenance.source += " mdf=" + o.mdf.string();
   }
-  // Held at once: a view being assembled and the ambient term (floats).
+  // Held at once: the ambient term, and per view being assembled (one per
+  // worker) its float RGB image, its rectifier (at least 4 taps of 8 bytes
+  // and an index per texel) and two rectified textures.
   const std::uint64_t texels = static_cast<std::uint64_t>(o.texture_size) * o.texture_size;
-  core::CheckMemoryFor(12 * texels * (a.lights.size() + a.views.size()),
-                       "a BTF view and the ambient term at " + std::to_string(o.texture_size) + "x" +
-                           std::to_string(o.texture_size) + " texels, " + std::to_string(a.views.size()) + " views x " +
-                           std::to_string(a.lights.size()) + " lights (--texture-size)");
+  const auto in_flight =
+      static_cast<std::uint64_t>(std::clamp(tbb::this_task_arena::max_concurrency(), 1, std::max(1, a.views.size())));
+  core::CheckMemoryFor(12 * texels * a.views.size() + in_flight * texels * (12 * a.lights.size() + 36 + 24),
+                       "assembling the BTF at " + std::to_string(o.texture_size) + "x" +
+                           std::to_string(o.texture_size) + " texels (--texture-size), " +
+                           std::to_string(a.views.size()) + " views x " + std::to_string(a.lights.size()) +
+                           " lights, " + std::to_string(in_flight) + " views at a time");
   formats::MaterialPackageWriter writer(o.out, d, o.replace, {o.session, calibration_file, o.mdf});
 
   // Each assembled view goes to disk as soon as it is made, so assembly

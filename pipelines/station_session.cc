@@ -5,6 +5,7 @@
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/json_field_reader.h"
+#include "formats/capture_plan_steps.h"
 
 namespace mesocap::pipelines {
 namespace {
@@ -40,12 +41,37 @@ json PlanJson(const std::vector<formats::PlannedStep>& plan) {
   return ToJson(m).at("plan");
 }
 
+// The options live in each step's "recording", the same in every step of a
+// session; a plan that differs elsewhere, or whose steps disagree, is not a
+// change of options but a damaged manifest (or another version's plan).
+[[noreturn]] void ThrowPlanDifference(const fs::path& dir, const json& old_plan, const json& new_plan) {
+  const json& old_steps = old_plan.at("steps");
+  const json old_recording = old_steps.empty() ? json() : old_steps.at(0).value("recording", json());
+  const json new_recording =
+      new_plan.at("steps").empty() ? json() : new_plan.at("steps").at(0).value("recording", json());
+  for (std::size_t s = 1; s < old_steps.size(); ++s) {
+    if (old_steps.at(s).value("recording", json()) != old_recording) {
+      throw core::FormatError(dir / formats::kSessionManifestName, "plan[" + std::to_string(s) + "].recording",
+                              "differs from plan[0].recording, which every step shares: the manifest is damaged");
+    }
+  }
+  if (old_recording != new_recording) {
+    throw core::Error(dir.string() + ": the session was started with other options: " +
+                      FirstDifference(old_recording, new_recording, "recording"));
+  }
+  throw core::Error(dir.string() + ": the session's plan differs from the one this rig and these options give (" +
+                    FirstDifference(old_plan, new_plan, "plan") +
+                    "): its manifest is damaged or was written by another mesocap version");
+}
+
 }  // namespace
 
 void OpenStationSession(const fs::path& dir, const StationSession& session) {
   const bool existing = fs::exists(dir / formats::kSessionManifestName);
   if (existing) {
     const formats::SessionManifest manifest = formats::ReadSessionManifest(dir);
+    // A damaged step is named as such, not taken for a change of options below.
+    formats::CheckPlanSteps(manifest, dir / formats::kSessionManifestName);
     // A resumed session must be the same capture: same rig, and the same
     // recording options (a simulated rig's scene, seed, noise and sampling),
     // all in the plan's step params.
@@ -54,14 +80,7 @@ void OpenStationSession(const fs::path& dir, const StationSession& session) {
                         FirstDifference(manifest.rig, session.rig, "rig"));
     }
     const json old_plan = PlanJson(manifest.plan), new_plan = PlanJson(session.plan);
-    if (old_plan != new_plan) {
-      // The options live in each step's "recording"; name them as such.
-      const json old_recording = old_plan.at("steps").at(0).value("recording", json());
-      const json new_recording = new_plan.at("steps").at(0).value("recording", json());
-      throw core::Error(dir.string() + ": the session was started with other options: " +
-                        (old_recording != new_recording ? FirstDifference(old_recording, new_recording, "recording")
-                                                        : FirstDifference(old_plan, new_plan, "plan")));
-    }
+    if (old_plan != new_plan) ThrowPlanDifference(dir, old_plan, new_plan);
     if (manifest.calibration_checksum && *manifest.calibration_checksum != session.calibration_checksum) {
       throw core::Error(dir.string() + ": the session records another calibration than " + session.calibration_origin +
                         " (" + formats::kSessionManifestName + " calibration.xxh3_64)");

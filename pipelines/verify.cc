@@ -2,9 +2,11 @@
 
 #include <nlohmann/json.hpp>
 
+#include "calibration/calibration_board.h"
 #include "core/file_checksum.h"
 #include "core/json_field_reader.h"
 #include "formats/capture_journal.h"
+#include "formats/capture_plan_steps.h"
 #include "formats/captured_session.h"
 #include "formats/material_manifest.h"
 #include "formats/material_package_reader.h"
@@ -32,10 +34,11 @@ std::uint64_t SizeOrZero(const fs::path& file) {
 void VerifySession(const fs::path& dir, VerifyReport* report) {
   report->kind = "capture session";
   const formats::SessionManifest manifest = formats::ReadSessionManifest(dir);
+  CheckSessionManifest(manifest, dir / formats::kSessionManifestName);
   report->version = manifest.version;
   report->steps_planned = manifest.plan.size();
   std::vector<formats::JournalRecord> records;
-  if (fs::exists(dir / formats::kSessionJournalName)) {
+  if (formats::JournalExists(dir / formats::kSessionJournalName)) {
     formats::JournalContents journal = formats::ReadCaptureJournal(dir / formats::kSessionJournalName, &manifest);
     report->torn_journal_bytes = journal.dropped_bytes;
     records = std::move(journal.records);
@@ -82,6 +85,13 @@ void VerifyPackage(const fs::path& dir, VerifyReport* report) {
 }
 
 }  // namespace
+
+void CheckSessionManifest(const formats::SessionManifest& manifest, const fs::path& manifest_file) {
+  formats::CheckPlanSteps(manifest, manifest_file);
+  if (manifest.rig.contains("calibration_board")) {
+    calibration::RigCalibrationBoard(formats::ParseRigDescription(manifest.rig, manifest_file));
+  }
+}
 
 core::CheckResult VerifyOptions::Check() const {
   if (path.empty()) return "path: give a capture session or material package folder";

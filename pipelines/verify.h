@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "core/error.h"
+#include "formats/capture_session.h"
 
 namespace mesocap::pipelines {
 
@@ -35,6 +36,11 @@ struct VerifyReport {
   std::size_t steps_done = 0;
   std::uint64_t torn_journal_bytes = 0;  // an interrupted append, dropped on the next resume
 };
+
+// What a reader checks in a session's manifest beyond its format: every
+// step against the session's rig (formats::CheckPlanSteps) and the rig's
+// calibration board. FormatError naming the file and the field.
+void CheckSessionManifest(const formats::SessionManifest& manifest, const std::filesystem::path& manifest_file);
 
 // Throws Error when `path` holds neither a session nor a package, or when
 // its manifest or journal is itself invalid (naming the field); a damaged

@@ -13,7 +13,8 @@ classifies every outcome:
   CRASH              signal, exit >= 128, sanitizer report, uncaught exception
   HANG               no exit within --timeout seconds
   SILENT-ACCEPT      corrupt or invalid input accepted (exit 0)
-  BAD-MESSAGE        error not one line, library chatter on stderr, a line
+  BAD-MESSAGE        error not one line, library chatter on stderr, library
+                     text in the error (LIBRARY_TEXT_RE), a line
                      longer than 400 characters, not naming the file and
                      field or flag, an exit code other than 0/1
   LEFTOVER           output, a temporary or a changed input left after the run
@@ -74,6 +75,14 @@ SANITIZER_MARKERS = ("AddressSanitizer", "LeakSanitizer", "UndefinedBehaviorSani
                      "terminate called", "Segmentation fault", "Aborted", "stack smashing")
 
 MB3 = 3 * 1024 * 1024
+
+# Text of a library or the standard library reaching the user untranslated:
+# codec messages (OpenEXR, libpng, zlib, libtiff, libjpeg), the C++ library's
+# exception texts and a JSON value printed where a kind was meant.
+LIBRARY_TEXT_RE = re.compile(
+    r"OpenEXR|Iex::|[Ee]xception|IDAT|IHDR|zlib|libpng|libtiff|Failed to read directory|invalid (distance|code|block)|"
+    r"Premature end|JPEG datastream|filesystem error|basic_string|std::|stoi|stod|vector::|bad_alloc|"
+    r"got null null|\[json\.")
 
 
 # ----------------------------------------------------------------------------
@@ -181,6 +190,9 @@ def classify(case, rc, stderr, before, after, timed_out):
     internal = [l for l in errors if l.startswith("mesocap: internal error: ")]
     if internal:
         reasons.append("uncaught exception: " + internal[0][:160])
+    library = [l for l in errors if LIBRARY_TEXT_RE.search(l)]
+    if library:
+        reasons.append("library text in the message: " + library[0][:160])
 
     # changes to the case folder
     changed = sorted(k for k in set(before) | set(after) if before.get(k) != after.get(k))

@@ -134,13 +134,7 @@ CameraRenderer::CameraRenderer(const MesostructureScene& scene, const formats::R
   if (options_.samples_per_pixel_side < 1 || options_.samples_per_pixel_side > 16) {
     throw core::Error("camera renderer: samples per pixel side must be 1..16");
   }
-  if (rig.calibration_board) {
-    try {
-      board_print_.emplace(calibration::ParseBoardSpec(rig.calibration_board->board));
-    } catch (const core::Error& e) {
-      throw core::FormatError(rig.file, "calibration_board.board", e.what());
-    }
-  }
+  if (const auto board = calibration::RigCalibrationBoard(rig)) board_print_.emplace(*board);
   if (options_.interreflection_rays_per_pixel < 0 || options_.interreflection_rays_per_pixel > 256) {
     throw core::Error("camera renderer: interreflection rays per pixel must be 0..256");
   }
@@ -148,9 +142,9 @@ CameraRenderer::CameraRenderer(const MesostructureScene& scene, const formats::R
   // cameras the file format allows may still need more than the machine has.
   std::uint64_t bytes = 0;
   for (std::size_t c = 0; c < rig.cameras.size(); ++c) bytes += FirstHitBytes(static_cast<int>(c));
-  core::CheckMemoryFor(bytes, "the first hits of the rig's " + std::to_string(rig.cameras.size()) +
-                                  " simulated cameras (" + FirstHitsText(0) + " for camera " +
-                                  core::Quoted(rig.cameras[0].id) + ")");
+  core::CheckMemoryFor(bytes, "the first hits of the " + std::to_string(rig.cameras.size()) + " simulated cameras of " +
+                                  rig.file.string() + " (cameras[0].image_size: " + FirstHitsText(0) +
+                                  "; smaller cameras or a lower --samples-per-pixel-side need less)");
 }
 
 std::uint64_t CameraRenderer::FirstHitBytes(int camera) const {

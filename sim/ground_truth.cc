@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "formats/material_manifest.h"
+#include "formats/material_package_layout.h"
 #include "formats/material_package_writer.h"
 
 namespace mesocap::sim {
@@ -125,6 +126,11 @@ void WriteGroundTruthPackage(const MesostructureScene& scene, const GroundTruthO
   d.light_directions = o.lights;
   d.provenance.source = source;
   d.provenance.texel_samples_per_side = o.samples_per_side;
+  // The package's size limits, known before anything is computed.
+  for (const std::string& problem :
+       {formats::OversizeProblem(d, "MDF", false, 1), formats::OversizeProblem(d, "full BTF", true, 3)}) {
+    if (!problem.empty()) throw core::Error(out.string() + ": " + problem);
+  }
   // The largest things held at once: the MDF and one BTF view image (floats).
   const std::uint64_t texels = static_cast<std::uint64_t>(d.width) * d.height;
   core::CheckMemoryFor(4 * texels * (o.views.size() + 3ull * o.lights.size()),

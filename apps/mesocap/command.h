@@ -4,6 +4,7 @@
 
 #include <CLI/CLI.hpp>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <sstream>
 #include <string>
@@ -69,14 +70,15 @@ CLI::CheckedTransformer NamedChoice(const std::map<std::string, T>& names) {
 }
 
 // A subcommand's output file (an image, a report) is replaced only with
-// --replace, only when it is a file and none of the command's `inputs`; a
-// killed run's temporary of it is removed first.
-inline void ExpectReplaceableFile(const std::filesystem::path& out, bool replace,
+// --replace, only when it holds what the command writes (`kind`, which
+// `holds_kind` recognises) and is none of the command's `inputs`; a killed
+// run's temporary of it is removed first.
+inline void ExpectReplaceableFile(const std::filesystem::path& out, bool replace, std::string kind,
+                                  std::function<bool(const std::filesystem::path&)> holds_kind,
                                   std::vector<std::filesystem::path> inputs) {
+  core::ExpectOutputFolder(out);
   core::RemoveStaleTemporariesOf(out);
-  core::ExpectReplaceable(
-      out, {replace, "a file", [](const std::filesystem::path& p) { return std::filesystem::is_regular_file(p); },
-            std::move(inputs)});
+  core::ExpectReplaceable(out, {replace, std::move(kind), std::move(holds_kind), std::move(inputs)});
 }
 
 void RegisterRenderCommand(CLI::App& app);

@@ -8,6 +8,7 @@
 #include "apps/mesocap/help_text.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/json_field_reader.h"
 #include "formats/material_manifest.h"
 #include "formats/material_package_reader.h"
 #include "mdf/mdf_evaluation.h"
@@ -24,8 +25,17 @@ struct EvalMdfOptions {
   bool replace = false;
 };
 
+bool IsMdfErrorReport(const std::filesystem::path& file) {
+  return core::JsonFileHolds(file, [](const nlohmann::json& doc) {
+    return doc.is_object() && doc.contains("overall") && doc.contains("by_polar_angle");
+  });
+}
+
 void RunEvalMdf(const EvalMdfOptions& o) {
-  if (!o.out.empty()) ExpectReplaceableFile(o.out, o.replace, {o.truth, o.estimate});
+  if (!o.out.empty()) {
+    ExpectReplaceableFile(o.out, o.replace, "an MDF error report (JSON with \"overall\" and \"by_polar_angle\")",
+                          IsMdfErrorReport, {o.truth, o.estimate});
+  }
   const formats::MaterialManifest truth_manifest = formats::ReadMaterialManifest(o.truth);
   const formats::MaterialManifest estimate_manifest = formats::ReadMaterialManifest(o.estimate);
   const core::Mdf truth = formats::ReadMdf(o.truth, truth_manifest);

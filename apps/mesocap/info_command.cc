@@ -14,6 +14,7 @@
 
 #include "apps/mesocap/command.h"
 #include "apps/mesocap/help_text.h"
+#include "calibration/calibration_board.h"
 #include "calibration/nominal_geometry.h"
 #include "core/error.h"
 #include "core/image_io.h"
@@ -25,6 +26,7 @@
 #include "formats/material_package_reader.h"
 #include "formats/rig_description.h"
 #include "mdf/displacement_image.h"
+#include "pipelines/verify.h"
 
 namespace mesocap {
 namespace {
@@ -78,6 +80,7 @@ json MaterialInfo(const fs::path& dir) {
 
 json SessionInfo(const fs::path& dir) {
   const formats::SessionManifest m = formats::ReadSessionManifest(dir);
+  pipelines::CheckSessionManifest(m, dir / formats::kSessionManifestName);
   std::map<std::string, int> kinds;
   for (const auto& s : m.plan) ++kinds[ToString(s.kind)];
   json out = {{"kind", "session"},
@@ -90,7 +93,7 @@ json SessionInfo(const fs::path& dir) {
               {"planned_steps_by_kind", kinds}};
   const fs::path journal = dir / formats::kSessionJournalName;
   std::size_t done = 0;
-  if (fs::exists(journal)) {
+  if (formats::JournalExists(journal)) {
     const formats::JournalContents j = formats::ReadCaptureJournal(journal, &m);
     done = formats::LatestRecords(j.records).size();  // a step done again counts once
     out["torn_tail_bytes"] = j.dropped_bytes;
@@ -154,6 +157,7 @@ json LaserConditioning(const formats::RigDescription& r) {
 
 json RigInfo(const fs::path& file) {
   const formats::RigDescription r = formats::ReadRigDescription(file);
+  const auto board = calibration::RigCalibrationBoard(r);
   json info = {{"kind", "rig"},
                {"path", file.string()},
                {"name", r.name},
@@ -163,13 +167,16 @@ json RigInfo(const fs::path& file) {
                {"views", r.view_count()},
                {"lights", r.light_count()},
                {"laser_locations", r.laser.locations.size()},
-               {"frames_per_sweep", r.laser.frames_per_sweep}};
+               {"frames_per_sweep", r.laser.frames_per_sweep},
+               {"calibration_board", board ? json(board->Spec()) : json(nullptr)}};
   info.update(LaserConditioning(r));
   return info;
 }
 
 json ImageInfo(const fs::path& file) {
   const core::ImageHeader h = core::ReadImageHeader(file);
+  // Every pixel decoded, so that a file cut short is found here too.
+  (void)core::ReadImage(file);
   return {{"kind", "image"},    {"path", file.string()},  {"width", h.width},
           {"height", h.height}, {"channels", h.channels}, {"encoding", ToString(h.encoding)}};
 }

@@ -33,11 +33,12 @@ void RunRender(const RenderCommandOptions& o) {
   render::PeelingOptions peeling = o.scene.Peeling();
   peeling.mode = core::ParseEnum<render::RenderMode>(o.mode, "render mode");
   const core::PixelEncoding encoding = EncodingFor(o.out);
-  ExpectReplaceableFile(o.out, o.replace, {o.scene.scene});
+  ExpectReplaceableFile(o.out, o.replace, "an image", core::IsImageFile, {o.scene.scene});
   const render::RenderScene scene = render::ReadRenderScene(o.scene.scene, ResolveRenderMaterial);
   std::vector<std::filesystem::path> inputs{o.scene.scene};
   for (const render::RenderMaterial& m : scene.materials) inputs.push_back(m.package);
-  ExpectReplaceableFile(o.out, o.replace, inputs);  // never a file of a package the scene uses
+  ExpectReplaceableFile(o.out, o.replace, "an image", core::IsImageFile,
+                        inputs);  // never a file of a package the scene uses
   const auto context = render::GlContext::MakeHeadless();
   spdlog::info("OpenGL: {}", context->Description());
   render::PeelingRenderer renderer(scene);

@@ -333,7 +333,7 @@ TEST_F(BtfAssemblyTest, OffGridRigIsResampledOntoTheSets) {
   }
 }
 
-TEST_F(BtfAssemblyTest, MissingNanAndNegativeImagesAreErrorsNamingTheImage) {
+TEST_F(BtfAssemblyTest, MissingAndNon16BitImagesAreErrorsNamingTheImage) {
   testing::TemporaryDirectory dir;
   Assembled a = Prepare(Session("flat"), 8);
   const auto expect_error = [&](const std::vector<BtfCaptureImage>& images, const std::string& needle) {
@@ -348,16 +348,17 @@ TEST_F(BtfAssemblyTest, MissingNanAndNegativeImagesAreErrorsNamingTheImage) {
   images[3].file = dir / "gone.png";
   expect_error(images, "gone.png: missing BTF image");
 
-  core::Image bad = core::ReadImage(a.images[5].file);
-  bad.at(40, 50, 1) = std::nanf("");
-  core::WriteImage(dir / "nan.exr", bad, core::PixelEncoding::kFloat32);
+  // A session's frames are 16-bit (docs/FORMATS.md): float (which could hold
+  // NaN or a negative value) and 8-bit are refused by their encoding.
+  const core::Image frame = core::ReadImage(a.images[5].file);
+  core::WriteImage(dir / "float.exr", frame, core::PixelEncoding::kFloat32);
+  core::WriteImage(dir / "eight.png", frame, core::PixelEncoding::kUInt8);
   images = a.images;
-  images[5].file = dir / "nan.exr";
   images[5].checksum.reset();  // not the session's file: nothing recorded to check
-  expect_error(images, "nan.exr: pixel (40, 50) channel 1");
-  bad.at(40, 50, 1) = -0.25f;
-  core::WriteImage(dir / "negative.exr", bad, core::PixelEncoding::kFloat32);
-  images[5].file = dir / "negative.exr";
+  images[5].file = dir / "float.exr";
+  expect_error(images, "float.exr: field 'pixel type': expected uint16, got float32");
+  images[5].file = dir / "eight.png";
+  expect_error(images, "eight.png: field 'pixel type': expected uint16, got uint8");
   // The session's own file changed after it was captured: the journal's
   // checksum refuses it before it is decoded.
   std::vector<BtfCaptureImage> flipped = a.images;
@@ -372,7 +373,6 @@ TEST_F(BtfAssemblyTest, MissingNanAndNegativeImagesAreErrorsNamingTheImage) {
     std::ofstream(flipped[6].file, std::ios::binary) << bytes;
   }
   expect_error(flipped, "flipped.png: field 'checksum': content changed after it was written");
-  expect_error(images, "negative.exr: pixel (40, 50) channel 1 is -0.25");
 
   // A view no image shows.
   images = a.images;
@@ -409,21 +409,25 @@ TEST_F(BtfAssemblyTest, EachCameraUsesItsOwnGain) {
     if (images[i].camera != 1) continue;
     core::Image scaled = core::ReadImage(images[i].file);
     for (std::size_t k = 0; k < scaled.size(); ++k) scaled.data()[k] *= kScale;
-    images[i].file = dir / ("scaled" + std::to_string(i) + ".exr");
+    images[i].file = dir / ("scaled" + std::to_string(i) + ".png");
     images[i].checksum.reset();
-    core::WriteImage(images[i].file, scaled, core::PixelEncoding::kFloat32);
+    core::WriteImage(images[i].file, scaled, core::PixelEncoding::kUInt16);
   }
   BtfAssemblyOptions own = a.options;
   own.signal_per_radiance_second[1] *= kScale;
   const core::FullBtf btf = AssembleBtf(images, a.calibration, own);
+  // The rescaled frames are rounded to 16 bits again: half a step, 7.6e-6 of
+  // full scale, over kScale, relative to each view's brightest texel.
   double worst = 0;
   for (int v = 0; v < reference.view_count(); ++v) {
     const core::Image &r = reference.view_images[v], &e = btf.view_images[v];
+    const float peak = *std::max_element(r.data(), r.data() + r.size());
     for (std::size_t k = 0; k < r.size(); ++k) {
-      worst = std::max(worst, std::abs(double(e.data()[k]) - r.data()[k]) / (r.data()[k] + 1e-6));
+      worst = std::max(worst, std::abs(double(e.data()[k]) - r.data()[k]) / peak);
     }
   }
-  EXPECT_LT(worst, 1e-5);
+  RecordProperty("worst_error_of_peak", std::to_string(worst));
+  EXPECT_LT(worst, 2e-4);
   const MeasuredFigures f = Measured(btf, Truth("flat", own), report, 1.0, own.texels.sample_size_mm);
   EXPECT_GE(f.psnr_db, 44.0) << "relative RMS " << f.relative_rms;
 

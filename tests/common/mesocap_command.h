@@ -2,6 +2,7 @@
 // target) as a user would, capturing its exit code, stdout and stderr.
 #pragma once
 
+#include <gtest/gtest.h>
 #include <sys/wait.h>
 
 #include <cstdlib>
@@ -31,6 +32,12 @@ inline CommandResult Mesocap(const std::string& args, const std::string& env = "
   r.out = Slurp(dir / "out");
   r.err = Slurp(dir / "err");
   return r;
+}
+
+// The CLI's way to refuse: one line on stderr, "mesocap: error: LINE", exit 1.
+inline void ExpectOneErrorLine(const CommandResult& r, const std::string& line) {
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err, "mesocap: error: " + line + "\n");
 }
 
 }  // namespace mesocap::testing

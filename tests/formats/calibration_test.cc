@@ -421,7 +421,7 @@ TEST(Calibration, AHugeFrameNameIsCutInTheMessage) {
   Spit(dir / "c.json", j.dump());
   const std::string message = FormatErrorOf(dir / "c.json");
   EXPECT_LT(message.size(), 500u);
-  EXPECT_NE(message.find("field 'cameras[0].pose.child': expected \"camera:cam0\", got \"camera:" +
+  EXPECT_NE(message.find("field 'cameras[0].pose.child': expected \"camera:cam0\" (from id \"cam0\"), got \"camera:" +
                          std::string(193, 'f') + "... (3145735 bytes in all)\""),
             std::string::npos)
       << message;

@@ -303,11 +303,20 @@ TEST(CaptureSession, SessionPathsStayInside) {
 // ---- journal --------------------------------------------------------------
 
 // A session with data files for the example plan's first steps.
+// ExampleManifest with every step of kind "other": a CapturedSession reads
+// the steps of a rig's kinds against the session's rig, and the example's
+// rig is no rig description.
+SessionManifest ExampleManifestOfOtherSteps() {
+  SessionManifest m = ExampleManifest();
+  for (PlannedStep& step : m.plan) step.kind = StepKind::kOther;
+  return m;
+}
+
 struct ExampleSession {
   testing::TemporaryDirectory dir;
   fs::path root = dir / "s";
   fs::path journal = root / kSessionJournalName;
-  SessionManifest manifest = ExampleManifest();
+  SessionManifest manifest = ExampleManifestOfOtherSteps();
 
   ExampleSession() {
     CreateCaptureSession(root, manifest);
