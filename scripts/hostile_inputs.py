@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Hostile-input acceptance run (issue 20, "Nothing lost, nothing silently wrong").
+"""Hostile-input acceptance run: nothing lost, nothing silently wrong.
 
 Generates seeded hostile inputs, runs the real mesocap binary on each and
 classifies every outcome:

@@ -38,12 +38,20 @@ void RunEvalMdf(const EvalMdfOptions& o) {
   }
   const formats::MaterialManifest truth_manifest = formats::ReadMaterialManifest(o.truth);
   const formats::MaterialManifest estimate_manifest = formats::ReadMaterialManifest(o.estimate);
+  const formats::MaterialDescription &t = truth_manifest.description, &e = estimate_manifest.description;
+  const auto mismatch = [&](const char* field) {
+    throw core::FormatError(o.estimate / "manifest.json", field,
+                            "differs from the truth's (" + (o.truth / "manifest.json").string() +
+                                "); evaluate against a ground truth of the estimate's grid (mesocap groundtruth "
+                                "--texture-size, --views)");
+  };
+  if (t.width != e.width || t.height != e.height) mismatch("texture_size");
+  if ((e.physical_size_mm - t.physical_size_mm).norm() > 1e-6 * t.physical_size_mm.norm()) mismatch("physical_size_mm");
+  // About 0.2 arc seconds: two packages made from one rig description.
+  if (!t.view_directions.SameDirectionsAs(e.view_directions, 1e-6)) mismatch("view_directions");
   const core::Mdf truth = formats::ReadMdf(o.truth, truth_manifest);
   const core::Mdf estimate = formats::ReadMdf(o.estimate, estimate_manifest);
-  const auto& size = truth_manifest.description.physical_size_mm;
-  if ((estimate_manifest.description.physical_size_mm - size).norm() > 1e-6 * size.norm()) {
-    throw core::Error("eval mdf: truth and estimate cover different sample sizes");
-  }
+  const auto& size = t.physical_size_mm;
   const mdf::MdfErrorTable table = mdf::EvaluateMdf(truth, estimate, size.x() / truth.width, o.inside_sample_only);
   const nlohmann::json json = ToJson(table);
   if (!o.out.empty()) core::WriteJsonFileAtomically(o.out, json);

@@ -223,5 +223,22 @@ TEST(CarelessOperator, ErrorsSayWhatTheyMeanInTheProjectsWords) {
                      out + ": no folder " + (dir / "nodir").string() + " to write it in");
 }
 
+// Two packages that cannot be compared: the estimate's manifest field is
+// named, not "truth and estimate differ".
+TEST(CarelessOperator, EvalMdfNamesTheFieldThatDiffers) {
+  testing::TemporaryDirectory dir;
+  const std::string truth = (dir / "truth").string(), estimate = (dir / "estimate").string();
+  for (const std::string& out : {truth, estimate}) {
+    ASSERT_EQ(Mesocap("-q groundtruth --scene flat --rig tiny --texture-size 4 --out " + out).exit_code, 0);
+  }
+  json manifest = core::ReadJsonFile(dir / "estimate" / "manifest.json");
+  manifest["physical_size_mm"][1] = 16.0;
+  std::ofstream(dir / "estimate" / "manifest.json", std::ios::trunc) << manifest.dump(1);
+  ExpectOneErrorLine(Mesocap("-q eval mdf --truth " + truth + " --estimate " + estimate),
+                     estimate + "/manifest.json: field 'physical_size_mm': differs from the truth's (" + truth +
+                         "/manifest.json); evaluate against a ground truth of the estimate's grid (mesocap groundtruth "
+                         "--texture-size, --views)");
+}
+
 }  // namespace
 }  // namespace mesocap
