@@ -39,16 +39,28 @@ void RunEvalMdf(const EvalMdfOptions& o) {
   const formats::MaterialManifest truth_manifest = formats::ReadMaterialManifest(o.truth);
   const formats::MaterialManifest estimate_manifest = formats::ReadMaterialManifest(o.estimate);
   const formats::MaterialDescription &t = truth_manifest.description, &e = estimate_manifest.description;
-  const auto mismatch = [&](const char* field) {
+  // `field` as "ESTIMATE here, TRUTH in the truth's".
+  const auto mismatch = [&](const char* field, const std::string& here, const std::string& there) {
     throw core::FormatError(o.estimate / "manifest.json", field,
-                            "differs from the truth's (" + (o.truth / "manifest.json").string() +
+                            here + " here, " + there + " in the truth's (" + (o.truth / "manifest.json").string() +
                                 "); evaluate against a ground truth of the estimate's grid (mesocap groundtruth "
                                 "--texture-size, --views)");
   };
-  if (t.width != e.width || t.height != e.height) mismatch("texture_size");
-  if ((e.physical_size_mm - t.physical_size_mm).norm() > 1e-6 * t.physical_size_mm.norm()) mismatch("physical_size_mm");
+  const auto grid = [](int w, int h) { return std::to_string(w) + "x" + std::to_string(h); };
+  const auto mm = [](const Eigen::Vector2d& s) {
+    return core::Fixed(s.x(), 3) + " x " + core::Fixed(s.y(), 3) + " mm";
+  };
+  if (t.width != e.width || t.height != e.height) {
+    mismatch("texture_size", grid(e.width, e.height), grid(t.width, t.height));
+  }
+  if ((e.physical_size_mm - t.physical_size_mm).norm() > 1e-6 * t.physical_size_mm.norm()) {
+    mismatch("physical_size_mm", mm(e.physical_size_mm), mm(t.physical_size_mm));
+  }
   // About 0.2 arc seconds: two packages made from one rig description.
-  if (!t.view_directions.SameDirectionsAs(e.view_directions, 1e-6)) mismatch("view_directions");
+  if (!t.view_directions.SameDirectionsAs(e.view_directions, 1e-6)) {
+    mismatch("view_directions", std::to_string(e.view_directions.size()) + " directions",
+             std::to_string(t.view_directions.size()) + " other directions");
+  }
   const core::Mdf truth = formats::ReadMdf(o.truth, truth_manifest);
   const core::Mdf estimate = formats::ReadMdf(o.estimate, estimate_manifest);
   const auto& size = t.physical_size_mm;

@@ -227,6 +227,14 @@ TEST_F(CalibrateCameraCli, AnExistingCalibrationIsReplacedOnlyWithReplace) {
   const auto refused = Mesocap(args);
   EXPECT_NE(refused.exit_code, 0);
   EXPECT_EQ(testing::Slurp(scratch / "c.json"), "{}");
+  // --replace replaces a calibration, not any file: "{}" is none.
+  const auto not_one = Mesocap(args + " --replace");
+  EXPECT_EQ(not_one.err, "mesocap: error: " + (scratch / "c.json").string() +
+                             ": --replace replaces only a calibration file, and this is not one; move it away or "
+                             "choose another output\n");
+  EXPECT_EQ(testing::Slurp(scratch / "c.json"), "{}");
+  std::filesystem::remove(scratch / "c.json");
+  ASSERT_EQ(Mesocap(args).exit_code, 0);
   const auto replaced = Mesocap(args + " --replace");
   EXPECT_EQ(replaced.exit_code, 0) << replaced.err;
   EXPECT_NO_THROW(formats::ReadCalibration(scratch / "c.json"));

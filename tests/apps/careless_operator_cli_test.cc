@@ -235,7 +235,10 @@ TEST(CarelessOperator, EvalMdfNamesTheFieldThatDiffers) {
   manifest["physical_size_mm"][1] = 16.0;
   std::ofstream(dir / "estimate" / "manifest.json", std::ios::trunc) << manifest.dump(1);
   ExpectOneErrorLine(Mesocap("-q eval mdf --truth " + truth + " --estimate " + estimate),
-                     estimate + "/manifest.json: field 'physical_size_mm': differs from the truth's (" + truth +
+                     estimate +
+                         "/manifest.json: field 'physical_size_mm': 12.000 x 16.000 mm here, 12.000 x 12.000 mm "
+                         "in the truth's (" +
+                         truth +
                          "/manifest.json); evaluate against a ground truth of the estimate's grid (mesocap groundtruth "
                          "--texture-size, --views)");
 }
